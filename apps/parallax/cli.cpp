@@ -1,0 +1,82 @@
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "cli.h"
+
+namespace plx::cli {
+
+int fail(const std::string& message, int code) {
+    std::fprintf(stderr, "parallax: error: %s\n", message.c_str());
+    return code;
+}
+
+int fail(const Status& status) { return fail(status.message(), kExitFailure); }
+
+namespace {
+Result<float> parseFloat(std::string_view text, const std::string& whole) {
+    float v = 0.0f;
+    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("'{}' is not a finite number (in '{}')", text, whole));
+    return v;
+}
+}  // namespace
+
+Result<Vec3> parseVec3(const std::string& text) {
+    Vec3 out;
+    size_t start = 0;
+    for (int i = 0; i < 3; ++i) {
+        size_t comma = text.find(',', start);
+        if ((i < 2) != (comma != std::string::npos))
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               fmt::format("'{}' is not of the form x,y,z", text));
+        std::string_view part(text.data() + start,
+                              (comma == std::string::npos ? text.size() : comma) - start);
+        auto v = parseFloat(part, text);
+        if (!v) return v.status();
+        out[i] = *v;
+        start = comma + 1;
+    }
+    return out;
+}
+
+Result<IVec2> parseSize(const std::string& text) {
+    size_t x = text.find_first_of("xX");
+    auto bad = [&] {
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("size '{}' is not of the form WxH (e.g. 1280x720)", text));
+    };
+    if (x == std::string::npos) return bad();
+    long long w = 0, h = 0;
+    auto r1 = std::from_chars(text.data(), text.data() + x, w);
+    auto r2 = std::from_chars(text.data() + x + 1, text.data() + text.size(), h);
+    if (r1.ec != std::errc() || r1.ptr != text.data() + x || r2.ec != std::errc() ||
+        r2.ptr != text.data() + text.size())
+        return bad();
+    if (w < 1 || h < 1 || w > Camera::kMaxImageSide || h > Camera::kMaxImageSide)
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("size {} outside 1x1 .. {}x{}", text, Camera::kMaxImageSide,
+                                       Camera::kMaxImageSide));
+    return IVec2(int(w), int(h));
+}
+
+void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }
+
+Status ensureParentDirectory(const std::string& prefix) {
+    std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
+    if (parent.empty()) return Status::ok();
+    std::error_code ec;
+    std::filesystem::create_directories(parent, ec);
+    if (ec)
+        return errorStatus(ErrorCode::kIoError,
+                           fmt::format("cannot create directory '{}': {}", parent.string(),
+                                       ec.message()));
+    return Status::ok();
+}
+
+}  // namespace plx::cli

@@ -1,0 +1,42 @@
+#pragma once
+// Shared pieces of the parallax command line: subcommand registration, argument parsing helpers,
+// one-line errors and JSON output.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <plx/core/core.h>
+
+namespace plx::cli {
+
+// Exit codes: 0 success, 1 the work failed (bad input file, I/O), 2 bad command-line usage.
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+
+// Each subcommand file defines a register function that adds its CLI11 subcommand to the app
+// and returns it with the function that runs it after parsing (giving the exit code).
+struct Command {
+    CLI::App* app = nullptr;
+    std::function<int()> run;
+};
+
+// Prints "parallax: error: <message>" on stderr and returns kExitFailure (or the given code).
+int fail(const std::string& message, int code = kExitFailure);
+int fail(const Status& status);
+
+// "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
+Result<Vec3> parseVec3(const std::string& text);
+Result<IVec2> parseSize(const std::string& text);
+
+// Writes the JSON document as the only thing on stdout.
+void printJson(const nlohmann::json& doc);
+
+// Creates the parent directory of an output prefix ("out/x" -> "out/").
+Status ensureParentDirectory(const std::string& prefix);
+
+}  // namespace plx::cli

@@ -1,0 +1,10 @@
+#pragma once
+// The subcommands of parallax, one source file each.
+
+#include "cli.h"
+
+namespace plx::cli {
+
+Command registerInfo(CLI::App& app);
+
+}  // namespace plx::cli

@@ -1,0 +1,58 @@
+// parallax info SCENE: what a scene holds (meshes, triangles, materials, textures, bounds,
+// viewpoints).
+
+#include <fmt/format.h>
+
+#include <plx/scene/import.h>
+
+#include "commands.h"
+
+namespace plx::cli {
+
+Command registerInfo(CLI::App& app) {
+    struct Args {
+        std::string scene;
+        bool json = false;
+    };
+    auto args = std::make_shared<Args>();
+    CLI::App* sub = app.add_subcommand("info", "Print what a scene holds");
+    sub->footer("Example: parallax info office:4 --json");
+    sub->add_option("scene", args->scene, "Model file or generator spec (office:N, museum:N)")
+        ->required();
+    sub->add_flag("--json", args->json, "Machine-readable output on stdout");
+    return {sub, [args]() -> int {
+                auto scene = scene::loadScene(args->scene);
+                if (!scene) return fail(scene.status());
+                scene::SceneStats s = scene->stats();
+                nlohmann::json doc = {
+                    {"scene", args->scene},
+                    {"meshes", s.meshes},
+                    {"vertices", s.vertices},
+                    {"triangles", s.triangles},
+                    {"materials", s.materials},
+                    {"textures", s.textures},
+                    {"texture_bytes", s.textureBytes},
+                    {"degenerate_triangles_dropped", s.degenerateTrianglesDropped},
+                    {"bounds_min", {s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z}},
+                    {"bounds_max", {s.bounds.hi.x, s.bounds.hi.y, s.bounds.hi.z}},
+                };
+                nlohmann::json views = nlohmann::json::array();
+                for (const auto& v : scene->viewpoints) views.push_back(v.name);
+                doc["viewpoints"] = views;
+                if (args->json) {
+                    printJson(doc);
+                } else {
+                    fmt::print("{}: {} meshes, {} vertices, {} triangles, {} materials, "
+                               "{} textures ({:.1f} MiB with mips)\n",
+                               args->scene, s.meshes, s.vertices, s.triangles, s.materials,
+                               s.textures, double(s.textureBytes) / (1 << 20));
+                    fmt::print("bounds: ({:.3g}, {:.3g}, {:.3g}) .. ({:.3g}, {:.3g}, {:.3g})\n",
+                               s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z, s.bounds.hi.x,
+                               s.bounds.hi.y, s.bounds.hi.z);
+                    for (const auto& v : scene->viewpoints) fmt::print("viewpoint: {}\n", v.name);
+                }
+                return kExitOk;
+            }};
+}
+
+}  // namespace plx::cli

@@ -1,0 +1,25 @@
+// parallax: the command-line program. One source file per subcommand; see commands.h.
+
+#include "commands.h"
+
+int main(int argc, char** argv) {
+    using namespace plx::cli;
+    CLI::App app{"Parallax: render complex 3D scenes for stereo, remote and curved displays by "
+                 "reusing visibility, pixels, reference images and textures."};
+    app.set_version_flag("--version", "parallax 0.1.0");
+    app.require_subcommand(1);
+    app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
+
+    std::vector<Command> commands = {
+        registerInfo(app),
+    };
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        int code = app.exit(e);
+        return code == 0 ? kExitOk : kExitUsage;
+    }
+    for (const Command& c : commands)
+        if (c.app->parsed()) return c.run();
+    return fail("no command given", kExitUsage);
+}

@@ -1,0 +1,43 @@
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/info.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <plx/core/parallel.h>
+
+namespace plx {
+
+struct ThreadPool::Impl {
+    explicit Impl(int threads) : arena(threads) {}
+    tbb::task_arena arena;
+};
+
+ThreadPool::ThreadPool(int threads) {
+    int hw = tbb::info::default_concurrency();
+    mThreads = threads <= 0 ? hw : threads;
+    mImpl = std::make_unique<Impl>(mThreads);
+}
+
+ThreadPool::~ThreadPool() = default;
+
+void ThreadPool::parallelFor(size_t count, size_t grain,
+                             const std::function<void(size_t, size_t)>& body) {
+    if (count == 0) return;
+    if (mThreads == 1 || count <= grain) {
+        body(0, count);
+        return;
+    }
+    mImpl->arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, count, std::max<size_t>(grain, 1)),
+                          [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
+    });
+}
+
+void ThreadPool::run(const std::function<void()>& fn) { mImpl->arena.execute(fn); }
+
+int currentThreadSlot() {
+    int slot = tbb::this_task_arena::current_thread_index();
+    return slot < 0 ? 0 : slot;
+}
+
+}  // namespace plx

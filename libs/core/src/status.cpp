@@ -1,0 +1,36 @@
+#include <cstdio>
+#include <cstdlib>
+
+#include <plx/core/check.h>
+#include <plx/core/status.h>
+
+namespace plx {
+
+const char* errorCodeName(ErrorCode code) {
+    switch (code) {
+        case ErrorCode::kOk: return "ok";
+        case ErrorCode::kInvalidArgument: return "invalid argument";
+        case ErrorCode::kNotFound: return "not found";
+        case ErrorCode::kIoError: return "i/o error";
+        case ErrorCode::kCorruptData: return "corrupt data";
+        case ErrorCode::kUnsupported: return "unsupported";
+        case ErrorCode::kOutOfRange: return "out of range";
+        case ErrorCode::kInternal: return "internal error";
+    }
+    return "unknown error";
+}
+
+std::string Status::toString() const {
+    if (isOk()) return "ok";
+    return std::string(errorCodeName(mCode)) + ": " + mMessage;
+}
+
+namespace detail {
+void checkFailed(const char* condition, const char* file, int line) {
+    std::fprintf(stderr, "PLX_CHECK failed: %s at %s:%d\n", condition, file, line);
+    std::fflush(stderr);
+    std::abort();
+}
+}  // namespace detail
+
+}  // namespace plx

@@ -1,0 +1,110 @@
+#pragma once
+// Software rasterizer implementing the P-buffer renderer of Heo, Jung and Wohn (Fig. 6): the
+// z-buffer algorithm extended with a polygon-ID target that is written together with colour and
+// depth wherever the depth test passes.
+//
+// Pipeline (renderer.cpp): vertices are transformed in parallel; triangles are clipped in
+// homogeneous space against the near and far planes and a guard band, culled (outside, back-facing
+// when asked, covering no sample), and binned into screen tiles in submission order; tiles are
+// then rasterised in parallel with exact fixed-point edge functions (8 sub-pixel bits, top-left
+// fill rule) and perspective-correct attributes. reference.cpp holds a small scalar renderer that
+// follows the same arithmetic one triangle at a time, against which tests check the fast path.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include <plx/core/core.h>
+#include <plx/scene/scene.h>
+
+namespace plx::raster {
+
+enum class Shading {
+    kFlat,      // constant per triangle: Lambert on the face normal + ambient (the paper's shading)
+    kGouraud,   // Lambert + ambient per vertex, interpolated
+    kTextured,  // Gouraud lighting times the bilinear, mipmapped base-colour texture
+};
+
+// Parses "flat" / "constant", "gouraud", "textured".
+Result<Shading> parseShading(const std::string& name);
+const char* shadingName(Shading shading);
+
+// Caller-owned targets. All three views must have the same size as the camera's image. The colour
+// view may be empty (data == nullptr) to render depth and IDs only.
+struct RenderTargets {
+    ImageView<Rgba8> color;
+    ImageView<float> depth;      // 1/w, see Conventions; 0 = cleared
+    ImageView<uint32_t> id;      // global triangle index + 1; 0 = cleared
+};
+
+struct RenderOptions {
+    Shading shading = Shading::kFlat;
+    bool cullBackFaces = false;  // counter-clockwise triangles (as seen) are front faces
+    bool clearTargets = true;    // clear colour, depth and ID before drawing
+    Rgba8 clearColor{40, 44, 52, 255};
+    Vec3 lightDir{0.35f, 0.85f, 0.4f};  // towards the light, world space (normalised internally)
+    float ambient = 0.25f;              // linear, added to the Lambert term
+};
+
+struct RenderStats {
+    uint64_t trianglesSubmitted = 0;  // triangles considered
+    uint64_t trianglesClipped = 0;    // triangles that crossed a clip plane
+    uint64_t trianglesBinned = 0;     // triangles (after clipping) that reached the tiles
+    double milliseconds = 0.0;
+};
+
+struct RendererConfig {
+    int threads = 0;     // 0: all hardware threads
+    int tileSize = 64;   // pixels per tile side, a power of two in [8, 256]
+};
+
+// The tiled multithreaded renderer. Keeps its scratch memory between frames, so rendering
+// successive frames of the same size allocates nothing. One frame at a time per Renderer.
+class Renderer {
+public:
+    static Result<std::unique_ptr<Renderer>> create(const RendererConfig& config = {});
+    ~Renderer();
+
+    // Renders every triangle of the scene.
+    RenderStats render(const scene::Scene& scene, const Camera& camera,
+                       const RenderOptions& options, const RenderTargets& targets);
+
+    // Renders only the listed triangles (global indices, each < scene.triangleCount(), in the
+    // order given; duplicates are drawn twice). Cost is proportional to the list, not the scene.
+    RenderStats renderSubset(const scene::Scene& scene, const Camera& camera,
+                             std::span<const uint32_t> triangleIndices,
+                             const RenderOptions& options, const RenderTargets& targets);
+
+    int threadCount() const;
+
+private:
+    struct Impl;
+    explicit Renderer(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
+
+// Scalar reference renderer: the same arithmetic, one triangle after another, no tiles or threads.
+// subset == nullptr renders every triangle.
+void renderReference(const scene::Scene& scene, const Camera& camera, const RenderOptions& options,
+                     const RenderTargets& targets, std::span<const uint32_t>* subset = nullptr);
+
+// Owning colour + depth + ID images of one size, for callers that do not bring their own.
+struct FrameBuffers {
+    Image<Rgba8> color;
+    Image<float> depth;
+    Image<uint32_t> id;
+
+    void resize(int width, int height);
+    RenderTargets targets() { return {color.view(), depth.view(), id.view()}; }
+};
+
+// Number of distinct non-zero IDs in an ID target (the visible triangles).
+size_t countDistinctIds(const Image<uint32_t>& ids);
+
+// Depth target as grey: near is bright, cleared pixels black. Scales between the nearest and
+// farthest drawn values.
+Image<Rgba8> visualizeDepth(const Image<float>& depth);
+// ID target in false colour: each ID gets a stable pseudo-random colour, 0 is black.
+Image<Rgba8> visualizeIds(const Image<uint32_t>& ids);
+
+}  // namespace plx::raster

@@ -1,0 +1,28 @@
+#pragma once
+// Loading scenes: from files through assimp (glTF/GLB, OBJ, PLY, FBX, IFC, anything assimp
+// reads; embedded and external textures), or from a generator spec such as "office:8".
+
+#include <string>
+
+#include <plx/scene/scene.h>
+
+namespace plx::scene {
+
+struct ImportOptions {
+    bool loadTextures = true;
+    // Files declaring more than this many triangles or vertices are refused before allocation.
+    size_t maxTriangles = size_t(1) << 28;
+};
+
+// Imports a model file. Errors name the file and the problem (missing, unreadable, corrupt,
+// no triangles, non-finite vertices, absurd counts). Degenerate triangles (repeated or
+// collinear vertices) are dropped and counted in Scene::degenerateTrianglesDropped.
+Result<Scene> importFile(const std::string& path, const ImportOptions& options = {});
+
+// True when spec names a generator ("office:N", "museum:N") rather than a file.
+bool isGeneratorSpec(const std::string& spec);
+
+// A scene from a file path or a generator spec.
+Result<Scene> loadScene(const std::string& spec, const ImportOptions& options = {});
+
+}  // namespace plx::scene

@@ -1,0 +1,105 @@
+#pragma once
+// Scene: triangle meshes with per-vertex normals and UVs, materials, decoded textures with mip
+// chains, and named viewpoints. Everything the renderers draw comes through this type.
+//
+// Triangle numbering: triangles are numbered scene-globally in mesh order, mesh m's local
+// triangle t having global index firstTriangle(m) + t. The polygon-ID target stores that index+1
+// (see the Conventions block in <plx/core/core.h>).
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <plx/core/core.h>
+
+namespace plx::scene {
+
+// A decoded texture: RGBA8 texels holding sRGB-encoded colour, with a full mip chain down to 1x1.
+struct Texture {
+    std::string name;
+    // mips[0] is the base level; mips[k] is ceil-halved from mips[k-1], last one 1x1.
+    std::vector<Image<Rgba8>> mips;
+
+    int width() const { return mips.empty() ? 0 : mips[0].width(); }
+    int height() const { return mips.empty() ? 0 : mips[0].height(); }
+};
+
+// Builds mips[1..] from mips[0] with a 2x2 box filter in linear light (odd sizes: the last
+// row/column is averaged with fewer texels). Precondition: mips has exactly one level.
+void buildMipChain(Texture* texture);
+
+struct Material {
+    std::string name;
+    Vec4 baseColor{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA factor
+    int baseColorTexture = -1;               // index into Scene::textures, -1 for none
+};
+
+struct Mesh {
+    std::string name;
+    std::vector<Vec3> positions;
+    std::vector<Vec3> normals;     // unit length, one per position
+    std::vector<Vec2> uvs;         // one per position, or empty when the mesh has none
+    std::vector<uint32_t> indices; // three per triangle, each < positions.size()
+    int materialIndex = 0;         // index into Scene::materials
+
+    size_t triangleCount() const { return indices.size() / 3; }
+    size_t vertexCount() const { return positions.size(); }
+};
+
+// A named camera placement carried by a scene (glTF cameras, generator defaults).
+struct Viewpoint {
+    std::string name;
+    Vec3 eyePos{0.0f};
+    Vec3 targetPos{0.0f, 0.0f, -1.0f};
+    Vec3 upDir{0.0f, 1.0f, 0.0f};
+    float fovYDegrees = 60.0f;
+};
+
+struct SceneStats {
+    size_t meshes = 0;
+    size_t vertices = 0;
+    size_t triangles = 0;
+    size_t materials = 0;
+    size_t textures = 0;
+    size_t textureBytes = 0;  // all mip levels, RGBA8
+    size_t degenerateTrianglesDropped = 0;
+    Aabb bounds;
+};
+
+class Scene {
+public:
+    std::vector<Mesh> meshes;
+    std::vector<Material> materials;  // at least one after finalize()
+    std::vector<Texture> textures;
+    std::vector<Viewpoint> viewpoints;
+
+    // Checks the scene (finite positions and normals, indices in range, material and texture
+    // indices valid, at least one triangle), normalises normals (computing them from faces where
+    // a mesh has none), adds a default material when there is none, and computes the triangle
+    // offsets and bounds. Must be called after building or editing the arrays.
+    Status finalize();
+
+    size_t triangleCount() const { return mTriangleCount; }
+    size_t firstTriangle(size_t meshIndex) const { return mFirstTriangle[meshIndex]; }
+    // Mesh holding a global triangle index. Precondition: globalTriangle < triangleCount().
+    size_t meshOfTriangle(uint32_t globalTriangle) const;
+    const Aabb& bounds() const { return mBounds; }
+    SceneStats stats() const;
+
+    // Counted during import for statistics; finalize() does not change it.
+    size_t degenerateTrianglesDropped = 0;
+
+private:
+    std::vector<size_t> mFirstTriangle;  // per mesh, prefix sums of triangle counts
+    size_t mTriangleCount = 0;
+    Aabb mBounds;
+};
+
+// A viewpoint framing the whole bounding box from the +z side, slightly above.
+Viewpoint framingViewpoint(const Aabb& bounds, float fovYDegrees = 60.0f);
+
+// Near and far planes that contain the scene's bounds as seen from eyePos.
+void clipPlanesFor(const Aabb& bounds, const Vec3& eyePos, float* nearPlane, float* farPlane);
+
+}  // namespace plx::scene

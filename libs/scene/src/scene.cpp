@@ -1,0 +1,171 @@
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include <plx/scene/scene.h>
+
+namespace plx::scene {
+namespace {
+
+Status checkMesh(const Scene& scene, size_t m) {
+    const Mesh& mesh = scene.meshes[m];
+    auto where = [&] { return fmt::format("mesh {} ('{}')", m, mesh.name); };
+    if (mesh.indices.size() % 3 != 0)
+        return errorStatus(ErrorCode::kCorruptData,
+                           fmt::format("{}: index count {} is not a multiple of 3", where(),
+                                       mesh.indices.size()));
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+        return errorStatus(ErrorCode::kCorruptData, where() + ": normal count differs from "
+                                                              "vertex count");
+    if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size())
+        return errorStatus(ErrorCode::kCorruptData, where() + ": UV count differs from vertex "
+                                                              "count");
+    for (size_t v = 0; v < mesh.positions.size(); ++v)
+        if (!isFinite(mesh.positions[v]))
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("{}: vertex {} has a non-finite position", where(), v));
+    for (size_t v = 0; v < mesh.uvs.size(); ++v)
+        if (!std::isfinite(mesh.uvs[v].x) || !std::isfinite(mesh.uvs[v].y))
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("{}: vertex {} has a non-finite UV", where(), v));
+    for (uint32_t i : mesh.indices)
+        if (i >= mesh.positions.size())
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("{}: index {} out of range ({} vertices)", where(), i,
+                                           mesh.positions.size()));
+    if (mesh.materialIndex < 0 || size_t(mesh.materialIndex) >= scene.materials.size())
+        return errorStatus(ErrorCode::kCorruptData,
+                           fmt::format("{}: material {} does not exist", where(),
+                                       mesh.materialIndex));
+    return Status::ok();
+}
+
+// Area-weighted face normals accumulated per vertex.
+void computeNormals(Mesh* mesh) {
+    mesh->normals.assign(mesh->positions.size(), Vec3(0.0f));
+    for (size_t t = 0; t < mesh->triangleCount(); ++t) {
+        uint32_t a = mesh->indices[3 * t], b = mesh->indices[3 * t + 1],
+                 c = mesh->indices[3 * t + 2];
+        Vec3 n = glm::cross(mesh->positions[b] - mesh->positions[a],
+                            mesh->positions[c] - mesh->positions[a]);
+        mesh->normals[a] += n;
+        mesh->normals[b] += n;
+        mesh->normals[c] += n;
+    }
+}
+
+void normaliseNormals(Mesh* mesh) {
+    for (Vec3& n : mesh->normals) {
+        float len = glm::length(n);
+        n = (std::isfinite(len) && len > 1e-20f) ? n / len : Vec3(0.0f, 1.0f, 0.0f);
+    }
+}
+
+}  // namespace
+
+Status Scene::finalize() {
+    if (materials.empty()) materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}, -1});
+    for (size_t i = 0; i < materials.size(); ++i) {
+        int t = materials[i].baseColorTexture;
+        if (t >= int(textures.size()) || t < -1)
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("material {} refers to missing texture {}", i, t));
+    }
+    for (const Texture& tex : textures)
+        if (tex.mips.empty() || tex.mips[0].empty())
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("texture '{}' has no texels", tex.name));
+    mFirstTriangle.assign(meshes.size(), 0);
+    mTriangleCount = 0;
+    mBounds = Aabb{};
+    for (size_t m = 0; m < meshes.size(); ++m) {
+        PLX_RETURN_IF_ERROR(checkMesh(*this, m));
+        Mesh& mesh = meshes[m];
+        if (mesh.normals.empty()) computeNormals(&mesh);
+        normaliseNormals(&mesh);
+        mFirstTriangle[m] = mTriangleCount;
+        mTriangleCount += mesh.triangleCount();
+        for (uint32_t i : mesh.indices) mBounds.extend(mesh.positions[i]);
+    }
+    if (mTriangleCount == 0)
+        return errorStatus(ErrorCode::kCorruptData, "scene has no triangles");
+    if (mTriangleCount >= size_t(UINT32_MAX))
+        return errorStatus(ErrorCode::kOutOfRange, "scene has more than 2^32-1 triangles");
+    return Status::ok();
+}
+
+size_t Scene::meshOfTriangle(uint32_t globalTriangle) const {
+    PLX_DCHECK(globalTriangle < mTriangleCount);
+    auto it = std::upper_bound(mFirstTriangle.begin(), mFirstTriangle.end(), size_t(globalTriangle));
+    return size_t(it - mFirstTriangle.begin()) - 1;
+}
+
+SceneStats Scene::stats() const {
+    SceneStats s;
+    s.meshes = meshes.size();
+    for (const Mesh& m : meshes) s.vertices += m.vertexCount();
+    s.triangles = mTriangleCount;
+    s.materials = materials.size();
+    s.textures = textures.size();
+    for (const Texture& t : textures)
+        for (const auto& mip : t.mips) s.textureBytes += mip.pixelCount() * sizeof(Rgba8);
+    s.degenerateTrianglesDropped = degenerateTrianglesDropped;
+    s.bounds = mBounds;
+    return s;
+}
+
+void buildMipChain(Texture* texture) {
+    PLX_CHECK(texture->mips.size() == 1);
+    const float* decode = srgbDecodeTable();
+    while (texture->mips.back().width() > 1 || texture->mips.back().height() > 1) {
+        const Image<Rgba8>& src = texture->mips.back();
+        int w = std::max(1, (src.width() + 1) / 2), h = std::max(1, (src.height() + 1) / 2);
+        Image<Rgba8> dst(w, h);
+        for (int y = 0; y < h; ++y) {
+            for (int x = 0; x < w; ++x) {
+                Vec4 sum(0.0f);
+                int n = 0;
+                for (int dy = 0; dy < 2; ++dy) {
+                    for (int dx = 0; dx < 2; ++dx) {
+                        int sx = 2 * x + dx, sy = 2 * y + dy;
+                        if (sx >= src.width() || sy >= src.height()) continue;
+                        Rgba8 c = src.at(sx, sy);
+                        sum += Vec4(decode[c.r], decode[c.g], decode[c.b], float(c.a));
+                        ++n;
+                    }
+                }
+                sum /= float(n);
+                dst.at(x, y) = encodeRgb(Vec3(sum), uint8_t(std::lround(sum.a)));
+            }
+        }
+        texture->mips.push_back(std::move(dst));
+    }
+}
+
+Viewpoint framingViewpoint(const Aabb& bounds, float fovYDegrees) {
+    Viewpoint v;
+    v.name = "framing";
+    v.fovYDegrees = fovYDegrees;
+    Vec3 c = bounds.isEmpty() ? Vec3(0.0f) : bounds.center();
+    float radius = std::max(0.5f * bounds.diagonal(), 1e-3f);
+    float dist = radius / std::sin(radians(fovYDegrees) * 0.5f);
+    Vec3 dir = glm::normalize(Vec3(0.0f, 0.35f, 1.0f));
+    v.eyePos = c + dir * dist;
+    v.targetPos = c;
+    return v;
+}
+
+void clipPlanesFor(const Aabb& bounds, const Vec3& eyePos, float* nearPlane, float* farPlane) {
+    float farthest = 0.0f;
+    for (int i = 0; i < 8; ++i) {
+        Vec3 corner((i & 1) ? bounds.hi.x : bounds.lo.x, (i & 2) ? bounds.hi.y : bounds.lo.y,
+                    (i & 4) ? bounds.hi.z : bounds.lo.z);
+        farthest = std::max(farthest, glm::length(corner - eyePos));
+    }
+    *farPlane = std::max(farthest * 1.01f, 1e-2f);
+    // A near plane at 1/20000 of the far distance keeps depth precision (1/w is stored in float,
+    // so precision is ample) while letting walkthrough cameras get close to walls.
+    *nearPlane = std::max(*farPlane / 20000.0f, 1e-4f);
+}
+
+}  // namespace plx::scene

@@ -1,0 +1,57 @@
+#include <gtest/gtest.h>
+
+#include <plx/scene/scene.h>
+
+namespace plx::scene {
+namespace {
+
+Scene oneTriangle() {
+    Scene s;
+    Mesh m;
+    m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    m.indices = {0, 1, 2};
+    s.meshes.push_back(m);
+    return s;
+}
+
+TEST(Scene, FinalizeComputesOffsetsNormalsAndBounds) {
+    Scene s = oneTriangle();
+    s.meshes.push_back(s.meshes[0]);
+    ASSERT_TRUE(s.finalize().isOk());
+    EXPECT_EQ(s.triangleCount(), 2u);
+    EXPECT_EQ(s.firstTriangle(1), 1u);
+    EXPECT_EQ(s.meshOfTriangle(0), 0u);
+    EXPECT_EQ(s.meshOfTriangle(1), 1u);
+    EXPECT_NEAR(s.meshes[0].normals[0].z, 1.0f, 1e-6f);
+    EXPECT_EQ(s.materials.size(), 1u);
+    EXPECT_EQ(s.bounds().hi, Vec3(1, 1, 0));
+}
+
+TEST(Scene, FinalizeRejectsBadGeometry) {
+    Scene s = oneTriangle();
+    s.meshes[0].positions[1].x = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_NE(s.finalize().message().find("non-finite"), std::string::npos);
+    s = oneTriangle();
+    s.meshes[0].indices[2] = 9;
+    EXPECT_NE(s.finalize().message().find("out of range"), std::string::npos);
+    s = oneTriangle();
+    s.meshes[0].indices.clear();
+    EXPECT_NE(s.finalize().message().find("no triangles"), std::string::npos);
+    s = oneTriangle();
+    s.meshes[0].materialIndex = 3;
+    EXPECT_FALSE(s.finalize().isOk());
+}
+
+TEST(Scene, MipChainHalvesDownToOnePixel) {
+    Texture t;
+    t.mips.emplace_back(5, 3, Rgba8{255, 0, 0, 255});
+    buildMipChain(&t);
+    ASSERT_EQ(t.mips.size(), 4u);  // 5x3, 3x2, 2x1, 1x1
+    EXPECT_EQ(t.mips[1].width(), 3);
+    EXPECT_EQ(t.mips[1].height(), 2);
+    EXPECT_EQ(t.mips[3].width(), 1);
+    EXPECT_EQ(t.mips[3].at(0, 0), (Rgba8{255, 0, 0, 255}));
+}
+
+}  // namespace
+}  // namespace plx::scene

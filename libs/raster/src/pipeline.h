@@ -102,9 +102,14 @@ struct ShadeContext {
 
 // Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
 // `localTri`. Returns false when it covers no sample, is degenerate or is culled as back-facing.
+// flatColor: the triangle's flat colour when the caller already has it (flatColorOf), else null.
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
-                   TriangleSetup* out);
+                   TriangleSetup* out, const Rgba8* flatColor = nullptr);
+
+// The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
+Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                  const ShadeContext& ctx);
 
 // Cheap pre-test for binning: pixel bounds of a snapped triangle, false when it covers no sample
 // centre, is degenerate, or is a back face that must be culled.

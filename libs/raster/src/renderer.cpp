@@ -34,10 +34,21 @@ struct VertexOut {
     uint32_t code;
 };
 
+// A binned triangle carries its snapped vertices and flat colour, so the tile stage streams
+// through its bins instead of gathering vertices from scattered memory (measured: gathering
+// made random-order scenes 3x slower). Barycentric weights of clipped or subset triangles stay
+// in the chunk's `materialised` list.
+struct BinnedTri {
+    int32_t x[3], y[3];
+    float invW[3];
+    Rgba8 flatColor;
+    uint32_t ref;  // mesh-local triangle index, or kMaterialisedBit | index into materialised
+};
+
 struct Materialised {
     uint32_t mesh;
     uint32_t localTri;
-    RasterVertex v[3];
+    Vec3 bary[3];
 };
 
 struct Chunk {
@@ -45,7 +56,7 @@ struct Chunk {
     size_t mesh = 0;
     size_t begin = 0, end = 0;
     std::vector<Materialised> materialised;
-    std::vector<std::vector<uint32_t>> bins;  // per tile
+    std::vector<std::vector<BinnedTri>> bins;  // per tile
     uint64_t clipped = 0, binned = 0;
 
     void reset(size_t tiles) {
@@ -80,7 +91,7 @@ struct Renderer::Impl {
     void binChunk(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
                   std::span<const uint32_t>* subset, const Viewport& vp, const ShadeContext& ctx,
                   int tilesX);
-    void addToBins(Chunk& chunk, uint32_t entry, int minX, int minY, int maxX, int maxY,
+    void addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int minY, int maxX, int maxY,
                    int tilesX) const;
     void clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera, size_t mesh,
                     uint32_t localTri, const Viewport& vp, const ShadeContext& ctx, int tilesX);
@@ -201,14 +212,21 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
     }
 }
 
-void Renderer::Impl::addToBins(Chunk& chunk, uint32_t entry, int minX, int minY, int maxX,
+void Renderer::Impl::addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int minY, int maxX,
                                int maxY, int tilesX) const {
     int tx0 = minX >> tileShift, tx1 = maxX >> tileShift;
     int ty0 = minY >> tileShift, ty1 = maxY >> tileShift;
     for (int ty = ty0; ty <= ty1; ++ty)
-        for (int tx = tx0; tx <= tx1; ++tx) chunk.bins[size_t(ty) * tilesX + tx].push_back(entry);
+        for (int tx = tx0; tx <= tx1; ++tx) chunk.bins[size_t(ty) * tilesX + tx].push_back(tri);
     ++chunk.binned;
 }
+
+namespace {
+BinnedTri makeBinned(const RasterVertex v[3], Rgba8 flatColor, uint32_t ref) {
+    return {{v[0].x, v[1].x, v[2].x}, {v[0].y, v[1].y, v[2].y},
+            {v[0].invW, v[1].invW, v[2].invW}, flatColor, ref};
+}
+}  // namespace
 
 void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
                                 size_t mesh, uint32_t localTri, const Viewport& vp,
@@ -230,14 +248,17 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
         for (int k = 0; k < 3; ++k)
             tris[0][k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
     }
+    Rgba8 flat = ctx.shading == Shading::kFlat ? flatColorOf(scene, mesh, localTri, ctx) : Rgba8{};
     for (int i = 0; i < count; ++i) {
         int minX, minY, maxX, maxY;
         if (!triangleBounds(tris[i][0], tris[i][1], tris[i][2], vp, ctx.cullBackFaces, &minX,
                             &minY, &maxX, &maxY))
             continue;
         uint32_t index = uint32_t(chunk.materialised.size());
-        chunk.materialised.push_back({uint32_t(mesh), localTri, {tris[i][0], tris[i][1], tris[i][2]}});
-        addToBins(chunk, index | kMaterialisedBit, minX, minY, maxX, maxY, tilesX);
+        chunk.materialised.push_back(
+            {uint32_t(mesh), localTri, {tris[i][0].bary, tris[i][1].bary, tris[i][2].bary}});
+        addToBins(chunk, makeBinned(tris[i], flat, index | kMaterialisedBit), minX, minY, maxX,
+                  maxY, tilesX);
     }
 }
 
@@ -265,11 +286,13 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
             clipAndBin(chunk, scene, camera, chunk.mesh, uint32_t(t), vp, ctx, tilesX);
             continue;
         }
-        RasterVertex ra{a.x, a.y, a.invW, {}}, rb{b.x, b.y, b.invW, {}}, rc{c.x, c.y, c.invW, {}};
+        RasterVertex v[3] = {{a.x, a.y, a.invW, {}}, {b.x, b.y, b.invW, {}}, {c.x, c.y, c.invW, {}}};
         int minX, minY, maxX, maxY;
-        if (!triangleBounds(ra, rb, rc, vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
+        if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
             continue;
-        addToBins(chunk, uint32_t(t), minX, minY, maxX, maxY, tilesX);
+        Rgba8 flat = ctx.shading == Shading::kFlat
+                         ? flatColorOf(scene, chunk.mesh, uint32_t(t), ctx) : Rgba8{};
+        addToBins(chunk, makeBinned(v, flat, uint32_t(t)), minX, minY, maxX, maxY, tilesX);
     }
 }
 
@@ -290,22 +313,20 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     TriangleSetup setup;
     for (size_t c = 0; c < chunkCount; ++c) {
         const Chunk& chunk = chunks[c];
-        for (uint32_t entry : chunk.bins[size_t(tile)]) {
-            bool ok;
-            if (entry & kMaterialisedBit) {
-                const Materialised& m = chunk.materialised[entry & ~kMaterialisedBit];
-                ok = setupTriangle(scene, m.mesh, m.localTri, m.v, vp, ctx, &setup);
-            } else {
-                const scene::Mesh& mesh = scene.meshes[chunk.mesh];
-                const VertexOut* verts = vertices.data() + meshVertexBase[chunk.mesh];
-                RasterVertex v[3];
-                for (int k = 0; k < 3; ++k) {
-                    const VertexOut& o = verts[mesh.indices[3 * size_t(entry) + k]];
-                    v[k] = {o.x, o.y, o.invW, Vec3(k == 0, k == 1, k == 2)};
-                }
-                ok = setupTriangle(scene, chunk.mesh, entry, v, vp, ctx, &setup);
+        for (const BinnedTri& tri : chunk.bins[size_t(tile)]) {
+            RasterVertex v[3];
+            for (int k = 0; k < 3; ++k)
+                v[k] = {tri.x[k], tri.y[k], tri.invW[k], Vec3(k == 0, k == 1, k == 2)};
+            size_t mesh = chunk.mesh;
+            uint32_t localTri = tri.ref;
+            if (tri.ref & kMaterialisedBit) {
+                const Materialised& m = chunk.materialised[tri.ref & ~kMaterialisedBit];
+                mesh = m.mesh;
+                localTri = m.localTri;
+                for (int k = 0; k < 3; ++k) v[k].bary = m.bary[k];
             }
-            if (ok) rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1);
+            if (setupTriangle(scene, mesh, localTri, v, vp, ctx, &setup, &tri.flatColor))
+                rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1);
         }
     }
 }

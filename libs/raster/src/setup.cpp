@@ -66,9 +66,22 @@ bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVe
     return *minX <= *maxX && *minY <= *maxY;
 }
 
+Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                  const ShadeContext& ctx) {
+    const scene::Mesh& mesh = scene.meshes[meshIndex];
+    const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
+    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
+    Vec3 faceNormal = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
+                                 mesh.positions[idx[2]] - mesh.positions[idx[0]]);
+    float len = glm::length(faceNormal);
+    faceNormal = len > 0.0f ? faceNormal / len : Vec3(0.0f, 1.0f, 0.0f);
+    float light = ctx.lit ? lambert(faceNormal, ctx) : 1.0f;
+    return encodeRgb(Vec3(mat.baseColor) * light);
+}
+
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex vin[3], const Viewport& vp, const ShadeContext& ctx,
-                   TriangleSetup* t) {
+                   TriangleSetup* t, const Rgba8* flatColor) {
     if (!triangleBounds(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &t->minX, &t->minY,
                         &t->maxX, &t->maxY))
         return false;
@@ -95,22 +108,16 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
         t->edgeBias[i] = topLeft ? 0 : -1;
     }
 
-    const scene::Mesh& mesh = scene.meshes[meshIndex];
-    const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
     t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
     t->texture = nullptr;
-    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
-    Vec3 base(mat.baseColor);
-
     if (ctx.shading == Shading::kFlat) {
-        Vec3 faceNormal = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
-                                     mesh.positions[idx[2]] - mesh.positions[idx[0]]);
-        float len = glm::length(faceNormal);
-        faceNormal = len > 0.0f ? faceNormal / len : Vec3(0.0f, 1.0f, 0.0f);
-        float light = ctx.lit ? lambert(faceNormal, ctx) : 1.0f;
-        t->flatColor = encodeRgb(base * light);
+        t->flatColor = flatColor ? *flatColor : flatColorOf(scene, meshIndex, localTri, ctx);
         return true;
     }
+    const scene::Mesh& mesh = scene.meshes[meshIndex];
+    const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
+    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
+    Vec3 base(mat.baseColor);
     // Per original vertex: lit colour and UV; clipped vertices blend them with their weights.
     Vec3 litColor[3];
     Vec2 uv[3];

@@ -1,4 +1,5 @@
 // Google Benchmark for the rasterizer's hot path (Mtri/s and Mpix/s on procedural scenes).
+#include <cmath>
 #include <random>
 
 #include <benchmark/benchmark.h>
@@ -26,6 +27,55 @@ scene::Scene smallTriangles(int n) {
     PLX_CHECK(s.finalize().isOk());
     return s;
 }
+
+// A grid of UV spheres (rings x 2 rings segments each): spatially coherent meshes like real
+// models, with shared vertices.
+scene::Scene sphereGrid(int spheres, int rings) {
+    scene::Scene s;
+    int side = int(std::ceil(std::sqrt(double(spheres))));
+    for (int i = 0; i < spheres; ++i) {
+        scene::Mesh m;
+        Vec3 c(float(i % side) - 0.5f * float(side - 1), float(i / side) - 0.5f * float(side - 1),
+               -float(side) * 1.1f);
+        int segments = 2 * rings;
+        for (int r = 0; r <= rings; ++r) {
+            float phi = kPi * float(r) / float(rings);
+            for (int g = 0; g <= segments; ++g) {
+                float theta = 2.0f * kPi * float(g) / float(segments);
+                Vec3 n(std::sin(phi) * std::cos(theta), std::cos(phi), -std::sin(phi) * std::sin(theta));
+                m.positions.push_back(c + 0.45f * n);
+                m.normals.push_back(n);
+            }
+        }
+        for (int r = 0; r < rings; ++r)
+            for (int g = 0; g < segments; ++g) {
+                uint32_t a = uint32_t(r * (segments + 1) + g), b = a + 1,
+                         cc = a + uint32_t(segments + 1), d = cc + 1;
+                m.indices.insert(m.indices.end(), {a, cc, b, b, cc, d});
+            }
+        s.meshes.push_back(std::move(m));
+    }
+    PLX_CHECK(s.finalize().isOk());
+    return s;
+}
+
+void BM_RenderSphereGrid(benchmark::State& state) {
+    scene::Scene s = sphereGrid(int(state.range(0)), 32);
+    CameraDesc d;
+    d.eyePos = {0, 0, 0};
+    d.targetPos = {0, 0, -1};
+    d.fovYDegrees = 50.0f;
+    Camera cam = *Camera::create(d);
+    auto r = std::move(raster::Renderer::create({int(state.range(1)), 64})).value();
+    raster::FrameBuffers fb;
+    fb.resize(d.width, d.height);
+    for (auto _ : state) r->render(s, cam, {}, fb.targets());
+    state.counters["Mtri/s"] = benchmark::Counter(double(s.triangleCount()) * state.iterations() / 1e6,
+                                                  benchmark::Counter::kIsRate);
+    state.counters["visible"] = double(raster::countDistinctIds(fb.id));
+}
+BENCHMARK(BM_RenderSphereGrid)->Args({25, 1})->Args({25, 2})->Args({256, 1})->Args({256, 2})
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_RenderSmallTriangles(benchmark::State& state) {
     scene::Scene s = smallTriangles(int(state.range(0)));

@@ -82,7 +82,12 @@ struct TriangleSetup {
     float invW[3];
     Vec3 color[3];   // linear lit colour at the vertices (Gouraud, textured)
     Vec2 uv[3];
-    Rgba8 flatColor;  // flat shading: the triangle's encoded colour
+    // Flat shading: the triangle's encoded colour, computed on the first sample that passes the
+    // depth test (hidden triangles, often most of them, never pay for it).
+    mutable Rgba8 flatColor;
+    mutable bool flatReady = false;
+    const scene::Scene* scene = nullptr;
+    uint32_t meshIndex = 0, localTri = 0;
     uint32_t id = 0;  // global triangle index + 1
     const scene::Texture* texture = nullptr;
     // Screen-space derivatives (per pixel) of the barycentric weights b1 and b2, for texture LOD.
@@ -102,10 +107,9 @@ struct ShadeContext {
 
 // Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
 // `localTri`. Returns false when it covers no sample, is degenerate or is culled as back-facing.
-// flatColor: the triangle's flat colour when the caller already has it (flatColorOf), else null.
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
-                   TriangleSetup* out, const Rgba8* flatColor = nullptr);
+                   TriangleSetup* out);
 
 // The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
@@ -116,6 +120,14 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
 bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
                     const Viewport& vp, bool cullBackFaces, int* minX, int* minY, int* maxX,
                     int* maxY);
+
+inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
+    if (!t.flatReady) {
+        t.flatColor = flatColorOf(*t.scene, t.meshIndex, t.localTri, ctx);
+        t.flatReady = true;
+    }
+    return t.flatColor;
+}
 
 // Shades one covered sample. b1, b2: barycentric weights of vertices 1 and 2 (b0 = 1 - b1 - b2)
 // in screen space; invW: interpolated 1/w at the sample.

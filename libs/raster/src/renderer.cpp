@@ -34,14 +34,13 @@ struct VertexOut {
     uint32_t code;
 };
 
-// A binned triangle carries its snapped vertices and flat colour, so the tile stage streams
+// A binned triangle carries its snapped vertices, so the tile stage streams
 // through its bins instead of gathering vertices from scattered memory (measured: gathering
 // made random-order scenes 3x slower). Barycentric weights of clipped or subset triangles stay
 // in the chunk's `materialised` list.
 struct BinnedTri {
     int32_t x[3], y[3];
     float invW[3];
-    Rgba8 flatColor;
     uint32_t ref;  // mesh-local triangle index, or kMaterialisedBit | index into materialised
 };
 
@@ -222,9 +221,9 @@ void Renderer::Impl::addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int
 }
 
 namespace {
-BinnedTri makeBinned(const RasterVertex v[3], Rgba8 flatColor, uint32_t ref) {
+BinnedTri makeBinned(const RasterVertex v[3], uint32_t ref) {
     return {{v[0].x, v[1].x, v[2].x}, {v[0].y, v[1].y, v[2].y},
-            {v[0].invW, v[1].invW, v[2].invW}, flatColor, ref};
+            {v[0].invW, v[1].invW, v[2].invW}, ref};
 }
 }  // namespace
 
@@ -248,7 +247,6 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
         for (int k = 0; k < 3; ++k)
             tris[0][k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
     }
-    Rgba8 flat = ctx.shading == Shading::kFlat ? flatColorOf(scene, mesh, localTri, ctx) : Rgba8{};
     for (int i = 0; i < count; ++i) {
         int minX, minY, maxX, maxY;
         if (!triangleBounds(tris[i][0], tris[i][1], tris[i][2], vp, ctx.cullBackFaces, &minX,
@@ -257,7 +255,7 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
         uint32_t index = uint32_t(chunk.materialised.size());
         chunk.materialised.push_back(
             {uint32_t(mesh), localTri, {tris[i][0].bary, tris[i][1].bary, tris[i][2].bary}});
-        addToBins(chunk, makeBinned(tris[i], flat, index | kMaterialisedBit), minX, minY, maxX,
+        addToBins(chunk, makeBinned(tris[i], index | kMaterialisedBit), minX, minY, maxX,
                   maxY, tilesX);
     }
 }
@@ -290,9 +288,7 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
         int minX, minY, maxX, maxY;
         if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
             continue;
-        Rgba8 flat = ctx.shading == Shading::kFlat
-                         ? flatColorOf(scene, chunk.mesh, uint32_t(t), ctx) : Rgba8{};
-        addToBins(chunk, makeBinned(v, flat, uint32_t(t)), minX, minY, maxX, maxY, tilesX);
+        addToBins(chunk, makeBinned(v, uint32_t(t)), minX, minY, maxX, maxY, tilesX);
     }
 }
 
@@ -325,7 +321,7 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
                 localTri = m.localTri;
                 for (int k = 0; k < 3; ++k) v[k].bary = m.bary[k];
             }
-            if (setupTriangle(scene, mesh, localTri, v, vp, ctx, &setup, &tri.flatColor))
+            if (setupTriangle(scene, mesh, localTri, v, vp, ctx, &setup))
                 rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1);
         }
     }

@@ -81,7 +81,7 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
 
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex vin[3], const Viewport& vp, const ShadeContext& ctx,
-                   TriangleSetup* t, const Rgba8* flatColor) {
+                   TriangleSetup* t) {
     if (!triangleBounds(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &t->minX, &t->minY,
                         &t->maxX, &t->maxY))
         return false;
@@ -111,7 +111,10 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
     t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
     t->texture = nullptr;
     if (ctx.shading == Shading::kFlat) {
-        t->flatColor = flatColor ? *flatColor : flatColorOf(scene, meshIndex, localTri, ctx);
+        t->flatReady = false;
+        t->scene = &scene;
+        t->meshIndex = uint32_t(meshIndex);
+        t->localTri = localTri;
         return true;
     }
     const scene::Mesh& mesh = scene.meshes[meshIndex];
@@ -169,7 +172,7 @@ Vec3 sampleBilinear(const Image<Rgba8>& level, float u, float v) {
 
 Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
                   float invW) {
-    if (ctx.shading == Shading::kFlat) return t.flatColor;
+    if (ctx.shading == Shading::kFlat) return flatColorFor(t, ctx);
     // Perspective-correct weights: attribute/w is affine in screen space, so the weight of
     // vertex i is b_i * invW_i / invW.
     float w = 1.0f / invW;

@@ -43,7 +43,7 @@ inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, int64_t
     *id = t.id;
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat)
-            *color = t.flatColor;
+            *color = flatColorFor(t, ctx);
         else
             *color = shadeSample(t, ctx, b1, b2, invW);
     }

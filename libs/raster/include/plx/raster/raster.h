@@ -44,6 +44,9 @@ struct RenderOptions {
     Rgba8 clearColor{40, 44, 52, 255};
     Vec3 lightDir{0.35f, 0.85f, 0.4f};  // towards the light, world space (normalised internally)
     float ambient = 0.25f;              // linear, added to the Lambert term
+    // false: no lighting, colour = material base colour (times the texture when textured). Image
+    // re-projection passes (display predistortion, warping) render this way.
+    bool lit = true;
 };
 
 struct RenderStats {

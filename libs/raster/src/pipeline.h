@@ -1,0 +1,129 @@
+#pragma once
+// Private pieces of the raster pipeline shared by the tiled renderer and the scalar reference:
+// fixed-point vertex snapping, outcodes, homogeneous clipping, triangle setup and shading.
+//
+// Fixed-point format: screen positions are int32 in 1/256 pixel (8 sub-pixel bits, "24.8").
+// Vertices are kept inside a guard band of +-kGuardPixels pixels, so coordinate differences
+// fit in 2^24 and edge-function values (products of two differences) in 2^49: int64 is exact.
+
+#include <cstdint>
+
+#include <plx/raster/raster.h>
+
+namespace plx::raster::detail {
+
+constexpr int kSubPixelBits = 8;
+constexpr int kSubPixelScale = 1 << kSubPixelBits;
+constexpr float kGuardPixels = 32768.0f;
+
+// Outcode bits of a clip-space vertex.
+enum : uint32_t {
+    kOutLeft = 1, kOutRight = 2, kOutBottom = 4, kOutTop = 8, kOutNear = 16, kOutFar = 32,
+    kOutGuard = 64,  // outside the guard band in x or y: needs clipping before snapping
+    kOutFrustum = kOutLeft | kOutRight | kOutBottom | kOutTop | kOutNear | kOutFar,
+    kOutNeedsClip = kOutNear | kOutFar | kOutGuard,
+};
+
+// Per-frame viewport constants derived from the camera.
+struct Viewport {
+    int width = 0, height = 0;
+    float halfWidth = 0, halfHeight = 0;
+    float guardX = 0, guardY = 0;  // guard band half-extent in clip units (|x| <= guardX * w)
+
+    explicit Viewport(const Camera& camera);
+};
+
+inline uint32_t outcode(const Vec4& c, const Viewport& vp) {
+    uint32_t code = 0;
+    if (c.x < -c.w) code |= kOutLeft;
+    if (c.x > c.w) code |= kOutRight;
+    if (c.y < -c.w) code |= kOutBottom;
+    if (c.y > c.w) code |= kOutTop;
+    if (c.z < -c.w) code |= kOutNear;
+    if (c.z > c.w) code |= kOutFar;
+    if (std::fabs(c.x) > vp.guardX * c.w || std::fabs(c.y) > vp.guardY * c.w) code |= kOutGuard;
+    // NaN positions fail every comparison above; treat them as outside everything.
+    if (!(c.w == c.w) || !(c.x == c.x) || !(c.y == c.y) || !(c.z == c.z)) code |= kOutFrustum;
+    return code;
+}
+
+// A vertex ready for rasterisation: snapped screen position, 1/w, and its barycentric weights
+// with respect to the original (unclipped) triangle's three vertices, for attributes.
+struct RasterVertex {
+    int32_t x = 0, y = 0;  // 1/256 pixel
+    float invW = 0.0f;
+    Vec3 bary{0.0f};
+};
+
+// Snaps a clip-space vertex inside the guard band (w > 0) to fixed point.
+inline RasterVertex snapVertex(const Vec4& c, const Viewport& vp, const Vec3& bary) {
+    RasterVertex v;
+    v.invW = 1.0f / c.w;
+    float px = (c.x * v.invW) * vp.halfWidth + vp.halfWidth;
+    float py = vp.halfHeight - (c.y * v.invW) * vp.halfHeight;
+    v.x = int32_t(std::lrint(px * float(kSubPixelScale)));
+    v.y = int32_t(std::lrint(py * float(kSubPixelScale)));
+    v.bary = bary;
+    return v;
+}
+
+// Clips a triangle (clip-space positions) against the near and far planes and the guard band.
+// Writes up to kMaxClippedTriangles triangles as RasterVertex triples; returns how many.
+constexpr int kMaxClippedTriangles = 8;
+int clipTriangle(const Vec4 clip[3], const Viewport& vp, RasterVertex out[][3]);
+
+// Everything the pixel loop needs for one triangle, in the orientation where the signed area is
+// positive (vertex order may be swapped from the mesh's).
+struct TriangleSetup {
+    int32_t x[3], y[3];  // fixed point
+    int64_t area2 = 0;   // twice the area in (1/256 px)^2, > 0
+    int64_t edgeBias[3];  // 0 for top-left edges, -1 otherwise (top-left fill rule)
+    int minX = 0, minY = 0, maxX = -1, maxY = -1;  // inclusive pixel bounds, clamped to viewport
+    float invW[3];
+    Vec3 color[3];   // linear lit colour at the vertices (Gouraud, textured)
+    Vec2 uv[3];
+    Rgba8 flatColor;  // flat shading: the triangle's encoded colour
+    uint32_t id = 0;  // global triangle index + 1
+    const scene::Texture* texture = nullptr;
+    // Screen-space derivatives (per pixel) of the barycentric weights b1 and b2, for texture LOD.
+    float b1dx = 0, b1dy = 0, b2dx = 0, b2dy = 0;
+};
+
+// Per-frame shading constants.
+struct ShadeContext {
+    Shading shading = Shading::kFlat;
+    bool lit = true;
+    Vec3 lightDir{0.0f, 1.0f, 0.0f};  // normalised
+    float ambient = 0.25f;
+    bool cullBackFaces = false;
+
+    ShadeContext(const RenderOptions& options);
+};
+
+// Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
+// `localTri`. Returns false when it covers no sample, is degenerate or is culled as back-facing.
+// flatColor: the triangle's flat colour when the caller already has it (flatColorOf), else null.
+bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                   const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
+                   TriangleSetup* out, const Rgba8* flatColor = nullptr);
+
+// The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
+Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                  const ShadeContext& ctx);
+
+// Cheap pre-test for binning: pixel bounds of a snapped triangle, false when it covers no sample
+// centre, is degenerate, or is a back face that must be culled.
+bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                    const Viewport& vp, bool cullBackFaces, int* minX, int* minY, int* maxX,
+                    int* maxY);
+
+// Shades one covered sample. b1, b2: barycentric weights of vertices 1 and 2 (b0 = 1 - b1 - b2)
+// in screen space; invW: interpolated 1/w at the sample.
+Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2, float invW);
+
+// Rasterises t into targets restricted to the inclusive pixel rectangle [x0,x1]x[y0,y1], with
+// incremental edge functions (the fast path).
+void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                       int x0, int y0, int x1, int y1);
+
+}  // namespace plx::raster::detail

@@ -1,0 +1,199 @@
+// Triangle setup and shading, shared by the tiled renderer and the scalar reference.
+
+#include <algorithm>
+#include <cstring>
+
+#include "pipeline.h"
+
+namespace plx::raster::detail {
+
+Viewport::Viewport(const Camera& camera)
+    : width(camera.width()),
+      height(camera.height()),
+      halfWidth(0.5f * float(camera.width())),
+      halfHeight(0.5f * float(camera.height())) {
+    // Keep snapped pixel coordinates within +-kGuardPixels: |x_ndc| * halfWidth + halfWidth
+    // <= kGuardPixels. Images are at most 16384 wide, so the band is at least 3x the viewport.
+    guardX = (kGuardPixels - halfWidth) / halfWidth;
+    guardY = (kGuardPixels - halfHeight) / halfHeight;
+}
+
+ShadeContext::ShadeContext(const RenderOptions& options)
+    : shading(options.shading),
+      lit(options.lit),
+      ambient(options.ambient),
+      cullBackFaces(options.cullBackFaces) {
+    float len = glm::length(options.lightDir);
+    lightDir = len > 0.0f && std::isfinite(len) ? options.lightDir / len : Vec3(0.0f, 1.0f, 0.0f);
+}
+
+namespace {
+
+inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px, int64_t py) {
+    return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);
+}
+
+
+// First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v.
+inline int firstPixelAtOrAfter(int32_t v) {
+    int64_t t = int64_t(v) - kSubPixelScale / 2;
+    // ceil(t / 256) for any sign.
+    return int(t >= 0 ? (t + kSubPixelScale - 1) >> kSubPixelBits : -((-t) >> kSubPixelBits));
+}
+inline int lastPixelAtOrBefore(int32_t v) {
+    int64_t t = int64_t(v) - kSubPixelScale / 2;
+    return int(t >> kSubPixelBits);  // arithmetic shift = floor division
+}
+
+// Lambert + ambient of a normal, two-sided (|n.l|) so open meshes look the same from both sides.
+inline float lambert(const Vec3& n, const ShadeContext& ctx) {
+    return std::min(1.0f, ctx.ambient + (1.0f - ctx.ambient) * std::fabs(glm::dot(n, ctx.lightDir)));
+}
+
+}  // namespace
+
+bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                    const Viewport& vp, bool cullBackFaces, int* minX, int* minY, int* maxX,
+                    int* maxY) {
+    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
+    // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
+    // counter-clockwise front faces.
+    if (area2 == 0 || (cullBackFaces && area2 > 0)) return false;
+    *minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
+    *minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
+    *maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
+    *maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
+    return *minX <= *maxX && *minY <= *maxY;
+}
+
+Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                  const ShadeContext& ctx) {
+    const scene::Mesh& mesh = scene.meshes[meshIndex];
+    const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
+    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
+    Vec3 faceNormal = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
+                                 mesh.positions[idx[2]] - mesh.positions[idx[0]]);
+    float len = glm::length(faceNormal);
+    faceNormal = len > 0.0f ? faceNormal / len : Vec3(0.0f, 1.0f, 0.0f);
+    float light = ctx.lit ? lambert(faceNormal, ctx) : 1.0f;
+    return encodeRgb(Vec3(mat.baseColor) * light);
+}
+
+bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                   const RasterVertex vin[3], const Viewport& vp, const ShadeContext& ctx,
+                   TriangleSetup* t, const Rgba8* flatColor) {
+    if (!triangleBounds(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &t->minX, &t->minY,
+                        &t->maxX, &t->maxY))
+        return false;
+    // Orient so the signed area is positive: swap vertices 1 and 2 of front faces.
+    int64_t area2 = edgeAt(vin[0].x, vin[0].y, vin[1].x, vin[1].y, vin[2].x, vin[2].y);
+    const RasterVertex* v[3] = {&vin[0], &vin[1], &vin[2]};
+    if (area2 < 0) {
+        std::swap(v[1], v[2]);
+        area2 = -area2;
+    }
+    t->area2 = area2;
+    for (int i = 0; i < 3; ++i) {
+        t->x[i] = v[i]->x;
+        t->y[i] = v[i]->y;
+        t->invW[i] = v[i]->invW;
+    }
+    // Top-left rule: edge i runs from vertex i to vertex i+1; the interior lies where the edge
+    // function is positive, its gradient (-dy, dx) points inwards. Left edge: dy < 0; top edge:
+    // dy == 0 and dx > 0. Samples exactly on other edges are excluded by a bias of -1.
+    for (int i = 0; i < 3; ++i) {
+        int j = (i + 1) % 3;
+        int32_t dx = t->x[j] - t->x[i], dy = t->y[j] - t->y[i];
+        bool topLeft = dy < 0 || (dy == 0 && dx > 0);
+        t->edgeBias[i] = topLeft ? 0 : -1;
+    }
+
+    t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
+    t->texture = nullptr;
+    if (ctx.shading == Shading::kFlat) {
+        t->flatColor = flatColor ? *flatColor : flatColorOf(scene, meshIndex, localTri, ctx);
+        return true;
+    }
+    const scene::Mesh& mesh = scene.meshes[meshIndex];
+    const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
+    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
+    Vec3 base(mat.baseColor);
+    // Per original vertex: lit colour and UV; clipped vertices blend them with their weights.
+    Vec3 litColor[3];
+    Vec2 uv[3];
+    for (int k = 0; k < 3; ++k) {
+        float light = ctx.lit ? lambert(mesh.normals[idx[k]], ctx) : 1.0f;
+        litColor[k] = base * light;
+        uv[k] = mesh.uvs.empty() ? Vec2(0.0f) : mesh.uvs[idx[k]];
+    }
+    for (int i = 0; i < 3; ++i) {
+        const Vec3& w = v[i]->bary;
+        t->color[i] = w.x * litColor[0] + w.y * litColor[1] + w.z * litColor[2];
+        t->uv[i] = w.x * uv[0] + w.y * uv[1] + w.z * uv[2];
+    }
+    if (ctx.shading == Shading::kTextured && mat.baseColorTexture >= 0 && !mesh.uvs.empty())
+        t->texture = &scene.textures[size_t(mat.baseColorTexture)];
+    // b1 = E(2->0)/area2, b2 = E(0->1)/area2; their per-pixel derivatives for texture LOD.
+    float inv = float(kSubPixelScale) / float(area2);
+    t->b1dx = -float(t->y[0] - t->y[2]) * inv;
+    t->b1dy = float(t->x[0] - t->x[2]) * inv;
+    t->b2dx = -float(t->y[1] - t->y[0]) * inv;
+    t->b2dy = float(t->x[1] - t->x[0]) * inv;
+    return true;
+}
+
+namespace {
+
+// Bilinear sample of one mip level with wrap-around addressing, in linear RGB.
+Vec3 sampleBilinear(const Image<Rgba8>& level, float u, float v) {
+    const float* decode = srgbDecodeTable();
+    float fx = u * float(level.width()) - 0.5f, fy = v * float(level.height()) - 0.5f;
+    float flx = std::floor(fx), fly = std::floor(fy);
+    float ax = fx - flx, ay = fy - fly;
+    auto wrap = [](int64_t i, int n) { return int(((i % n) + n) % n); };
+    // Large UVs: reduce in int64 so the float->int conversion cannot overflow.
+    int64_t ix = std::isfinite(flx) ? int64_t(std::clamp(flx, -1e15f, 1e15f)) : 0;
+    int64_t iy = std::isfinite(fly) ? int64_t(std::clamp(fly, -1e15f, 1e15f)) : 0;
+    int x0 = wrap(ix, level.width()), x1 = wrap(ix + 1, level.width());
+    int y0 = wrap(iy, level.height()), y1 = wrap(iy + 1, level.height());
+    auto texel = [&](int x, int y) {
+        Rgba8 c = level.at(x, y);
+        return Vec3(decode[c.r], decode[c.g], decode[c.b]);
+    };
+    Vec3 top = texel(x0, y0) * (1.0f - ax) + texel(x1, y0) * ax;
+    Vec3 bottom = texel(x0, y1) * (1.0f - ax) + texel(x1, y1) * ax;
+    return top * (1.0f - ay) + bottom * ay;
+}
+
+}  // namespace
+
+Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
+                  float invW) {
+    if (ctx.shading == Shading::kFlat) return t.flatColor;
+    // Perspective-correct weights: attribute/w is affine in screen space, so the weight of
+    // vertex i is b_i * invW_i / invW.
+    float w = 1.0f / invW;
+    float p1 = b1 * t.invW[1] * w, p2 = b2 * t.invW[2] * w, p0 = 1.0f - p1 - p2;
+    Vec3 color = p0 * t.color[0] + p1 * t.color[1] + p2 * t.color[2];
+    if (t.texture) {
+        Vec2 uv = p0 * t.uv[0] + p1 * t.uv[1] + p2 * t.uv[2];
+        // Texture LOD from the analytic screen derivatives of uv = (sum b_i uv_i/w_i) / invW.
+        float dInvWdx = t.b1dx * (t.invW[1] - t.invW[0]) + t.b2dx * (t.invW[2] - t.invW[0]);
+        float dInvWdy = t.b1dy * (t.invW[1] - t.invW[0]) + t.b2dy * (t.invW[2] - t.invW[0]);
+        Vec2 q0 = t.uv[0] * t.invW[0], q1 = t.uv[1] * t.invW[1], q2 = t.uv[2] * t.invW[2];
+        Vec2 dQdx = t.b1dx * (q1 - q0) + t.b2dx * (q2 - q0);
+        Vec2 dQdy = t.b1dy * (q1 - q0) + t.b2dy * (q2 - q0);
+        Vec2 dUVdx = (dQdx - uv * dInvWdx) * w, dUVdy = (dQdy - uv * dInvWdy) * w;
+        const Image<Rgba8>& base = t.texture->mips[0];
+        Vec2 size(float(base.width()), float(base.height()));
+        float rho2 = std::max(glm::dot(dUVdx * size, dUVdx * size), glm::dot(dUVdy * size, dUVdy * size));
+        // Nearest mip level: log2(rho) = 0.5 * log2(rho^2), rounded.
+        int level = 0;
+        if (rho2 > 1.0f && std::isfinite(rho2))
+            level = std::min(int(std::lround(0.5f * std::log2(rho2))), int(t.texture->mips.size()) - 1);
+        color *= sampleBilinear(t.texture->mips[size_t(level)], uv.x, uv.y);
+    }
+    return encodeRgb(color);
+}
+
+}  // namespace plx::raster::detail

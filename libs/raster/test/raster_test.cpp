@@ -1,0 +1,377 @@
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include <plx/raster/raster.h>
+
+namespace plx::raster {
+namespace {
+
+using scene::Mesh;
+using scene::Scene;
+
+Camera makeCamera(Vec3 eye, Vec3 target, int w, int h, float fov = 60.0f, float nearPlane = 0.05f,
+                  float farPlane = 5000.0f) {
+    CameraDesc d;
+    d.eyePos = eye;
+    d.targetPos = target;
+    d.width = w;
+    d.height = h;
+    d.fovYDegrees = fov;
+    d.nearPlane = nearPlane;
+    d.farPlane = farPlane;
+    auto cam = Camera::create(d);
+    PLX_CHECK(cam.isOk());
+    return *cam;
+}
+
+// A plane of n x n quads spanning [-half, half]^2 in its local xy, interior vertices jittered
+// in-plane, placed by `worldFromLocal`.
+Scene tessellatedPlane(int n, float half, const Mat4& worldFromLocal, std::mt19937& rng) {
+    std::uniform_real_distribution<float> jitter(-0.35f, 0.35f);
+    Mesh m;
+    float step = 2.0f * half / float(n);
+    for (int j = 0; j <= n; ++j) {
+        for (int i = 0; i <= n; ++i) {
+            float x = -half + step * float(i), y = -half + step * float(j);
+            if (i > 0 && i < n) x += jitter(rng) * step;
+            if (j > 0 && j < n) y += jitter(rng) * step;
+            m.positions.push_back(Vec3(worldFromLocal * Vec4(x, y, 0.0f, 1.0f)));
+        }
+    }
+    for (int j = 0; j < n; ++j) {
+        for (int i = 0; i < n; ++i) {
+            uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
+            bool flip = (i + j) % 2;  // alternate diagonals so edges run both ways
+            if (flip) {
+                m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+            } else {
+                m.indices.insert(m.indices.end(), {a, b, c, b, d, c});
+            }
+        }
+    }
+    Scene s;
+    s.meshes.push_back(std::move(m));
+    PLX_CHECK(s.finalize().isOk());
+    return s;
+}
+
+// Random triangles in a box around the origin, some crossing the near plane or behind the eye.
+Scene randomSoup(int count, uint32_t seed, bool withTexture) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> pos(-4.0f, 4.0f), off(-1.5f, 1.5f), uv(-1.0f, 2.0f);
+    Scene s;
+    for (int meshIndex = 0; meshIndex < 3; ++meshIndex) {
+        Mesh m;
+        m.materialIndex = meshIndex % 2;
+        for (int t = 0; t < count; ++t) {
+            Vec3 c(pos(rng), pos(rng), pos(rng) * 1.5f);
+            for (int k = 0; k < 3; ++k) {
+                m.positions.push_back(c + Vec3(off(rng), off(rng), off(rng)));
+                m.uvs.push_back(Vec2(uv(rng), uv(rng)));
+                m.indices.push_back(uint32_t(m.positions.size() - 1));
+            }
+        }
+        s.meshes.push_back(std::move(m));
+    }
+    s.materials.push_back({"red", {0.9f, 0.2f, 0.1f, 1.0f}, -1});
+    s.materials.push_back({"tex", {1.0f, 1.0f, 1.0f, 1.0f}, withTexture ? 0 : -1});
+    if (withTexture) {
+        scene::Texture tex;
+        tex.name = "checker";
+        Image<Rgba8> img(16, 8);
+        for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 16; ++x)
+                img.at(x, y) = ((x / 2 + y / 2) % 2) ? Rgba8{250, 240, 30, 255}
+                                                     : Rgba8{20, 60, 200, 255};
+        tex.mips.push_back(img);
+        scene::buildMipChain(&tex);
+        s.textures.push_back(std::move(tex));
+    }
+    PLX_CHECK(s.finalize().isOk());
+    return s;
+}
+
+// A UV sphere with smooth normals and UVs, appended to the scene as its own mesh.
+void addSphere(Scene* s, Vec3 center, float radius, int rings, int segments, int material) {
+    Mesh m;
+    m.materialIndex = material;
+    for (int r = 0; r <= rings; ++r) {
+        float phi = kPi * float(r) / float(rings);
+        for (int g = 0; g <= segments; ++g) {
+            float theta = 2.0f * kPi * float(g) / float(segments);
+            Vec3 n(std::sin(phi) * std::cos(theta), std::cos(phi), -std::sin(phi) * std::sin(theta));
+            m.positions.push_back(center + radius * n);
+            m.normals.push_back(n);
+            m.uvs.push_back(Vec2(2.0f * float(g) / float(segments), float(r) / float(rings)));
+        }
+    }
+    for (int r = 0; r < rings; ++r) {
+        for (int g = 0; g < segments; ++g) {
+            uint32_t a = uint32_t(r * (segments + 1) + g), b = a + 1, c = a + uint32_t(segments + 1),
+                     d = c + 1;
+            m.indices.insert(m.indices.end(), {a, c, b, b, c, d});
+        }
+    }
+    s->meshes.push_back(std::move(m));
+}
+
+std::unique_ptr<Renderer> makeRenderer(int threads, int tileSize = 64) {
+    auto r = Renderer::create({threads, tileSize});
+    PLX_CHECK(r.isOk());
+    return std::move(r).value();
+}
+
+void expectSameTargets(FrameBuffers& a, FrameBuffers& b, const std::string& what) {
+    EXPECT_TRUE(a.id == b.id) << what << ": ID targets differ";
+    EXPECT_TRUE(a.depth == b.depth) << what << ": depth targets differ";
+    EXPECT_TRUE(a.color == b.color) << what << ": colour targets differ";
+}
+
+// Counts how many triangles cover each pixel by drawing them one at a time.
+Image<int> coverageCounts(const Scene& s, const Camera& cam, Renderer& r) {
+    Image<int> counts(cam.width(), cam.height(), 0);
+    FrameBuffers fb;
+    fb.resize(cam.width(), cam.height());
+    for (uint32_t t = 0; t < s.triangleCount(); ++t) {
+        std::span<const uint32_t> one(&t, 1);
+        r.renderSubset(s, cam, one, {}, fb.targets());
+        for (size_t i = 0; i < fb.id.pixelCount(); ++i) counts.data()[i] += fb.id.data()[i] != 0;
+    }
+    return counts;
+}
+
+TEST(Raster, TessellatedPlaneCoversEveryPixelExactlyOnce) {
+    std::mt19937 rng(1234);
+    std::uniform_real_distribution<float> angle(-1.0f, 1.0f), dist(0.5f, 4.0f);
+    auto r = makeRenderer(2, 16);
+    for (int pose = 0; pose < 12; ++pose) {
+        // A large plane through the origin with a random orientation; the camera looks at it
+        // from the front at up to ~55 degrees off its normal, so the plane fills the image and
+        // crosses the guard band (clipped triangles take part too).
+        Mat4 worldFromLocal = glm::rotate(Mat4(1.0f), angle(rng) * kPi, Vec3(0, 0, 1));
+        worldFromLocal = glm::rotate(Mat4(1.0f), angle(rng) * 0.9f, Vec3(1, 0, 0)) * worldFromLocal;
+        Scene s = tessellatedPlane(8, 2000.0f, worldFromLocal, rng);
+        Vec3 normal = glm::normalize(Vec3(worldFromLocal * Vec4(0, 0, 1, 0)));
+        Vec3 eye = normal * dist(rng);
+        Vec3 target = Vec3(angle(rng), angle(rng), 0.0f) * 0.5f;
+        target -= normal * glm::dot(target, normal);
+        Camera cam = makeCamera(eye, target, 61, 47, 70.0f);
+        Image<int> counts = coverageCounts(s, cam, *r);
+        for (int y = 0; y < cam.height(); ++y)
+            for (int x = 0; x < cam.width(); ++x)
+                ASSERT_EQ(counts.at(x, y), 1) << "pose " << pose << " pixel " << x << "," << y;
+    }
+}
+
+TEST(Raster, FillRuleIncludesTopLeftEdgesOnly) {
+    // fov 90, 8x8: world x at z=-1 maps to pixel 4x+4, so these vertices sit on pixel centres
+    // 2.5 and 5.5: a square of 3x3 pixel centres split along its diagonal.
+    Camera cam = makeCamera({0, 0, 0}, {0, 0, -1}, 8, 8, 90.0f);
+    auto px = [](float p) { return (p - 4.0f) / 4.0f; };
+    for (bool otherDiagonal : {false, true}) {
+        Scene s;
+        Mesh m;
+        m.positions = {{px(2.5f), -px(2.5f), -1}, {px(5.5f), -px(2.5f), -1},
+                       {px(2.5f), -px(5.5f), -1}, {px(5.5f), -px(5.5f), -1}};
+        m.indices = otherDiagonal ? std::vector<uint32_t>{0, 1, 3, 0, 3, 2}
+                                  : std::vector<uint32_t>{0, 1, 2, 1, 3, 2};
+        s.meshes.push_back(m);
+        ASSERT_TRUE(s.finalize().isOk());
+        auto r = makeRenderer(1, 8);
+        Image<int> counts = coverageCounts(s, cam, *r);
+        for (int y = 0; y < 8; ++y) {
+            for (int x = 0; x < 8; ++x) {
+                bool inside = x >= 2 && x <= 4 && y >= 2 && y <= 4;  // top and left edges in
+                EXPECT_EQ(counts.at(x, y), inside ? 1 : 0) << x << "," << y;
+            }
+        }
+    }
+}
+
+TEST(Raster, IdAtEachPixelIsTheDepthWinner) {
+    Scene s = randomSoup(40, 77, false);
+    Camera cam = makeCamera({0.3f, 0.5f, 9.0f}, {0, 0, 0}, 80, 60);
+    auto r = makeRenderer(2, 16);
+    FrameBuffers full;
+    full.resize(80, 60);
+    r->render(s, cam, {}, full.targets());
+    // Expected winner per pixel from single-triangle renders: the largest 1/w, the first drawn on
+    // exact ties.
+    Image<float> bestDepth(80, 60, 0.0f);
+    Image<uint32_t> bestId(80, 60, 0u);
+    FrameBuffers one;
+    one.resize(80, 60);
+    for (uint32_t t = 0; t < s.triangleCount(); ++t) {
+        std::span<const uint32_t> single(&t, 1);
+        r->renderSubset(s, cam, single, {}, one.targets());
+        for (size_t i = 0; i < one.id.pixelCount(); ++i) {
+            if (one.id.data()[i] && one.depth.data()[i] > bestDepth.data()[i]) {
+                bestDepth.data()[i] = one.depth.data()[i];
+                bestId.data()[i] = one.id.data()[i];
+            }
+        }
+    }
+    EXPECT_TRUE(full.id == bestId);
+    EXPECT_TRUE(full.depth == bestDepth);
+    EXPECT_GT(countDistinctIds(full.id), 20u);
+}
+
+TEST(Raster, FastPathEqualsScalarReference) {
+    for (bool textured : {false, true}) {
+        Scene s = randomSoup(300, textured ? 5 : 6, textured);
+        for (Shading shading : {Shading::kFlat, Shading::kGouraud, Shading::kTextured}) {
+            for (bool cull : {false, true}) {
+                RenderOptions opt;
+                opt.shading = shading;
+                opt.cullBackFaces = cull;
+                // The eye sits inside the soup: many triangles cross the near plane.
+                Camera cam = makeCamera({0.5f, 0.2f, 2.0f}, {0, 0, -3}, 123, 77, 75.0f, 0.1f, 30.0f);
+                FrameBuffers ref, fast;
+                ref.resize(123, 77);
+                fast.resize(123, 77);
+                renderReference(s, cam, opt, ref.targets());
+                for (int threads : {1, 2}) {
+                    for (int tile : {8, 64}) {
+                        auto r = makeRenderer(threads, tile);
+                        RenderStats st = r->render(s, cam, opt, fast.targets());
+                        EXPECT_GT(st.trianglesClipped, 0u);
+                        expectSameTargets(fast, ref,
+                                          std::string(shadingName(shading)) + " threads " +
+                                              std::to_string(threads) + " tile " +
+                                              std::to_string(tile) + (cull ? " cull" : ""));
+                    }
+                }
+            }
+        }
+    }
+}
+
+TEST(Raster, SubsetOfAllTrianglesReproducesFullRender) {
+    Scene s = randomSoup(200, 9, true);
+    Camera cam = makeCamera({1, 2, 9}, {0, 0, 0}, 96, 64);
+    auto r = makeRenderer(2, 32);
+    RenderOptions opt;
+    opt.shading = Shading::kTextured;
+    FrameBuffers full, subset, ref;
+    full.resize(96, 64);
+    subset.resize(96, 64);
+    ref.resize(96, 64);
+    r->render(s, cam, opt, full.targets());
+    std::vector<uint32_t> all(s.triangleCount());
+    for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+    r->renderSubset(s, cam, all, opt, subset.targets());
+    expectSameTargets(subset, full, "subset of all");
+    // A partial subset matches the reference drawing the same list.
+    std::vector<uint32_t> some;
+    for (uint32_t i = 0; i < all.size(); i += 3) some.push_back(i);
+    std::span<const uint32_t> someSpan(some);
+    r->renderSubset(s, cam, some, opt, subset.targets());
+    renderReference(s, cam, opt, ref.targets(), &someSpan);
+    expectSameTargets(subset, ref, "partial subset");
+    std::set<uint32_t> ids(subset.id.data(), subset.id.data() + subset.id.pixelCount());
+    for (uint32_t id : ids) EXPECT_TRUE(id == 0 || (id - 1) % 3 == 0) << id;
+}
+
+TEST(Raster, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {
+    // A floor that runs under and behind the eye: it must cover the lower half of the image up
+    // to the bottom row, and nothing may be nearer than the near plane.
+    Scene s;
+    Mesh m;
+    m.positions = {{-50, 0, 50}, {50, 0, 50}, {50, 0, -50}, {-50, 0, -50}};
+    m.indices = {0, 1, 2, 0, 2, 3};
+    s.meshes.push_back(m);
+    ASSERT_TRUE(s.finalize().isOk());
+    const float nearPlane = 0.5f;
+    Camera cam = makeCamera({0, 1, 0}, {0, 0.2f, -5}, 64, 48, 90.0f, nearPlane, 200.0f);
+    auto r = makeRenderer(2, 16);
+    FrameBuffers fb;
+    fb.resize(64, 48);
+    RenderStats st = r->render(s, cam, {}, fb.targets());
+    EXPECT_GT(st.trianglesClipped, 0u);
+    for (int x = 0; x < 64; ++x) EXPECT_NE(fb.id.at(x, 47), 0u) << x;
+    for (int x = 0; x < 64; ++x) EXPECT_EQ(fb.id.at(x, 0), 0u) << x;  // sky
+    for (size_t i = 0; i < fb.depth.pixelCount(); ++i)
+        EXPECT_LE(fb.depth.data()[i], 1.0f / nearPlane * 1.0001f);
+    // Triangles entirely behind the eye draw nothing.
+    Camera away = makeCamera({0, 1, 0}, {0, 1, 5}, 64, 48, 60.0f, nearPlane, 20.0f);
+    Scene behind;
+    Mesh b;
+    b.positions = {{-1, 0, -3}, {1, 0, -3}, {0, 2, -3}};
+    b.indices = {0, 1, 2};
+    behind.meshes.push_back(b);
+    ASSERT_TRUE(behind.finalize().isOk());
+    r->render(behind, away, {}, fb.targets());
+    EXPECT_EQ(countDistinctIds(fb.id), 0u);
+}
+
+TEST(Raster, BackFaceCullingUsesCounterClockwiseFronts) {
+    Camera cam = makeCamera({0, 0, 3}, {0, 0, 0}, 32, 32);
+    Scene s;
+    Mesh m;
+    m.positions = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}};
+    m.indices = {0, 1, 2, 0, 2, 1};  // front (CCW seen from +z), then the same triangle reversed
+    s.meshes.push_back(m);
+    ASSERT_TRUE(s.finalize().isOk());
+    auto r = makeRenderer(1);
+    FrameBuffers fb;
+    fb.resize(32, 32);
+    RenderOptions opt;
+    opt.cullBackFaces = true;
+    r->render(s, cam, opt, fb.targets());
+    EXPECT_EQ(fb.id.at(16, 16), 1u);
+    std::vector<uint32_t> onlyBack = {1};
+    r->renderSubset(s, cam, onlyBack, opt, fb.targets());
+    EXPECT_EQ(countDistinctIds(fb.id), 0u);
+}
+
+TEST(Raster, RejectsBadConfig) {
+    EXPECT_FALSE(Renderer::create({1, 48}).isOk());
+    EXPECT_FALSE(Renderer::create({1, 4}).isOk());
+    EXPECT_FALSE(Renderer::create({-1, 64}).isOk());
+    EXPECT_FALSE(parseShading("phong").isOk());
+}
+
+// Golden image: a fixed scene under all three shadings, compared with a committed PNG within a
+// tolerance; PLX_UPDATE_GOLDEN=1 rewrites the files, a failure writes a diff image.
+TEST(Raster, GoldenImages) {
+    Scene s = randomSoup(60, 2024, true);
+    addSphere(&s, {-2.0f, 1.0f, 3.0f}, 1.6f, 12, 24, 1);
+    addSphere(&s, {2.5f, 0.5f, 3.0f}, 1.2f, 10, 20, 0);
+    ASSERT_TRUE(s.finalize().isOk());
+    Camera cam = makeCamera({0.5f, 3.0f, 11.0f}, {0, 0, 0}, 160, 100);
+    auto r = makeRenderer(2);
+    std::string goldenDir = std::string(PLX_SOURCE_DIR) + "/tests/golden";
+    std::string outDir = std::string(PLX_TEST_OUTPUT_DIR);
+    std::filesystem::create_directories(outDir);
+    for (Shading shading : {Shading::kFlat, Shading::kGouraud, Shading::kTextured}) {
+        RenderOptions opt;
+        opt.shading = shading;
+        FrameBuffers fb;
+        fb.resize(160, 100);
+        r->render(s, cam, opt, fb.targets());
+        std::string name = std::string("raster_") + shadingName(shading) + ".png";
+        std::string golden = goldenDir + "/" + name;
+        if (std::getenv("PLX_UPDATE_GOLDEN")) {
+            ASSERT_TRUE(writePng(golden, fb.color, 9).isOk());
+            continue;
+        }
+        auto expected = readImage(golden);
+        ASSERT_TRUE(expected.isOk()) << expected.status().toString();
+        Image<Rgba8> want = toRgba8(*expected);
+        ImageDiffStats d = compareImages(fb.color, want, 2);
+        if (d.differingPixels > 0) {
+            (void)writePng(outDir + "/diff_" + name, diffImage(fb.color, want));
+            (void)writePng(outDir + "/actual_" + name, fb.color);
+        }
+        // Tolerance: a few pixels may change with compiler rounding choices on other machines.
+        EXPECT_LE(d.differingPixels, 30) << name << " differs; see " << outDir;
+        EXPECT_GT(d.psnrDb, 35.0) << name;
+    }
+}
+
+}  // namespace
+}  // namespace plx::raster

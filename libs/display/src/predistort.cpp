@@ -1,0 +1,187 @@
+// Two-pass predistortion on the software rasterizer, and the Table 1 experiment.
+
+#include <plx/display/predistort.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <plx/display/validate.h>
+
+namespace plx::display {
+namespace {
+
+// Adds an axis-aligned box (centre, half sizes) to a mesh.
+void addBox(scene::Mesh* m, Vec3 c, Vec3 h) {
+    static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                     {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+    for (const auto& f : kFaces) {
+        uint32_t base = uint32_t(m->positions.size());
+        for (int k = 0; k < 4; ++k) {
+            int i = f[k];
+            m->positions.push_back(c + Vec3((i & 1) ? h.x : -h.x, (i & 2) ? h.y : -h.y,
+                                            (i & 4) ? h.z : -h.z));
+        }
+        for (uint32_t idx : {0u, 2u, 1u, 0u, 3u, 2u}) m->indices.push_back(base + idx);
+    }
+}
+
+void addSphere(scene::Mesh* m, Vec3 c, float r, int rings, int segments) {
+    uint32_t base = uint32_t(m->positions.size());
+    for (int i = 0; i <= rings; ++i) {
+        float th = kPi * float(i) / float(rings);
+        for (int j = 0; j <= segments; ++j) {
+            float ph = 2.0f * kPi * float(j) / float(segments);
+            m->positions.push_back(c + r * Vec3(std::sin(th) * std::cos(ph), std::cos(th),
+                                                std::sin(th) * std::sin(ph)));
+        }
+    }
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segments; ++j) {
+            uint32_t a = base + uint32_t(i * (segments + 1) + j), b = a + uint32_t(segments + 1);
+            for (uint32_t idx : {a, a + 1, b, a + 1, b + 1, b}) m->indices.push_back(idx);
+        }
+}
+
+}  // namespace
+
+scene::Scene makeShowcaseScene() {
+    scene::Scene s;
+    scene::Material stone{"stone", {0.75f, 0.7f, 0.6f, 1.0f}, -1};
+    scene::Material bronze{"bronze", {0.7f, 0.45f, 0.2f, 1.0f}, -1};
+    s.materials = {stone, bronze};
+    scene::Mesh pedestal{"pedestal", {}, {}, {}, {}, 0};
+    addBox(&pedestal, {0.0f, -0.35f, 0.0f}, {0.12f, 0.05f, 0.12f});
+    scene::Mesh figure{"figure", {}, {}, {}, {}, 1};
+    addSphere(&figure, {0.0f, -0.12f, 0.0f}, 0.12f, 16, 24);
+    addSphere(&figure, {0.0f, 0.1f, 0.0f}, 0.08f, 12, 18);
+    addSphere(&figure, {0.04f, 0.24f, 0.0f}, 0.05f, 10, 14);
+    s.meshes = {pedestal, figure};
+    PLX_CHECK(s.finalize().isOk());
+    return s;
+}
+
+scene::Scene fitSceneToContent(const scene::Scene& scene, const Display& display) {
+    scene::Scene out = scene;
+    const Aabb& b = scene.bounds();
+    float radius = std::max(0.5f * b.diagonal(), 1e-6f);
+    float scale = float(display.contentRadiusMm) / radius;
+    Vec3 centre = b.center();
+    Vec3 target(display.contentCenterMm);
+    for (auto& m : out.meshes)
+        for (auto& p : m.positions) p = target + (p - centre) * scale;
+    PLX_CHECK(out.finalize().isOk());
+    return out;
+}
+
+std::vector<DVec3> scenePointsMm(const scene::Scene& scene) {
+    std::vector<DVec3> pts;
+    for (const auto& m : scene.meshes)
+        for (const auto& p : m.positions) pts.emplace_back(p);
+    return pts;
+}
+
+Status renderViewerImage(raster::Renderer& renderer, const scene::Scene& sceneMm,
+                         const ImagePlane& plane, int sizePx, Image<Rgba8>* image,
+                         double* milliseconds) {
+    CameraDesc desc;
+    desc.eyePos = Vec3(plane.eyeMm);
+    desc.targetPos = Vec3(plane.eyeMm + plane.forwardDir * plane.distanceMm);
+    desc.upDir = Vec3(-glm::normalize(plane.vAxisMm));
+    desc.fovYDegrees = float(plane.fovYDegrees);
+    float radius = float(0.5 * plane.widthMm);
+    desc.nearPlane = std::max(1.0f, float(plane.distanceMm) - 4.0f * radius);
+    desc.farPlane = float(plane.distanceMm) + 4.0f * radius;
+    desc.width = desc.height = sizePx;
+    auto camera = Camera::create(desc);
+    if (!camera) return camera.status();
+    raster::FrameBuffers fb;
+    fb.resize(sizePx, sizePx);
+    raster::RenderOptions options;
+    options.shading = raster::Shading::kGouraud;
+    options.clearColor = {0, 0, 0, 255};
+    raster::RenderStats stats = renderer.render(sceneMm, *camera, options, fb.targets());
+    if (milliseconds) *milliseconds = stats.milliseconds;
+    *image = std::move(fb.color);
+    return Status::ok();
+}
+
+Status renderPredistorted(raster::Renderer& renderer, const Display& display,
+                          const WarpMesh& mesh, const Image<Rgba8>& viewerImage,
+                          Image<Rgba8>* frame, double* milliseconds) {
+    int w = display.framebufferWidth, h = display.framebufferHeight;
+    // Camera at the origin looking down -z with a 90 degree vertical field of view: the plane
+    // z = -h/2 maps one world unit to one pixel.
+    CameraDesc desc;
+    desc.eyePos = Vec3(0.0f);
+    desc.targetPos = Vec3(0.0f, 0.0f, -1.0f);
+    desc.fovYDegrees = 90.0f;
+    desc.nearPlane = 0.25f * float(h);
+    desc.farPlane = 2.0f * float(h);
+    desc.width = w, desc.height = h;
+    auto camera = Camera::create(desc);
+    if (!camera) return camera.status();
+    scene::Scene s;
+    scene::Texture tex;
+    tex.name = "pass1";
+    tex.mips.push_back(viewerImage);
+    scene::buildMipChain(&tex);
+    s.textures.push_back(std::move(tex));
+    s.materials.push_back({"pass1", {1.0f, 1.0f, 1.0f, 1.0f}, 0});
+    scene::Mesh m{"warp", {}, {}, {}, mesh.indices, 0};
+    DVec2 extent = display.displayMax - display.displayMin;
+    m.positions.reserve(mesh.vertexCount());
+    for (size_t v = 0; v < mesh.vertexCount(); ++v) {
+        DVec2 n = (mesh.displayPos[v] - display.displayMin) / extent;
+        m.positions.emplace_back(float(n.x * w - 0.5 * w), float(0.5 * h - n.y * h),
+                                 -0.5f * float(h));
+        m.uvs.emplace_back(mesh.uvs[v]);
+    }
+    m.normals.assign(m.positions.size(), Vec3(0.0f, 0.0f, 1.0f));
+    s.meshes.push_back(std::move(m));
+    if (mesh.triangleCount() == 0) {
+        frame->resize(w, h, Rgba8{0, 0, 0, 255});
+        if (milliseconds) *milliseconds = 0.0;
+        return Status::ok();
+    }
+    PLX_RETURN_IF_ERROR(s.finalize());
+    raster::FrameBuffers fb;
+    fb.resize(w, h);
+    raster::RenderOptions options;
+    options.shading = raster::Shading::kTextured;
+    options.lit = false;
+    options.clearColor = {0, 0, 0, 255};
+    raster::RenderStats stats = renderer.render(s, *camera, options, fb.targets());
+    if (milliseconds) *milliseconds = stats.milliseconds;
+    *frame = std::move(fb.color);
+    return Status::ok();
+}
+
+Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,
+                             const Image<Rgba8>* background) {
+    int w = display.framebufferWidth, h = display.framebufferHeight;
+    Image<Rgba8> out = background ? *background : Image<Rgba8>(w, h, Rgba8{0, 0, 0, 255});
+    DVec2 extent = display.displayMax - display.displayMin;
+    auto toPx = [&](const DVec2& p) {
+        return (p - display.displayMin) / extent * DVec2(out.width(), out.height());
+    };
+    auto line = [&](DVec2 a, DVec2 b) {
+        double len = glm::length(b - a);
+        int steps = int(std::min(len, 1e5)) + 1;
+        for (int i = 0; i <= steps; ++i) {
+            DVec2 p = a + (b - a) * (double(i) / steps);
+            int x = int(std::floor(p.x)), y = int(std::floor(p.y));
+            if (x >= 0 && y >= 0 && x < out.width() && y < out.height())
+                out.at(x, y) = Rgba8{80, 255, 120, 255};
+        }
+    };
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+        const uint32_t* idx = &mesh.indices[3 * t];
+        for (int k = 0; k < 3; ++k)
+            line(toPx(mesh.displayPos[idx[k]]), toPx(mesh.displayPos[idx[(k + 1) % 3]]));
+    }
+    return out;
+}
+
+}  // namespace plx::display

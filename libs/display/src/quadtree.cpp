@@ -1,0 +1,538 @@
+// RecursiveGridRefinement with GeneratePatch, TransformPatchVertices and RefineFurther
+// (Bimber et al. Algorithm 1, sections 5-7), LOD balancing, T-counter triangulation, the uniform
+// baseline and the crack check.
+
+#include <plx/display/quadtree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace plx::display {
+namespace {
+
+constexpr double kPiD = 3.141592653589793;
+
+enum NodeState : uint8_t { kAbsent = 0, kLeaf = 1, kRefined = 2, kCulled = 3 };
+
+double unwrapNear(double angle, double reference) {
+    return reference + std::remainder(angle - reference, 2.0 * kPiD);
+}
+
+// Separating axis test of an axis-aligned rectangle against a convex polygon (counter-clockwise
+// or clockwise, at least three points).
+bool rectOverlapsConvex(DVec2 lo, DVec2 hi, const std::vector<DVec2>& poly) {
+    DVec2 pmin(1e300), pmax(-1e300);
+    for (const DVec2& p : poly) pmin = glm::min(pmin, p), pmax = glm::max(pmax, p);
+    if (pmax.x < lo.x || pmin.x > hi.x || pmax.y < lo.y || pmin.y > hi.y) return false;
+    DVec2 corners[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
+    size_t n = poly.size();
+    for (size_t i = 0; i < n; ++i) {
+        DVec2 e = poly[(i + 1) % n] - poly[i];
+        DVec2 axis(-e.y, e.x);
+        double p0 = 1e300, p1 = -1e300, r0 = 1e300, r1 = -1e300;
+        for (const DVec2& p : poly) {
+            double s = glm::dot(axis, p);
+            p0 = std::min(p0, s), p1 = std::max(p1, s);
+        }
+        for (const DVec2& c : corners) {
+            double s = glm::dot(axis, c);
+            r0 = std::min(r0, s), r1 = std::max(r1, s);
+        }
+        if (r1 < p0 || r0 > p1) return false;
+    }
+    return true;
+}
+
+// Andrew's monotone chain: convex hull of 2D points, counter-clockwise.
+std::vector<DVec2> convexHull2d(std::vector<DVec2> pts) {
+    std::sort(pts.begin(), pts.end(),
+              [](const DVec2& a, const DVec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    if (pts.size() < 3) return pts;
+    std::vector<DVec2> hull(2 * pts.size());
+    size_t k = 0;
+    auto cross = [](DVec2 o, DVec2 a, DVec2 b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    for (size_t i = 0; i < pts.size(); ++i) {
+        while (k >= 2 && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
+        hull[k++] = pts[i];
+    }
+    for (size_t i = pts.size() - 1, t = k + 1; i > 0; --i) {
+        while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i - 1]) <= 0) --k;
+        hull[k++] = pts[i - 1];
+    }
+    hull.resize(k - 1);
+    return hull;
+}
+
+}  // namespace
+
+struct QuadtreeWarper::Impl {
+    QuadtreeConfig config;
+    int m = 0;
+    int side = 0;  // 2^m + 1
+    uint32_t frame = 0;
+    // Per vertex of the matrix; a stamp equal to `frame` marks this frame's data as valid (the
+    // marker flags of section 6, cleared for free by advancing the frame number).
+    std::vector<uint32_t> transformStamp, tcStamp, rayStamp, meshStamp, errorStamp;
+    std::vector<double> errorValue;  // cached side errors at T-vertices
+    std::vector<VertexMapping> mapping;
+    std::vector<uint8_t> tc;      // T-vertex counters (0, 1, 2)
+    std::vector<uint8_t> rayHit;  // cached line-of-sight/container result
+    std::vector<uint32_t> meshIndex;
+    // Node states per LOD 0 .. m-1 (4^n nodes each).
+    std::vector<std::vector<uint8_t>> nodes;
+
+    // Per frame.
+    const Display* display = nullptr;
+    const ImagePlane* plane = nullptr;
+    const Container* container = nullptr;
+    bool culling = false;
+    std::vector<uint32_t> frontTriangles;  // indices into container->indices / 3
+    std::vector<DVec2> frontVertexUvs;     // front-facing container vertices on the image plane
+    std::vector<DVec2> silhouette;         // convex outline of the projected container
+    WarpStats* stats = nullptr;
+    WarpMesh* mesh = nullptr;
+
+    uint32_t vid(int x, int y) const { return uint32_t(y) * uint32_t(side) + uint32_t(x); }
+    DVec2 uvOf(int x, int y) const {
+        double s = 1.0 / double(side - 1);
+        return {x * s, y * s};
+    }
+    int patchSize(int level) const { return 1 << (m - level); }
+    uint8_t& node(int level, int px, int py) { return nodes[level][size_t(py << level) + px]; }
+
+    // TransformPatchVertices for one vertex: mapped once per frame.
+    const VertexMapping& transformVertex(int x, int y) {
+        uint32_t v = vid(x, y);
+        if (transformStamp[v] != frame) {
+            transformStamp[v] = frame;
+            mapping[v] = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
+            ++stats->vertexTransformations;
+        }
+        return mapping[v];
+    }
+
+    void bumpCounter(int x, int y) {
+        uint32_t v = vid(x, y);
+        if (tcStamp[v] != frame) tcStamp[v] = frame, tc[v] = 0;
+        ++tc[v];
+    }
+    int counter(int x, int y) const {
+        uint32_t v = vid(x, y);
+        return tcStamp[v] == frame ? tc[v] : 0;
+    }
+
+    void prepareContainer() {
+        frontTriangles.clear();
+        frontVertexUvs.clear();
+        silhouette.clear();
+        culling = container && container->triangleCount() > 0;
+        if (!culling) return;
+        const DVec3 eye = plane->eyeMm;
+        std::vector<bool> front(container->verticesMm.size(), false);
+        std::vector<DVec2> projected;
+        for (const DVec3& p : container->verticesMm) {
+            DVec3 onPlane;
+            if (!plane->projectFromEye(p, &onPlane)) {
+                culling = false;  // the eye is inside or beside the container: cull nothing
+                return;
+            }
+            projected.push_back(plane->uvOf(onPlane));
+        }
+        for (size_t t = 0; t < container->triangleCount(); ++t) {
+            const uint32_t* idx = &container->indices[3 * t];
+            const DVec3& a = container->verticesMm[idx[0]];
+            DVec3 n = glm::cross(container->verticesMm[idx[1]] - a,
+                                 container->verticesMm[idx[2]] - a);
+            if (glm::dot(n, a - eye) >= 0.0) continue;  // back-facing
+            frontTriangles.push_back(uint32_t(t));
+            for (int k = 0; k < 3; ++k) front[idx[k]] = true;
+        }
+        for (size_t i = 0; i < front.size(); ++i)
+            if (front[i]) frontVertexUvs.push_back(projected[i]);
+        silhouette = convexHull2d(projected);
+    }
+
+    // First test of section 7.1 for one L-vertex: the line of sight from the eye through it
+    // against the front-facing container triangles (Moller-Trumbore), cached per vertex.
+    bool lineOfSightHits(int x, int y) {
+        uint32_t v = vid(x, y);
+        if (rayStamp[v] == frame) return rayHit[v] != 0;
+        DVec3 dir = plane->pointAt(uvOf(x, y)) - plane->eyeMm;
+        bool hit = false;
+        for (uint32_t t : frontTriangles) {
+            const uint32_t* idx = &container->indices[3 * t];
+            double tHit;
+            ++stats->containerRayTests;
+            if (intersectTriangle(plane->eyeMm, dir, container->verticesMm[idx[0]],
+                                  container->verticesMm[idx[1]], container->verticesMm[idx[2]],
+                                  &tHit)) {
+                hit = true;
+                break;
+            }
+        }
+        rayStamp[v] = frame;
+        rayHit[v] = hit;
+        return hit;
+    }
+
+    // GeneratePatch (section 7.1): whether the container can be visible on the patch.
+    bool generatePatch(int level, int px, int py) {
+        if (!culling) return true;
+        int h = patchSize(level);
+        int x0 = px * h, y0 = py * h, x1 = x0 + h, y1 = y0 + h;
+        if (lineOfSightHits(x0, y0) || lineOfSightHits(x1, y0) || lineOfSightHits(x1, y1) ||
+            lineOfSightHits(x0, y1))
+            return true;
+        // Second test: lines of sight to the front-facing container vertices through the patch.
+        DVec2 lo = uvOf(x0, y0), hi = uvOf(x1, y1);
+        for (const DVec2& p : frontVertexUvs)
+            if (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y) return true;
+        // The two ray tests miss a patch crossed by a container edge with no corner and no
+        // container vertex inside it; the silhouette overlap closes that gap so that no patch
+        // showing the container is lost.
+        return rectOverlapsConvex(lo, hi, silhouette);
+    }
+
+    // Image space error at the T-vertex of side (a, b). Both patches sharing a side sample the
+    // same point, so the result is cached per T-vertex for the frame (like the transformations).
+    double sideError(int ax, int ay, int bx, int by, const AlphaBracket& parentBracket) {
+        uint32_t t = vid((ax + bx) / 2, (ay + by) / 2);
+        if (errorStamp[t] == frame) return errorValue[t];
+        const VertexMapping& a = mapping[vid(ax, ay)];
+        const VertexMapping& b = mapping[vid(bx, by)];
+        ++stats->errorSamples;
+        AlphaBracket bracket = parentBracket;
+        if (usesMirrorAngles(*display)) {
+            // Start from the mean of the edge's end angles: the sample lies between them.
+            double a0 = unwrapNear(a.alpha, parentBracket.lo);
+            double a1 = unwrapNear(b.alpha, parentBracket.lo);
+            bracket.guess = 0.5 * (a0 + a1);
+        }
+        // The pixel with the T-vertex's texture coordinates lies at the middle of the displayed
+        // L-L edge (linear interpolation), section 7.2 / Fig. 4.
+        double e = sampleErrorMm(*display, *plane, 0.5 * (a.displayPos + b.displayPos),
+                                 0.5 * (uvOf(ax, ay) + uvOf(bx, by)), bracket, &stats->solver);
+        errorStamp[t] = frame;
+        errorValue[t] = e;
+        return e;
+    }
+
+    // RefineFurther (sections 7.2-7.4). dir: in = the parent's error direction, out = this
+    // patch's.
+    bool refineFurther(int level, int x0, int y0, int h, const AlphaBracket& bracket, int* dir) {
+        if (level < config.minLevel) return true;
+        int x1 = x0 + h, y1 = y0 + h;
+        const int sides[4][4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1},
+                                 {x0, y1, x0, y0}};
+        if (level >= config.errorDirectionLevel && *dir >= 0) {
+            // Section 7.4: above Lambda only the parent's largest-error side is evaluated.
+            const int* s = sides[*dir];
+            return sideError(s[0], s[1], s[2], s[3], bracket) > config.thresholdMm;
+        }
+        double worst = -1.0;
+        for (int k = 0; k < 4; ++k) {
+            const int* s = sides[k];
+            double e = sideError(s[0], s[1], s[2], s[3], bracket);
+            if (e > worst) worst = e, *dir = k;
+        }
+        return worst > config.thresholdMm;
+    }
+
+    // Transforms the four L-vertices and the X-vertex; false when one cannot be mapped.
+    bool transformPatchVertices(int x0, int y0, int h, AlphaBracket* range) {
+        int c = h / 2;
+        const int pts[5][2] = {{x0, y0}, {x0 + h, y0}, {x0 + h, y0 + h}, {x0, y0 + h},
+                               {x0 + c, y0 + c}};
+        bool ok = true;
+        double ref = 0.0;
+        range->lo = 1e300, range->hi = -1e300;
+        for (int i = 0; i < 5; ++i) {
+            const VertexMapping& vm = transformVertex(pts[i][0], pts[i][1]);
+            ok = ok && vm.valid;
+            if (!vm.valid) continue;
+            if (range->lo > range->hi) ref = vm.alpha;
+            double a = unwrapNear(vm.alpha, ref);
+            range->lo = std::min(range->lo, a), range->hi = std::max(range->hi, a);
+        }
+        if (range->lo > range->hi) range->lo = range->hi = 0.0;
+        return ok;
+    }
+
+    void countTransitions(int x0, int y0, int h) {
+        int c = h / 2, x1 = x0 + h, y1 = y0 + h, last = side - 1;
+        // Algorithm 1 lines 13-16; boundary T-vertices keep counter 0.
+        if (y0 > 0) bumpCounter(x0 + c, y0);
+        if (x1 < last) bumpCounter(x1, y0 + c);
+        if (y1 < last) bumpCounter(x0 + c, y1);
+        if (x0 > 0) bumpCounter(x0, y0 + c);
+    }
+
+    // Algorithm 1. parentBracket: the mirror-angle range of the parent patch (section 7.3).
+    void recurse(int level, int px, int py, const AlphaBracket& parentBracket, int parentDir) {
+        int h = patchSize(level);
+        int x0 = px * h, y0 = py * h;
+        if (!generatePatch(level, px, py)) {
+            node(level, px, py) = kCulled;
+            ++stats->culledPatches;
+            return;
+        }
+        AlphaBracket range;
+        bool mapped = transformPatchVertices(x0, y0, h, &range);
+        bool canRefine = level + 1 < m;
+        if (!mapped) {
+            // Partly outside the optics: subdivide towards the edge of what can be shown, and
+            // drop what is left at the finest LOD.
+            if (!canRefine) {
+                node(level, px, py) = kCulled;
+                ++stats->culledPatches;
+                return;
+            }
+        }
+        ++stats->patches;
+        stats->deepestLevel = std::max(stats->deepestLevel, level);
+        node(level, px, py) = kLeaf;
+        AlphaBracket bracket = level == 0 ? range : parentBracket;
+        int dir = parentDir;
+        bool refine = !mapped || (canRefine && refineFurther(level, x0, y0, h, bracket, &dir));
+        if (!refine) return;
+        node(level, px, py) = kRefined;
+        for (int k = 0; k < 4; ++k)
+            recurse(level + 1, 2 * px + (k & 1), 2 * py + (k >> 1), range, dir);
+        countTransitions(x0, y0, h);
+    }
+
+    // Splits a leaf whose neighbour is two or more LODs finer; its children become leaves.
+    void forceRefine(int level, int px, int py) {
+        node(level, px, py) = kRefined;
+        ++stats->balanceRefinements;
+        int h = patchSize(level);
+        for (int k = 0; k < 4; ++k) {
+            int cx = 2 * px + (k & 1), cy = 2 * py + (k >> 1);
+            if (!generatePatch(level + 1, cx, cy)) {
+                node(level + 1, cx, cy) = kCulled;
+                ++stats->culledPatches;
+                continue;
+            }
+            AlphaBracket range;
+            int ch = h / 2;
+            if (!transformPatchVertices(cx * ch, cy * ch, ch, &range)) {
+                node(level + 1, cx, cy) = kCulled;
+                ++stats->culledPatches;
+                continue;
+            }
+            node(level + 1, cx, cy) = kLeaf;
+            ++stats->patches;
+            stats->deepestLevel = std::max(stats->deepestLevel, level + 1);
+        }
+        countTransitions(px * h, py * h, h);
+    }
+
+    // Enforces the continuous LOD condition of section 5 (neighbours differ by at most one LOD):
+    // every refined patch's same-LOD neighbours must exist. Finest LODs first, so refinements
+    // forced at coarser LODs are checked when their own LOD is visited.
+    void balance() {
+        for (int level = m - 2; level >= 1; --level) {
+            int count = 1 << level;
+            for (int py = 0; py < count; ++py) {
+                for (int px = 0; px < count; ++px) {
+                    if (node(level, px, py) != kRefined) continue;
+                    const int nb[4][2] = {{px, py - 1}, {px + 1, py}, {px, py + 1}, {px - 1, py}};
+                    for (const auto& q : nb) {
+                        if (q[0] < 0 || q[1] < 0 || q[0] >= count || q[1] >= count) continue;
+                        ensureExists(level, q[0], q[1]);
+                    }
+                }
+            }
+        }
+    }
+
+    void ensureExists(int level, int px, int py) {
+        while (node(level, px, py) == kAbsent) {
+            // Nearest existing ancestor.
+            int l = level - 1, ax = px >> 1, ay = py >> 1;
+            while (l > 0 && node(l, ax, ay) == kAbsent) --l, ax >>= 1, ay >>= 1;
+            uint8_t s = node(l, ax, ay);
+            if (s == kCulled || s == kAbsent) return;
+            PLX_CHECK(s == kLeaf);
+            forceRefine(l, ax, ay);
+        }
+    }
+
+    uint32_t emitVertex(int x, int y) {
+        uint32_t v = vid(x, y);
+        if (meshStamp[v] == frame) return meshIndex[v];
+        const VertexMapping& vm = transformVertex(x, y);  // a T-vertex of a culled neighbour
+        meshStamp[v] = frame;
+        meshIndex[v] = uint32_t(mesh->uvs.size());
+        mesh->gridIds.push_back(v);
+        mesh->uvs.push_back(uvOf(x, y));
+        mesh->displayPos.push_back(vm.displayPos);
+        return meshIndex[v];
+    }
+
+    void emitTriangle(int ax, int ay, int bx, int by, int cx, int cy) {
+        mesh->indices.push_back(emitVertex(ax, ay));
+        mesh->indices.push_back(emitVertex(bx, by));
+        mesh->indices.push_back(emitVertex(cx, cy));
+    }
+
+    // Section 6: per side one triangle (counter 0) or two through the T-vertex (counter 1).
+    void triangulateLeaf(int level, int px, int py) {
+        int h = patchSize(level), c = h / 2;
+        int x0 = px * h, y0 = py * h, x1 = x0 + h, y1 = y0 + h, xc = x0 + c, yc = y0 + c;
+        const int sides[4][6] = {{x0, y0, x1, y0, xc, y0}, {x1, y0, x1, y1, x1, yc},
+                                 {x1, y1, x0, y1, xc, y1}, {x0, y1, x0, y0, x0, yc}};
+        for (const auto& s : sides) {
+            if (counter(s[4], s[5]) == 1) {
+                emitTriangle(s[0], s[1], s[4], s[5], xc, yc);
+                emitTriangle(s[4], s[5], s[2], s[3], xc, yc);
+            } else {
+                emitTriangle(s[0], s[1], s[2], s[3], xc, yc);
+            }
+        }
+        ++stats->leafPatches;
+    }
+
+    void run(const Display& d, const ImagePlane& p, const Container* c, WarpMesh* out,
+             WarpStats* st) {
+        display = &d, plane = &p, container = c, mesh = out, stats = st;
+        *stats = WarpStats{};
+        *mesh = WarpMesh{};
+        mesh->gridLevel = m;
+        if (++frame == 0) {  // stamps wrapped: clear them once every 2^32 frames
+            for (auto* s : {&transformStamp, &tcStamp, &rayStamp, &meshStamp, &errorStamp})
+                std::fill(s->begin(), s->end(), 0u);
+            frame = 1;
+        }
+        for (auto& level : nodes) std::fill(level.begin(), level.end(), uint8_t(kAbsent));
+        prepareContainer();
+        recurse(0, 0, 0, AlphaBracket{}, -1);
+        balance();
+        for (int level = 0; level < m; ++level) {
+            int count = 1 << level;
+            for (int py = 0; py < count; ++py)
+                for (int px = 0; px < count; ++px)
+                    if (node(level, px, py) == kLeaf) triangulateLeaf(level, px, py);
+        }
+    }
+};
+
+QuadtreeWarper::QuadtreeWarper(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+QuadtreeWarper::~QuadtreeWarper() = default;
+
+Result<std::unique_ptr<QuadtreeWarper>> QuadtreeWarper::create(const QuadtreeConfig& config) {
+    if (config.gridLevel < 2 || config.gridLevel > 11)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "grid level " + std::to_string(config.gridLevel) +
+                               " out of range [2, 11]");
+    if (!std::isfinite(config.thresholdMm) || config.thresholdMm <= 0.0)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "error threshold must be a positive number of millimetres");
+    auto impl = std::make_unique<Impl>();
+    impl->config = config;
+    impl->m = config.gridLevel;
+    impl->side = (1 << config.gridLevel) + 1;
+    size_t count = size_t(impl->side) * size_t(impl->side);
+    for (auto* s : {&impl->transformStamp, &impl->tcStamp, &impl->rayStamp, &impl->meshStamp,
+                    &impl->errorStamp})
+        s->assign(count, 0u);
+    impl->mapping.resize(count);
+    impl->errorValue.assign(count, 0.0);
+    impl->tc.assign(count, 0);
+    impl->rayHit.assign(count, 0);
+    impl->meshIndex.assign(count, 0);
+    impl->nodes.resize(size_t(config.gridLevel));
+    for (int l = 0; l < config.gridLevel; ++l) impl->nodes[l].assign(size_t(1) << (2 * l), 0);
+    return std::unique_ptr<QuadtreeWarper>(new QuadtreeWarper(std::move(impl)));
+}
+
+const QuadtreeConfig& QuadtreeWarper::config() const { return mImpl->config; }
+
+void QuadtreeWarper::setThresholdMm(double thresholdMm) {
+    PLX_CHECK(std::isfinite(thresholdMm) && thresholdMm > 0.0);
+    mImpl->config.thresholdMm = thresholdMm;
+}
+
+void QuadtreeWarper::generate(const Display& display, const ImagePlane& plane,
+                              const Container* container, WarpMesh* mesh, WarpStats* stats) {
+    mImpl->run(display, plane, container, mesh, stats);
+}
+
+void generateUniform(const Display& display, const ImagePlane& plane, int level, WarpMesh* mesh,
+                     WarpStats* stats) {
+    PLX_CHECK(level >= 0 && level <= 12);
+    *mesh = WarpMesh{};
+    *stats = WarpStats{};
+    mesh->gridLevel = level;
+    int side = (1 << level) + 1;
+    double s = 1.0 / double(side - 1);
+    std::vector<uint8_t> valid(size_t(side) * side);
+    mesh->uvs.resize(valid.size());
+    mesh->displayPos.resize(valid.size());
+    mesh->gridIds.resize(valid.size());
+    for (int y = 0; y < side; ++y) {
+        for (int x = 0; x < side; ++x) {
+            size_t v = size_t(y) * side + x;
+            DVec2 uv(x * s, y * s);
+            VertexMapping vm = imageToDisplay(display, plane, plane.pointAt(uv));
+            mesh->uvs[v] = uv;
+            mesh->displayPos[v] = vm.displayPos;
+            mesh->gridIds[v] = uint32_t(v);
+            valid[v] = vm.valid;
+        }
+    }
+    stats->vertexTransformations = valid.size();
+    for (int y = 0; y + 1 < side; ++y) {
+        for (int x = 0; x + 1 < side; ++x) {
+            uint32_t a = uint32_t(y * side + x), b = a + 1, c = a + uint32_t(side), d = c + 1;
+            if (!valid[a] || !valid[b] || !valid[c] || !valid[d]) continue;
+            for (uint32_t i : {a, b, d, a, d, c}) mesh->indices.push_back(i);
+            ++stats->leafPatches;
+        }
+    }
+    stats->patches = stats->leafPatches;
+    stats->deepestLevel = level;
+}
+
+CrackReport checkCracks(const WarpMesh& mesh) {
+    CrackReport r;
+    int64_t side = (int64_t(1) << mesh.gridLevel) + 1;
+    std::unordered_set<uint32_t> used(mesh.gridIds.begin(), mesh.gridIds.end());
+    std::unordered_map<uint64_t, int> edges;
+    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+        for (int k = 0; k < 3; ++k) {
+            uint32_t a = mesh.gridIds[mesh.indices[t + k]];
+            uint32_t b = mesh.gridIds[mesh.indices[t + (k + 1) % 3]];
+            edges[(uint64_t(std::min(a, b)) << 32) | std::max(a, b)]++;
+        }
+    }
+    r.edges = edges.size();
+    for (const auto& [key, count] : edges) {
+        int64_t a = int64_t(key >> 32), b = int64_t(key & 0xffffffffu);
+        int64_t ax = a % side, ay = a / side, bx = b % side, by = b / side;
+        if (count > 2) ++r.overusedEdges;
+        if (count == 1) {
+            ++r.boundaryEdges;
+            bool onBorder = (ax == bx && (ax == 0 || ax == side - 1)) ||
+                            (ay == by && (ay == 0 || ay == side - 1));
+            if (!onBorder) ++r.imageBorderViolations;
+        }
+        int64_t dx = bx - ax, dy = by - ay;
+        int64_t g = std::gcd(std::llabs(dx), std::llabs(dy));
+        for (int64_t k = 1; k < g; ++k) {
+            int64_t x = ax + dx / g * k, y = ay + dy / g * k;
+            if (used.count(uint32_t(y * side + x))) {
+                ++r.tJunctions;
+                break;
+            }
+        }
+    }
+    return r;
+}
+
+}  // namespace plx::display

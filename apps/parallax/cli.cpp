@@ -80,3 +80,27 @@ Status ensureParentDirectory(const std::string& prefix) {
 }
 
 }  // namespace plx::cli
+
+#include <unistd.h>
+
+namespace plx::cli {
+
+Progress::Progress(std::string label, size_t total)
+    : mLabel(std::move(label)), mTotal(std::max<size_t>(total, 1)), mTerminal(isatty(2)) {}
+
+Progress::~Progress() {
+    if (mDrawn) std::fprintf(stderr, "\n");
+}
+
+void Progress::step(size_t n) {
+    mDone = std::min(mTotal, mDone + n);
+    if (!mTerminal || mClock.elapsedMs() < 1000.0) return;
+    constexpr int kWidth = 30;
+    int filled = int(double(mDone) / double(mTotal) * kWidth);
+    std::fprintf(stderr, "\r%s [%s%s] %zu/%zu", mLabel.c_str(), std::string(size_t(filled), '#').c_str(),
+                 std::string(size_t(kWidth - filled), '.').c_str(), mDone, mTotal);
+    std::fflush(stderr);
+    mDrawn = true;
+}
+
+}  // namespace plx::cli

@@ -40,3 +40,23 @@ void printJson(const nlohmann::json& doc);
 Status ensureParentDirectory(const std::string& prefix);
 
 }  // namespace plx::cli
+
+namespace plx::cli {
+
+// A progress bar on stderr, drawn only when stderr is a terminal and the work has run for more
+// than a second (so scripted runs and quick commands print nothing).
+class Progress {
+public:
+    Progress(std::string label, size_t total);
+    ~Progress();
+    void step(size_t n = 1);
+
+private:
+    std::string mLabel;
+    size_t mTotal, mDone = 0;
+    bool mTerminal;
+    bool mDrawn = false;
+    Stopwatch mClock;
+};
+
+}  // namespace plx::cli

@@ -6,5 +6,7 @@
 namespace plx::cli {
 
 Command registerInfo(CLI::App& app);
+Command registerRender(CLI::App& app);
+Command registerDemo(CLI::App& app);
 
 }  // namespace plx::cli

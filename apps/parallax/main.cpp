@@ -11,6 +11,8 @@ int main(int argc, char** argv) {
     app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
 
     std::vector<Command> commands = {
+        registerRender(app),
+        registerDemo(app),
         registerInfo(app),
     };
     try {

@@ -1,0 +1,22 @@
+#pragma once
+// Sections of `parallax demo`. Each capability adds one function that renders its part of the
+// report into ctx.outDir and records its headline numbers in ctx.summary.
+
+#include <nlohmann/json.hpp>
+
+#include "report.h"
+
+namespace plx::cli {
+
+struct DemoContext {
+    std::string outDir;          // where the report and its images go
+    HtmlReport* report = nullptr;
+    nlohmann::json* summary = nullptr;  // section name -> its numbers (printed with --json)
+    int threads = 0;
+    bool quick = false;          // smaller sizes for tests
+};
+
+// Foundation: office:1..16 rendered with the P-buffer rasterizer, images and the frame-time plot.
+Status demoRasterSection(DemoContext& ctx);
+
+}  // namespace plx::cli

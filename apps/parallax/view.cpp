@@ -1,0 +1,80 @@
+#include <charconv>
+
+#include <fmt/format.h>
+
+#include "view.h"
+
+namespace plx::cli {
+
+void addViewOptions(CLI::App* app, ViewArgs* args) {
+    app->add_option("--size", args->size, "Image size WxH")->capture_default_str();
+    app->add_option("--eye", args->eye, "Eye position x,y,z (overrides the viewpoint)");
+    app->add_option("--target", args->target, "Point looked at x,y,z (with --eye)");
+    app->add_option("--up", args->up, "Up direction x,y,z (with --eye)")->capture_default_str();
+    app->add_option("--fov", args->fovDegrees, "Vertical field of view in degrees");
+    app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
+}
+
+Result<Camera> cameraAtViewpoint(const scene::Scene& scene, const scene::Viewpoint& vp, int width,
+                                 int height) {
+    CameraDesc d;
+    d.eyePos = vp.eyePos;
+    d.targetPos = vp.targetPos;
+    d.upDir = vp.upDir;
+    d.fovYDegrees = vp.fovYDegrees;
+    d.width = width;
+    d.height = height;
+    scene::clipPlanesFor(scene.bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
+    return Camera::create(d);
+}
+
+namespace {
+Result<scene::Viewpoint> pickViewpoint(const scene::Scene& scene, const std::string& which) {
+    if (which.empty())
+        return scene.viewpoints.empty() ? scene::framingViewpoint(scene.bounds())
+                                        : scene.viewpoints.front();
+    for (const auto& v : scene.viewpoints)
+        if (v.name == which) return v;
+    size_t index = 0;
+    auto [end, ec] = std::from_chars(which.data(), which.data() + which.size(), index);
+    if (ec == std::errc() && end == which.data() + which.size() && index < scene.viewpoints.size())
+        return scene.viewpoints[index];
+    std::string names;
+    for (const auto& v : scene.viewpoints) names += (names.empty() ? "" : ", ") + v.name;
+    return errorStatus(ErrorCode::kNotFound,
+                       fmt::format("no viewpoint '{}' in the scene (it has: {})", which,
+                                   names.empty() ? "none" : names));
+}
+}  // namespace
+
+Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
+    auto size = parseSize(args.size);
+    if (!size) return size.status();
+    scene::Viewpoint vp;
+    if (!args.eye.empty()) {
+        auto eye = parseVec3(args.eye);
+        if (!eye) return errorStatus(ErrorCode::kInvalidArgument, "--eye: " + eye.status().message());
+        if (args.target.empty())
+            return errorStatus(ErrorCode::kInvalidArgument, "--eye needs --target");
+        auto target = parseVec3(args.target);
+        if (!target)
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               "--target: " + target.status().message());
+        auto up = parseVec3(args.up);
+        if (!up) return errorStatus(ErrorCode::kInvalidArgument, "--up: " + up.status().message());
+        vp.name = "command line";
+        vp.eyePos = *eye;
+        vp.targetPos = *target;
+        vp.upDir = *up;
+    } else {
+        auto picked = pickViewpoint(scene, args.viewpoint);
+        if (!picked) return picked.status();
+        vp = *picked;
+    }
+    if (args.fovDegrees != 0.0f) vp.fovYDegrees = args.fovDegrees;
+    auto cam = cameraAtViewpoint(scene, vp, size->x, size->y);
+    if (!cam) return cam.status();
+    return cam;
+}
+
+}  // namespace plx::cli

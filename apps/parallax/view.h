@@ -1,0 +1,28 @@
+#pragma once
+// Camera options shared by the commands that render a scene: --size, --eye/--target/--up/--fov,
+// --viewpoint. Without --eye the scene's default viewpoint is used, or a camera framing the
+// scene's bounds when it has none.
+
+#include <plx/scene/scene.h>
+
+#include "cli.h"
+
+namespace plx::cli {
+
+struct ViewArgs {
+    std::string size = "1280x720";
+    std::string eye, target, up = "0,1,0";
+    float fovDegrees = 0.0f;  // 0: the viewpoint's own
+    std::string viewpoint;    // name or index
+};
+
+void addViewOptions(CLI::App* app, ViewArgs* args);
+
+// The camera the options describe for this scene; errors name the bad option.
+Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args);
+
+// A camera at a viewpoint with near/far planes fitted to the scene.
+Result<Camera> cameraAtViewpoint(const scene::Scene& scene, const scene::Viewpoint& viewpoint,
+                                 int width, int height);
+
+}  // namespace plx::cli

@@ -1,0 +1,173 @@
+// Runs the parallax binary as a user would and checks exit codes, JSON output, written files and
+// one-line errors for bad input.
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+    int exitCode = -1;
+    std::string out, err;
+};
+
+fs::path scratchDir() {
+    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / "cli";
+    fs::create_directories(dir);
+    return dir;
+}
+
+// Runs parallax with the given arguments (a shell fragment), bounded by a timeout so a hang fails
+// the test instead of stalling the suite.
+RunResult runParallax(const std::string& args) {
+    fs::path errFile = scratchDir() / "stderr.txt";
+    std::string cmd = "timeout 120 " + std::string(PARALLAX_EXE) + " " + args + " 2>" +
+                      errFile.string();
+    RunResult r;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return r;
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+    int status = pclose(pipe);
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream e(errFile);
+    r.err.assign(std::istreambuf_iterator<char>(e), {});
+    return r;
+}
+
+void writeFile(const fs::path& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// A failed command: non-zero exit (not a crash or timeout), one line on stderr naming the problem.
+void expectOneLineError(const RunResult& r, const std::string& mentions, int code = 1) {
+    EXPECT_EQ(r.exitCode, code) << r.err;
+    ASSERT_FALSE(r.err.empty());
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("parallax: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(mentions), std::string::npos) << "expected '" << mentions << "' in: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+TEST(Cli, RenderWritesTargetsAndJson) {
+    fs::path prefix = scratchDir() / "office2";
+    RunResult r = runParallax("render office:2 --size 96x64 --frames 2 --threads 2 --out " +
+                              prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);  // stdout holds only the JSON document
+    for (const char* key : {"triangles", "visible_triangles", "width", "height", "frames",
+                            "ms_per_frame_median", "mtris_per_s"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["width"], 96);
+    EXPECT_EQ(doc["frames"], 2);
+    EXPECT_GT(doc["visible_triangles"].get<int>(), 10);
+    EXPECT_LT(doc["visible_triangles"].get<int>(), doc["triangles"].get<int>());
+    for (const char* ext : {".color.png", ".depth.png", ".id.png"})
+        EXPECT_TRUE(fs::exists(prefix.string() + ext)) << ext;
+}
+
+TEST(Cli, RenderWithExplicitCamera) {
+    fs::path prefix = scratchDir() / "eye";
+    RunResult r = runParallax("render office:1 --size 64x48 --eye 1,1.6,1 --target 4,1,4 "
+                              "--shading gouraud --out " + prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["height"], 48);
+}
+
+TEST(Cli, InfoReportsScene) {
+    RunResult r = runParallax("info office:3 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_GT(doc["triangles"].get<int>(), 3 * 3000);
+}
+
+TEST(Cli, MissingFile) {
+    expectOneLineError(runParallax("render /no/such/model.glb --out x"), "/no/such/model.glb");
+}
+
+TEST(Cli, CorruptAndTruncatedModels) {
+    fs::path dir = scratchDir();
+    writeFile(dir / "garbage.glb", std::string("glTF\x02\0\0\0\xff\xff\xff\x7f", 12) + "junk");
+    expectOneLineError(runParallax("render " + (dir / "garbage.glb").string() + " --out x"),
+                       "garbage.glb");
+    writeFile(dir / "truncated.ply",
+              "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+              "property float y\nproperty float z\nelement face 1\n"
+              "property list uchar int vertex_indices\nend_header\n\x01\x02");
+    expectOneLineError(runParallax("render " + (dir / "truncated.ply").string() + " --out x"),
+                       "truncated.ply");
+}
+
+TEST(Cli, AbsurdElementCounts) {
+    fs::path path = scratchDir() / "huge.ply";
+    writeFile(path, "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
+                    "property float y\nproperty float z\nelement face 4000000000\n"
+                    "property list uchar int vertex_indices\nend_header\n0 0 0\n");
+    expectOneLineError(runParallax("render " + path.string() + " --out x"), "huge.ply");
+}
+
+TEST(Cli, ModelWithoutTriangles) {
+    fs::path path = scratchDir() / "lines.obj";
+    writeFile(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
+    expectOneLineError(runParallax("render " + path.string() + " --out x"), "triangles");
+}
+
+TEST(Cli, NonFiniteVertices) {
+    fs::path path = scratchDir() / "nan.obj";
+    writeFile(path, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+    expectOneLineError(runParallax("render " + path.string() + " --out x"), "nan.obj");
+}
+
+TEST(Cli, BadSizes) {
+    expectOneLineError(runParallax("render office:1 --size 0x0 --out x"), "0x0", 2);
+    expectOneLineError(runParallax("render office:1 --size 100000x100000 --out x"),
+                       "100000x100000", 2);
+    expectOneLineError(runParallax("render office:1 --size banana --out x"), "banana", 2);
+}
+
+TEST(Cli, UnknownGeneratorAndBadCounts) {
+    expectOneLineError(runParallax("render foo:3 --out x"), "foo");
+    expectOneLineError(runParallax("render office:0 --out x"), "office");
+    expectOneLineError(runParallax("render office:999999999 --out x"), "office");
+}
+
+TEST(Cli, BadCameraAndOptions) {
+    expectOneLineError(runParallax("render office:1 --eye 1,2 --target 0,0,0 --out x"), "--eye", 2);
+    expectOneLineError(runParallax("render office:1 --eye 1,1,1 --target 1,1,1 --size 8x8 --out x"),
+                       "coincide", 2);
+    expectOneLineError(runParallax("render office:1 --shading phong --out x"), "phong", 2);
+    expectOneLineError(runParallax("render office:1 --viewpoint nowhere --out x"), "nowhere", 2);
+    expectOneLineError(runParallax("render office:1 --frames 0 --out x"), "frames", 2);
+}
+
+TEST(Cli, DemoQuickWritesReport) {
+    fs::path dir = scratchDir() / "demo";
+    RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(doc.contains("raster"));
+    ASSERT_TRUE(fs::exists(dir / "index.html"));
+    std::ifstream html(dir / "index.html");
+    std::string text((std::istreambuf_iterator<char>(html)), {});
+    EXPECT_NE(text.find("<svg"), std::string::npos);
+    EXPECT_NE(text.find("office1.id.png"), std::string::npos);
+}
+
+TEST(Cli, UsageErrorsExitWithTwo) {
+    EXPECT_EQ(runParallax("").exitCode, 2);
+    EXPECT_EQ(runParallax("render").exitCode, 2);
+    EXPECT_EQ(runParallax("frobnicate").exitCode, 2);
+    EXPECT_EQ(runParallax("--help").exitCode, 0);
+    EXPECT_EQ(runParallax("render --help").exitCode, 0);
+}
+
+}  // namespace

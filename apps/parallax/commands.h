@@ -6,5 +6,6 @@
 namespace plx::cli {
 
 Command registerInfo(CLI::App& app);
+Command registerPtm(CLI::App& app);
 
 }  // namespace plx::cli

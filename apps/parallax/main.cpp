@@ -11,7 +11,10 @@ int main(int argc, char** argv) {
     app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
 
     std::vector<Command> commands = {
+#if PLX_CLI_HAS_INFO
         registerInfo(app),
+#endif
+        registerPtm(app),
     };
     try {
         app.parse(argc, argv);

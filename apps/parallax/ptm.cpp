@@ -16,7 +16,7 @@ struct PtmArgs {
     std::string against;
     int level = -1;
     int lowest = 1;
-    int zstdLevel = 19;
+    int zstdLevel = 9;
     bool raw = false;
     bool json = false;
 };

@@ -20,7 +20,7 @@ struct EncodeConfig {
     Coder coder = Coder::kPredictZstd;
     // zstd level 1..22 for Coder::kPredictZstd; the default trades encode speed for size
     // (docs/ptm-results.md).
-    int zstdLevel = 19;
+    int zstdLevel = 9;
 };
 
 // Number of stored levels for an image of w x h under `config` (>= 1).

@@ -8,5 +8,6 @@ namespace plx::cli {
 Command registerInfo(CLI::App& app);
 Command registerRender(CLI::App& app);
 Command registerDemo(CLI::App& app);
+Command registerPtm(CLI::App& app);
 
 }  // namespace plx::cli

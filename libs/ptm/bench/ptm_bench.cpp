@@ -1,0 +1,251 @@
+// PTM benchmark and experiment driver (docs/ptm-results.md).
+//   plx_ptm_bench sizes FILES...   size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
+//                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
+//   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
+// Peers (libwebp, libjxl, optipng) are used here only, never by the library.
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <jxl/decode.h>
+#include <jxl/encode.h>
+#include <webp/decode.h>
+#include <webp/encode.h>
+
+#include <plx/core/image_io.h>
+#include <plx/core/timing.h>
+#include <plx/ptm/ptm.h>
+
+namespace {
+
+using plx::ByteImage;
+
+// WebP and our JPEG XL set-up take RGB or RGBA: grey is widened (sizes stay comparable).
+ByteImage toRgbOrRgba(const ByteImage& in) {
+    if (in.channels >= 3) return in;
+    ByteImage out{in.width, in.height, in.channels + 2, {}};
+    out.bytes.resize(out.rowBytes() * size_t(out.height));
+    for (size_t i = 0, n = size_t(in.width) * in.height; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) out.bytes[i * out.channels + k] = in.bytes[i * in.channels];
+        if (in.channels == 2) out.bytes[i * 4 + 3] = in.bytes[i * 2 + 1];
+    }
+    return out;
+}
+
+std::vector<uint8_t> webpEncode(const ByteImage& img) {
+    uint8_t* out = nullptr;
+    size_t n = img.channels == 4
+                   ? WebPEncodeLosslessRGBA(img.bytes.data(), img.width, img.height,
+                                            int(img.rowBytes()), &out)
+                   : WebPEncodeLosslessRGB(img.bytes.data(), img.width, img.height,
+                                           int(img.rowBytes()), &out);
+    std::vector<uint8_t> v(out, out + n);
+    WebPFree(out);
+    return v;
+}
+
+bool webpDecode(const std::vector<uint8_t>& bytes, int channels) {
+    int w = 0, h = 0;
+    uint8_t* p = channels == 4 ? WebPDecodeRGBA(bytes.data(), bytes.size(), &w, &h)
+                               : WebPDecodeRGB(bytes.data(), bytes.size(), &w, &h);
+    WebPFree(p);
+    return p != nullptr;
+}
+
+std::vector<uint8_t> jxlEncode(const ByteImage& img, int effort) {
+    JxlEncoder* enc = JxlEncoderCreate(nullptr);
+    JxlBasicInfo info;
+    JxlEncoderInitBasicInfo(&info);
+    info.xsize = uint32_t(img.width);
+    info.ysize = uint32_t(img.height);
+    info.bits_per_sample = 8;
+    info.num_color_channels = 3;
+    info.num_extra_channels = img.channels == 4 ? 1 : 0;
+    info.alpha_bits = img.channels == 4 ? 8 : 0;
+    info.uses_original_profile = JXL_TRUE;
+    JxlEncoderSetBasicInfo(enc, &info);
+    JxlColorEncoding color;
+    JxlColorEncodingSetToSRGB(&color, JXL_FALSE);
+    JxlEncoderSetColorEncoding(enc, &color);
+    JxlEncoderFrameSettings* fs = JxlEncoderFrameSettingsCreate(enc, nullptr);
+    JxlEncoderSetFrameLossless(fs, JXL_TRUE);
+    JxlEncoderFrameSettingsSetOption(fs, JXL_ENC_FRAME_SETTING_EFFORT, effort);
+    JxlPixelFormat fmt{uint32_t(img.channels), JXL_TYPE_UINT8, JXL_NATIVE_ENDIAN, 0};
+    JxlEncoderAddImageFrame(fs, &fmt, img.bytes.data(), img.bytes.size());
+    JxlEncoderCloseInput(enc);
+    std::vector<uint8_t> out(1 << 16);
+    uint8_t* next = out.data();
+    size_t avail = out.size();
+    JxlEncoderStatus st;
+    while ((st = JxlEncoderProcessOutput(enc, &next, &avail)) == JXL_ENC_NEED_MORE_OUTPUT) {
+        size_t used = size_t(next - out.data());
+        out.resize(out.size() * 2);
+        next = out.data() + used;
+        avail = out.size() - used;
+    }
+    out.resize(st == JXL_ENC_SUCCESS ? size_t(next - out.data()) : 0);
+    JxlEncoderDestroy(enc);
+    return out;
+}
+
+bool jxlDecode(const std::vector<uint8_t>& bytes, int channels, std::vector<uint8_t>& pixels) {
+    JxlDecoder* dec = JxlDecoderCreate(nullptr);
+    JxlDecoderSubscribeEvents(dec, JXL_DEC_FULL_IMAGE);
+    JxlDecoderSetInput(dec, bytes.data(), bytes.size());
+    JxlDecoderCloseInput(dec);
+    JxlPixelFormat fmt{uint32_t(channels), JXL_TYPE_UINT8, JXL_NATIVE_ENDIAN, 0};
+    bool ok = false;
+    for (;;) {
+        JxlDecoderStatus st = JxlDecoderProcessInput(dec);
+        if (st == JXL_DEC_NEED_IMAGE_OUT_BUFFER) {
+            size_t n = 0;
+            JxlDecoderImageOutBufferSize(dec, &fmt, &n);
+            pixels.resize(n);
+            JxlDecoderSetImageOutBuffer(dec, &fmt, pixels.data(), n);
+        } else if (st == JXL_DEC_FULL_IMAGE) {
+            ok = true;
+        } else {
+            ok = ok && st == JXL_DEC_SUCCESS;
+            break;
+        }
+    }
+    JxlDecoderDestroy(dec);
+    return ok;
+}
+
+size_t optipngSize(const std::vector<uint8_t>& png, const std::string& tag) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path();
+    const std::string in = (dir / ("plx_ptm_" + tag + ".png")).string();
+    const std::string out = (dir / ("plx_ptm_" + tag + "_o2.png")).string();
+    if (!plx::writeFileBytes(in, png).isOk()) return 0;
+    std::remove(out.c_str());
+    const std::string cmd = "optipng -quiet -o2 -out '" + out + "' '" + in + "' >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) != 0) return 0;
+    std::error_code ec;
+    size_t n = size_t(fs::file_size(out, ec));
+    fs::remove(in, ec);
+    fs::remove(out, ec);
+    return ec ? 0 : n;
+}
+
+int runSizes(const std::vector<std::string>& files) {
+    struct Totals {
+        double raw = 0, chain = 0, png = 0, opti = 0, webp = 0, jxl = 0, ptm = 0, ptmRaw = 0;
+        double eps = 0;
+    } t;
+    std::printf("file,w,h,c,raw,mip_chain,png9,optipng_o2,webp_ll,jxl_ll_e7,ptm,ptm_raw_coder,"
+                "ptm_vs_optipng\n");
+    int count = 0;
+    for (const auto& f : files) {
+        auto img = plx::readImage(f);
+        if (!img) {
+            std::fprintf(stderr, "skip %s: %s\n", f.c_str(), img.status().toString().c_str());
+            continue;
+        }
+        ++count;
+        const double raw = double(img->bytes.size());
+        double chain = 0;
+        for (const auto& l : plx::ptm::buildMipChain(
+                 *img, plx::ptm::fullChainLength(img->width, img->height)))
+            chain += double(l.bytes.size());
+        auto png = plx::encodePng(*img, 9);
+        const size_t opti = optipngSize(*png, std::to_string(count));
+        ByteImage peer = toRgbOrRgba(*img);
+        const size_t webp = webpEncode(peer).size();
+        const size_t jxl = jxlEncode(peer, 7).size();
+        const size_t ptm = plx::ptm::encode(*img)->size();
+        plx::ptm::EncodeConfig rawCfg;
+        rawCfg.coder = plx::ptm::Coder::kRaw;
+        const size_t ptmRaw = plx::ptm::encode(*img, rawCfg)->size();
+        std::printf("%s,%d,%d,%d,%.0f,%.0f,%zu,%zu,%zu,%zu,%zu,%zu,%.4f\n",
+                    std::filesystem::path(f).filename().c_str(), img->width, img->height,
+                    img->channels, raw, chain, png->size(), opti, webp, jxl, ptm, ptmRaw,
+                    double(ptm) / double(opti));
+        std::fflush(stdout);
+        t.raw += raw, t.chain += chain, t.png += double(png->size()), t.opti += double(opti);
+        t.webp += double(webp), t.jxl += double(jxl), t.ptm += double(ptm);
+        t.ptmRaw += double(ptmRaw);
+    }
+    const double o = t.opti;
+    std::printf("\n%d images. Totals in bytes (ratio to optipng -o2 PNG of the base level):\n",
+                count);
+    std::printf("| format | bytes | vs optipng |\n| --- | ---: | ---: |\n");
+    auto row = [&](const char* name, double v) {
+        std::printf("| %s | %.0f | %.3f |\n", name, v, v / o);
+    };
+    row("raw base level", t.raw);
+    row("raw mip chain", t.chain);
+    row("PTM, raw coder (paper's layout, uncompressed)", t.ptmRaw);
+    row("PNG (libpng level 9)", t.png);
+    row("PNG (optipng -o2)", t.opti);
+    row("WebP lossless", t.webp);
+    row("JPEG XL lossless e7", t.jxl);
+    row("PTM predict+zstd (all levels)", t.ptm);
+    std::printf("\nuncompressed residual overhead (raw-coder PTM / raw base - 1): %.2f%%\n",
+                100.0 * (t.ptmRaw / t.raw - 1.0));
+    return 0;
+}
+
+template <class F>
+double bestMs(int reps, F&& f) {
+    std::vector<double> s;
+    for (int i = 0; i < reps; ++i) {
+        plx::Stopwatch w;
+        f();
+        s.push_back(w.elapsedMs());
+    }
+    return *std::min_element(s.begin(), s.end());
+}
+
+int runSpeed(const std::vector<std::string>& files) {
+    // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
+    double mb = 0;
+    double enc[5] = {}, dec[5] = {};
+    const char* names[5] = {"PTM predict+zstd (zstd 9, default)", "PTM predict+zstd (zstd 3)",
+                            "PNG (libpng 9)", "WebP lossless", "JPEG XL lossless e7"};
+    for (const auto& f : files) {
+        auto img = plx::readImage(f);
+        if (!img) continue;
+        ByteImage peer = toRgbOrRgba(*img);
+        mb += double(img->bytes.size()) / 1e6;
+        std::vector<uint8_t> p19, p3, png, webp, jxl;
+        plx::ptm::EncodeConfig c3;
+        c3.zstdLevel = 3;
+        enc[0] += bestMs(1, [&] { p19 = *plx::ptm::encode(*img); });
+        enc[1] += bestMs(3, [&] { p3 = *plx::ptm::encode(*img, c3); });
+        enc[2] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
+        enc[3] += bestMs(1, [&] { webp = webpEncode(peer); });
+        enc[4] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
+        dec[0] += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p19).isOk()); });
+        dec[1] += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p3).isOk()); });
+        dec[2] += bestMs(5, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
+        dec[3] += bestMs(5, [&] { PLX_CHECK(webpDecode(webp, peer.channels)); });
+        std::vector<uint8_t> px;
+        dec[4] += bestMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
+    }
+    std::printf("%.1f MB of base-level pixels, single thread\n", mb);
+    std::printf("| codec | encode MB/s | decode MB/s |\n| --- | ---: | ---: |\n");
+    for (int i = 0; i < 5; ++i)
+        std::printf("| %s | %.1f | %.1f |\n", names[i], mb / (enc[i] / 1e3), mb / (dec[i] / 1e3));
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 3) {
+        std::fprintf(stderr, "usage: plx_ptm_bench sizes|speed FILES...\n");
+        return 2;
+    }
+    std::vector<std::string> files(argv + 2, argv + argc);
+    std::string mode = argv[1];
+    if (mode == "sizes") return runSizes(files);
+    if (mode == "speed") return runSpeed(files);
+    std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());
+    return 2;
+}

@@ -1,0 +1,137 @@
+#include <fmt/format.h>
+#include <zstd.h>
+
+#include <plx/ptm/decoder.h>
+
+#include "codec.h"
+
+namespace plx::ptm {
+namespace {
+
+Status corrupt(std::string message) {
+    return errorStatus(ErrorCode::kCorruptData, "PTM: " + std::move(message));
+}
+
+// Decompresses one zstd frame that must fill `out` exactly and use every input byte.
+Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
+    const unsigned long long declared = ZSTD_getFrameContentSize(in.data(), in.size());
+    if (declared == ZSTD_CONTENTSIZE_ERROR || declared == ZSTD_CONTENTSIZE_UNKNOWN)
+        return corrupt(fmt::format("level {}: payload is not a zstd frame with a size", k));
+    if (declared != out.size())
+        return corrupt(fmt::format("level {}: payload declares {} bytes, the level needs {}", k,
+                                   declared, out.size()));
+    const size_t frame = ZSTD_findFrameCompressedSize(in.data(), in.size());
+    if (ZSTD_isError(frame) || frame != in.size())
+        return corrupt(fmt::format("level {}: zstd frame does not span the group", k));
+    const size_t got = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
+    if (ZSTD_isError(got) || got != out.size())
+        return corrupt(fmt::format("level {}: zstd: {}", k,
+                                   ZSTD_isError(got) ? ZSTD_getErrorName(got) : "short payload"));
+    return Status::ok();
+}
+
+}  // namespace
+
+Result<ProgressiveDecoder> ProgressiveDecoder::create(std::span<const uint8_t> headerPrefix) {
+    auto header = parseHeader(headerPrefix);
+    if (!header) return header.status();
+    return ProgressiveDecoder(std::move(header).value());
+}
+
+const ByteImage& ProgressiveDecoder::level(int k) const {
+    PLX_CHECK(k >= 0 && k < levelsDecoded());
+    return mLevels[size_t(k)];
+}
+
+Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
+    PLX_CHECK(!complete());
+    const int k = levelsDecoded();
+    const GroupEntry& entry = mHeader.groups[size_t(k)];
+    if (groupBytes.size() != entry.size)
+        return corrupt(fmt::format("level {} group has {} bytes, the index says {}", k,
+                                   groupBytes.size(), entry.size));
+    if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
+    const LevelSize size = mHeader.levelSize(k);
+    const int comps = mHeader.components;
+    const detail::GroupLayout layout = detail::groupLayout(size, comps, k == 0);
+    const size_t payloadBytes = layout.payloadBytes();
+    std::span<uint8_t> payload;
+    if (mHeader.coder == Coder::kRaw) {
+        if (groupBytes.size() != payloadBytes)
+            return corrupt(fmt::format("level {} raw group has {} bytes, needs {}", k,
+                                       groupBytes.size(), payloadBytes));
+        mScratch.assign(groupBytes.begin(), groupBytes.end());
+    } else {
+        // A zstd frame cannot expand data by more than its block size ratio; a group claiming
+        // a payload over 1 GiB more than its own size is refused by the header limits anyway.
+        mScratch.resize(payloadBytes);
+        PLX_RETURN_IF_ERROR(unzstd(groupBytes, mScratch, k));
+    }
+    payload = mScratch;
+    ByteImage img{size.width, size.height, comps, {}};
+    img.bytes.resize(img.rowBytes() * size_t(size.height));
+    const bool predict = mHeader.coder == Coder::kPredictZstd;
+    bool ok = true;
+    if (k == 0) {
+        if (predict)
+            detail::walkLowest<true, false>(img.bytes.data(), size.width, size.height, comps,
+                                            payload.data());
+        else
+            detail::walkLowest<false, false>(img.bytes.data(), size.width, size.height, comps,
+                                             payload.data());
+    } else if (predict) {
+        ok = detail::walkLevelAny<true, false>(comps, mLevels.back(), img.bytes.data(),
+                                               size.width, size.height, payload.data());
+    } else {
+        ok = detail::walkLevelAny<false, false>(comps, mLevels.back(), img.bytes.data(),
+                                                size.width, size.height, payload.data());
+    }
+    if (!ok)
+        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
+                                   "of range", k));
+    mLevels.push_back(std::move(img));
+    return Status::ok();
+}
+
+Result<ByteImage> decodeLevel(std::span<const uint8_t> filePrefix, int k) {
+    auto decoder = ProgressiveDecoder::create(filePrefix);
+    if (!decoder) return decoder.status();
+    const Header& h = decoder->header();
+    if (k < 0 || k >= h.levelCount)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("PTM: level {} outside 0..{}", k, h.levelCount - 1));
+    for (int i = 0; i <= k; ++i) {
+        const ByteRange range = levelByteRange(h, i);
+        if (range.offset + range.size > filePrefix.size())
+            return corrupt(fmt::format("file truncated in level {} (needs {} bytes, has {})", i,
+                                       range.offset + range.size, filePrefix.size()));
+        PLX_RETURN_IF_ERROR(decoder->addGroup(filePrefix.subspan(range.offset, range.size)));
+    }
+    std::vector<ByteImage> levels = decoder->takeLevels();
+    return std::move(levels.back());
+}
+
+Result<ByteImage> decodeImage(std::span<const uint8_t> file) {
+    auto header = parseHeader(file);
+    if (!header) return header.status();
+    if (file.size() != header->fileBytes())
+        return corrupt(fmt::format("file has {} bytes, the index says {}", file.size(),
+                                   header->fileBytes()));
+    return decodeLevel(file, header->levelCount - 1);
+}
+
+Result<std::vector<ByteImage>> decodeAllLevels(std::span<const uint8_t> file) {
+    auto decoder = ProgressiveDecoder::create(file);
+    if (!decoder) return decoder.status();
+    const Header& h = decoder->header();
+    if (file.size() != h.fileBytes())
+        return corrupt(fmt::format("file has {} bytes, the index says {}", file.size(),
+                                   h.fileBytes()));
+    for (int i = 0; i < h.levelCount; ++i) {
+        const ByteRange range = levelByteRange(h, i);
+        PLX_RETURN_IF_ERROR(decoder->addGroup(file.subspan(range.offset, range.size)));
+    }
+    return decoder->takeLevels();
+}
+
+}  // namespace plx::ptm

@@ -1,0 +1,340 @@
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <zstd.h>
+
+#include <plx/core/image_io.h>
+#include <plx/ptm/ptm.h>
+
+namespace plx::ptm {
+namespace {
+
+ByteImage randomImage(int w, int h, int c, uint32_t seed, bool smooth) {
+    std::mt19937 rng(seed);
+    ByteImage img{w, h, c, std::vector<uint8_t>(size_t(w) * h * c)};
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int k = 0; k < c; ++k) {
+                int v = smooth ? (x * 7 + y * 3 + k * 40 + int(rng() % 9)) & 255 : int(rng() & 255);
+                img.pixel(x, y)[k] = uint8_t(v);
+            }
+    return img;
+}
+
+// Reference of eq. (1): pad the level by replicating its last row/column to even size, then
+// floor of the mean of each 2x2 block. Written independently of boxReduce.
+ByteImage referenceReduce(const ByteImage& in) {
+    ByteImage out{(in.width + 1) / 2, (in.height + 1) / 2, in.channels, {}};
+    out.bytes.resize(size_t(out.width) * out.height * in.channels);
+    auto at = [&](int x, int y, int k) {
+        return int(in.pixel(std::min(x, in.width - 1), std::min(y, in.height - 1))[k]);
+    };
+    for (int y = 0; y < out.height; ++y)
+        for (int x = 0; x < out.width; ++x)
+            for (int k = 0; k < in.channels; ++k)
+                out.pixel(x, y)[k] = uint8_t((at(2 * x, 2 * y, k) + at(2 * x + 1, 2 * y, k) +
+                                              at(2 * x, 2 * y + 1, k) +
+                                              at(2 * x + 1, 2 * y + 1, k)) >> 2);
+    return out;
+}
+
+std::vector<uint8_t> mustEncode(const ByteImage& img, EncodeConfig config = {}) {
+    auto file = encode(img, config);
+    EXPECT_TRUE(file.isOk()) << file.status().toString();
+    return file.isOk() ? std::move(file).value() : std::vector<uint8_t>{};
+}
+
+TEST(PtmMip, BoxReduceMatchesPaddedReference) {
+    for (auto [w, h] : {std::pair{1, 1}, {2, 2}, {3, 1}, {1, 5}, {7, 4}, {9, 13}}) {
+        for (int c = 1; c <= 4; ++c) {
+            ByteImage img = randomImage(w, h, c, uint32_t(w * 100 + h + c), false);
+            EXPECT_EQ(boxReduce(img), referenceReduce(img)) << w << "x" << h << " c" << c;
+        }
+    }
+}
+
+TEST(PtmMip, ChainLengths) {
+    EXPECT_EQ(fullChainLength(1, 1), 1);
+    EXPECT_EQ(fullChainLength(1024, 1024), 11);
+    EXPECT_EQ(fullChainLength(5, 1), 4);  // 5, 3, 2, 1
+    auto sizes = levelSizes(13, 7, 4);
+    ASSERT_EQ(sizes.size(), 4u);
+    EXPECT_EQ(sizes[0], (LevelSize{2, 1}));
+    EXPECT_EQ(sizes[3], (LevelSize{13, 7}));
+}
+
+TEST(PtmCodec, RoundTripManySizesAndComponents) {
+    const std::pair<int, int> sizes[] = {{1, 1}, {2, 1}, {1, 2}, {2, 2}, {3, 3}, {5, 1},
+                                         {1, 9}, {13, 7}, {17, 33}, {64, 64}, {127, 3},
+                                         {3, 127}, {100, 61}, {256, 1}};
+    for (auto [w, h] : sizes)
+        for (int c = 1; c <= 4; ++c)
+            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd})
+                for (bool smooth : {false, true}) {
+                    ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
+                    EncodeConfig cfg;
+                    cfg.coder = coder;
+                    cfg.zstdLevel = 3;
+                    auto file = mustEncode(img, cfg);
+                    auto back = decodeImage(file);
+                    ASSERT_TRUE(back.isOk()) << back.status().toString();
+                    EXPECT_EQ(*back, img) << w << "x" << h << " c" << c;
+                }
+}
+
+TEST(PtmCodec, ExtremeValuesRoundTrip) {
+    for (uint8_t v : {uint8_t(0), uint8_t(255)}) {
+        ByteImage img{33, 17, 4, std::vector<uint8_t>(33 * 17 * 4, v)};
+        img.bytes[5] = uint8_t(255 - v);
+        auto back = decodeImage(mustEncode(img));
+        ASSERT_TRUE(back.isOk());
+        EXPECT_EQ(*back, img);
+    }
+}
+
+TEST(PtmCodec, EachLevelAloneEqualsBoxFilteredMip) {
+    ByteImage img = randomImage(45, 30, 3, 7, true);
+    auto file = mustEncode(img);
+    auto header = parseHeader(file);
+    ASSERT_TRUE(header.isOk());
+    ASSERT_EQ(header->levelCount, fullChainLength(45, 30));
+    ByteImage expected = img;
+    for (int k = header->levelCount - 1; k >= 0; --k) {
+        // Only the prefix up to the end of group k is given.
+        const ByteRange r = levelByteRange(*header, k);
+        auto level = decodeLevel(std::span(file).first(size_t(r.offset + r.size)), k);
+        ASSERT_TRUE(level.isOk()) << level.status().toString();
+        EXPECT_EQ(*level, expected) << "level " << k;
+        expected = referenceReduce(expected);
+    }
+}
+
+TEST(PtmCodec, LowestLevelIsConfigurable) {
+    ByteImage img = randomImage(40, 24, 2, 3, true);
+    for (int side : {1, 2, 5, 10, 24, 40, 1000}) {
+        EncodeConfig cfg;
+        cfg.lowestMaxSide = side;
+        auto file = mustEncode(img, cfg);
+        auto header = parseHeader(file);
+        ASSERT_TRUE(header.isOk());
+        EXPECT_LE(std::max(header->lowest.width, header->lowest.height), side);
+        EXPECT_EQ(header->levelCount, storedLevelCount(40, 24, cfg));
+        auto back = decodeImage(file);
+        ASSERT_TRUE(back.isOk());
+        EXPECT_EQ(*back, img);
+    }
+    EncodeConfig bad;
+    bad.lowestMaxSide = 0;
+    EXPECT_FALSE(encode(img, bad).isOk());
+}
+
+TEST(PtmDecoder, ProgressiveGroupsInOrder) {
+    ByteImage img = randomImage(70, 50, 4, 11, true);
+    auto file = mustEncode(img);
+    auto header = parseHeader(file);
+    ASSERT_TRUE(header.isOk());
+    // Only the header bytes at first, as a client fetching with Range requests would.
+    auto dec = ProgressiveDecoder::create(std::span(file).first(header->headerBytes()));
+    ASSERT_TRUE(dec.isOk());
+    std::vector<ByteImage> chain = buildMipChain(img, header->levelCount);
+    uint64_t expectedOffset = header->headerBytes();
+    for (int k = 0; k < header->levelCount; ++k) {
+        const ByteRange r = levelByteRange(dec->header(), k);
+        EXPECT_EQ(r.offset, expectedOffset);
+        expectedOffset += r.size;
+        ASSERT_TRUE(dec->addGroup(std::span(file).subspan(r.offset, r.size)).isOk());
+        EXPECT_EQ(dec->level(k), chain[size_t(k)]);
+    }
+    EXPECT_TRUE(dec->complete());
+    EXPECT_EQ(expectedOffset, file.size());
+}
+
+TEST(PtmDecoder, WrongGroupIsRejected) {
+    auto file = mustEncode(randomImage(20, 20, 3, 5, true));
+    auto dec = ProgressiveDecoder::create(file);
+    ASSERT_TRUE(dec.isOk());
+    const ByteRange r1 = levelByteRange(dec->header(), 1);
+    Status s = dec->addGroup(std::span(file).subspan(r1.offset, r1.size));  // group 1 first
+    EXPECT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("level 0"), std::string::npos) << s.message();
+}
+
+TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
+    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd}) {
+        EncodeConfig cfg;
+        cfg.coder = coder;
+        auto file = mustEncode(randomImage(23, 11, 4, 9, true), cfg);
+        auto header = parseHeader(file);
+        ASSERT_TRUE(header.isOk());
+        for (size_t n = 0; n < file.size(); ++n) {
+            std::span<const uint8_t> prefix(file.data(), n);
+            auto img = decodeImage(prefix);
+            EXPECT_FALSE(img.isOk()) << "prefix " << n;
+            if (!img.isOk()) {
+                EXPECT_FALSE(img.status().message().empty());
+            }
+            // Levels wholly inside the prefix decode; the others fail with an error.
+            for (int k = 0; k < header->levelCount; ++k) {
+                const ByteRange r = levelByteRange(*header, k);
+                auto level = decodeLevel(prefix, k);
+                EXPECT_EQ(level.isOk(), r.offset + r.size <= n) << "prefix " << n << " level " << k;
+            }
+        }
+    }
+}
+
+TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
+    auto file = mustEncode(randomImage(19, 9, 3, 4, true));
+    for (size_t i = 0; i < file.size(); ++i) {
+        for (uint8_t flip : {uint8_t(0x01), uint8_t(0x80), uint8_t(0xFF)}) {
+            auto bad = file;
+            bad[i] ^= flip;
+            EXPECT_FALSE(decodeImage(bad).isOk()) << "byte " << i;
+        }
+    }
+}
+
+// Rewrites the header of a valid file with a field changed and a correct header CRC, as a
+// hostile file would.
+std::vector<uint8_t> forge(std::vector<uint8_t> file, size_t at, std::vector<uint8_t> bytes) {
+    std::copy(bytes.begin(), bytes.end(), file.begin() + ptrdiff_t(at));
+    auto h = parseHeader(file);  // may fail on the CRC; recompute it from the level count
+    const size_t headerBytes = headerBytesFor(file[20]);
+    if (headerBytes <= file.size()) {
+        uint32_t c = crc32(std::span(file).first(headerBytes - 4));
+        for (int i = 0; i < 4; ++i) file[headerBytes - 4 + size_t(i)] = uint8_t(c >> (8 * i));
+    }
+    (void)h;
+    return file;
+}
+
+TEST(PtmDecoder, HostileHeadersReturnErrors) {
+    auto file = mustEncode(randomImage(16, 16, 3, 2, true));
+    struct Case {
+        size_t at;
+        std::vector<uint8_t> bytes;
+        const char* expect;
+    };
+    const Case cases[] = {
+        {12, {0xFF, 0xFF, 0xFF, 0x7F}, "size"},    // width 2^31 - 1
+        {16, {0x01, 0x80, 0x00, 0x00}, "size"},    // height 32769, over kMaxSide
+        {10, {0x07}, "component"},                 // 7 components
+        {11, {0x09}, "coder"},                     // unknown coder
+        {20, {0x40}, "level count"},               // 64 levels
+        {24, {0x03}, "lowest"},                    // lowest level width wrong
+        {32, {0x00, 0x00, 0x10}, "offset"},        // group 0 offset wrong
+        {40, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF}, "size"},  // group 0 size huge
+        {8, {0x02}, "version"},
+        {0, {'X'}, "magic"},
+    };
+    for (const Case& c : cases) {
+        auto bad = forge(file, c.at, c.bytes);
+        auto img = decodeImage(bad);
+        ASSERT_FALSE(img.isOk()) << c.expect;
+        EXPECT_NE(img.status().message().find(c.expect), std::string::npos)
+            << img.status().message();
+    }
+    auto bad = file;
+    bad[40] ^= 1;  // header CRC no longer matches
+    auto img = decodeImage(bad);
+    ASSERT_FALSE(img.isOk());
+    EXPECT_NE(img.status().message().find("checksum"), std::string::npos);
+}
+
+TEST(PtmDecoder, BadEpsilonWithValidChecksumIsRejected) {
+    // A raw file edited consistently (CRC recomputed) with an epsilon that eq. (3) cannot accept.
+    EncodeConfig cfg;
+    cfg.coder = Coder::kRaw;
+    ByteImage img{2, 2, 1, {0, 0, 0, 0}};
+    auto file = mustEncode(img, cfg);
+    auto header = parseHeader(file);
+    ASSERT_TRUE(header.isOk());
+    ASSERT_EQ(header->levelCount, 2);
+    const ByteRange r = levelByteRange(*header, 1);
+    file[r.offset] = 3;                      // eps = 3, so p11 = 0 + 3 - 0 = 3: legal
+    file[r.offset + 1] = 200;                // p00 = 200: p11 = 3 - 200 < 0, impossible
+    uint32_t c = crc32(std::span(file).subspan(r.offset, r.size));
+    const size_t entry = kFixedHeaderBytes + kIndexEntryBytes + 16;
+    for (int i = 0; i < 4; ++i) file[entry + size_t(i)] = uint8_t(c >> (8 * i));
+    file = forge(file, 0, {0x89});
+    auto out = decodeImage(file);
+    ASSERT_FALSE(out.isOk());
+    EXPECT_NE(out.status().message().find("out of range"), std::string::npos)
+        << out.status().message();
+}
+
+// The frozen bitstream: a 13x7 RGBA image of fixed content. The raw-coder file must match the
+// committed bytes exactly; the predict+zstd file must decode to the image, and its decompressed
+// payloads (independent of the zstd version's choices) must match a fresh encoding's.
+ByteImage goldenImage() {
+    ByteImage img{13, 7, 4, std::vector<uint8_t>(13 * 7 * 4)};
+    for (int y = 0; y < 7; ++y)
+        for (int x = 0; x < 13; ++x)
+            for (int k = 0; k < 4; ++k)
+                img.pixel(x, y)[k] = uint8_t((x * 37 + y * 11 + k * 61 + x * y * 5) % 256);
+    return img;
+}
+
+std::vector<std::vector<uint8_t>> payloads(const std::vector<uint8_t>& file) {
+    auto h = parseHeader(file);
+    std::vector<std::vector<uint8_t>> out;
+    if (!h) return out;
+    for (int k = 0; k < h->levelCount; ++k) {
+        ByteRange r = levelByteRange(*h, k);
+        std::vector<uint8_t> p(size_t(ZSTD_getFrameContentSize(file.data() + r.offset, r.size)));
+        ZSTD_decompress(p.data(), p.size(), file.data() + r.offset, r.size);
+        out.push_back(std::move(p));
+    }
+    return out;
+}
+
+TEST(PtmGolden, FrozenBitstream) {
+    const std::string dir = std::string(PLX_SOURCE_DIR) + "/tests/golden/ptm/";
+    EncodeConfig raw;
+    raw.coder = Coder::kRaw;
+    auto rawFile = mustEncode(goldenImage(), raw);
+    auto zstdFile = mustEncode(goldenImage());
+    if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_raw.ptm", rawFile).isOk());
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_zstd.ptm", zstdFile).isOk());
+    }
+    auto goldenRaw = readFileBytes(dir + "rgba_13x7_raw.ptm");
+    auto goldenZstd = readFileBytes(dir + "rgba_13x7_zstd.ptm");
+    ASSERT_TRUE(goldenRaw.isOk() && goldenZstd.isOk()) << "golden files missing in " << dir;
+    EXPECT_EQ(rawFile, *goldenRaw) << "the raw PTM bitstream changed";
+    auto decoded = decodeImage(*goldenZstd);
+    ASSERT_TRUE(decoded.isOk()) << decoded.status().toString();
+    EXPECT_EQ(*decoded, goldenImage());
+    EXPECT_EQ(payloads(zstdFile), payloads(*goldenZstd)) << "the predicted planes changed";
+    EXPECT_EQ(zstdFile.size() > 0, true);
+    auto rawDecoded = decodeImage(*goldenRaw);
+    ASSERT_TRUE(rawDecoded.isOk());
+    EXPECT_EQ(*rawDecoded, goldenImage());
+}
+
+TEST(PtmCodec, SponzaTexturesRoundTrip) {
+    const std::filesystem::path dir = std::filesystem::path(PLX_SHARED_DATA_DIR) /
+                                      "textures/sponza";
+    if (!std::filesystem::exists(dir)) GTEST_SKIP() << "no Sponza textures in " << dir;
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".jpg" || e.path().extension() == ".png")
+            files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    if (files.size() > 3) files.resize(3);
+    for (const auto& f : files) {
+        auto img = readImage(f.string());
+        ASSERT_TRUE(img.isOk()) << img.status().toString();
+        EncodeConfig cfg;
+        cfg.zstdLevel = 3;
+        auto file = mustEncode(*img, cfg);
+        auto back = decodeAllLevels(file);
+        ASSERT_TRUE(back.isOk()) << back.status().toString();
+        EXPECT_EQ(back->back(), *img) << f;
+        EXPECT_EQ(*back, buildMipChain(*img, int(back->size()))) << f;
+    }
+}
+
+}  // namespace
+}  // namespace plx::ptm

@@ -178,6 +178,67 @@ TEST(GlRenderer, IdsMatchRayCastReferenceWithGlobalNumbering) {
     EXPECT_EQ(seen.size(), 7u);
 }
 
+// A mesh far larger than any internal vertex batch of the driver: every pixel's ID must name a
+// triangle whose projected bounding box holds the pixel centre, so primitive IDs stay counted
+// from the start of the draw however the driver splits it.
+TEST(GlRenderer, IdsStayGlobalAcrossLargeMeshes) {
+    PLX_MAKE_RENDERER_OR_SKIP(renderer);
+    scene::Scene scene;
+    scene.meshes.push_back(quad("lead", {-9.0f, -9.0f, -5.0f}, {-8.0f, -8.0f, -5.0f}, 0));
+    constexpr int kCells = 256;
+    scene::Mesh grid;
+    grid.name = "grid";
+    for (int j = 0; j <= kCells; ++j) {
+        for (int i = 0; i <= kCells; ++i) {
+            grid.positions.push_back({-3.0f + 6.0f * float(i) / kCells,
+                                      -2.0f + 4.0f * float(j) / kCells, 0.0f});
+        }
+    }
+    for (int j = 0; j < kCells; ++j) {
+        for (int i = 0; i < kCells; ++i) {
+            uint32_t a = uint32_t(j * (kCells + 1) + i), b = a + 1, c = a + kCells + 2,
+                     d = a + kCells + 1;
+            grid.indices.insert(grid.indices.end(), {a, b, c, a, c, d});
+        }
+    }
+    scene.meshes.push_back(grid);
+    ASSERT_TRUE(scene.finalize().isOk());
+    Camera camera = testCamera();
+    ASSERT_TRUE(renderer->upload(scene).isOk());
+    Image<uint32_t> ids;
+    ASSERT_TRUE(renderer->render(camera, {nullptr, &ids, nullptr}).isOk());
+
+    const scene::Mesh& mesh = scene.meshes[1];
+    size_t first = scene.firstTriangle(1);
+    int covered = 0;
+    uint32_t largest = 0;
+    for (int y = 0; y < kHeight; ++y) {
+        for (int x = 0; x < kWidth; ++x) {
+            uint32_t id = ids.at(x, y);
+            if (id == 0) continue;
+            ++covered;
+            largest = std::max(largest, id);
+            ASSERT_GE(size_t(id - 1), first) << "pixel " << x << "," << y;
+            size_t t = id - 1 - first;
+            ASSERT_LT(t, mesh.triangleCount());
+            Vec2 lo(std::numeric_limits<float>::infinity()), hi(-lo);
+            for (int k = 0; k < 3; ++k) {
+                Vec2 p;
+                ASSERT_TRUE(camera.projectToPixel(mesh.positions[mesh.indices[3 * t + k]], &p));
+                lo = glm::min(lo, p);
+                hi = glm::max(hi, p);
+            }
+            constexpr float kSlack = 0.01f;  // pixels; rasterisation snaps to 1/256 pixel
+            Vec2 centre(float(x) + 0.5f, float(y) + 0.5f);
+            EXPECT_TRUE(centre.x >= lo.x - kSlack && centre.x <= hi.x + kSlack &&
+                        centre.y >= lo.y - kSlack && centre.y <= hi.y + kSlack)
+                << "pixel " << x << "," << y << " holds ID " << id;
+        }
+    }
+    EXPECT_GT(covered, kWidth * kHeight / 2);
+    EXPECT_GT(largest, first + mesh.triangleCount() * 3 / 4) << "upper rows of the grid drawn";
+}
+
 TEST(GlRenderer, ShadesFlatLambertPlusAmbientInSrgb) {
     PLX_MAKE_RENDERER_OR_SKIP(renderer);
     scene::Scene scene = testScene();

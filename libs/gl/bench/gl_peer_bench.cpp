@@ -10,12 +10,12 @@
 #include <cstdio>
 #include <string>
 
-#include <CLI/CLI.hpp>
-#include <assimp/material.h>
 #include <assimp/cimport.h>
+#include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <plx/gl/gl_renderer.h>
@@ -33,9 +33,9 @@ constexpr long kMaxProceduralTriangles = 200'000'000;
 // (pixels per triangle) changes between a 50k and a 1M request.
 Result<scene::Scene> sphereSet(long triangles) {
     if (triangles < 24 || triangles > kMaxProceduralTriangles) {
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--procedural {} outside [24, {}]", triangles,
-                                       kMaxProceduralTriangles));
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("--procedural {} outside [24, {}]", triangles, kMaxProceduralTriangles));
     }
     constexpr int kColumns = 8, kRows = 5;
     int spheres = int(std::min<long>(kColumns * kRows, triangles / 24));
@@ -49,8 +49,9 @@ Result<scene::Scene> sphereSet(long triangles) {
     scene::Scene scene;
     for (int i = 0; i < 8; ++i) {
         float hue = float(i) / 8.0f;
-        Vec3 rgb = glm::clamp(Vec3(std::abs(hue * 6 - 3) - 1, 2 - std::abs(hue * 6 - 2),
-                                   2 - std::abs(hue * 6 - 4)), 0.0f, 1.0f);
+        Vec3 rgb = glm::clamp(
+            Vec3(std::abs(hue * 6 - 3) - 1, 2 - std::abs(hue * 6 - 2), 2 - std::abs(hue * 6 - 4)),
+            0.0f, 1.0f);
         scene.materials.push_back({fmt::format("hue{}", i), Vec4(0.15f + 0.7f * rgb, 1.0f), -1});
     }
     for (int k = 0; k < spheres; ++k) {
@@ -86,10 +87,9 @@ Result<scene::Scene> sphereSet(long triangles) {
 
 // Triangles and base colours of a model file through assimp, every node's transform applied.
 Result<scene::Scene> loadModel(const std::string& path) {
-    const aiScene* ai = aiImportFile(path.c_str(), aiProcess_Triangulate |
-                                                       aiProcess_JoinIdenticalVertices |
-                                                       aiProcess_PreTransformVertices |
-                                                       aiProcess_SortByPType);
+    const aiScene* ai =
+        aiImportFile(path.c_str(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                       aiProcess_PreTransformVertices | aiProcess_SortByPType);
     if (ai == nullptr) {
         return errorStatus(ErrorCode::kIoError,
                            fmt::format("cannot import '{}': {}", path, aiGetErrorString()));
@@ -137,8 +137,8 @@ Result<Camera> frontCamera(const scene::Scene& scene, int width, int height) {
     Vec3 extent = scene.bounds().extent(), centre = scene.bounds().center();
     float tanHalf = std::tan(radians(desc.fovYDegrees) * 0.5f);
     float aspect = float(width) / float(height);
-    float distance = 1.05f * std::max(0.5f * extent.y / tanHalf,
-                                      0.5f * extent.x / (tanHalf * aspect));
+    float distance =
+        1.05f * std::max(0.5f * extent.y / tanHalf, 0.5f * extent.x / (tanHalf * aspect));
     desc.targetPos = centre;
     desc.eyePos = centre + Vec3(0.0f, 0.0f, 0.5f * extent.z + distance);
     scene::clipPlanesFor(scene.bounds(), desc.eyePos, &desc.nearPlane, &desc.farPlane);
@@ -182,8 +182,8 @@ struct Options {
 Status run(const Options& options) {
     int width = 0, height = 0;
     PLX_RETURN_IF_ERROR(parseSize(options.size, &width, &height));
-    Result<scene::Scene> scene = options.sceneFile.empty() ? sphereSet(options.procedural)
-                                                           : loadModel(options.sceneFile);
+    Result<scene::Scene> scene =
+        options.sceneFile.empty() ? sphereSet(options.procedural) : loadModel(options.sceneFile);
     if (!scene) return scene.status();
     auto camera = options.sceneFile.empty() ? frontCamera(*scene, width, height)
                                             : framingCamera(*scene, width, height);
@@ -211,8 +211,8 @@ Status run(const Options& options) {
             for (int x = 0; x < ids.width(); ++x) {
                 uint32_t h = ids.at(x, y) * 2654435761u;
                 falseColor.at(x, y) = ids.at(x, y) == 0 ? Rgba8{0, 0, 0, 255}
-                                                    : Rgba8{uint8_t(h >> 24), uint8_t(h >> 16),
-                                                            uint8_t(h >> 8), 255};
+                                                        : Rgba8{uint8_t(h >> 24), uint8_t(h >> 16),
+                                                                uint8_t(h >> 8), 255};
             }
         }
         PLX_RETURN_IF_ERROR(writePng(options.writeIds, falseColor));
@@ -253,8 +253,9 @@ Status run(const Options& options) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Time Mesa llvmpipe (OpenGL 4.5 via EGL) on the software rasterizer's workload.\n"
-                 "Example: plx_gl_peer --procedural 1000000 --size 1280x720 --threads 2"};
+    CLI::App app{
+        "Time Mesa llvmpipe (OpenGL 4.5 via EGL) on the software rasterizer's workload.\n"
+        "Example: plx_gl_peer --procedural 1000000 --size 1280x720 --threads 2"};
     Options options;
     auto* file = app.add_option("--scene-file", options.sceneFile, "model file (assimp)");
     auto* procedural = app.add_option("--procedural", options.procedural,

@@ -137,13 +137,14 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int threads) {
     }
     auto config = chooseConfig(context->mDisplay);
     if (!config) return config.status();
-    const EGLint attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4,
-                                 EGL_CONTEXT_MINOR_VERSION, 5,
+    const EGLint attributes[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                 4,
+                                 EGL_CONTEXT_MINOR_VERSION,
+                                 5,
                                  EGL_CONTEXT_OPENGL_PROFILE_MASK,
                                  EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                  EGL_NONE};
-    context->mContext =
-        eglCreateContext(context->mDisplay, *config, EGL_NO_CONTEXT, attributes);
+    context->mContext = eglCreateContext(context->mDisplay, *config, EGL_NO_CONTEXT, attributes);
     if (context->mContext == EGL_NO_CONTEXT) {
         return errorStatus(ErrorCode::kUnsupported,
                            eglErrorText("eglCreateContext (OpenGL 4.5 core)"));

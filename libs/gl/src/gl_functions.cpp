@@ -7,10 +7,10 @@
 namespace plx::gl {
 
 Status loadGlFunctions(GlFunctions* gl) {
-#define PLX_GL_LOAD(type, name)                                                          \
-    gl->name = reinterpret_cast<type>(eglGetProcAddress(#name));                         \
-    if (gl->name == nullptr) {                                                           \
-        return errorStatus(ErrorCode::kUnsupported,                                      \
+#define PLX_GL_LOAD(type, name)                                                             \
+    gl->name = reinterpret_cast<type>(eglGetProcAddress(#name));                            \
+    if (gl->name == nullptr) {                                                              \
+        return errorStatus(ErrorCode::kUnsupported,                                         \
                            std::string("OpenGL entry point ") + #name + " is unavailable"); \
     }
     PLX_GL_FUNCTION_LIST(PLX_GL_LOAD)

@@ -67,12 +67,18 @@ struct DrawRange {
 
 std::string glErrorText(GLenum error) {
     switch (error) {
-        case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
-        case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
-        case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
-        case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
-        case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
-        default: return fmt::format("0x{:04x}", unsigned(error));
+        case GL_INVALID_ENUM:
+            return "GL_INVALID_ENUM";
+        case GL_INVALID_VALUE:
+            return "GL_INVALID_VALUE";
+        case GL_INVALID_OPERATION:
+            return "GL_INVALID_OPERATION";
+        case GL_INVALID_FRAMEBUFFER_OPERATION:
+            return "GL_INVALID_FRAMEBUFFER_OPERATION";
+        case GL_OUT_OF_MEMORY:
+            return "GL_OUT_OF_MEMORY";
+        default:
+            return fmt::format("0x{:04x}", unsigned(error));
     }
 }
 
@@ -96,8 +102,7 @@ struct GlRenderer::Impl {
     GLint maxRenderbufferSize = 0;
 
     GLuint program = 0;
-    GLint uClipFromWorld = -1, uLightDir = -1, uAmbient = -1, uBaseColor = -1,
-          uFirstTriangle = -1;
+    GLint uClipFromWorld = -1, uLightDir = -1, uAmbient = -1, uBaseColor = -1, uFirstTriangle = -1;
 
     GLuint vertexArray = 0, vertexBuffer = 0, indexBuffer = 0;
     std::vector<DrawRange> draws;
@@ -209,8 +214,7 @@ Status GlRenderer::Impl::ensureFramebuffer(int width, int height) {
     gl.glNamedRenderbufferStorage(depthBuffer, GL_DEPTH_COMPONENT32F, width, height);
     gl.glNamedFramebufferRenderbuffer(framebuffer, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
                                       colorBuffer);
-    gl.glNamedFramebufferRenderbuffer(framebuffer, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER,
-                                      idBuffer);
+    gl.glNamedFramebufferRenderbuffer(framebuffer, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER, idBuffer);
     gl.glNamedFramebufferRenderbuffer(framebuffer, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
                                       depthBuffer);
     const GLenum drawBuffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
@@ -334,9 +338,9 @@ Status GlRenderer::upload(const scene::Scene& scene) {
             }
         }
         if (mesh.materialIndex < 0 || size_t(mesh.materialIndex) >= scene.materials.size()) {
-            return errorStatus(ErrorCode::kInvalidArgument,
-                               fmt::format("mesh '{}' material {} out of range", mesh.name,
-                                           mesh.materialIndex));
+            return errorStatus(
+                ErrorCode::kInvalidArgument,
+                fmt::format("mesh '{}' material {} out of range", mesh.name, mesh.materialIndex));
         }
         triangles += mesh.triangleCount();
         vertices += mesh.vertexCount();
@@ -352,7 +356,8 @@ Status GlRenderer::upload(const scene::Scene& scene) {
     if (triangles >= kMaxCount || vertices >= kMaxCount) {
         return errorStatus(ErrorCode::kOutOfRange,
                            fmt::format("scene too large for one GL buffer ({} triangles, {} "
-                                       "vertices)", triangles, vertices));
+                                       "vertices)",
+                                       triangles, vertices));
     }
 
     // One merged vertex buffer (positions only: flat shading uses the face normal) and one
@@ -475,8 +480,14 @@ Result<GlTiming> GlRenderer::timeFrames(const Camera& camera, int frames) {
     return timing;
 }
 
-const std::string& GlRenderer::rendererName() const { return mImpl->rendererName; }
-const std::string& GlRenderer::versionString() const { return mImpl->versionString; }
-int GlRenderer::threads() const { return mImpl->context->threads(); }
+const std::string& GlRenderer::rendererName() const {
+    return mImpl->rendererName;
+}
+const std::string& GlRenderer::versionString() const {
+    return mImpl->versionString;
+}
+int GlRenderer::threads() const {
+    return mImpl->context->threads();
+}
 
 }  // namespace plx::gl

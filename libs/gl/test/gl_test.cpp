@@ -24,17 +24,17 @@ std::unique_ptr<GlRenderer> makeRenderer(std::string* why) {
     return std::move(renderer).value();
 }
 
-#define PLX_MAKE_RENDERER_OR_SKIP(name)                 \
-    std::string skipReason;                             \
-    auto name = makeRenderer(&skipReason);              \
+#define PLX_MAKE_RENDERER_OR_SKIP(name)    \
+    std::string skipReason;                \
+    auto name = makeRenderer(&skipReason); \
     if (!name) GTEST_SKIP() << skipReason
 
 scene::Mesh quad(const std::string& name, Vec3 lo, Vec3 hi, int material) {
     // Axis-aligned rectangle in the plane z = lo.z, two triangles along the lo-hi diagonal.
     scene::Mesh mesh;
     mesh.name = name;
-    mesh.positions = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z},
-                      {lo.x, hi.y, lo.z}};
+    mesh.positions = {
+        {lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z}};
     mesh.indices = {0, 1, 2, 0, 2, 3};
     mesh.materialIndex = material;
     return mesh;
@@ -190,8 +190,8 @@ TEST(GlRenderer, IdsStayGlobalAcrossLargeMeshes) {
     grid.name = "grid";
     for (int j = 0; j <= kCells; ++j) {
         for (int i = 0; i <= kCells; ++i) {
-            grid.positions.push_back({-3.0f + 6.0f * float(i) / kCells,
-                                      -2.0f + 4.0f * float(j) / kCells, 0.0f});
+            grid.positions.push_back(
+                {-3.0f + 6.0f * float(i) / kCells, -2.0f + 4.0f * float(j) / kCells, 0.0f});
         }
     }
     for (int j = 0; j < kCells; ++j) {
@@ -257,9 +257,8 @@ TEST(GlRenderer, ShadesFlatLambertPlusAmbientInSrgb) {
             Rgba8 got = color.at(x, y);
             Rgba8 want = GlConfig{}.clearColor;
             if (id != 0) {
-                const scene::Material& mat =
-                    scene.materials[size_t(scene.meshes[scene.meshOfTriangle(id - 1)]
-                                               .materialIndex)];
+                const scene::Material& mat = scene.materials[size_t(
+                    scene.meshes[scene.meshOfTriangle(id - 1)].materialIndex)];
                 want = encodeRgb(Vec3(mat.baseColor) * (id == 6 ? facingY : facingZ));
             }
             if (id != 0 && id != 6) ++quadPixels;

@@ -1,11 +1,14 @@
 #include "egl_context.h"
 
 #include <EGL/eglext.h>
+#include <dlfcn.h>
+#include <link.h>
 
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -49,6 +52,26 @@ int threadsFromEnvironment() {
     return (end != value && *end == '\0' && n > 0 && n < 1024) ? int(n) : 0;
 }
 
+// Keeps the Mesa DRI driver that eglInitialize loaded (any "*_dri.so") resident for the life of
+// the process. eglTerminate would otherwise unload it while allocations it made from its own
+// globals are still live; they then look leaked to LeakSanitizer, and a later eglInitialize
+// would pay for loading and relocating the driver again.
+void pinLoadedDriver() {
+    dl_iterate_phdr(
+        [](dl_phdr_info* info, size_t, void*) {
+            const char* name = info->dlpi_name;
+            size_t length = name == nullptr ? 0 : std::strlen(name);
+            constexpr std::string_view kSuffix = "_dri.so";
+            if (length > kSuffix.size() &&
+                std::string_view(name + length - kSuffix.size()) == kSuffix) {
+                // RTLD_NOLOAD only takes a reference to the copy already loaded.
+                dlopen(name, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+            }
+            return 0;
+        },
+        nullptr);
+}
+
 // Opens and initialises the surfaceless display, or adds a user to the live one.
 Result<EGLDisplay> acquireDisplay(int threads) {
     SharedDisplay& shared = sharedDisplay();
@@ -87,6 +110,7 @@ Result<EGLDisplay> acquireDisplay(int threads) {
     if (eglInitialize(display, &major, &minor) != EGL_TRUE) {
         return errorStatus(ErrorCode::kUnsupported, eglErrorText("eglInitialize (surfaceless)"));
     }
+    pinLoadedDriver();
     shared.display = display;
     shared.users = 1;
     shared.threads = threadsFromEnvironment();

@@ -161,3 +161,81 @@ TEST(Parallel, ParallelForVisitsEveryIndexOnce) {
 
 }  // namespace
 }  // namespace plx
+
+namespace plx {
+namespace {
+
+Camera centreCamera() {
+    CameraDesc d;
+    d.eyePos = {0, 1, 0};
+    d.targetPos = {0, 1, -10};
+    d.width = 640;
+    d.height = 480;
+    d.fovYDegrees = 60.0f;
+    return *Camera::create(d);
+}
+
+TEST(StereoRig, ZeroDisparityAtConvergenceDistance) {
+    StereoRigDesc desc;
+    desc.separation = 0.07f;
+    desc.convergence = 4.0f;
+    auto rig = StereoRig::create(centreCamera(), desc);
+    ASSERT_TRUE(rig.isOk());
+    float f = 240.0f / std::tan(radians(30.0f));
+    EXPECT_NEAR(rig->projectionDistancePx(), f, 1e-3f);
+    EXPECT_NEAR(rig->imageShiftPx(), 0.07f * f / 8.0f, 1e-4f);  // e f / 2c
+    for (Vec3 p : {Vec3(0, 1, -4), Vec3(1.2f, 0.3f, -4), Vec3(-0.7f, 2.0f, -4)}) {
+        Vec2 l, r;
+        ASSERT_TRUE(rig->left().projectToPixel(p, &l));
+        ASSERT_TRUE(rig->right().projectToPixel(p, &r));
+        EXPECT_NEAR(l.x, r.x, 2e-3f) << "point at the convergence distance";
+        EXPECT_NEAR(l.y, r.y, 1e-3f) << "no vertical parallax";
+    }
+    // Eq. (1): disparity e f (1/c - 1/Z) elsewhere; nearer points have crossed (negative) disparity.
+    for (float z : {1.5f, 8.0f, 40.0f}) {
+        Vec2 l, r;
+        Vec3 p(0.3f, 1.4f, -z);
+        ASSERT_TRUE(rig->left().projectToPixel(p, &l));
+        ASSERT_TRUE(rig->right().projectToPixel(p, &r));
+        EXPECT_NEAR(r.x - l.x, rig->disparityPx(z), 2e-3f) << z;
+        EXPECT_NEAR(l.y, r.y, 1e-3f);
+    }
+    EXPECT_LT(rig->disparityPx(1.0f), 0.0f);
+    EXPECT_GT(rig->disparityPx(10.0f), 0.0f);
+}
+
+TEST(StereoRig, ParallelRigHasNoShiftAndEyesOffsetAlongRight) {
+    StereoRigDesc desc;
+    desc.type = StereoRigType::kParallel;
+    desc.separation = 0.1f;
+    auto rig = StereoRig::create(centreCamera(), desc);
+    ASSERT_TRUE(rig.isOk());
+    EXPECT_EQ(rig->imageShiftPx(), 0.0f);
+    EXPECT_NEAR(glm::length(rig->right().eyePos() - rig->left().eyePos()), 0.1f, 1e-6f);
+    EXPECT_NEAR(rig->right().eyePos().x - rig->left().eyePos().x, 0.1f, 1e-6f);
+    EXPECT_EQ(rig->left().forwardDir(), rig->right().forwardDir());
+    Vec2 l, r;
+    ASSERT_TRUE(rig->left().projectToPixel({0, 1, -5}, &l));
+    ASSERT_TRUE(rig->right().projectToPixel({0, 1, -5}, &r));
+    EXPECT_NEAR(r.x - l.x, rig->disparityPx(5.0f), 2e-3f);
+}
+
+TEST(StereoRig, FirstEyeIsAParameterAndBadValuesAreRejected) {
+    StereoRigDesc desc;
+    desc.firstEye = Eye::kRight;
+    auto rig = StereoRig::create(centreCamera(), desc);
+    ASSERT_TRUE(rig.isOk());
+    EXPECT_EQ(rig->first().eyePos(), rig->right().eyePos());
+    EXPECT_EQ(rig->second().eyePos(), rig->left().eyePos());
+    desc.separation = -0.01f;
+    EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
+    desc.separation = 0.06f;
+    desc.convergence = 0.0f;
+    EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
+    desc.convergence = std::nanf("");
+    EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
+    EXPECT_FALSE(parseStereoRigType("sideways").isOk());
+}
+
+}  // namespace
+}  // namespace plx

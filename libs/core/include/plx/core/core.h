@@ -36,4 +36,5 @@
 #include <plx/core/metrics.h>
 #include <plx/core/parallel.h>
 #include <plx/core/status.h>
+#include <plx/core/stereo_rig.h>
 #include <plx/core/timing.h>

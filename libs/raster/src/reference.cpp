@@ -26,7 +26,17 @@ void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const R
                 continue;
             float b1 = float(e[2]) * invArea, b2 = float(e[0]) * invArea;
             float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
-            if (!(invW > rt.depth.at(x, y))) continue;
+            if (!(invW > rt.depth.at(x, y))) {
+                if (rt.id2.data && invW > rt.depth2.at(x, y)) {
+                    rt.depth2.at(x, y) = invW;
+                    rt.id2.at(x, y) = t.id;
+                }
+                continue;
+            }
+            if (rt.id2.data) {
+                rt.depth2.at(x, y) = rt.depth.at(x, y);
+                rt.id2.at(x, y) = rt.id.at(x, y);
+            }
             rt.depth.at(x, y) = invW;
             rt.id.at(x, y) = t.id;
             if (rt.color.data) rt.color.at(x, y) = shadeSample(t, ctx, b1, b2, invW);
@@ -73,6 +83,10 @@ void renderReference(const scene::Scene& scene, const Camera& camera, const Rend
         rt.depth.fill(0.0f);
         rt.id.fill(0u);
         if (rt.color.data) rt.color.fill(options.clearColor);
+        if (rt.id2.data) {
+            rt.depth2.fill(0.0f);
+            rt.id2.fill(0u);
+        }
     }
     if (subset) {
         for (uint32_t tri : *subset) {

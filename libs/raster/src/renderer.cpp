@@ -133,6 +133,10 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     PLX_CHECK(rt.id.width == camera.width() && rt.id.height == camera.height());
     PLX_CHECK(!rt.color.data ||
               (rt.color.width == camera.width() && rt.color.height == camera.height()));
+    PLX_CHECK((rt.id2.data == nullptr) == (rt.depth2.data == nullptr));
+    PLX_CHECK(!rt.id2.data || (rt.id2.width == camera.width() && rt.id2.height == camera.height() &&
+                               rt.depth2.width == camera.width() &&
+                               rt.depth2.height == camera.height()));
     Stopwatch clock;
     Viewport vp(camera);
     ShadeContext ctx(options);
@@ -304,6 +308,10 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             std::fill(rt.id.row(y) + x0, rt.id.row(y) + x1 + 1, 0u);
             if (rt.color.data)
                 std::fill(rt.color.row(y) + x0, rt.color.row(y) + x1 + 1, options.clearColor);
+            if (rt.id2.data) {
+                std::fill(rt.depth2.row(y) + x0, rt.depth2.row(y) + x1 + 1, 0.0f);
+                std::fill(rt.id2.row(y) + x0, rt.id2.row(y) + x1 + 1, 0u);
+            }
         }
     }
     TriangleSetup setup;

@@ -33,12 +33,25 @@ inline void narrowSpan(int64_t e, int64_t a, int64_t bias, int64_t* lo, int64_t*
 
 // Writes one covered sample (depth test, ID, colour). e1, e2: unbiased edge values of edges 2 and
 // 0, proportional to the barycentric weights b1 and b2.
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kLayer2>
 inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, int64_t e1, int64_t e2,
-                        float invArea, float* depth, uint32_t* id, Rgba8* color) {
+                        float invArea, float* depth, uint32_t* id, Rgba8* color, float* depth2,
+                        uint32_t* id2) {
     float b1 = float(e1) * invArea, b2 = float(e2) * invArea;
     float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
-    if (!(invW > *depth)) return;
+    if (!(invW > *depth)) {
+        if constexpr (kLayer2) {
+            if (invW > *depth2) {
+                *depth2 = invW;
+                *id2 = t.id;
+            }
+        }
+        return;
+    }
+    if constexpr (kLayer2) {
+        *depth2 = *depth;
+        *id2 = *id;
+    }
     *depth = invW;
     *id = t.id;
     if constexpr (kColor) {
@@ -51,7 +64,7 @@ inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, int64_t
 
 // Small triangles: walk the bounding box testing the signs of the three incrementally stepped
 // edge values. Cheaper than solving spans when rows are only a few pixels long.
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kLayer2>
 void rasterizeBox(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                   int x0, int y0, int x1, int y1) {
     int64_t ax[3], by[3], rowE[3];
@@ -71,16 +84,19 @@ void rasterizeBox(const TriangleSetup& t, const ShadeContext& ctx, const RenderT
         float* depthRow = rt.depth.row(y);
         uint32_t* idRow = rt.id.row(y);
         Rgba8* colorRow = kColor ? rt.color.row(y) : nullptr;
+        float* depth2Row = kLayer2 ? rt.depth2.row(y) : nullptr;
+        uint32_t* id2Row = kLayer2 ? rt.id2.row(y) : nullptr;
         for (int x = x0; x <= x1; ++x, e0 += ax[0], e1 += ax[1], e2 += ax[2]) {
             if ((e0 | e1 | e2) < 0) continue;
-            writeSample<kShading, kColor>(t, ctx, e2 - t.edgeBias[2], e0 - t.edgeBias[0], invArea,
-                                          depthRow + x, idRow + x,
-                                          kColor ? colorRow + x : nullptr);
+            writeSample<kShading, kColor, kLayer2>(
+                t, ctx, e2 - t.edgeBias[2], e0 - t.edgeBias[0], invArea, depthRow + x, idRow + x,
+                kColor ? colorRow + x : nullptr, kLayer2 ? depth2Row + x : nullptr,
+                kLayer2 ? id2Row + x : nullptr);
         }
     }
 }
 
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kLayer2>
 void rasterizeSpans(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                     int x0, int y0, int x1, int y1) {
     // Edge i runs from vertex i to vertex j = i+1; stepping one pixel in x adds ax[i], in y by[i].
@@ -104,10 +120,13 @@ void rasterizeSpans(const TriangleSetup& t, const ShadeContext& ctx, const Rende
         float* depthRow = rt.depth.row(y);
         uint32_t* idRow = rt.id.row(y);
         Rgba8* colorRow = kColor ? rt.color.row(y) : nullptr;
+        float* depth2Row = kLayer2 ? rt.depth2.row(y) : nullptr;
+        uint32_t* id2Row = kLayer2 ? rt.id2.row(y) : nullptr;
         for (int64_t k = lo; k <= hi; ++k, e1 += ax[2], e2 += ax[0]) {
             int x = x0 + int(k);
-            writeSample<kShading, kColor>(t, ctx, e1, e2, invArea, depthRow + x, idRow + x,
-                                          kColor ? colorRow + x : nullptr);
+            writeSample<kShading, kColor, kLayer2>(
+                t, ctx, e1, e2, invArea, depthRow + x, idRow + x, kColor ? colorRow + x : nullptr,
+                kLayer2 ? depth2Row + x : nullptr, kLayer2 ? id2Row + x : nullptr);
         }
     }
 }
@@ -127,16 +146,22 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     bool box = x1 - x0 < kBoxWidth;
     bool color = rt.color.data != nullptr;
     bool flat = ctx.shading == Shading::kFlat;
-    auto run = [&]<Shading kS, bool kC>() {
+    auto run = [&]<Shading kS, bool kC, bool kL2>() {
         if (box)
-            rasterizeBox<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+            rasterizeBox<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1);
         else
-            rasterizeSpans<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+            rasterizeSpans<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1);
     };
-    if (flat && color) run.template operator()<Shading::kFlat, true>();
-    else if (flat) run.template operator()<Shading::kFlat, false>();
-    else if (color) run.template operator()<Shading::kGouraud, true>();
-    else run.template operator()<Shading::kGouraud, false>();
+    if (rt.id2.data) {
+        if (!color) run.template operator()<Shading::kFlat, false, true>();
+        else if (flat) run.template operator()<Shading::kFlat, true, true>();
+        else run.template operator()<Shading::kGouraud, true, true>();
+        return;
+    }
+    if (flat && color) run.template operator()<Shading::kFlat, true, false>();
+    else if (flat) run.template operator()<Shading::kFlat, false, false>();
+    else if (color) run.template operator()<Shading::kGouraud, true, false>();
+    else run.template operator()<Shading::kGouraud, false, false>();
 }
 
 }  // namespace plx::raster::detail

@@ -218,6 +218,39 @@ TEST(Raster, IdAtEachPixelIsTheDepthWinner) {
     EXPECT_TRUE(full.id == bestId);
     EXPECT_TRUE(full.depth == bestDepth);
     EXPECT_GT(countDistinctIds(full.id), 20u);
+
+    // The optional second layer holds the nearest surface behind the winner.
+    Image<float> depth2(80, 60, 0.0f), secondDepth(80, 60, 0.0f);
+    Image<uint32_t> id2(80, 60, 0u), secondId(80, 60, 0u);
+    RenderTargets layered = full.targets();
+    layered.depth2 = depth2.view();
+    layered.id2 = id2.view();
+    r->render(s, cam, {}, layered);
+    for (uint32_t t = 0; t < s.triangleCount(); ++t) {
+        std::span<const uint32_t> single(&t, 1);
+        r->renderSubset(s, cam, single, {}, one.targets());
+        for (size_t i = 0; i < one.id.pixelCount(); ++i) {
+            float d = one.depth.data()[i];
+            if (one.id.data()[i] && one.id.data()[i] != bestId.data()[i] &&
+                d > secondDepth.data()[i]) {
+                secondDepth.data()[i] = d;
+                secondId.data()[i] = one.id.data()[i];
+            }
+        }
+    }
+    EXPECT_TRUE(id2 == secondId);
+    EXPECT_TRUE(depth2 == secondDepth);
+    EXPECT_GT(countDistinctIds(id2), 10u);
+    FrameBuffers ref;
+    ref.resize(80, 60);
+    Image<float> refDepth2(80, 60);
+    Image<uint32_t> refId2(80, 60);
+    RenderTargets refTargets = ref.targets();
+    refTargets.depth2 = refDepth2.view();
+    refTargets.id2 = refId2.view();
+    renderReference(s, cam, {}, refTargets);
+    EXPECT_TRUE(refId2 == id2);
+    EXPECT_TRUE(refDepth2 == depth2);
 }
 
 TEST(Raster, FastPathEqualsScalarReference) {

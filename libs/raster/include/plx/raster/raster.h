@@ -35,6 +35,10 @@ struct RenderTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;      // 1/w, see Conventions; 0 = cleared
     ImageView<uint32_t> id;      // global triangle index + 1; 0 = cleared
+    // Optional second layer (both or neither): the nearest surface behind the visible one at each
+    // pixel, its 1/w and ID. The stereo module's conservative visible set reads it.
+    ImageView<float> depth2;
+    ImageView<uint32_t> id2;
 };
 
 struct RenderOptions {
@@ -98,7 +102,7 @@ struct FrameBuffers {
     Image<uint32_t> id;
 
     void resize(int width, int height);
-    RenderTargets targets() { return {color.view(), depth.view(), id.view()}; }
+    RenderTargets targets() { return {color.view(), depth.view(), id.view(), {}, {}}; }
 };
 
 // Number of distinct non-zero IDs in an ID target (the visible triangles).

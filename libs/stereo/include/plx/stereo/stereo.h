@@ -1,0 +1,116 @@
+#pragma once
+// Stereo pairs by reusing visibility (Heo, Jung, Wohn, section IV).
+//
+// Methods:
+//  - full:    both eyes through the whole pipeline (the paper's baseline);
+//  - pbuffer: the first eye is rendered with the P-buffer (polygon-ID target); the visible flag of
+//             every polygon whose ID appears in it is set (Fig. 6, last loop); the second eye is
+//             rendered from the visible polygons only.
+// Beyond the paper, the conservative option widens the visible set towards what the second eye
+// sees and the first does not: a guard band of extra first-eye columns (polygons just outside the
+// first eye's frustum) and a second depth layer along depth discontinuities (polygons just behind
+// foreground edges), both sized from the eye separation (see conservative.cpp).
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <plx/raster/raster.h>
+
+namespace plx::stereo {
+
+enum class Method { kFull, kPBuffer };
+Result<Method> parseMethod(const std::string& name);
+const char* methodName(Method method);
+
+struct StereoOptions {
+    Method method = Method::kPBuffer;
+    bool conservative = false;
+    raster::RenderOptions render;
+};
+
+struct StereoFrameStats {
+    double firstEyeMs = 0.0;    // first eye, including the P-buffer (same pass)
+    double collectMs = 0.0;     // visible-set collection from the P-buffer (pbuffer method)
+    double secondEyeMs = 0.0;   // second eye (full render, or the visible subset)
+    double pairMs = 0.0;        // first + collect + second
+    size_t triangles = 0;               // scene triangles
+    size_t visibleTriangles = 0;        // distinct IDs in the first eye's P-buffer
+    size_t secondEyeTriangles = 0;      // triangles submitted for the second eye
+    size_t conservativeExtra = 0;       // triangles the conservative option added
+    int guardBandPx = 0;                // extra first-eye columns on each side (conservative)
+};
+
+// Colour, depth and IDs of both eyes.
+struct StereoFrame {
+    raster::FrameBuffers left, right;
+    raster::FrameBuffers& eye(Eye e) { return e == Eye::kLeft ? left : right; }
+    const raster::FrameBuffers& eye(Eye e) const { return e == Eye::kLeft ? left : right; }
+};
+
+// Collects the distinct polygon IDs of a P-buffer as sorted triangle indices, in
+// O(pixels + visible) per frame: each triangle has an epoch stamp, and a new frame only bumps
+// the epoch instead of clearing a flag per polygon (so the scene size never enters the cost
+// after the one-time allocation).
+class VisibleSetCollector {
+public:
+    // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
+    void add(const Image<uint32_t>& ids);
+    // Adds the IDs of the pixels where mask is non-zero.
+    void addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask);
+    // Starts a new set for a scene of triangleCount triangles.
+    void begin(size_t triangleCount);
+    // The set so far, ascending (ascending order keeps the full render's draw order, so exact
+    // depth ties resolve the same way in both methods).
+    const std::vector<uint32_t>& sorted();
+    size_t size() const { return mList.size(); }
+    bool contains(uint32_t triangle) const {
+        return triangle < mStamp.size() && mStamp[triangle] == mEpoch;
+    }
+
+private:
+    std::vector<uint32_t> mStamp;  // per triangle: the epoch in which it was last seen
+    uint32_t mEpoch = 0;
+    std::vector<uint32_t> mList;
+    bool mSorted = true;
+};
+
+struct StereoRendererConfig {
+    int threads = 0;  // 0: all hardware threads
+};
+
+class StereoRenderer {
+public:
+    static Result<std::unique_ptr<StereoRenderer>> create(const StereoRendererConfig& config = {});
+    ~StereoRenderer();
+
+    // Renders both eyes of the rig into `frame` (resized as needed) with the given method.
+    StereoFrameStats renderPair(const scene::Scene& scene, const StereoRig& rig,
+                                const StereoOptions& options, StereoFrame* frame);
+
+    // Triangle indices the second eye was drawn from in the last pbuffer frame (ascending).
+    std::span<const uint32_t> lastVisibleSet() const;
+    raster::Renderer& renderer();
+
+private:
+    struct Impl;
+    explicit StereoRenderer(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
+
+// Quality of an approximate second eye against the full render of the same eye.
+struct SecondEyeQuality {
+    double psnrDb = 0.0;              // RGB, +infinity when identical
+    double differingFraction = 0.0;   // pixels whose colour differs at all
+    int64_t differingPixels = 0;
+    size_t missedPolygons = 0;        // polygons visible in the full render but not drawn
+    int64_t missedPixels = 0;         // pixels whose ID differs from the full render
+};
+
+// drawn: the triangle set the approximation was rendered from (sorted ascending).
+SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
+                                  const raster::FrameBuffers& full,
+                                  std::span<const uint32_t> drawn);
+
+}  // namespace plx::stereo

@@ -1,0 +1,50 @@
+#pragma once
+// The experiment of Heo, Jung, Wohn Table 1 and Fig. 17: office:N for growing N, both methods,
+// per N the polygon counts, the time of each eye, the pair speedup and the second eye's quality.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+
+struct StereoExperimentConfig {
+    std::vector<int> rooms{1, 2, 4, 8, 15, 32, 64, 128, 280};  // 280 rooms: over 1M triangles
+    int width = 640, height = 480;
+    int frames = 5;                // timed frames per method (median); one warm-up frame first
+    int threads = 0;
+    StereoRigDesc rig;             // default separation and convergence
+    raster::Shading shading = raster::Shading::kFlat;  // the paper's constant shading
+    bool conservative = true;      // also measure the conservative option
+};
+
+struct StereoExperimentRow {
+    int rooms = 0;
+    size_t polygons = 0, visiblePolygons = 0;
+    double fullFirstMs = 0, fullSecondMs = 0;      // full pipeline, each eye
+    double pbufferFirstMs = 0, pbufferSecondMs = 0, collectMs = 0;
+    double pairSpeedup = 0;                        // full pair / pbuffer pair
+    double secondEyePsnrDb = 0, differingFraction = 0;
+    size_t missedPolygons = 0;
+    int64_t missedPixels = 0;
+    // Conservative option (zero when not measured).
+    size_t conservativeExtra = 0;
+    double conservativeFirstMs = 0, conservativeSecondMs = 0, conservativePsnrDb = 0;
+    size_t conservativeMissedPolygons = 0;
+    int64_t conservativeMissedPixels = 0;
+};
+
+// Runs the experiment; progress(i, n) is called after each row. Errors: bad config or scenes.
+Result<std::vector<StereoExperimentRow>> runStereoExperiment(
+    const StereoExperimentConfig& config,
+    const std::function<void(size_t, size_t)>& progress = nullptr);
+
+nlohmann::json experimentToJson(const StereoExperimentConfig& config,
+                                const std::vector<StereoExperimentRow>& rows);
+std::string experimentToCsv(const std::vector<StereoExperimentRow>& rows);
+
+}  // namespace plx::stereo

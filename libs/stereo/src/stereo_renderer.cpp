@@ -1,0 +1,137 @@
+// Stereo pair rendering: the full and P-buffer methods of Heo, Jung, Wohn, and the conservative
+// extension.
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <plx/stereo/stereo.h>
+
+#include "conservative.h"
+
+namespace plx::stereo {
+
+Result<Method> parseMethod(const std::string& name) {
+    if (name == "full") return Method::kFull;
+    if (name == "pbuffer") return Method::kPBuffer;
+    return errorStatus(ErrorCode::kInvalidArgument,
+                       fmt::format("unknown stereo method '{}' (full, pbuffer)", name));
+}
+
+const char* methodName(Method method) { return method == Method::kFull ? "full" : "pbuffer"; }
+
+struct StereoRenderer::Impl {
+    std::unique_ptr<raster::Renderer> renderer;
+    VisibleSetCollector collector;
+    ConservativeScratch conservative;
+    std::vector<uint32_t> lastSet;
+
+    void renderFull(const scene::Scene& scene, const StereoRig& rig, const StereoOptions& options,
+                    StereoFrame* frame, StereoFrameStats* stats);
+    void renderPBuffer(const scene::Scene& scene, const StereoRig& rig,
+                       const StereoOptions& options, StereoFrame* frame, StereoFrameStats* stats);
+};
+
+Result<std::unique_ptr<StereoRenderer>> StereoRenderer::create(const StereoRendererConfig& config) {
+    auto renderer = raster::Renderer::create({config.threads, 64});
+    if (!renderer) return renderer.status();
+    auto impl = std::make_unique<Impl>();
+    impl->renderer = std::move(renderer).value();
+    return std::unique_ptr<StereoRenderer>(new StereoRenderer(std::move(impl)));
+}
+
+StereoRenderer::StereoRenderer(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+StereoRenderer::~StereoRenderer() = default;
+std::span<const uint32_t> StereoRenderer::lastVisibleSet() const { return mImpl->lastSet; }
+raster::Renderer& StereoRenderer::renderer() { return *mImpl->renderer; }
+
+StereoFrameStats StereoRenderer::renderPair(const scene::Scene& scene, const StereoRig& rig,
+                                            const StereoOptions& options, StereoFrame* frame) {
+    const Camera& cam = rig.first();
+    for (Eye e : {Eye::kLeft, Eye::kRight})
+        if (frame->eye(e).id.width() != cam.width() || frame->eye(e).id.height() != cam.height())
+            frame->eye(e).resize(cam.width(), cam.height());
+    StereoFrameStats stats;
+    stats.triangles = scene.triangleCount();
+    if (options.method == Method::kFull)
+        mImpl->renderFull(scene, rig, options, frame, &stats);
+    else
+        mImpl->renderPBuffer(scene, rig, options, frame, &stats);
+    stats.pairMs = stats.firstEyeMs + stats.collectMs + stats.secondEyeMs;
+    return stats;
+}
+
+void StereoRenderer::Impl::renderFull(const scene::Scene& scene, const StereoRig& rig,
+                                      const StereoOptions& options, StereoFrame* frame,
+                                      StereoFrameStats* stats) {
+    raster::FrameBuffers& first = frame->eye(rig.desc().firstEye);
+    raster::FrameBuffers& second = frame->eye(rig.secondEye());
+    Stopwatch clock;
+    renderer->render(scene, rig.first(), options.render, first.targets());
+    stats->firstEyeMs = clock.elapsedMs();
+    clock.restart();
+    renderer->render(scene, rig.second(), options.render, second.targets());
+    stats->secondEyeMs = clock.elapsedMs();
+    stats->secondEyeTriangles = scene.triangleCount();
+    // Not part of the method's cost: how many polygons the first eye sees, for the tables.
+    collector.begin(scene.triangleCount());
+    collector.add(first.id);
+    stats->visibleTriangles = collector.size();
+    lastSet.clear();
+}
+
+void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const StereoRig& rig,
+                                         const StereoOptions& options, StereoFrame* frame,
+                                         StereoFrameStats* stats) {
+    raster::FrameBuffers& first = frame->eye(rig.desc().firstEye);
+    raster::FrameBuffers& second = frame->eye(rig.secondEye());
+    Stopwatch clock;
+    if (options.conservative) {
+        // First eye over a guard band, with a second depth layer; then crop to the image.
+        stats->guardBandPx =
+            renderConservativeFirstEye(*renderer, scene, rig, options, &conservative, &first);
+    } else {
+        renderer->render(scene, rig.first(), options.render, first.targets());
+    }
+    stats->firstEyeMs = clock.elapsedMs();
+
+    // Fig. 6, last loop: the visible flag of every polygon in the P-buffer.
+    clock.restart();
+    collector.begin(scene.triangleCount());
+    collector.add(first.id);
+    stats->visibleTriangles = collector.size();
+    if (options.conservative) addConservativePolygons(conservative, &collector);
+    stats->conservativeExtra = collector.size() - stats->visibleTriangles;
+    const std::vector<uint32_t>& set = collector.sorted();
+    stats->collectMs = clock.elapsedMs();
+
+    clock.restart();
+    renderer->renderSubset(scene, rig.second(), set, options.render, second.targets());
+    stats->secondEyeMs = clock.elapsedMs();
+    stats->secondEyeTriangles = set.size();
+    lastSet.assign(set.begin(), set.end());
+}
+
+SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
+                                  const raster::FrameBuffers& full,
+                                  std::span<const uint32_t> drawn) {
+    SecondEyeQuality q;
+    ImageDiffStats d = compareImages(approx.color, full.color, 0);
+    q.psnrDb = d.psnrDb;
+    q.differingPixels = d.differingPixels;
+    q.differingFraction = double(d.differingPixels) / double(std::max<size_t>(1, full.color.pixelCount()));
+    std::vector<uint32_t> seen;
+    for (size_t i = 0; i < full.id.pixelCount(); ++i) {
+        uint32_t id = full.id.data()[i];
+        if (id != approx.id.data()[i]) ++q.missedPixels;
+        if (id) seen.push_back(id - 1);
+    }
+    std::sort(seen.begin(), seen.end());
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    for (uint32_t t : seen)
+        if (!std::binary_search(drawn.begin(), drawn.end(), t)) ++q.missedPolygons;
+    return q;
+}
+
+}  // namespace plx::stereo

@@ -1,0 +1,193 @@
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include <plx/scene/generators.h>
+#include <plx/stereo/experiment.h>
+#include <plx/stereo/layout.h>
+#include <plx/stereo/path.h>
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+namespace {
+
+Camera officeCamera(const scene::Scene& s, int w = 160, int h = 120) {
+    const scene::Viewpoint& vp = s.viewpoints.front();
+    CameraDesc d;
+    d.eyePos = vp.eyePos;
+    d.targetPos = vp.targetPos;
+    d.upDir = vp.upDir;
+    d.fovYDegrees = vp.fovYDegrees;
+    d.width = w;
+    d.height = h;
+    scene::clipPlanesFor(s.bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
+    return *Camera::create(d);
+}
+
+std::unique_ptr<StereoRenderer> makeRenderer() {
+    return std::move(StereoRenderer::create({2})).value();
+}
+
+std::set<uint32_t> distinctTriangles(const Image<uint32_t>& ids) {
+    std::set<uint32_t> out;
+    for (size_t i = 0; i < ids.pixelCount(); ++i)
+        if (ids.data()[i]) out.insert(ids.data()[i] - 1);
+    return out;
+}
+
+TEST(Stereo, VisibleSetIsTheDistinctIdsOfThePBuffer) {
+    scene::Scene s = *scene::generateOffice(4);
+    auto rig = StereoRig::create(officeCamera(s), {});
+    ASSERT_TRUE(rig.isOk());
+    auto r = makeRenderer();
+    StereoFrame frame;
+    StereoFrameStats st = r->renderPair(s, *rig, {}, &frame);
+    std::set<uint32_t> expected = distinctTriangles(frame.eye(rig->desc().firstEye).id);
+    std::vector<uint32_t> got(r->lastVisibleSet().begin(), r->lastVisibleSet().end());
+    EXPECT_EQ(std::set<uint32_t>(got.begin(), got.end()), expected);
+    EXPECT_TRUE(std::is_sorted(got.begin(), got.end()));
+    EXPECT_EQ(st.visibleTriangles, expected.size());
+    EXPECT_EQ(st.secondEyeTriangles, expected.size());
+    EXPECT_LT(st.visibleTriangles, s.triangleCount() / 4);
+}
+
+TEST(Stereo, CollectorForgetsEarlierFrames) {
+    VisibleSetCollector c;
+    Image<uint32_t> a(4, 1), b(4, 1);
+    a.at(0, 0) = 3;
+    a.at(1, 0) = 5;
+    b.at(2, 0) = 2;
+    c.begin(10);
+    c.add(a);
+    EXPECT_EQ(c.sorted(), (std::vector<uint32_t>{2, 4}));
+    c.begin(10);
+    c.add(b);
+    EXPECT_EQ(c.sorted(), (std::vector<uint32_t>{1}));
+    EXPECT_FALSE(c.contains(2));
+    EXPECT_TRUE(c.contains(1));
+}
+
+TEST(Stereo, SubsetOfAllIdsReproducesTheFullRender) {
+    scene::Scene s = *scene::generateOffice(2);
+    Camera cam = officeCamera(s);
+    auto r = makeRenderer();
+    raster::FrameBuffers full, subset;
+    full.resize(cam.width(), cam.height());
+    subset.resize(cam.width(), cam.height());
+    r->renderer().render(s, cam, {}, full.targets());
+    std::set<uint32_t> ids = distinctTriangles(full.id);
+    std::vector<uint32_t> visible(ids.begin(), ids.end());
+    r->renderer().renderSubset(s, cam, visible, {}, subset.targets());
+    EXPECT_TRUE(subset.id == full.id);
+    EXPECT_TRUE(subset.depth == full.depth);
+    EXPECT_TRUE(subset.color == full.color);
+}
+
+TEST(Stereo, ZeroSeparationGivesIdenticalImagesForBothMethods) {
+    scene::Scene s = *scene::generateOffice(3);
+    StereoRigDesc desc;
+    desc.separation = 0.0f;
+    auto rig = StereoRig::create(officeCamera(s), desc);
+    ASSERT_TRUE(rig.isOk());
+    auto r = makeRenderer();
+    StereoFrame full, pbuf;
+    StereoOptions options;
+    options.method = Method::kFull;
+    r->renderPair(s, *rig, options, &full);
+    options.method = Method::kPBuffer;
+    r->renderPair(s, *rig, options, &pbuf);
+    for (Eye e : {Eye::kLeft, Eye::kRight}) {
+        EXPECT_TRUE(full.eye(e).color == pbuf.eye(e).color);
+        EXPECT_TRUE(full.eye(e).id == pbuf.eye(e).id);
+    }
+    SecondEyeQuality q = compareSecondEye(pbuf.eye(rig->secondEye()), full.eye(rig->secondEye()),
+                                          r->lastVisibleSet());
+    EXPECT_TRUE(std::isinf(q.psnrDb));
+    EXPECT_EQ(q.missedPolygons, 0u);
+}
+
+TEST(Stereo, SecondEyeIsCloseToFullAndConservativeRecoversMissedPolygons) {
+    scene::Scene s = *scene::generateOffice(6);
+    StereoRigDesc desc;
+    desc.separation = 0.2f;  // wide, so that some polygons are newly visible to the second eye
+    auto rig = StereoRig::create(officeCamera(s, 200, 150), desc);
+    ASSERT_TRUE(rig.isOk());
+    auto r = makeRenderer();
+    StereoFrame full, pbuf, cons;
+    StereoOptions options;
+    options.method = Method::kFull;
+    r->renderPair(s, *rig, options, &full);
+    options.method = Method::kPBuffer;
+    r->renderPair(s, *rig, options, &pbuf);
+    std::vector<uint32_t> plainSet(r->lastVisibleSet().begin(), r->lastVisibleSet().end());
+    options.conservative = true;
+    StereoFrameStats cst = r->renderPair(s, *rig, options, &cons);
+    Eye second = rig->secondEye();
+    SecondEyeQuality plain = compareSecondEye(pbuf.eye(second), full.eye(second), plainSet);
+    SecondEyeQuality conservative =
+        compareSecondEye(cons.eye(second), full.eye(second), r->lastVisibleSet());
+    EXPECT_GT(plain.missedPolygons, 0u) << "the test needs a separation that reveals polygons";
+    EXPECT_LT(conservative.missedPolygons, plain.missedPolygons);
+    EXPECT_LT(conservative.missedPixels, plain.missedPixels);
+    EXPECT_GT(cst.conservativeExtra, 0u);
+    EXPECT_GT(cst.guardBandPx, 0);
+    EXPECT_GT(plain.psnrDb, 20.0);
+    // The first eye's image is the same with and without the guard band (up to rounding of the
+    // wider projection on a few edge pixels).
+    ImageDiffStats d = compareImages(cons.eye(rig->desc().firstEye).color,
+                                     pbuf.eye(rig->desc().firstEye).color, 0);
+    EXPECT_LT(d.differingPixels, 200 * 150 / 100);
+}
+
+TEST(Stereo, LayoutsPlaceTheEyesAsDocumented) {
+    Image<Rgba8> l(3, 2, Rgba8{200, 10, 20, 255}), r(3, 2, Rgba8{5, 100, 150, 255});
+    Image<Rgba8> sbs = composeStereo(l, r, Layout::kSideBySide);
+    EXPECT_EQ(sbs.width(), 6);
+    EXPECT_EQ(sbs.at(0, 1), l.at(0, 1));
+    EXPECT_EQ(sbs.at(3, 0), r.at(0, 0));
+    Image<Rgba8> tb = composeStereo(l, r, Layout::kTopBottom);
+    EXPECT_EQ(tb.height(), 4);
+    EXPECT_EQ(tb.at(2, 3), r.at(2, 1));
+    Image<Rgba8> ana = composeStereo(l, r, Layout::kAnaglyph);
+    EXPECT_EQ(ana.at(1, 1), (Rgba8{200, 100, 150, 255}));
+    Image<Rgba8> il = composeStereo(l, r, Layout::kInterleaved);
+    EXPECT_EQ(il.at(0, 0), l.at(0, 0));
+    EXPECT_EQ(il.at(0, 1), r.at(0, 1));
+}
+
+TEST(Stereo, BadNamesAndPathsGiveClearErrors) {
+    EXPECT_FALSE(parseMethod("raytrace").isOk());
+    EXPECT_FALSE(parseLayout("hologram").isOk());
+    EXPECT_NE(parsePath("[").status().message().find("JSON"), std::string::npos);
+    EXPECT_NE(parsePath("[]").status().message().find("no poses"), std::string::npos);
+    EXPECT_NE(parsePath(R"([{"eye":[0,0,0]}])").status().message().find("target"),
+              std::string::npos);
+    EXPECT_NE(parsePath(R"([{"eye":[0,0,"x"],"target":[0,0,1]}])").status().message().find("eye"),
+              std::string::npos);
+    EXPECT_FALSE(parsePath(R"([{"eye":[0,0,0],"target":[0,0,1],"fov":500}])").isOk());
+    auto ok = parsePath(R"({"poses":[{"eye":[0,1,0],"target":[0,1,-1],"fov":50}]})");
+    ASSERT_TRUE(ok.isOk());
+    EXPECT_EQ(ok->size(), 1u);
+    EXPECT_EQ((*ok)[0].fovYDegrees, 50.0f);
+}
+
+TEST(Stereo, ExperimentProducesRowsWithSpeedupAndQuality) {
+    StereoExperimentConfig config;
+    config.rooms = {1, 3};
+    config.width = 96;
+    config.height = 72;
+    config.frames = 1;
+    auto rows = runStereoExperiment(config);
+    ASSERT_TRUE(rows.isOk()) << rows.status().toString();
+    ASSERT_EQ(rows->size(), 2u);
+    EXPECT_GT((*rows)[1].polygons, (*rows)[0].polygons);
+    EXPECT_GT((*rows)[0].visiblePolygons, 0u);
+    EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
+    EXPECT_GT((*rows)[0].secondEyePsnrDb, 20.0);
+    nlohmann::json j = experimentToJson(config, *rows);
+    EXPECT_EQ(j["rows"].size(), 2u);
+    EXPECT_NE(experimentToCsv(*rows).find("pair_speedup"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace plx::stereo

@@ -64,6 +64,9 @@ struct SceneStats {
     size_t textures = 0;
     size_t textureBytes = 0;  // all mip levels, RGBA8
     size_t degenerateTrianglesDropped = 0;
+    // Textures a file referred to that could not be loaded (missing or undecodable); the
+    // materials using them fall back to their base colour.
+    size_t texturesMissing = 0;
     Aabb bounds;
 };
 
@@ -87,8 +90,9 @@ public:
     const Aabb& bounds() const { return mBounds; }
     SceneStats stats() const;
 
-    // Counted during import for statistics; finalize() does not change it.
+    // Counted during import for statistics; finalize() does not change them.
     size_t degenerateTrianglesDropped = 0;
+    size_t texturesMissing = 0;
 
 private:
     std::vector<size_t> mFirstTriangle;  // per mesh, prefix sums of triangle counts

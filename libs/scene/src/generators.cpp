@@ -244,9 +244,8 @@ constexpr int kMaxUniquePaintings = 128;
 enum MuseumMaterial { kMuseumFloor, kMuseumWall, kMuseumCeiling, kMuseumFrame, kMuseumFixed };
 
 Rgba8 rgb8(const Vec3& c) {
-    Vec3 v = glm::clamp(c, Vec3(0.0f), Vec3(1.0f));
-    return {uint8_t(std::lround(v.r * 255)), uint8_t(std::lround(v.g * 255)),
-            uint8_t(std::lround(v.b * 255)), 255};
+    Vec3 v = glm::clamp(c, Vec3(0.0f), Vec3(1.0f)) * 255.0f + 0.5f;  // round to nearest
+    return {uint8_t(v.r), uint8_t(v.g), uint8_t(v.b), 255};
 }
 
 Vec3 hashColour(uint32_t h) {

@@ -39,7 +39,9 @@ struct Mesh {
     std::string name;
     std::vector<Vec3> positions;
     std::vector<Vec3> normals;     // unit length, one per position
-    std::vector<Vec2> uvs;         // one per position, or empty when the mesh has none
+    // One per position, or empty when the mesh has none. (0,0) is the top-left texel of the
+    // texture's mips[0] (glTF's convention); values outside [0,1] repeat the texture.
+    std::vector<Vec2> uvs;
     std::vector<uint32_t> indices; // three per triangle, each < positions.size()
     int materialIndex = 0;         // index into Scene::materials
 

@@ -183,6 +183,12 @@ TEST(ImportErrors, AbsurdDeclaredCountsAreRefusedBeforeReading) {
                           "ply\nformat ascii 1.0\nelement vertex -5\nproperty float x\n"
                           "end_header\n"),
                 "bad count");
+    // A glTF accessor declaring far more elements than its buffer holds.
+    std::string gltf = readText(fixture("quad_camera.gltf"));
+    size_t at = gltf.find("\"count\": 6,");
+    ASSERT_NE(at, std::string::npos);
+    gltf.replace(at, 11, "\"count\": 600000000,");
+    expectError(writeFile(dir, "huge.gltf", gltf), "out of range");
     ImportOptions small;
     small.maxTriangles = 2;
     expectError(fixture("tiny.obj"), "more than 2", small);

@@ -3,7 +3,7 @@
 
 add_library(plx_warnings INTERFACE)
 target_compile_options(plx_warnings INTERFACE -Wall -Wextra -Wpedantic -Wshadow
-    -Wnon-virtual-dtor -Wcast-align -Wunused -Woverloaded-virtual -Wnull-dereference
+    -Wnon-virtual-dtor -Wcast-align -Wunused -Woverloaded-virtual
     # GCC 12 reports false positives through std::variant and std::optional (Result<T>).
     -Wno-maybe-uninitialized)
 if(PLX_WERROR)

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <plx/raster/raster.h>
+#include <plx/scene/generators.h>
 #include <plx/scene/import.h>
 
 #include "demo.h"

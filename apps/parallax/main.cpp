@@ -11,11 +11,9 @@ int main(int argc, char** argv) {
     app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
 
     std::vector<Command> commands = {
-#if PLX_CLI_HAS_INFO
         registerRender(app),
         registerDemo(app),
         registerInfo(app),
-#endif
         registerPtm(app),
     };
     try {

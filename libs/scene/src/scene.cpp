@@ -110,6 +110,7 @@ SceneStats Scene::stats() const {
     for (const Texture& t : textures)
         for (const auto& mip : t.mips) s.textureBytes += mip.pixelCount() * sizeof(Rgba8);
     s.degenerateTrianglesDropped = degenerateTrianglesDropped;
+    s.texturesMissing = texturesMissing;
     s.bounds = mBounds;
     return s;
 }

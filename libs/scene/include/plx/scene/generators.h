@@ -3,11 +3,16 @@
 //
 // office:N - the P-buffer paper's office room (Heo, Jung, Wohn, section V) "after removing walls
 //   and adding posts to make it somewhat open": desks, chairs, partitions, shelves, posts and a
-//   floor, about 3,600 triangles per room, replicated N times on a near-square grid as in the
-//   paper's Table 1. Default viewpoint: inside the first room looking across the floor, so that
-//   the number of visible polygons levels off as N grows.
-// museum:N - N textured rooms joined by doorways with paintings on the walls (procedural
-//   textures), for the texture-streaming work.
+//   floor, 3,632 triangles per 8 m x 8 m room (the paper's room has 3,652 polygons), replicated
+//   N times on a near-square grid of ceil(sqrt(N)) columns as in the paper's Table 1, one merged
+//   mesh per material. Viewpoints: "default" inside the corner room at eye height looking
+//   diagonally across the grid, tilted 12 degrees down, so that the number of visible polygons
+//   levels off as N grows; "overview" from above.
+// museum:N - N 10 m x 10 m textured rooms on a near-square grid joined by doorways, one painting
+//   per wall (each with its own procedural 256x256, 512x512 or 512x256 texture, up to 128
+//   distinct ones), tiled floor and plaster walls. Viewpoints: "default" in room 0 looking
+//   through the doorway along +x, "overview".
+// Metres, y up; all faces wound counter-clockwise seen from outside with outward normals.
 
 #include <plx/scene/scene.h>
 
@@ -17,7 +22,9 @@ namespace plx::scene {
 constexpr int kMaxOfficeRooms = 4096;
 constexpr int kMaxMuseumRooms = 1024;
 
+// The office with `rooms` copies of the room. Errors: rooms outside 1..kMaxOfficeRooms.
 Result<Scene> generateOffice(int rooms);
+// The museum with `rooms` rooms. Errors: rooms outside 1..kMaxMuseumRooms.
 Result<Scene> generateMuseum(int rooms);
 
 // Parses and runs a generator spec. Unknown names and bad counts give kInvalidArgument.

@@ -14,9 +14,14 @@ struct ImportOptions {
     size_t maxTriangles = size_t(1) << 28;
 };
 
-// Imports a model file. Errors name the file and the problem (missing, unreadable, corrupt,
-// no triangles, non-finite vertices, absurd counts). Degenerate triangles (repeated or
-// collinear vertices) are dropped and counted in Scene::degenerateTrianglesDropped.
+// Imports a model file: triangles of every mesh instance baked into world space, normals kept
+// (generated where absent, smooth up to 80 degrees), the first UV set, base colour factors and
+// textures (embedded or next to the model; one that cannot be loaded leaves the material
+// untextured and is counted in Scene::texturesMissing), cameras as viewpoints. Errors name the
+// file and the problem (missing, empty, corrupt or truncated, no triangles, non-finite
+// vertices, absurd declared counts: PLY headers and OBJ contents are checked against the file
+// size and options.maxTriangles before assimp allocates anything). Degenerate triangles
+// (repeated indices or zero area) are dropped and counted in Scene::degenerateTrianglesDropped.
 Result<Scene> importFile(const std::string& path, const ImportOptions& options = {});
 
 // True when spec names a generator ("office:N", "museum:N") rather than a file.

@@ -39,7 +39,9 @@ struct Mesh {
     std::string name;
     std::vector<Vec3> positions;
     std::vector<Vec3> normals;     // unit length, one per position
-    std::vector<Vec2> uvs;         // one per position, or empty when the mesh has none
+    // One per position, or empty when the mesh has none. (0,0) is the top-left texel of the
+    // texture's mips[0] (glTF's convention); values outside [0,1] repeat the texture.
+    std::vector<Vec2> uvs;
     std::vector<uint32_t> indices; // three per triangle, each < positions.size()
     int materialIndex = 0;         // index into Scene::materials
 
@@ -64,6 +66,9 @@ struct SceneStats {
     size_t textures = 0;
     size_t textureBytes = 0;  // all mip levels, RGBA8
     size_t degenerateTrianglesDropped = 0;
+    // Textures a file referred to that could not be loaded (missing or undecodable); the
+    // materials using them fall back to their base colour.
+    size_t texturesMissing = 0;
     Aabb bounds;
 };
 
@@ -87,8 +92,9 @@ public:
     const Aabb& bounds() const { return mBounds; }
     SceneStats stats() const;
 
-    // Counted during import for statistics; finalize() does not change it.
+    // Counted during import for statistics; finalize() does not change them.
     size_t degenerateTrianglesDropped = 0;
+    size_t texturesMissing = 0;
 
 private:
     std::vector<size_t> mFirstTriangle;  // per mesh, prefix sums of triangle counts

@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
         registerInfo(app),
 #endif
         registerPtm(app),
+        registerPredistort(app),
+        registerBench(app),
     };
     try {
         app.parse(argc, argv);

@@ -31,6 +31,7 @@ constexpr const char* kConeShowcaseJson = R"json({
 struct PredistortBenchArgs {
     std::string display;
     std::string out = "out/bench_predistort";
+    std::vector<double> thresholdsMm{8.0, 4.0, 2.0, 1.0, 0.5, 0.1};
     int repetitions = 5;
     int threads = 0;
     bool json = false;
@@ -89,6 +90,7 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     if (ec) return fail(fmt::format("cannot create {}: {}", a.out, ec.message()));
     display::ExperimentConfig config;
     config.repetitions = a.repetitions;
+    config.thresholdsMm = a.thresholdsMm;
     config.threads = a.threads;
     auto content = display::fitSceneToContent(display::makeShowcaseScene(), *d);
     auto result = display::runPredistortExperiment(*d, d->defaultViewerMm, content, config);
@@ -121,6 +123,9 @@ Command registerBench(CLI::App& app) {
     sub->footer("Example: parallax bench predistort --out out/bench_predistort");
     sub->add_option("--display", pd->display, "Display description (default: cone showcase)");
     sub->add_option("--out", pd->out, "Output folder");
+    sub->add_option("--thresholds", pd->thresholdsMm,
+                    "Error thresholds in mm (default: the paper's 8 4 2 1 0.5 0.1)")
+        ->delimiter(',');
     sub->add_option("--repetitions", pd->repetitions, "Timed frames per measurement (median)")
         ->check(CLI::Range(1, 100));
     sub->add_option("--threads", pd->threads, "Pass-2 renderer threads (0 = all)")

@@ -9,5 +9,7 @@ Command registerInfo(CLI::App& app);
 Command registerRender(CLI::App& app);
 Command registerDemo(CLI::App& app);
 Command registerPtm(CLI::App& app);
+Command registerPredistort(CLI::App& app);
+Command registerBench(CLI::App& app);
 
 }  // namespace plx::cli

@@ -19,4 +19,8 @@ struct DemoContext {
 // Foundation: office:1..16 rendered with the P-buffer rasterizer, images and the frame-time plot.
 Status demoRasterSection(DemoContext& ctx);
 
+// Curved displays (Bimber et al.): the cone showcase's adaptive grid, the predistorted frame,
+// uniform against adaptive and the speedup plot. ctx.quick: two thresholds, small sizes.
+Status demoDisplaySection(DemoContext& ctx);
+
 }  // namespace plx::cli

@@ -15,6 +15,8 @@ int main(int argc, char** argv) {
         registerDemo(app),
         registerInfo(app),
         registerPtm(app),
+        registerPredistort(app),
+        registerBench(app),
     };
     try {
         app.parse(argc, argv);

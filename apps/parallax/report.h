@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include <plx/core/status.h>
 
 namespace plx::cli {
@@ -44,5 +46,9 @@ private:
 };
 
 std::string htmlEscape(const std::string& text);
+
+// The SVG plots of Bimber et al. Figs. 8-10 (file name, SVG) from a predistortion experiment's
+// result (display::runPredistortExperiment); defined in bench.cpp.
+std::vector<std::pair<std::string, std::string>> predistortPlots(const nlohmann::json& result);
 
 }  // namespace plx::cli

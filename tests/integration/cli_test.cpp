@@ -1,62 +1,15 @@
 // Runs the parallax binary as a user would and checks exit codes, JSON output, written files and
 // one-line errors for bad input.
 
-#include <array>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <sys/wait.h>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
 
 namespace {
 
-namespace fs = std::filesystem;
+using namespace plx::testing;
 
-struct RunResult {
-    int exitCode = -1;
-    std::string out, err;
-};
-
-fs::path scratchDir() {
-    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / "cli";
-    fs::create_directories(dir);
-    return dir;
-}
-
-// Runs parallax with the given arguments (a shell fragment), bounded by a timeout so a hang fails
-// the test instead of stalling the suite.
-RunResult runParallax(const std::string& args) {
-    fs::path errFile = scratchDir() / "stderr.txt";
-    std::string cmd = "timeout 120 " + std::string(PARALLAX_EXE) + " " + args + " 2>" +
-                      errFile.string();
-    RunResult r;
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
-    int status = pclose(pipe);
-    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::ifstream e(errFile);
-    r.err.assign(std::istreambuf_iterator<char>(e), {});
-    return r;
-}
-
-void writeFile(const fs::path& path, const std::string& bytes) {
-    std::ofstream(path, std::ios::binary) << bytes;
-}
-
-// A failed command: non-zero exit (not a crash or timeout), one line on stderr naming the problem.
-void expectOneLineError(const RunResult& r, const std::string& mentions, int code = 1) {
-    EXPECT_EQ(r.exitCode, code) << r.err;
-    ASSERT_FALSE(r.err.empty());
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_EQ(r.err.rfind("parallax: error: ", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(mentions), std::string::npos) << "expected '" << mentions << "' in: " << r.err;
-    EXPECT_TRUE(r.out.empty()) << r.out;
-}
+fs::path scratchDir() { return plx::testing::scratchDir("cli"); }
 
 TEST(Cli, RenderWritesTargetsAndJson) {
     fs::path prefix = scratchDir() / "office2";

@@ -13,9 +13,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 6.283185307179586;
-// Brent stops once Delta (display-plane mismatch) is below this: two orders of magnitude under
-// the smallest threshold of the experiment (0.1 mm), as in the paper's section 7.3.
-constexpr double kDeltaTargetMm = 1e-3;
+// Brent stops once Delta (display-plane mismatch) is below this.
+constexpr double kDeltaTargetMm = kObjectImageToleranceMm;
 // A solve counts as converged below this Delta; above it the bracket is widened.
 constexpr double kDeltaAcceptMm = 5e-3;
 constexpr int kMaxBrentEvaluations = 60;
@@ -56,29 +55,40 @@ bool intersectCone(const ConeMirror& cone, const DVec3& o, const DVec3& d, doubl
     return false;
 }
 
-// Outward unit normal of the cone along the ruling at angle alpha: the gradient of
-// g = sqrt(x^2 + z^2) - (r0 + k y), i.e. (cos a, -k, sin a), normalised.
-DVec3 coneNormal(const ConeMirror& cone, double alpha) {
-    return glm::normalize(DVec3(std::cos(alpha), -cone.slope(), std::sin(alpha)));
+// Outward unit normal of the cone at a point on it: the gradient of
+// g = sqrt(x^2 + z^2) - (r0 + k y) is (cos a, -k, sin a) / sqrt(1 + k^2) along the ruling at
+// angle a; without trigonometry (cos a, sin a) = (x, z) / r with
+// r = r0 + k y, the cone's radius at the point's height.
+DVec3 coneNormalAt(const ConeMirror& cone, const DVec3& hit) {
+    double k = cone.slope();
+    double inv = 1.0 / std::sqrt(1.0 + k * k);
+    double r = cone.bottomRadiusMm + k * hit.y;
+    double s = inv / r;
+    return DVec3(hit.x * s, -k * inv, hit.z * s);
 }
 
 // Reflects the line of sight with direction d (unit) at the mirror and follows it to the
-// display plane y = 0 (the image-object transformation of Fig. 2-center).
-bool mirrorDirToDisplay(const ConeMirror& cone, const DVec3& eye, const DVec3& d,
-                        VertexMapping* out) {
+// display plane y = 0 (the image-object transformation of Fig. 2-center). The mirror angle
+// (atan2) is computed only when alphaOut is given: the residual of section 7.3 does not need it.
+bool mirrorDirToDisplay(const ConeMirror& cone, const DVec3& eye, const DVec3& d, DVec2* posOut,
+                        double* alphaOut) {
     double t;
     if (!intersectCone(cone, eye, d, &t)) return false;
     DVec3 hit = eye + t * d;
-    double alpha = std::atan2(hit.z, hit.x);
-    DVec3 n = coneNormal(cone, alpha);
+    DVec3 n = coneNormalAt(cone, hit);
     double dn = glm::dot(d, n);
     if (dn >= 0.0) return false;  // the line would meet the mirror from inside
     DVec3 reflected = d - 2.0 * dn * n;
     if (reflected.y > -1e-9) return false;  // reflected away from the display plane
     double s = -hit.y / reflected.y;
-    DVec3 q = hit + s * reflected;
-    out->displayPos = {q.x, q.z};
-    out->alpha = alpha;
+    *posOut = {hit.x + s * reflected.x, hit.z + s * reflected.z};
+    if (alphaOut) *alphaOut = std::atan2(hit.z, hit.x);
+    return true;
+}
+
+bool mirrorDirToDisplay(const ConeMirror& cone, const DVec3& eye, const DVec3& d,
+                        VertexMapping* out) {
+    if (!mirrorDirToDisplay(cone, eye, d, &out->displayPos, &out->alpha)) return false;
     out->valid = true;
     return true;
 }
@@ -90,7 +100,7 @@ DVec3 sheetShift(const ConeMirror& cone, const DVec3& eye, const DVec3& d) {
     double t;
     if (!intersectCone(cone, eye, d, &t)) return DVec3(0.0);
     DVec3 hit = eye + t * d;
-    DVec3 nIn = -coneNormal(cone, std::atan2(hit.z, hit.x));
+    DVec3 nIn = -coneNormalAt(cone, hit);
     double cosI = glm::dot(d, nIn);
     if (cosI <= 1e-6) return DVec3(0.0);
     double eta = 1.0 / cone.refractiveIndex;
@@ -189,14 +199,17 @@ DVec3 projectorRayDir(const Projector& p, const DVec2& pixel) {
 // so that the minimum is parabolic, which Brent's interpolation assumes.
 double mirrorResidualSq(const ConeMirror& cone, const DVec3& eye, const DVec3& q3, double alpha,
                         DVec3* sightDir) {
-    DVec3 n = coneNormal(cone, alpha);
-    DVec3 p(cone.bottomRadiusMm * std::cos(alpha), 0.0, cone.bottomRadiusMm * std::sin(alpha));
+    double c = std::cos(alpha), s = std::sin(alpha);
+    double k = cone.slope();
+    double inv = 1.0 / std::sqrt(1.0 + k * k);
+    DVec3 n(c * inv, -k * inv, s * inv);  // coneNormal(cone, alpha)
+    DVec3 p(cone.bottomRadiusMm * c, 0.0, cone.bottomRadiusMm * s);  // the ruling's foot
     DVec3 mirrored = q3 - 2.0 * glm::dot(q3 - p, n) * n;
     DVec3 d = glm::normalize(mirrored - eye);
-    VertexMapping back;
-    if (!mirrorDirToDisplay(cone, eye, d, &back)) return 1e12;
+    DVec2 back;
+    if (!mirrorDirToDisplay(cone, eye, d, &back, nullptr)) return 1e12;
     *sightDir = d;
-    DVec2 diff = back.displayPos - DVec2(q3.x, q3.z);
+    DVec2 diff = back - DVec2(q3.x, q3.z);
     return glm::dot(diff, diff);
 }
 
@@ -204,13 +217,19 @@ bool mirrorDisplayToImage(const ConeMirror& cone, const ImagePlane& plane,
                           const DVec2& displayPos, const AlphaBracket& bracket, DVec3* imagePos,
                           double* residualMm, SolverStats* stats) {
     DVec3 q3(displayPos.x, 0.0, displayPos.y);
-    DVec3 dir(0.0);
-    auto f = [&](double alpha) { return mirrorResidualSq(cone, plane.eyeMm, q3, alpha, &dir); };
+    // The line of sight of the best angle seen so far, so that the minimum needs no second
+    // evaluation once Brent stops (Brent returns the best point it evaluated).
+    DVec3 dir(0.0), bestDir(0.0);
+    double bestF = kInf;
+    auto f = [&](double alpha) {
+        double v = mirrorResidualSq(cone, plane.eyeMm, q3, alpha, &dir);
+        if (v < bestF) bestF = v, bestDir = dir;
+        return v;
+    };
     auto finish = [&](const BrentResult& r) {
         if (stats) stats->evaluations += uint64_t(r.evaluations);
         double delta = std::sqrt(r.fx);
         if (delta > kDeltaAcceptMm) return false;
-        f(r.x);  // leaves the line of sight of the minimum in dir
         if (residualMm) *residualMm = delta;
         return true;
     };
@@ -225,11 +244,11 @@ bool mirrorDisplayToImage(const ConeMirror& cone, const ImagePlane& plane,
         BrentResult r = brentMinimize(f, bracket.guess - w, bracket.guess + w, bracket.guess,
                                       1e-10, kDeltaTargetMm * kDeltaTargetMm,
                                       kMaxBrentEvaluations);
-        if (finish(r)) return imagePointForSight(cone, plane, dir, imagePos);
+        if (finish(r)) return imagePointForSight(cone, plane, bestDir, imagePos);
     }
     BrentResult r = brentMinimize(f, lo, hi, bracket.guess, 1e-10,
                                   kDeltaTargetMm * kDeltaTargetMm, kMaxBrentEvaluations);
-    if (finish(r)) return imagePointForSight(cone, plane, dir, imagePos);
+    if (finish(r)) return imagePointForSight(cone, plane, bestDir, imagePos);
     // Fallback: the residual can be a narrow valley next to angles whose lines of sight miss
     // the mirror (near its silhouette), where the first search loses its way. Scan a widened
     // bracket for the best sample and search again around it.
@@ -238,15 +257,15 @@ bool mirrorDisplayToImage(const ConeMirror& cone, const ImagePlane& plane,
         double mid = 0.5 * (lo + hi);
         double half = std::min(1.5 * (hi - lo) + 1e-3, kTwoPi * 0.5);
         double a = mid - half, step = 2.0 * half / kScanSamples;
-        double bestX = a, bestF = kInf;
+        double bestX = a, bestScan = kInf;
         for (int i = 0; i <= kScanSamples; ++i) {
             double fx = f(a + i * step);
-            if (fx < bestF) bestF = fx, bestX = a + i * step;
+            if (fx < bestScan) bestScan = fx, bestX = a + i * step;
         }
         if (stats) stats->evaluations += kScanSamples + 1;
         r = brentMinimize(f, bestX - step, bestX + step, bestX, 1e-12,
                           kDeltaTargetMm * kDeltaTargetMm, kMaxBrentEvaluations);
-        if (finish(r)) return imagePointForSight(cone, plane, dir, imagePos);
+        if (finish(r)) return imagePointForSight(cone, plane, bestDir, imagePos);
         lo = a, hi = a + 2.0 * half;
     }
     if (stats) ++stats->failed;

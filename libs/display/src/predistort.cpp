@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/timing.h>
 #include <plx/display/validate.h>
 
 namespace plx::display {
@@ -107,10 +108,43 @@ Status renderViewerImage(raster::Renderer& renderer, const scene::Scene& sceneMm
     return Status::ok();
 }
 
-Status renderPredistorted(raster::Renderer& renderer, const Display& display,
-                          const WarpMesh& mesh, const Image<Rgba8>& viewerImage,
-                          Image<Rgba8>* frame, double* milliseconds) {
+struct PredistortRenderer::Impl {
+    std::unique_ptr<raster::Renderer> renderer;
+    scene::Scene scene;
+    raster::FrameBuffers fb;
+    Image<Rgba8> blank;
+};
+
+PredistortRenderer::PredistortRenderer(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+PredistortRenderer::~PredistortRenderer() = default;
+
+Result<std::unique_ptr<PredistortRenderer>> PredistortRenderer::create(int threads) {
+    auto renderer = raster::Renderer::create({threads, 64});
+    if (!renderer) return renderer.status();
+    auto impl = std::make_unique<Impl>();
+    impl->renderer = std::move(*renderer);
+    scene::Texture tex;
+    tex.name = "pass1";
+    tex.mips.resize(1);
+    impl->scene.textures.push_back(std::move(tex));
+    impl->scene.materials.push_back({"pass1", {1.0f, 1.0f, 1.0f, 1.0f}, 0});
+    impl->scene.meshes.push_back(scene::Mesh{"warp", {}, {}, {}, {}, 0});
+    return std::unique_ptr<PredistortRenderer>(new PredistortRenderer(std::move(impl)));
+}
+
+raster::Renderer& PredistortRenderer::renderer() { return *mImpl->renderer; }
+
+Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
+                                                       const WarpMesh& mesh,
+                                                       const Image<Rgba8>& viewerImage,
+                                                       double* milliseconds) {
+    Stopwatch sw;
     int w = display.framebufferWidth, h = display.framebufferHeight;
+    if (mesh.triangleCount() == 0 || viewerImage.empty()) {
+        mImpl->blank.resize(w, h, Rgba8{0, 0, 0, 255});
+        if (milliseconds) *milliseconds = sw.elapsedMs();
+        return &mImpl->blank;
+    }
     // Camera at the origin looking down -z with a 90 degree vertical field of view: the plane
     // z = -h/2 maps one world unit to one pixel.
     CameraDesc desc;
@@ -122,40 +156,35 @@ Status renderPredistorted(raster::Renderer& renderer, const Display& display,
     desc.width = w, desc.height = h;
     auto camera = Camera::create(desc);
     if (!camera) return camera.status();
-    scene::Scene s;
-    scene::Texture tex;
-    tex.name = "pass1";
-    tex.mips.push_back(viewerImage);
-    scene::buildMipChain(&tex);
-    s.textures.push_back(std::move(tex));
-    s.materials.push_back({"pass1", {1.0f, 1.0f, 1.0f, 1.0f}, 0});
-    scene::Mesh m{"warp", {}, {}, {}, mesh.indices, 0};
+    // Base level only (see the class comment); the copy reuses the texture's buffer.
+    Image<Rgba8>& base = mImpl->scene.textures[0].mips[0];
+    if (base.width() != viewerImage.width() || base.height() != viewerImage.height())
+        base.resize(viewerImage.width(), viewerImage.height());
+    std::copy(viewerImage.data(), viewerImage.data() + size_t(viewerImage.width()) *
+                                                           size_t(viewerImage.height()),
+              base.data());
+    scene::Mesh& m = mImpl->scene.meshes[0];
     DVec2 extent = display.displayMax - display.displayMin;
-    m.positions.reserve(mesh.vertexCount());
-    for (size_t v = 0; v < mesh.vertexCount(); ++v) {
-        DVec2 n = (mesh.displayPos[v] - display.displayMin) / extent;
-        m.positions.emplace_back(float(n.x * w - 0.5 * w), float(0.5 * h - n.y * h),
-                                 -0.5f * float(h));
-        m.uvs.emplace_back(mesh.uvs[v]);
+    size_t n = mesh.vertexCount();
+    m.positions.resize(n);
+    m.uvs.resize(n);
+    m.normals.resize(n, Vec3(0.0f, 0.0f, 1.0f));
+    for (size_t v = 0; v < n; ++v) {
+        DVec2 q = (mesh.displayPos[v] - display.displayMin) / extent;
+        m.positions[v] = Vec3(float(q.x * w - 0.5 * w), float(0.5 * h - q.y * h),
+                              -0.5f * float(h));
+        m.uvs[v] = Vec2(mesh.uvs[v]);
     }
-    m.normals.assign(m.positions.size(), Vec3(0.0f, 0.0f, 1.0f));
-    s.meshes.push_back(std::move(m));
-    if (mesh.triangleCount() == 0) {
-        frame->resize(w, h, Rgba8{0, 0, 0, 255});
-        if (milliseconds) *milliseconds = 0.0;
-        return Status::ok();
-    }
-    PLX_RETURN_IF_ERROR(s.finalize());
-    raster::FrameBuffers fb;
-    fb.resize(w, h);
+    m.indices.assign(mesh.indices.begin(), mesh.indices.end());
+    PLX_RETURN_IF_ERROR(mImpl->scene.finalize());
+    if (mImpl->fb.color.width() != w || mImpl->fb.color.height() != h) mImpl->fb.resize(w, h);
     raster::RenderOptions options;
     options.shading = raster::Shading::kTextured;
     options.lit = false;
     options.clearColor = {0, 0, 0, 255};
-    raster::RenderStats stats = renderer.render(s, *camera, options, fb.targets());
-    if (milliseconds) *milliseconds = stats.milliseconds;
-    *frame = std::move(fb.color);
-    return Status::ok();
+    mImpl->renderer->render(mImpl->scene, *camera, options, mImpl->fb.targets());
+    if (milliseconds) *milliseconds = sw.elapsedMs();
+    return &mImpl->fb.color;
 }
 
 Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 #include <unordered_set>
@@ -17,8 +18,15 @@ constexpr double kPiD = 3.141592653589793;
 
 enum NodeState : uint8_t { kAbsent = 0, kLeaf = 1, kRefined = 2, kCulled = 3 };
 
+// The representative of angle (mod 2 pi) nearest to reference. Angles from atan2 lie within a
+// few turns of any bracket, so a short loop is cheaper than std::remainder.
 double unwrapNear(double angle, double reference) {
-    return reference + std::remainder(angle - reference, 2.0 * kPiD);
+    double d = angle - reference;
+    if (!std::isfinite(d)) return reference;
+    if (std::fabs(d) > 8.0 * kPiD) return reference + std::remainder(d, 2.0 * kPiD);
+    while (d > kPiD) d -= 2.0 * kPiD;
+    while (d < -kPiD) d += 2.0 * kPiD;
+    return reference + d;
 }
 
 // Separating axis test of an axis-aligned rectangle against a convex polygon (counter-clockwise
@@ -68,6 +76,14 @@ std::vector<DVec2> convexHull2d(std::vector<DVec2> pts) {
     return hull;
 }
 
+// Empties a mesh but keeps its buffers, so that regenerating it each frame allocates nothing.
+void clearKeepingCapacity(WarpMesh* mesh) {
+    mesh->gridIds.clear();
+    mesh->uvs.clear();
+    mesh->displayPos.clear();
+    mesh->indices.clear();
+}
+
 }  // namespace
 
 struct QuadtreeWarper::Impl {
@@ -80,6 +96,7 @@ struct QuadtreeWarper::Impl {
     std::vector<uint32_t> transformStamp, tcStamp, rayStamp, meshStamp, errorStamp;
     std::vector<double> errorValue;  // cached side errors at T-vertices
     std::vector<VertexMapping> mapping;
+    std::vector<uint8_t> solverOnly;  // mapped by the error solver, not yet counted as a vt
     std::vector<uint8_t> tc;      // T-vertex counters (0, 1, 2)
     std::vector<uint8_t> rayHit;  // cached line-of-sight/container result
     std::vector<uint32_t> meshIndex;
@@ -105,15 +122,68 @@ struct QuadtreeWarper::Impl {
     int patchSize(int level) const { return 1 << (m - level); }
     uint8_t& node(int level, int px, int py) { return nodes[level][size_t(py << level) + px]; }
 
-    // TransformPatchVertices for one vertex: mapped once per frame.
+    // TransformPatchVertices for one vertex: mapped once per frame. A vertex that the error
+    // solver already mapped (a T-vertex, see sideError) is reused and counted now.
     const VertexMapping& transformVertex(int x, int y) {
         uint32_t v = vid(x, y);
         if (transformStamp[v] != frame) {
             transformStamp[v] = frame;
+            solverOnly[v] = 0;
             mapping[v] = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
+            ++stats->vertexTransformations;
+        } else if (solverOnly[v]) {
+            solverOnly[v] = 0;
             ++stats->vertexTransformations;
         }
         return mapping[v];
+    }
+
+    // The same mapping made for the error solver: cached like a transformation, but counted as
+    // a vertex transformation only if the vertex later joins the grid.
+    const VertexMapping& mapForSolver(int x, int y) {
+        uint32_t v = vid(x, y);
+        if (transformStamp[v] != frame) {
+            transformStamp[v] = frame;
+            solverOnly[v] = 1;
+            mapping[v] = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
+            ++stats->solver.forwardEvaluations;
+        }
+        return mapping[v];
+    }
+
+    // Object-image solve for one sample (section 7.3) by Newton steps on the forward mapping:
+    // find texture coordinates uv whose display image is `target`, starting at the T-vertex
+    // (whose image is close to the sample, the two differ by the warp's interpolation error),
+    // with the patch's finite-difference Jacobian jac (display per uv) refined by Broyden's
+    // update. Converged when the display mismatch Delta is below kObjectImageToleranceMm, the
+    // same acceptance as Brent's method. Returns false (the caller falls back to Brent) when a
+    // step leaves the patch, a mapping fails or four steps do not converge.
+    bool newtonImageUv(int tx, int ty, const DVec2& target, glm::dmat2 jac, double patchUv,
+                       DVec2* uvOut) {
+        const VertexMapping& tm = mapForSolver(tx, ty);
+        if (!tm.valid) return false;
+        DVec2 uv0 = uvOf(tx, ty), uv = uv0, pos = tm.displayPos;
+        constexpr int kMaxNewtonSteps = 4;
+        constexpr double kTolSq = kObjectImageToleranceMm * kObjectImageToleranceMm;
+        for (int step = 0;; ++step) {
+            DVec2 r = target - pos;
+            if (glm::dot(r, r) <= kTolSq) {
+                *uvOut = uv;
+                return true;
+            }
+            if (step == kMaxNewtonSteps) return false;
+            double det = glm::determinant(jac);
+            if (!(std::fabs(det) > 1e-12)) return false;
+            DVec2 du = glm::inverse(jac) * r;
+            DVec2 next = uv + du;
+            if (glm::length(next - uv0) > patchUv) return false;
+            VertexMapping vm = imageToDisplay(*display, *plane, plane->pointAt(next));
+            ++stats->solver.forwardEvaluations;
+            if (!vm.valid) return false;
+            DVec2 dPos = vm.displayPos - pos;
+            jac += glm::outerProduct(dPos - jac * du, du) / glm::dot(du, du);
+            uv = next, pos = vm.displayPos;
+        }
     }
 
     void bumpCounter(int x, int y) {
@@ -200,23 +270,36 @@ struct QuadtreeWarper::Impl {
 
     // Image space error at the T-vertex of side (a, b). Both patches sharing a side sample the
     // same point, so the result is cached per T-vertex for the frame (like the transformations).
-    double sideError(int ax, int ay, int bx, int by, const AlphaBracket& parentBracket) {
-        uint32_t t = vid((ax + bx) / 2, (ay + by) / 2);
+    // jac: the patch's Jacobian (display per uv) for the Newton solve; patchUv its side in uv.
+    double sideError(int ax, int ay, int bx, int by, const glm::dmat2& jac, double patchUv,
+                     const AlphaBracket& parentBracket) {
+        int tx = (ax + bx) / 2, ty = (ay + by) / 2;
+        uint32_t t = vid(tx, ty);
         if (errorStamp[t] == frame) return errorValue[t];
         const VertexMapping& a = mapping[vid(ax, ay)];
         const VertexMapping& b = mapping[vid(bx, by)];
         ++stats->errorSamples;
-        AlphaBracket bracket = parentBracket;
-        if (usesMirrorAngles(*display)) {
-            // Start from the mean of the edge's end angles: the sample lies between them.
-            double a0 = unwrapNear(a.alpha, parentBracket.lo);
-            double a1 = unwrapNear(b.alpha, parentBracket.lo);
-            bracket.guess = 0.5 * (a0 + a1);
-        }
         // The pixel with the T-vertex's texture coordinates lies at the middle of the displayed
         // L-L edge (linear interpolation), section 7.2 / Fig. 4.
-        double e = sampleErrorMm(*display, *plane, 0.5 * (a.displayPos + b.displayPos),
-                                 0.5 * (uvOf(ax, ay) + uvOf(bx, by)), bracket, &stats->solver);
+        DVec2 samplePos = 0.5 * (a.displayPos + b.displayPos);
+        DVec2 desiredUv = uvOf(tx, ty);
+        double e;
+        DVec2 actualUv;
+        if (usesMirrorAngles(*display) &&
+            newtonImageUv(tx, ty, samplePos, jac, patchUv, &actualUv)) {
+            // Image space error |v_d - v_a| on the image plane (section 7.2).
+            ++stats->solver.newtonSolves;
+            e = glm::length(plane->pointAt(actualUv) - plane->pointAt(desiredUv));
+        } else {
+            AlphaBracket bracket = parentBracket;
+            if (usesMirrorAngles(*display)) {
+                // Start from the mean of the edge's end angles: the sample lies between them.
+                double a0 = unwrapNear(a.alpha, parentBracket.lo);
+                double a1 = unwrapNear(b.alpha, parentBracket.lo);
+                bracket.guess = 0.5 * (a0 + a1);
+            }
+            e = sampleErrorMm(*display, *plane, samplePos, desiredUv, bracket, &stats->solver);
+        }
         errorStamp[t] = frame;
         errorValue[t] = e;
         return e;
@@ -229,16 +312,29 @@ struct QuadtreeWarper::Impl {
         int x1 = x0 + h, y1 = y0 + h;
         const int sides[4][4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1},
                                  {x0, y1, x0, y0}};
+        // Finite-difference Jacobian of the warp over the patch (display per uv), from the four
+        // L-vertices TransformPatchVertices has just mapped.
+        double patchUv = double(h) / double(side - 1);
+        const DVec2& d00 = mapping[vid(x0, y0)].displayPos;
+        const DVec2& d10 = mapping[vid(x1, y0)].displayPos;
+        const DVec2& d11 = mapping[vid(x1, y1)].displayPos;
+        const DVec2& d01 = mapping[vid(x0, y1)].displayPos;
+        glm::dmat2 jac(((d10 - d00) + (d11 - d01)) / (2.0 * patchUv),
+                       ((d01 - d00) + (d11 - d10)) / (2.0 * patchUv));
         if (level >= config.errorDirectionLevel && *dir >= 0) {
             // Section 7.4: above Lambda only the parent's largest-error side is evaluated.
             const int* s = sides[*dir];
-            return sideError(s[0], s[1], s[2], s[3], bracket) > config.thresholdMm;
+            return sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket) > config.thresholdMm;
         }
         double worst = -1.0;
         for (int k = 0; k < 4; ++k) {
             const int* s = sides[k];
-            double e = sideError(s[0], s[1], s[2], s[3], bracket);
+            double e = sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket);
             if (e > worst) worst = e, *dir = k;
+            // One side over the threshold decides; the rest are needed only as the error
+            // direction of children at LOD >= Lambda. A refined patch's T-vertices become its
+            // children's L-vertices, so the skipped samples are never needed.
+            if (worst > config.thresholdMm && level + 1 < config.errorDirectionLevel) return true;
         }
         return worst > config.thresholdMm;
     }
@@ -402,7 +498,7 @@ struct QuadtreeWarper::Impl {
              WarpStats* st) {
         display = &d, plane = &p, container = c, mesh = out, stats = st;
         *stats = WarpStats{};
-        *mesh = WarpMesh{};
+        clearKeepingCapacity(mesh);
         mesh->gridLevel = m;
         if (++frame == 0) {  // stamps wrapped: clear them once every 2^32 frames
             for (auto* s : {&transformStamp, &tcStamp, &rayStamp, &meshStamp, &errorStamp})
@@ -444,6 +540,7 @@ Result<std::unique_ptr<QuadtreeWarper>> QuadtreeWarper::create(const QuadtreeCon
     impl->mapping.resize(count);
     impl->errorValue.assign(count, 0.0);
     impl->tc.assign(count, 0);
+    impl->solverOnly.assign(count, 0);
     impl->rayHit.assign(count, 0);
     impl->meshIndex.assign(count, 0);
     impl->nodes.resize(size_t(config.gridLevel));
@@ -466,35 +563,43 @@ void QuadtreeWarper::generate(const Display& display, const ImagePlane& plane,
 void generateUniform(const Display& display, const ImagePlane& plane, int level, WarpMesh* mesh,
                      WarpStats* stats) {
     PLX_CHECK(level >= 0 && level <= 12);
-    *mesh = WarpMesh{};
+    clearKeepingCapacity(mesh);
     *stats = WarpStats{};
     mesh->gridLevel = level;
     int side = (1 << level) + 1;
     double s = 1.0 / double(side - 1);
-    std::vector<uint8_t> valid(size_t(side) * side);
-    mesh->uvs.resize(valid.size());
-    mesh->displayPos.resize(valid.size());
-    mesh->gridIds.resize(valid.size());
+    size_t count = size_t(side) * size_t(side);
+    mesh->uvs.resize(count);
+    mesh->displayPos.resize(count);
+    mesh->gridIds.resize(count);
+    // Vertices the optics cannot map get a NaN position, which marks their cells as left out.
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    bool anyInvalid = false;
     for (int y = 0; y < side; ++y) {
         for (int x = 0; x < side; ++x) {
             size_t v = size_t(y) * side + x;
             DVec2 uv(x * s, y * s);
             VertexMapping vm = imageToDisplay(display, plane, plane.pointAt(uv));
             mesh->uvs[v] = uv;
-            mesh->displayPos[v] = vm.displayPos;
+            mesh->displayPos[v] = vm.valid ? vm.displayPos : DVec2(kNaN);
             mesh->gridIds[v] = uint32_t(v);
-            valid[v] = vm.valid;
+            anyInvalid = anyInvalid || !vm.valid;
         }
     }
-    stats->vertexTransformations = valid.size();
+    stats->vertexTransformations = count;
+    auto valid = [&](uint32_t v) { return !std::isnan(mesh->displayPos[v].x); };
     for (int y = 0; y + 1 < side; ++y) {
         for (int x = 0; x + 1 < side; ++x) {
             uint32_t a = uint32_t(y * side + x), b = a + 1, c = a + uint32_t(side), d = c + 1;
-            if (!valid[a] || !valid[b] || !valid[c] || !valid[d]) continue;
+            if (!valid(a) || !valid(b) || !valid(c) || !valid(d)) continue;
             for (uint32_t i : {a, b, d, a, d, c}) mesh->indices.push_back(i);
             ++stats->leafPatches;
         }
     }
+    // Unreferenced vertices keep a finite position for the exporters.
+    if (anyInvalid)
+        for (DVec2& p : mesh->displayPos)
+            if (std::isnan(p.x)) p = DVec2(0.0);
     stats->patches = stats->leafPatches;
     stats->deepestLevel = level;
 }

@@ -178,7 +178,11 @@ Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, flo
     float w = 1.0f / invW;
     float p1 = b1 * t.invW[1] * w, p2 = b2 * t.invW[2] * w, p0 = 1.0f - p1 - p2;
     Vec3 color = p0 * t.color[0] + p1 * t.color[1] + p2 * t.color[2];
-    if (t.texture) {
+    if (t.texture && t.texture->mips.size() == 1) {
+        // Base level only (e.g. a render target re-used as a texture): no LOD to choose.
+        Vec2 uv = p0 * t.uv[0] + p1 * t.uv[1] + p2 * t.uv[2];
+        color *= sampleBilinear(t.texture->mips[0], uv.x, uv.y);
+    } else if (t.texture) {
         Vec2 uv = p0 * t.uv[0] + p1 * t.uv[1] + p2 * t.uv[2];
         // Texture LOD from the analytic screen derivatives of uv = (sum b_i uv_i/w_i) / invW.
         float dInvWdx = t.b1dx * (t.invW[1] - t.invW[0]) + t.b2dx * (t.invW[2] - t.invW[0]);

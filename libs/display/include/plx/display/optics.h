@@ -138,10 +138,16 @@ struct AlphaBracket {
     double guess = std::numeric_limits<double>::quiet_NaN();
 };
 
+// The object-image solvers stop once the display-plane mismatch Delta is below this: two orders
+// of magnitude under the smallest threshold of the experiment (0.1 mm), as in section 7.3.
+constexpr double kObjectImageToleranceMm = 1e-3;
+
 // Counters of the numerical object-image solver (section 7.3).
 struct SolverStats {
-    uint64_t solves = 0;
+    uint64_t solves = 0;       // Brent solves (displayToImage on a mirror)
     uint64_t evaluations = 0;  // evaluations of the residual Delta(alpha)
+    uint64_t newtonSolves = 0;         // samples solved by Newton steps on the forward mapping
+    uint64_t forwardEvaluations = 0;   // image-to-display mappings those steps made
     uint64_t widened = 0;      // solves that fell back to scanning a wider bracket
     uint64_t failed = 0;       // solves that found no point with Delta below tolerance
 };

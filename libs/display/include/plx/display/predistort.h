@@ -34,10 +34,33 @@ Status renderViewerImage(raster::Renderer& renderer, const scene::Scene& sceneMm
                          const ImagePlane& plane, int sizePx, Image<Rgba8>* image,
                          double* milliseconds);
 
-// Pass 2: the predistorted frame for the display (framebufferWidth x framebufferHeight).
-Status renderPredistorted(raster::Renderer& renderer, const Display& display,
-                          const WarpMesh& mesh, const Image<Rgba8>& viewerImage,
-                          Image<Rgba8>* frame, double* milliseconds);
+// Pass 2 frame after frame: keeps one multithreaded Renderer, the warp scene (texture, mesh
+// buffers) and the framebuffers between frames, so a warm frame allocates nothing.
+//
+// The pass-1 image becomes the texture's base level only, with no mip chain: a predistortion warp
+// is close to 1:1 (one pass-1 texel per display pixel within a factor of about two on the
+// displays shipped), so the minification a mip chain would filter is mild, while building the
+// chain costs a full pass over the image every frame. The renderer clamps its level choice to
+// the levels present, so it samples the base level bilinearly everywhere.
+class PredistortRenderer {
+public:
+    // threads: renderer threads (0 = all hardware threads).
+    static Result<std::unique_ptr<PredistortRenderer>> create(int threads);
+    ~PredistortRenderer();
+
+    // Renders the mesh textured with viewerImage into the display framebuffer and returns it
+    // (valid until the next call). Precondition: the mesh's vertices are finite.
+    Result<const Image<Rgba8>*> render(const Display& display, const WarpMesh& mesh,
+                                       const Image<Rgba8>& viewerImage,
+                                       double* milliseconds = nullptr);
+
+    raster::Renderer& renderer();
+
+private:
+    struct Impl;
+    explicit PredistortRenderer(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
 
 // Draws the mesh's triangle edges over a copy of `background` (or black), in display pixels.
 Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,
@@ -51,7 +74,7 @@ struct ExperimentConfig {
     int repetitions = 5;  // timing: median of this many frames
     int pass1Size = 512;
     bool render = true;   // include pass-2 rendering in the timings
-    int threads = 1;      // renderer threads
+    int threads = 0;      // pass-2 renderer threads (0 = all hardware threads); generation: one core
 };
 
 // Runs the experiment for one viewer: per threshold the uniform grid at the resolution needed

@@ -1,0 +1,229 @@
+// parallax predistort DISPLAY.json: one predistorted frame for a curved display (Bimber et al.):
+// pass 1 renders the scene for the viewer, the adaptive (or uniform) warp mesh is generated and
+// validated, pass 2 renders the mesh textured with the pass-1 image. Writes the mesh, an overlay
+// of the grid and the predistorted frame.
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <plx/core/image_io.h>
+#include <plx/core/parallel.h>
+#include <plx/core/timing.h>
+#include <plx/display/display_json.h>
+#include <plx/display/mesh_io.h>
+#include <plx/display/predistort.h>
+#include <plx/display/validate.h>
+#include <plx/scene/import.h>
+
+#include "commands.h"
+
+namespace plx::cli {
+namespace {
+
+// Lattice divisions per triangle edge when the mesh's error is measured (as in the experiment).
+constexpr int kValidationDivisions = 4;
+// The Bourke format stores a regular grid: the mesh is resampled at this level (129 x 129 nodes)
+// unless the mesh itself is coarser.
+constexpr int kBourkeLevel = 7;
+// Timings: median of this many frames after one warm-up frame.
+constexpr int kRepetitions = 5;
+
+struct PredistortArgs {
+    std::string display;
+    std::string viewer;
+    double errorMm = 1.0;
+    std::string scene;
+    std::string method = "adaptive";
+    std::string container = "obb";
+    std::string out;
+    std::string format = "bourke";
+    int gridLevel = 9;
+    int pass1Size = 512;
+    int threads = 0;
+    bool json = false;
+};
+
+Status writeText(const std::string& path, const std::string& text) {
+    return writeFileBytes(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+}
+
+// The scene in display millimetres: the given one (a file or a generator spec) or the built-in
+// exhibit, fitted to the display's content sphere.
+Result<scene::Scene> loadContent(const std::string& spec, const display::Display& d) {
+    if (spec.empty()) return display::fitSceneToContent(display::makeShowcaseScene(), d);
+    auto s = scene::loadScene(spec);
+    if (!s) return s.status();
+    return display::fitSceneToContent(*s, d);
+}
+
+Result<display::DVec3> viewerPosition(const PredistortArgs& a, const display::Display& d) {
+    if (a.viewer.empty()) return d.defaultViewerMm;
+    auto v = parseVec3(a.viewer);
+    if (!v) return v.status();
+    if (!std::isfinite(v->x) || !std::isfinite(v->y) || !std::isfinite(v->z))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("--viewer '{}' must be three finite numbers", a.viewer));
+    return display::DVec3(*v);
+}
+
+Status writeMesh(const PredistortArgs& a, const display::Display& d,
+                 const display::WarpMesh& mesh, std::string* path) {
+    if (a.format == "obj") {
+        *path = a.out + "_mesh.obj";
+        return writeText(*path, display::formatObj(mesh));
+    }
+    if (a.format == "pfm") {
+        *path = a.out + "_warp.pfm";
+        return writeFileBytes(*path, display::encodeWarpPfm(d, mesh, d.framebufferWidth,
+                                                            d.framebufferHeight));
+    }
+    *path = a.out + "_mesh.txt";
+    int level = std::max(1, std::min(kBourkeLevel, mesh.gridLevel));
+    return writeText(*path, display::formatBourke(d, display::resampleToGrid(mesh, level)));
+}
+
+int run(const PredistortArgs& a) {
+    if (!std::isfinite(a.errorMm) || a.errorMm <= 0.0)
+        return fail("--error must be a positive number of millimetres", kExitUsage);
+    auto method = a.method;
+    if (method != "adaptive" && method != "uniform")
+        return fail(fmt::format("--method '{}' is not adaptive or uniform", method), kExitUsage);
+    if (a.format != "bourke" && a.format != "obj" && a.format != "pfm")
+        return fail(fmt::format("--format '{}' is not bourke, obj or pfm", a.format), kExitUsage);
+    auto containerKind = display::parseContainerKind(a.container);
+    if (!containerKind) return fail(containerKind.status());
+    auto d = display::loadDisplayFile(a.display);
+    if (!d) return fail(d.status());
+    auto viewer = viewerPosition(a, *d);
+    if (!viewer) return fail(viewer.status());
+    display::Display viewed = *d;
+    viewed.defaultViewerMm = *viewer;
+    if (Status s = display::validateDisplay(viewed); !s) return fail(s);
+    auto content = loadContent(a.scene, *d);
+    if (!content) return fail(content.status());
+    if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
+
+    display::ImagePlane plane =
+        display::makeImagePlane(*viewer, d->contentCenterMm, d->contentRadiusMm);
+    auto pass2 = display::PredistortRenderer::create(a.threads);
+    if (!pass2) return fail(pass2.status());
+    Image<Rgba8> pass1;
+    double pass1Ms = 0.0;
+    if (Status s = display::renderViewerImage((*pass2)->renderer(), *content, plane, a.pass1Size,
+                                              &pass1, &pass1Ms);
+        !s)
+        return fail(s);
+
+    // The warp mesh, timed over a few frames (generation runs on one core).
+    display::WarpMesh mesh;
+    display::WarpStats stats;
+    ThreadPool pool(a.threads);
+    std::vector<double> genMs;
+    int uniformLevel = -1;
+    if (method == "adaptive") {
+        auto warper = display::QuadtreeWarper::create({a.gridLevel, a.errorMm, 99, 1});
+        if (!warper) return fail(warper.status());
+        display::Container container =
+            display::makeContainer(*containerKind, display::scenePointsMm(*content));
+        for (int r = 0; r <= kRepetitions; ++r) {
+            Stopwatch sw;
+            (*warper)->generate(*d, plane, &container, &mesh, &stats);
+            if (r > 0) genMs.push_back(sw.elapsedMs());
+        }
+    } else {
+        // The coarsest uniform grid whose measured maximum error meets the threshold.
+        for (uniformLevel = 1; uniformLevel < 10; ++uniformLevel) {
+            display::generateUniform(*d, plane, uniformLevel, &mesh, &stats);
+            if (display::measureMeshError(*d, plane, mesh, kValidationDivisions, &pool)
+                    .maxErrorMm <= a.errorMm)
+                break;
+        }
+        for (int r = 0; r <= kRepetitions; ++r) {
+            Stopwatch sw;
+            display::generateUniform(*d, plane, uniformLevel, &mesh, &stats);
+            if (r > 0) genMs.push_back(sw.elapsedMs());
+        }
+    }
+    display::ErrorMeasurement err =
+        display::measureMeshError(*d, plane, mesh, kValidationDivisions, &pool);
+
+    std::vector<double> renderMs;
+    const Image<Rgba8>* frame = nullptr;
+    for (int r = 0; r <= kRepetitions; ++r) {
+        double ms = 0.0;
+        auto out = (*pass2)->render(*d, mesh, pass1, &ms);
+        if (!out) return fail(out.status());
+        frame = *out;
+        if (r > 0) renderMs.push_back(ms);
+    }
+
+    std::string meshPath, framePath = a.out + "_frame.png", overlayPath = a.out + "_overlay.png";
+    if (Status s = writeMesh(a, *d, mesh, &meshPath); !s) return fail(s);
+    if (Status s = writePng(framePath, *frame); !s) return fail(s);
+    Image<Rgba8> overlay = display::drawMeshOverlay(*d, mesh, frame);
+    if (Status s = writePng(overlayPath, overlay); !s) return fail(s);
+
+    nlohmann::json doc = {{"method", method},
+                          {"error_mm", a.errorMm},
+                          {"max_measured_error_mm", err.maxErrorMm},
+                          {"vertices", mesh.vertexCount()},
+                          {"triangles", mesh.triangleCount()},
+                          {"patches", stats.patches},
+                          {"vertex_transformations", stats.vertexTransformations},
+                          {"generate_ms", median(genMs)},
+                          {"render_ms", median(renderMs)},
+                          {"pass1_ms", pass1Ms},
+                          {"display", d->name},
+                          {"optics", display::opticsKindName(*d)},
+                          {"viewer_mm", {viewer->x, viewer->y, viewer->z}},
+                          {"container", method == "adaptive" ? a.container : "none"},
+                          {"scene", a.scene.empty() ? "built-in exhibit" : a.scene},
+                          {"mesh", meshPath},
+                          {"frame", framePath},
+                          {"overlay", overlayPath}};
+    if (uniformLevel >= 0) doc["uniform_level"] = uniformLevel;
+    if (a.json) {
+        printJson(doc);
+    } else {
+        fmt::print("{} mesh at {} mm: {} vertices, {} triangles, measured max error {:.4f} mm\n",
+                   method, a.errorMm, mesh.vertexCount(), mesh.triangleCount(), err.maxErrorMm);
+        fmt::print("generation {:.3f} ms, pass 2 {:.3f} ms -> {}, {}, {}\n", median(genMs),
+                   median(renderMs), meshPath, overlayPath, framePath);
+    }
+    return err.maxErrorMm <= a.errorMm ? kExitOk
+                                       : fail(fmt::format("measured max error {:.4f} mm exceeds "
+                                                          "the threshold",
+                                                          err.maxErrorMm));
+}
+
+}  // namespace
+
+Command registerPredistort(CLI::App& app) {
+    auto args = std::make_shared<PredistortArgs>();
+    CLI::App* sub = app.add_subcommand(
+        "predistort", "Predistort an image for a curved mirror or screen (Bimber et al.)");
+    sub->footer(
+        "Example: parallax predistort examples/displays/cone_showcase.json --error 0.5 "
+        "--out out/cone\nWithout --scene a built-in exhibit (pedestal and figure) is fitted to "
+        "the display's content sphere.");
+    sub->add_option("display", args->display, "Display description (JSON)")->required();
+    sub->add_option("--viewer", args->viewer, "Viewer position x,y,z in display millimetres "
+                                              "(default: the display file's viewer)");
+    sub->add_option("--error", args->errorMm, "Image space error threshold in millimetres")
+        ->required();
+    sub->add_option("--scene", args->scene, "Scene file or generator spec (default: built-in)");
+    sub->add_option("--method", args->method, "adaptive (quadtree) or uniform (baseline)");
+    sub->add_option("--container", args->container, "Convex container: obb, hull or none");
+    sub->add_option("--out", args->out, "Output prefix")->required();
+    sub->add_option("--format", args->format, "Mesh file format: bourke, obj or pfm");
+    sub->add_option("--grid-level", args->gridLevel, "Quadtree grid level m (2..11)");
+    sub->add_option("--pass1-size", args->pass1Size, "Pass-1 image size in pixels")
+        ->check(CLI::Range(16, 8192));
+    sub->add_option("--threads", args->threads, "Pass-2 renderer threads (0 = all)")
+        ->check(CLI::Range(0, 256));
+    sub->add_flag("--json", args->json, "Print the result as JSON");
+    return {sub, [args] { return run(*args); }};
+}
+
+}  // namespace plx::cli

@@ -1,0 +1,70 @@
+#pragma once
+// Runs the parallax binary from integration tests: captured stdout, stderr and exit code, with a
+// timeout so that a hang fails the test instead of stalling the suite.
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+namespace plx::testing {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+    int exitCode = -1;
+    std::string out, err;
+};
+
+// A folder for one test file's outputs, under the build tree.
+inline fs::path scratchDir(const std::string& name) {
+    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / name;
+    fs::create_directories(dir);
+    return dir;
+}
+
+inline RunResult runParallax(const std::string& args) {
+    // CTest runs tests in parallel processes: stderr goes to a file unique to this run.
+    static std::atomic<int> counter{0};
+    fs::path errFile = scratchDir("stderr") / ("run-" + std::to_string(getpid()) + "-" +
+                                               std::to_string(counter++) + ".txt");
+    std::string cmd = "timeout 120 " + std::string(PARALLAX_EXE) + " " + args + " 2>" +
+                      errFile.string();
+    RunResult r;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return r;
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+    int status = pclose(pipe);
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream e(errFile);
+    r.err.assign(std::istreambuf_iterator<char>(e), {});
+    e.close();
+    fs::remove(errFile);
+    return r;
+}
+
+inline void writeFile(const fs::path& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// A failed command: the expected non-zero exit (not a crash or timeout), exactly one line on
+// stderr naming the problem, nothing on stdout.
+inline void expectOneLineError(const RunResult& r, const std::string& mentions, int code = 1) {
+    EXPECT_EQ(r.exitCode, code) << r.err;
+    ASSERT_FALSE(r.err.empty());
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("parallax: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(mentions), std::string::npos)
+        << "expected '" << mentions << "' in: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+}  // namespace plx::testing

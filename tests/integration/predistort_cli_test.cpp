@@ -1,0 +1,96 @@
+// parallax predistort and bench predistort run as a user would: JSON fields, written files, the
+// error bound, and one-line errors for bad input.
+
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+fs::path scratchDir() { return plx::testing::scratchDir("predistort_cli"); }
+
+std::string coneDisplay() { return std::string(PLX_SOURCE_DIR) + "/examples/displays/cone_showcase.json"; }
+
+TEST(PredistortCli, AdaptiveJsonMeetsThresholdAndWritesFiles) {
+    fs::path prefix = scratchDir() / "cone";
+    RunResult r = runParallax("predistort " + coneDisplay() + " --error 1 --out " +
+                              prefix.string() + " --json --pass1-size 128 --grid-level 7");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* key : {"method", "error_mm", "max_measured_error_mm", "vertices",
+                            "triangles", "patches", "generate_ms", "render_ms"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["method"], "adaptive");
+    EXPECT_LE(doc["max_measured_error_mm"].get<double>(), 1.0);
+    EXPECT_GT(doc["triangles"].get<int>(), 0);
+    for (const char* suffix : {"_mesh.txt", "_overlay.png", "_frame.png"})
+        EXPECT_GT(fs::file_size(prefix.string() + suffix), 0u) << suffix;
+}
+
+TEST(PredistortCli, UniformObjAndAdaptivePfm) {
+    fs::path u = scratchDir() / "uniform", p = scratchDir() / "pfm";
+    RunResult r = runParallax("predistort " + coneDisplay() + " --error 2 --method uniform " +
+                              "--format obj --pass1-size 128 --out " + u.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["method"], "uniform");
+    EXPECT_LE(doc["max_measured_error_mm"].get<double>(), 2.0);
+    std::ifstream obj(u.string() + "_mesh.obj");
+    std::string first;
+    std::getline(obj, first);
+    EXPECT_FALSE(first.empty());
+    r = runParallax("predistort " + coneDisplay() + " --error 2 --container none --format pfm " +
+                    "--viewer 0,500,700 --pass1-size 128 --grid-level 7 --out " + p.string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream pfm(p.string() + "_warp.pfm", std::ios::binary);
+    std::string magic(2, '\0');
+    pfm.read(magic.data(), 2);
+    EXPECT_EQ(magic, "PF");
+}
+
+TEST(PredistortCli, BadInputGivesOneLineErrors) {
+    std::string out = " --out " + (scratchDir() / "bad").string();
+    expectOneLineError(runParallax("predistort " + (scratchDir() / "missing.json").string() +
+                                   " --error 1" + out),
+                       "missing.json", 1);
+    fs::path malformed = scratchDir() / "malformed.json";
+    std::ofstream(malformed) << "{\"optics\": {\"type\": \"cone_mirror\"";
+    expectOneLineError(runParallax("predistort " + malformed.string() + " --error 1" + out),
+                       "malformed.json", 1);
+    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error -1" + out),
+                       "--error", 2);
+    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --viewer nan,1,2" +
+                                   out),
+                       "nan", 1);
+    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --method fancy" +
+                                   out),
+                       "fancy", 2);
+    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --container box" +
+                                   out),
+                       "box", 1);
+    // A viewer inside the mirror cannot see the display through it.
+    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --viewer 0,200,0" +
+                                   out),
+                       "viewer", 1);
+}
+
+TEST(PredistortCli, BenchWritesTableAndPlots) {
+    fs::path dir = scratchDir() / "bench";
+    RunResult r = runParallax("bench predistort --display " + coneDisplay() +
+                              " --thresholds 4,1 --repetitions 1 --out " + dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    ASSERT_EQ(doc["rows"].size(), 2u);
+    for (const auto& row : doc["rows"]) {
+        double thr = row["error_mm"].get<double>();
+        EXPECT_LE(row["adaptive_container"]["max_measured_error_mm"].get<double>(), thr);
+        EXPECT_LE(row["uniform"]["max_measured_error_mm"].get<double>(), thr);
+    }
+    for (const char* f : {"table1.csv", "table1.json", "fig8_vertices.svg", "fig9_triangles.svg",
+                          "fig10_time.svg"})
+        EXPECT_GT(fs::file_size(dir / f), 0u) << f;
+}
+
+}  // namespace

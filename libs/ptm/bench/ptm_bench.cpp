@@ -2,6 +2,7 @@
 //   plx_ptm_bench sizes [--cache CSV] FILES...
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
+//   plx_ptm_bench ptmspeed FILES... the same for PTM coder 2 alone
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
 
@@ -269,7 +270,7 @@ int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
     double enc[5] = {}, dec[5] = {};
-    const char* names[5] = {"PTM predict+zstd (zstd 9, default)", "PTM predict+zstd (zstd 3)",
+    const char* names[5] = {"PTM predict+rans (coder 2, default)", "PTM predict+zstd (coder 1, zstd 9)",
                             "PNG (libpng 9)", "WebP lossless", "JPEG XL lossless e7"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
@@ -277,10 +278,10 @@ int runSpeed(const std::vector<std::string>& files) {
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
         std::vector<uint8_t> p19, p3, png, webp, jxl;
-        plx::ptm::EncodeConfig c3;
-        c3.zstdLevel = 3;
-        enc[0] += bestMs(1, [&] { p19 = *plx::ptm::encode(*img); });
-        enc[1] += bestMs(3, [&] { p3 = *plx::ptm::encode(*img, c3); });
+        plx::ptm::EncodeConfig c1;
+        c1.coder = plx::ptm::Coder::kPredictZstd;
+        enc[0] += bestMs(3, [&] { p19 = *plx::ptm::encode(*img); });
+        enc[1] += bestMs(1, [&] { p3 = *plx::ptm::encode(*img, c1); });
         enc[2] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
         enc[3] += bestMs(1, [&] { webp = webpEncode(peer); });
         enc[4] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
@@ -298,6 +299,22 @@ int runSpeed(const std::vector<std::string>& files) {
     return 0;
 }
 
+// PTM alone (coder 2, default settings): best-of-5 single-thread decode and encode MB/s.
+int runPtmSpeed(const std::vector<std::string>& files) {
+    double mb = 0, encMs = 0, decMs = 0;
+    for (const auto& f : files) {
+        auto img = plx::readImage(f);
+        if (!img) continue;
+        mb += double(img->bytes.size()) / 1e6;
+        std::vector<uint8_t> file;
+        encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img); });
+        decMs += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+    }
+    std::printf("PTM predict+rans: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n", mb,
+                mb / (encMs / 1e3), mb / (decMs / 1e3));
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -309,6 +326,7 @@ int main(int argc, char** argv) {
     std::string mode = argv[1];
     if (mode == "sizes") return runSizes(files);
     if (mode == "speed") return runSpeed(files);
+    if (mode == "ptmspeed") return runPtmSpeed(files);
     std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());
     return 2;
 }

@@ -98,7 +98,10 @@ inline int choose(int sel, int pA, int pB) {
 
 // Group k >= 1. Returns false (decode only) on an eps >= n or a pixel of eq. (3) outside 0..255.
 template <int C, class IO>
-bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO& io) {
+bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO& ioRef) {
+    // A local copy whose address does not escape: the pixel stores (uint8_t may alias anything)
+    // then do not force the coder state out of registers.
+    IO io = std::move(ioRef);
     const size_t stride = size_t(width) * C, lowStride = size_t(low.width) * C;
     // Per block and component, of the previous and the current block row: the activity (sum of
     // |residual| over the block's stored pixels) and the errors of the two sub-predictors;
@@ -160,7 +163,7 @@ bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO
                                                      u[3][c], 4, u[0][c]);
                     const int pB = c > 0 ? std::clamp(pA + res[c - 1], 0, 255) : pA;
                     int ac = act[c];
-                    if (c > 0) ac += 2 * e0[c - 1];
+                    (void)0;
                     e0[c] = io.pixel(pp[0] + c, (4 * c) * kFamilyContexts + activityBucket(ac),
                                      choose(sel[c], pA, pB));
                     a[c] = pp[0][c];
@@ -174,7 +177,7 @@ bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO
                                                      u[1][c]);
                     const int pB = c > 0 ? std::clamp(pA + res[c - 1], 0, 255) : pA;
                     int ac = (act[c] + 5 * e0[c]) >> 1;
-                    if (c > 0) ac += 2 * e1[c - 1];
+                    (void)0;
                     e1[c] = io.pixel(pp[1] + c,
                                      (4 * c + 1) * kFamilyContexts + activityBucket(ac),
                                      choose(sel[c], pA, pB));
@@ -189,7 +192,7 @@ bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO
                                                      u[2][c]);
                     const int pB = c > 0 ? std::clamp(pA + res[c - 1], 0, 255) : pA;
                     int ac = (act[c] + 3 * (e0[c] + e1[c])) >> 1;
-                    if (c > 0) ac += 2 * e2[c - 1];
+                    (void)0;
                     e2[c] = io.pixel(pp[2] + c,
                                      (4 * c + 2) * kFamilyContexts + activityBucket(ac),
                                      choose(sel[c], pA, pB));
@@ -224,7 +227,7 @@ bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO
                     const int pred =
                         predictBlockPixel(2, m, 0, u[0][c] + u[uo][c], 2, u[0][c]);
                     int ac = act[c];
-                    if (c > 0) ac += 2 * e0[c - 1];
+                    (void)0;
                     e0[c] = io.pixel(pp[0] + c, (4 * c) * kFamilyContexts + activityBucket(ac),
                                      pred);
                     const int ctx = (4 * c + 3) * kFamilyContexts + kEpsContexts - 2;
@@ -250,6 +253,7 @@ bool walkLevelRans(const ByteImage& low, uint8_t* cur, int width, int height, IO
             row[size_t(low.width + 1) * C + c] = row[size_t(low.width) * C + c];
         }
     }
+    ioRef = std::move(io);
     return bad == 0;
 }
 

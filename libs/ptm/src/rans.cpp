@@ -86,15 +86,15 @@ bool readTable(const uint8_t*& p, const uint8_t* end, std::array<uint16_t, kToke
 
 void buildDecodeTable(const std::array<uint16_t, kTokenCount>& freq, DecodeTable& t) {
     unsigned cum = 0;
-    for (int s = 0; s < kTokenCount; ++s) {
-        t.freq[s] = freq[size_t(s)];
-        t.cum[s] = uint16_t(cum);
-        std::memset(t.token + cum, s, freq[size_t(s)]);
-        cum += freq[size_t(s)];
+    for (int s = 0; s < 32; ++s) {
+        const unsigned f = s < kTokenCount ? freq[size_t(s)] : 0;
+        t.freq[s] = uint16_t(f);
+        t.cum[s] = uint16_t(s < kTokenCount && (f > 0 || cum < kRansTotal) ? cum : 0xFFFF);
+        cum += f;
     }
-    if (cum == 0) {  // empty table
-        std::memset(t.token, 0, kRansTotal);
+    if (cum == 0) {  // empty table: token 0 everywhere, the state unchanged
         t.freq[0] = uint16_t(kRansTotal);
+        for (int s = 1; s < 32; ++s) t.cum[s] = 0xFFFF;
     }
 }
 

@@ -18,6 +18,7 @@ struct PtmArgs {
     int lowest = 1;
     int zstdLevel = 9;
     bool raw = false;
+    bool zstd = false;
     bool json = false;
 };
 
@@ -27,7 +28,9 @@ int runEncode(const PtmArgs& a) {
     ptm::EncodeConfig cfg;
     cfg.lowestMaxSide = a.lowest;
     cfg.zstdLevel = a.zstdLevel;
-    cfg.coder = a.raw ? ptm::Coder::kRaw : ptm::Coder::kPredictZstd;
+    cfg.coder = a.raw    ? ptm::Coder::kRaw
+                : a.zstd ? ptm::Coder::kPredictZstd
+                         : ptm::Coder::kPredictRans;
     Stopwatch watch;
     auto file = ptm::encode(*image, cfg);
     if (!file) return fail(file.status());
@@ -149,8 +152,12 @@ Command registerPtm(CLI::App& app) {
     enc->add_option("-o,--output", args->output, "Output .ptm file")->required();
     enc->add_option("--lowest", args->lowest, "Largest side of the smallest stored level")
         ->check(CLI::Range(1, 1 << 15));
-    enc->add_option("--zstd-level", args->zstdLevel, "zstd level 1..22")->check(CLI::Range(1, 22));
-    enc->add_flag("--raw", args->raw, "Store the planes uncompressed (the paper's layout)");
+    enc->add_option("--zstd-level", args->zstdLevel, "zstd level 1..22 (with --zstd)")
+        ->check(CLI::Range(1, 22));
+    auto* rawFlag =
+        enc->add_flag("--raw", args->raw, "Store the planes uncompressed (the paper's layout)");
+    enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 2, predict+rans)")
+        ->excludes(rawFlag);
     enc->add_flag("--json", args->json, "Machine-readable output on stdout");
     enc->footer("Example: parallax ptm encode wall.jpg -o wall.ptm --lowest 4");
     CLI::App* dec = sub->add_subcommand("decode", "Decode one level of a PTM to PNG");

@@ -1,6 +1,8 @@
 // PTM benchmark and experiment driver (docs/ptm-results.md).
-//   plx_ptm_bench sizes FILES...   size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
+//   plx_ptm_bench sizes [--cache CSV] FILES...
+//                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
+//   plx_ptm_bench ptmspeed FILES... the same for PTM coder 2 alone
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
 
@@ -8,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -133,13 +136,54 @@ size_t optipngSize(const std::vector<uint8_t>& png, const std::string& tag) {
     return ec ? 0 : n;
 }
 
-int runSizes(const std::vector<std::string>& files) {
+// Peer sizes (libpng 9, optipng -o2, WebP, JPEG XL e7) of one input, cached across runs in a CSV
+// (name,bytes of the input file,png9,optipng,webp,jxl) because optipng and JPEG XL are slow.
+struct PeerSizes {
+    size_t png = 0, opti = 0, webp = 0, jxl = 0;
+};
+
+std::string cacheKey(const std::string& file) {
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(file, ec);
+    return std::string(std::filesystem::path(file).filename().string()) + "," +
+           std::to_string(ec ? 0 : bytes);
+}
+
+std::map<std::string, PeerSizes> loadCache(const std::string& path) {
+    std::map<std::string, PeerSizes> cache;
+    std::FILE* f = path.empty() ? nullptr : std::fopen(path.c_str(), "r");
+    if (!f) return cache;
+    char name[512];
+    unsigned long long bytes = 0;
+    PeerSizes p;
+    while (std::fscanf(f, "%511[^,],%llu,%zu,%zu,%zu,%zu\n", name, &bytes, &p.png, &p.opti,
+                       &p.webp, &p.jxl) == 6)
+        cache[std::string(name) + "," + std::to_string(bytes)] = p;
+    std::fclose(f);
+    return cache;
+}
+
+void appendCache(const std::string& path, const std::string& key, const PeerSizes& p) {
+    if (path.empty()) return;
+    if (std::FILE* f = std::fopen(path.c_str(), "a")) {
+        std::fprintf(f, "%s,%zu,%zu,%zu,%zu\n", key.c_str(), p.png, p.opti, p.webp, p.jxl);
+        std::fclose(f);
+    }
+}
+
+int runSizes(std::vector<std::string> files) {
+    std::string cachePath;
+    if (files.size() >= 2 && files[0] == "--cache") {
+        cachePath = files[1];
+        files.erase(files.begin(), files.begin() + 2);
+    }
+    std::map<std::string, PeerSizes> cache = loadCache(cachePath);
     struct Totals {
         double raw = 0, chain = 0, png = 0, opti = 0, webp = 0, jxl = 0, ptm = 0, ptmRaw = 0;
-        double eps = 0;
+        double ptmZstd = 0;
     } t;
     std::printf("file,w,h,c,raw,mip_chain,png9,optipng_o2,webp_ll,jxl_ll_e7,ptm,ptm_raw_coder,"
-                "ptm_vs_optipng\n");
+                "ptm_vs_optipng,ptm_zstd\n");
     int count = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
@@ -153,23 +197,42 @@ int runSizes(const std::vector<std::string>& files) {
         for (const auto& l : plx::ptm::buildMipChain(
                  *img, plx::ptm::fullChainLength(img->width, img->height)))
             chain += double(l.bytes.size());
-        auto png = plx::encodePng(*img, 9);
-        const size_t opti = optipngSize(*png, std::to_string(count));
-        ByteImage peer = toRgbOrRgba(*img);
-        const size_t webp = webpEncode(peer).size();
-        const size_t jxl = jxlEncode(peer, 7).size();
-        const size_t ptm = plx::ptm::encode(*img)->size();
+        const std::string key = cacheKey(f);
+        PeerSizes peers;
+        if (auto it = cache.find(key); it != cache.end()) {
+            peers = it->second;
+        } else {
+            auto png = plx::encodePng(*img, 9);
+            peers.png = png->size();
+            peers.opti = optipngSize(*png, std::to_string(count));
+            ByteImage peer = toRgbOrRgba(*img);
+            peers.webp = webpEncode(peer).size();
+            peers.jxl = jxlEncode(peer, 7).size();
+            if (peers.opti > 0) appendCache(cachePath, key, peers);
+        }
+        const size_t opti = peers.opti, webp = peers.webp, jxl = peers.jxl;
+        const std::vector<uint8_t> ptmFile = *plx::ptm::encode(*img);
+        const size_t ptm = ptmFile.size();
+        auto back = plx::ptm::decodeImage(ptmFile);
+        if (!back || *back != *img) {
+            std::fprintf(stderr, "%s: PTM round trip FAILED %s\n", f.c_str(), back ? "mismatch" : back.status().toString().c_str());
+            return 1;
+        }
+        plx::ptm::EncodeConfig zstdCfg;
+        zstdCfg.coder = plx::ptm::Coder::kPredictZstd;
+        const size_t ptmZstd = std::getenv("PLX_BENCH_NO_ZSTD") ? 0 : plx::ptm::encode(*img, zstdCfg)->size();
         plx::ptm::EncodeConfig rawCfg;
         rawCfg.coder = plx::ptm::Coder::kRaw;
         const size_t ptmRaw = plx::ptm::encode(*img, rawCfg)->size();
-        std::printf("%s,%d,%d,%d,%.0f,%.0f,%zu,%zu,%zu,%zu,%zu,%zu,%.4f\n",
+        std::printf("%s,%d,%d,%d,%.0f,%.0f,%zu,%zu,%zu,%zu,%zu,%zu,%.4f,%zu\n",
                     std::filesystem::path(f).filename().c_str(), img->width, img->height,
-                    img->channels, raw, chain, png->size(), opti, webp, jxl, ptm, ptmRaw,
-                    double(ptm) / double(opti));
+                    img->channels, raw, chain, peers.png, opti, webp, jxl, ptm, ptmRaw,
+                    double(ptm) / double(opti), ptmZstd);
         std::fflush(stdout);
-        t.raw += raw, t.chain += chain, t.png += double(png->size()), t.opti += double(opti);
+        t.raw += raw, t.chain += chain, t.png += double(peers.png), t.opti += double(opti);
         t.webp += double(webp), t.jxl += double(jxl), t.ptm += double(ptm);
         t.ptmRaw += double(ptmRaw);
+        t.ptmZstd += double(ptmZstd);
     }
     const double o = t.opti;
     std::printf("\n%d images. Totals in bytes (ratio to optipng -o2 PNG of the base level):\n",
@@ -185,7 +248,8 @@ int runSizes(const std::vector<std::string>& files) {
     row("PNG (optipng -o2)", t.opti);
     row("WebP lossless", t.webp);
     row("JPEG XL lossless e7", t.jxl);
-    row("PTM predict+zstd (all levels)", t.ptm);
+    row("PTM predict+zstd (coder 1, all levels)", t.ptmZstd);
+    row("PTM predict+rans (coder 2, all levels)", t.ptm);
     std::printf("\nuncompressed residual overhead (raw-coder PTM / raw base - 1): %.2f%%\n",
                 100.0 * (t.ptmRaw / t.raw - 1.0));
     return 0;
@@ -206,7 +270,7 @@ int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
     double enc[5] = {}, dec[5] = {};
-    const char* names[5] = {"PTM predict+zstd (zstd 9, default)", "PTM predict+zstd (zstd 3)",
+    const char* names[5] = {"PTM predict+rans (coder 2, default)", "PTM predict+zstd (coder 1, zstd 9)",
                             "PNG (libpng 9)", "WebP lossless", "JPEG XL lossless e7"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
@@ -214,10 +278,10 @@ int runSpeed(const std::vector<std::string>& files) {
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
         std::vector<uint8_t> p19, p3, png, webp, jxl;
-        plx::ptm::EncodeConfig c3;
-        c3.zstdLevel = 3;
-        enc[0] += bestMs(1, [&] { p19 = *plx::ptm::encode(*img); });
-        enc[1] += bestMs(3, [&] { p3 = *plx::ptm::encode(*img, c3); });
+        plx::ptm::EncodeConfig c1;
+        c1.coder = plx::ptm::Coder::kPredictZstd;
+        enc[0] += bestMs(3, [&] { p19 = *plx::ptm::encode(*img); });
+        enc[1] += bestMs(1, [&] { p3 = *plx::ptm::encode(*img, c1); });
         enc[2] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
         enc[3] += bestMs(1, [&] { webp = webpEncode(peer); });
         enc[4] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
@@ -235,6 +299,22 @@ int runSpeed(const std::vector<std::string>& files) {
     return 0;
 }
 
+// PTM alone (coder 2, default settings): best-of-5 single-thread decode and encode MB/s.
+int runPtmSpeed(const std::vector<std::string>& files) {
+    double mb = 0, encMs = 0, decMs = 0;
+    for (const auto& f : files) {
+        auto img = plx::readImage(f);
+        if (!img) continue;
+        mb += double(img->bytes.size()) / 1e6;
+        std::vector<uint8_t> file;
+        encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img); });
+        decMs += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+    }
+    std::printf("PTM predict+rans: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n", mb,
+                mb / (encMs / 1e3), mb / (decMs / 1e3));
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -246,6 +326,7 @@ int main(int argc, char** argv) {
     std::string mode = argv[1];
     if (mode == "sizes") return runSizes(files);
     if (mode == "speed") return runSpeed(files);
+    if (mode == "ptmspeed") return runPtmSpeed(files);
     std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());
     return 2;
 }

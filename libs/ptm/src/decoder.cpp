@@ -1,9 +1,15 @@
+#include <bit>
+#include <memory>
+
 #include <fmt/format.h>
 #include <zstd.h>
 
 #include <plx/ptm/decoder.h>
 
 #include "codec.h"
+#include "ctx_codec.h"
+
+static_assert(std::endian::native == std::endian::little, "the bit reader assumes little-endian");
 
 namespace plx::ptm {
 namespace {
@@ -30,6 +36,57 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
+// Coder 2 group (docs/ptm-format.md): family table counts, tables, rANS stream, extra bits.
+Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k) {
+    const bool lowest = k == 0;
+    const uint8_t* p = in.data();
+    const uint8_t* end = in.data() + in.size();
+    std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
+    std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
+    const int families = detail::familyCount(img.channels, lowest);
+    if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
+    size_t tables = 0;
+    for (int i = 0; i < families; ++i) {
+        const int f = detail::familyId(i, lowest);
+        const int raw = detail::familyRawContexts(f & 3);
+        const int g = *p++;
+        if (g < 1 || g > raw || raw % g != 0)
+            return corrupt(fmt::format("level {}: bad table count {} in the context map", k, g));
+        for (int q = 0; q < raw; ++q)
+            ctxToTable[size_t(f * detail::kFamilyContexts + q)] = uint16_t(tables + size_t(q * g / raw));
+        tables += size_t(g);
+    }
+    freqs.resize(tables);
+    for (auto& f : freqs)
+        if (!detail::readTable(p, end, f))
+            return corrupt(fmt::format("level {}: malformed frequency table", k));
+    if (end - p < 4) return corrupt(fmt::format("level {}: truncated before the rANS stream", k));
+    const uint32_t ransBytes =
+        uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+    p += 4;
+    if (ransBytes < 8 || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
+        return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
+    auto decodeTables = std::make_unique<detail::DecodeTable[]>(tables);
+    for (size_t t = 0; t < tables; ++t) detail::buildDecodeTable(freqs[t], decodeTables[t]);
+    detail::RansDecodeIO io{decodeTables.get(), ctxToTable.data(),
+                            detail::RansDecoder(p, p + ransBytes),
+                            detail::BitReader(p + ransBytes, end)};
+    bool ok = true;
+    if (lowest)
+        detail::walkLowestRans(img.bytes.data(), img.width, img.height, img.channels, io);
+    else
+        ok = detail::walkLevelRansAny(img.channels, *low, img.bytes.data(), img.width, img.height,
+                                      io);
+    if (!ok)
+        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
+                                   "of range", k));
+    if (!io.rans.finishedCleanly())
+        return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
+    if (!io.bits.exact(size_t(end - p) - ransBytes))
+        return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
+    return Status::ok();
+}
+
 }  // namespace
 
 Result<ProgressiveDecoder> ProgressiveDecoder::create(std::span<const uint8_t> headerPrefix) {
@@ -53,6 +110,14 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
+    if (mHeader.coder == Coder::kPredictRans) {
+        ByteImage img{size.width, size.height, comps, {}};
+        img.bytes.resize(img.rowBytes() * size_t(size.height));
+        PLX_RETURN_IF_ERROR(
+            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k));
+        mLevels.push_back(std::move(img));
+        return Status::ok();
+    }
     const detail::GroupLayout layout = detail::groupLayout(size, comps, k == 0);
     const size_t payloadBytes = layout.payloadBytes();
     std::span<uint8_t> payload;

@@ -3,7 +3,10 @@
 
 #include <plx/ptm/encoder.h>
 
+#include <cmath>
+
 #include "codec.h"
+#include "ctx_codec.h"
 
 namespace plx::ptm {
 namespace {
@@ -31,6 +34,70 @@ std::vector<uint8_t> buildPayload(const std::vector<ByteImage>& chain, int k, Co
                                           payload.data());
     }
     return payload;
+}
+
+// Estimated bits of coding `count` with the normalised table plus the table itself.
+double tableCost(const std::array<uint32_t, detail::kTokenCount>& count) {
+    const auto freq = detail::normalizeCounts(count);
+    double bits = 8.0 * double(detail::tableBytes(freq));
+    for (int t = 0; t < detail::kTokenCount; ++t)
+        if (count[size_t(t)])
+            bits += double(count[size_t(t)]) *
+                    (detail::kRansPrecision - std::log2(double(freq[size_t(t)])));
+    return bits;
+}
+
+// Coder 2 group (docs/ptm-format.md): per family the number g of tables its raw contexts are
+// merged into (raw context q uses table q * g / raw), chosen to minimise the estimated size;
+// the tables; the rANS stream's length (u32) and bytes; the extra bits.
+std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k) {
+    ByteImage level = chain[size_t(k)];
+    detail::RansEncodeIO io;
+    const bool lowest = k == 0;
+    if (lowest)
+        detail::walkLowestRans(level.bytes.data(), level.width, level.height, level.channels, io);
+    else
+        detail::walkLevelRansAny(level.channels, chain[size_t(k - 1)], level.bytes.data(),
+                                 level.width, level.height, io);
+    using Hist = std::array<uint32_t, detail::kTokenCount>;
+    std::vector<Hist> hist(detail::kMaxRawContexts, Hist{});
+    for (const auto& s : io.symbols) ++hist[s.ctx][s.token];
+    std::vector<uint8_t> out;
+    std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
+    std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
+    const int families = detail::familyCount(level.channels, lowest);
+    for (int i = 0; i < families; ++i) {
+        const int f = detail::familyId(i, lowest);
+        const int raw = detail::familyRawContexts(f & 3);
+        auto merged = [&](int g) {
+            std::vector<Hist> m(size_t(g), Hist{});
+            for (int q = 0; q < raw; ++q)
+                for (int t = 0; t < detail::kTokenCount; ++t)
+                    m[size_t(q * g / raw)][size_t(t)] +=
+                        hist[size_t(f * detail::kFamilyContexts + q)][size_t(t)];
+            return m;
+        };
+        int bestG = 1;
+        double bestBits = 0;
+        for (int g = 1; g <= raw; ++g) {
+            if (raw % g != 0) continue;
+            double bits = 8;
+            for (const Hist& h : merged(g)) bits += tableCost(h);
+            if (g == 1 || bits < bestBits) bestBits = bits, bestG = g;
+        }
+        out.push_back(uint8_t(bestG));
+        for (int q = 0; q < raw; ++q)
+            ctxToTable[size_t(f * detail::kFamilyContexts + q)] =
+                uint16_t(freqs.size() + size_t(q * bestG / raw));
+        for (const Hist& h : merged(bestG)) freqs.push_back(detail::normalizeCounts(h));
+    }
+    for (const auto& f : freqs) detail::writeTable(out, f);
+    const std::vector<uint8_t> rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
+    for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));
+    out.insert(out.end(), rans.begin(), rans.end());
+    const std::vector<uint8_t> bits = io.bits.finish();
+    out.insert(out.end(), bits.begin(), bits.end());
+    return out;
 }
 
 Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
@@ -68,6 +135,8 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: pixel buffer size mismatch");
     if (config.lowestMaxSide < 1)
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
+    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRans))
+        return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
         return errorStatus(ErrorCode::kInvalidArgument,
@@ -85,7 +154,9 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        std::vector<uint8_t> payload = buildPayload(chain, k, config.coder);
+        std::vector<uint8_t> payload = config.coder == Coder::kPredictRans
+                                           ? encodeGroupRans(chain, k)
+                                           : buildPayload(chain, k, config.coder);
         if (config.coder == Coder::kPredictZstd) {
             auto packed = compress(payload, config.zstdLevel);
             if (!packed) return packed.status();

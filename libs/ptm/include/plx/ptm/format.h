@@ -23,10 +23,12 @@ inline constexpr size_t kHeaderCrcBytes = 4;
 inline constexpr int kMaxSide = 32768;
 inline constexpr int64_t kMaxPixels = int64_t(1) << 28;
 
-// How a group's payload is stored. The payload layout (planes) is the same for both.
+// How a group is stored. kRaw and kPredictZstd share the plane layout; kPredictRans codes the
+// same values symbol by symbol in block order (docs/ptm-format.md).
 enum class Coder : uint8_t {
     kRaw = 0,          // planes hold the values themselves, uncompressed (the paper's layout)
     kPredictZstd = 1,  // planes hold prediction residuals; the payload is one zstd frame
+    kPredictRans = 2,  // context-modelled residuals and eps, interleaved rANS (no planes)
 };
 
 // Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.

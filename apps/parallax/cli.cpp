@@ -67,6 +67,10 @@ Result<IVec2> parseSize(const std::string& text) {
 
 void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }
 
+Status writeText(const std::string& path, const std::string& text) {
+    return writeFileBytes(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+}
+
 Status ensureParentDirectory(const std::string& prefix) {
     std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
     if (parent.empty()) return Status::ok();

@@ -36,6 +36,9 @@ Result<IVec2> parseSize(const std::string& text);
 // Writes the JSON document as the only thing on stdout.
 void printJson(const nlohmann::json& doc);
 
+// Writes text to a file; the error names the file.
+Status writeText(const std::string& path, const std::string& text);
+
 // Creates the parent directory of an output prefix ("out/x" -> "out/").
 Status ensureParentDirectory(const std::string& prefix);
 

@@ -11,5 +11,6 @@ Command registerDemo(CLI::App& app);
 Command registerPtm(CLI::App& app);
 Command registerPredistort(CLI::App& app);
 Command registerBench(CLI::App& app);
+Command registerStereo(CLI::App& app);
 
 }  // namespace plx::cli

@@ -29,7 +29,8 @@ int runDemo(const DemoArgs& a) {
                      "by reusing what was already computed. Every number below was measured "
                      "while this page was generated.");
     using Section = Status (*)(DemoContext&);
-    for (Section section : {Section(demoRasterSection), Section(demoDisplaySection)}) {
+    for (Section section : {Section(demoRasterSection), Section(demoStereoSection),
+                                Section(demoDisplaySection)}) {
         if (Status s = section(ctx); !s) return fail(s);
     }
     std::string index = a.out + "/index.html";

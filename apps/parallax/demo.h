@@ -19,6 +19,9 @@ struct DemoContext {
 // Foundation: office:1..16 rendered with the P-buffer rasterizer, images and the frame-time plot.
 Status demoRasterSection(DemoContext& ctx);
 
+// Stereo (Heo, Jung, Wohn): the Table 1 / Fig. 17 experiment, an anaglyph, the second-eye diff.
+Status demoStereoSection(DemoContext& ctx);
+
 // Curved displays (Bimber et al.): the cone showcase's adaptive grid, the predistorted frame,
 // uniform against adaptive and the speedup plot. ctx.quick: two thresholds, small sizes.
 Status demoDisplaySection(DemoContext& ctx);

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
 
     std::vector<Command> commands = {
         registerRender(app),
+        registerStereo(app),
         registerDemo(app),
         registerInfo(app),
         registerPtm(app),

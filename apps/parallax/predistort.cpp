@@ -44,9 +44,6 @@ struct PredistortArgs {
     bool json = false;
 };
 
-Status writeText(const std::string& path, const std::string& text) {
-    return writeFileBytes(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
-}
 
 // The scene in display millimetres: the given one (a file or a generator spec) or the built-in
 // exhibit, fitted to the display's content sphere.

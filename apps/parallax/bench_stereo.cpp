@@ -1,0 +1,122 @@
+// parallax bench stereo: Heo, Jung, Wohn Table 1 and Fig. 17 (full pipeline against the P-buffer
+// method on office:N) as CSV, JSON and SVG plots.
+
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "bench.h"
+
+namespace plx::cli {
+
+std::vector<std::pair<std::string, std::string>> stereoPlots(
+    const std::vector<stereo::StereoExperimentRow>& rows) {
+    PlotSeries fullFirst{"full pipeline", {}}, pbufFirst{"p-buffer method", {}};
+    PlotSeries fullSecond{"full pipeline", {}}, pbufSecond{"p-buffer method", {}};
+    PlotSeries fullPair{"full pipeline", {}}, pbufPair{"p-buffer method", {}};
+    PlotSeries speedup{"pair speedup (full / p-buffer)", {}}, visible{"visible polygons", {}};
+    for (const auto& r : rows) {
+        double n = double(r.polygons);
+        fullFirst.points.emplace_back(n, r.fullFirstMs);
+        pbufFirst.points.emplace_back(n, r.pbufferFirstMs);
+        fullSecond.points.emplace_back(n, r.fullSecondMs);
+        pbufSecond.points.emplace_back(n, r.pbufferSecondMs + r.collectMs);
+        fullPair.points.emplace_back(n, r.fullFirstMs + r.fullSecondMs);
+        pbufPair.points.emplace_back(n, r.pbufferFirstMs + r.collectMs + r.pbufferSecondMs);
+        speedup.points.emplace_back(n, r.pairSpeedup);
+        visible.points.emplace_back(n, double(r.visiblePolygons));
+    }
+    auto spec = [](const char* title, const char* y) {
+        return PlotSpec{title, "polygons (log scale)", y, true, true};
+    };
+    return {
+        {"fig17a_first_eye.svg",
+         svgLinePlot(spec("Fig. 17(a): first eye", "ms"), {fullFirst, pbufFirst})},
+        {"fig17b_second_eye.svg",
+         svgLinePlot(spec("Fig. 17(b): second eye (p-buffer: collect + subset)", "ms"),
+                     {fullSecond, pbufSecond})},
+        {"fig17c_pair.svg", svgLinePlot(spec("Fig. 17(c): both eyes", "ms"), {fullPair, pbufPair})},
+        {"speedup.svg", svgLinePlot(spec("Pair speedup of the p-buffer method", "x"), {speedup})},
+        {"visible.svg", svgLinePlot(spec("Visible polygons (first eye)", "polygons"), {visible})},
+    };
+}
+
+namespace {
+
+struct StereoBenchArgs {
+    std::string out = "out/bench_stereo";
+    std::vector<int> rooms{1, 2, 4, 8, 15, 32, 64, 128, 280};
+    std::string size = "640x480";
+    int frames = 5;
+    int threads = 0;
+    float separation = 0.065f, convergence = 3.0f;
+    bool noConservative = false;
+    bool json = false;
+};
+
+int runStereoBench(const StereoBenchArgs& a) {
+    auto size = parseSize(a.size);
+    if (!size) return fail(size.status().message(), kExitUsage);
+    for (int n : a.rooms)
+        if (n < 1 || n > 4096) return fail(fmt::format("--rooms {} outside 1 .. 4096", n), kExitUsage);
+    std::error_code ec;
+    std::filesystem::create_directories(a.out, ec);
+    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
+    stereo::StereoExperimentConfig config;
+    config.rooms = a.rooms;
+    config.width = size->x;
+    config.height = size->y;
+    config.frames = a.frames;
+    config.threads = a.threads;
+    config.rig.separation = a.separation;
+    config.rig.convergence = a.convergence;
+    config.conservative = !a.noConservative;
+    Progress progress("bench stereo", a.rooms.size());
+    auto rows = stereo::runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
+    if (!rows) return fail(rows.status());
+    std::string dir = a.out + "/";
+    nlohmann::json doc = stereo::experimentToJson(config, *rows);
+    if (Status s = writeText(dir + "table1.json", doc.dump(2)); !s) return fail(s);
+    std::string csv = stereo::experimentToCsv(*rows);
+    if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);
+    for (const auto& [file, svg] : stereoPlots(*rows))
+        if (Status s = writeText(dir + file, svg); !s) return fail(s);
+    if (a.json) {
+        printJson(doc);
+        return kExitOk;
+    }
+    fmt::print("{:>6} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}\n", "rooms", "polygons",
+               "visible", "full 1st", "full 2nd", "pbuf 1st", "pbuf 2nd", "speedup", "PSNR");
+    for (const auto& r : *rows)
+        fmt::print("{:>6} {:>9} {:>8} {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>7.2f}x {:>7.1f}\n",
+                   r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs,
+                   r.pbufferFirstMs, r.pbufferSecondMs + r.collectMs, r.pairSpeedup,
+                   std::isfinite(r.secondEyePsnrDb) ? r.secondEyePsnrDb : 99.0);
+    fmt::print("times in ms per eye (median of {} frames); wrote {}table1.{{csv,json}} and "
+               "Fig. 17 SVG plots\n", a.frames, dir);
+    return kExitOk;
+}
+
+}  // namespace
+
+Command addBenchStereo(CLI::App* bench) {
+    auto a = std::make_shared<StereoBenchArgs>();
+    CLI::App* sub = bench->add_subcommand(
+        "stereo", "Heo, Jung, Wohn Table 1 and Fig. 17: full vs P-buffer stereo on office:N");
+    sub->footer("Example: parallax bench stereo --rooms 1,4,16,64,280 --size 640x480");
+    sub->add_option("--rooms", a->rooms, "Office rooms per row of the table")->delimiter(',');
+    sub->add_option("--size", a->size, "Image size WxH")->capture_default_str();
+    sub->add_option("--frames", a->frames, "Timed frames per method (median)")
+        ->check(CLI::Range(1, 1000))->capture_default_str();
+    sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")
+        ->check(CLI::Range(0, 1024));
+    sub->add_option("--separation", a->separation, "Eye separation e (m)")->capture_default_str();
+    sub->add_option("--convergence", a->convergence, "Convergence distance c (m)")
+        ->capture_default_str();
+    sub->add_flag("--no-conservative", a->noConservative, "Skip the conservative-set columns");
+    sub->add_option("--out", a->out, "Output folder")->capture_default_str();
+    sub->add_flag("--json", a->json, "Print the table as JSON");
+    return {sub, [a] { return runStereoBench(*a); }};
+}
+
+}  // namespace plx::cli

@@ -1,0 +1,77 @@
+// parallax stereo and bench stereo run as a user would.
+
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+fs::path scratchDir() { return plx::testing::scratchDir("stereo_cli"); }
+
+TEST(StereoCli, PBufferPairJsonAndLayouts) {
+    fs::path prefix = scratchDir() / "pair";
+    RunResult r = runParallax("stereo office:4 --method pbuffer --size 96x72 --out " +
+                              prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* key : {"method", "triangles", "visible_triangles", "first_eye_ms",
+                            "second_eye_ms", "pair_ms", "second_eye_psnr_db"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["method"], "pbuffer");
+    EXPECT_GT(doc["second_eye_psnr_db"].get<double>(), 20.0);
+    EXPECT_LT(doc["visible_triangles"].get<int>(), doc["triangles"].get<int>());
+    EXPECT_TRUE(fs::exists(prefix.string() + ".left.png"));
+    EXPECT_TRUE(fs::exists(prefix.string() + ".right.png"));
+    EXPECT_TRUE(fs::exists(prefix.string() + ".diff.png"));
+    for (const char* format : {"sbs", "tb", "anaglyph", "interleaved"}) {
+        fs::path p = scratchDir() / format;
+        RunResult f = runParallax(std::string("stereo office:1 --method full --size 32x24 --format ") +
+                                  format + " --out " + p.string());
+        ASSERT_EQ(f.exitCode, 0) << f.err;
+        EXPECT_TRUE(fs::exists(p.string() + "." + format + ".png")) << format;
+    }
+}
+
+TEST(StereoCli, WalkthroughReportsPerFrameTimings) {
+    fs::path prefix = scratchDir() / "walk";
+    RunResult r = runParallax("stereo office:2 --walk 3 --size 48x32 --conservative --out " +
+                              prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["frames"], 3);
+    EXPECT_EQ(doc["per_frame"].size(), 3u);
+    EXPECT_TRUE(fs::exists(prefix.string() + "_0002.left.png"));
+    fs::path path = scratchDir() / "path.json";
+    writeFile(path, R"({"poses":[{"eye":[1,1.6,1],"target":[5,1,5]},{"eye":[1.2,1.6,1],"target":[5,1,5]}]})");
+    r = runParallax("stereo office:1 --path " + path.string() + " --size 32x24 --out " +
+                    (scratchDir() / "p").string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["frames"], 2);
+}
+
+TEST(StereoCli, BadParametersGiveOneLineErrors) {
+    std::string out = " --out " + (scratchDir() / "bad").string();
+    expectOneLineError(runParallax("stereo office:1 --separation -0.1" + out), "separation", 2);
+    expectOneLineError(runParallax("stereo office:1 --convergence 0" + out), "convergence", 2);
+    expectOneLineError(runParallax("stereo office:1 --method magic" + out), "magic", 2);
+    expectOneLineError(runParallax("stereo office:1 --format hologram" + out), "hologram", 2);
+    expectOneLineError(runParallax("stereo office:1 --rig sideways" + out), "sideways", 2);
+    fs::path bad = scratchDir() / "bad_path.json";
+    writeFile(bad, R"({"poses":[{"eye":[0,1,0]}]})");
+    expectOneLineError(runParallax("stereo office:1 --path " + bad.string() + out), "target");
+}
+
+TEST(StereoCli, BenchStereoWritesTableAndPlots) {
+    fs::path dir = scratchDir() / "bench";
+    RunResult r = runParallax("bench stereo --rooms 1,2 --size 64x48 --frames 1 --out " +
+                              dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["rows"].size(), 2u);
+    EXPECT_TRUE(fs::exists(dir / "table1.csv"));
+    EXPECT_TRUE(fs::exists(dir / "fig17c_pair.svg"));
+}
+
+}  // namespace

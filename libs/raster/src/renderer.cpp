@@ -268,11 +268,32 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
                               std::span<const uint32_t>* subset, const Viewport& vp,
                               const ShadeContext& ctx, int tilesX) {
     if (subset) {
-        for (size_t i = chunk.begin; i < chunk.end; ++i) {
+        // A subset is scattered over a scene that may be far larger than the caches, so each
+        // triangle's indices and positions are cache misses. Prefetch indices kIndexAhead
+        // triangles ahead and, once those have arrived, positions kPositionAhead ahead.
+        constexpr size_t kIndexAhead = 16, kPositionAhead = 8;
+        auto locate = [&](size_t i, const scene::Mesh** mesh, uint32_t* local) {
             uint32_t g = (*subset)[i];
-            size_t mesh = scene.meshOfTriangle(g);
-            clipAndBin(chunk, scene, camera, mesh, uint32_t(g - scene.firstTriangle(mesh)), vp,
-                       ctx, tilesX);
+            size_t m = scene.meshOfTriangle(g);
+            *mesh = &scene.meshes[m];
+            *local = uint32_t(g - scene.firstTriangle(m));
+            return m;
+        };
+        for (size_t i = chunk.begin; i < chunk.end; ++i) {
+            const scene::Mesh* ahead;
+            uint32_t local;
+            if (i + kIndexAhead < chunk.end) {
+                locate(i + kIndexAhead, &ahead, &local);
+                __builtin_prefetch(&ahead->indices[3 * size_t(local)]);
+            }
+            if (i + kPositionAhead < chunk.end) {
+                locate(i + kPositionAhead, &ahead, &local);
+                for (int k = 0; k < 3; ++k)
+                    __builtin_prefetch(&ahead->positions[ahead->indices[3 * size_t(local) + k]]);
+            }
+            const scene::Mesh* mesh;
+            size_t m = locate(i, &mesh, &local);
+            clipAndBin(chunk, scene, camera, m, local, vp, ctx, tilesX);
         }
         return;
     }

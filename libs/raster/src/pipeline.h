@@ -101,6 +101,7 @@ struct ShadeContext {
     Vec3 lightDir{0.0f, 1.0f, 0.0f};  // normalised
     float ambient = 0.25f;
     bool cullBackFaces = false;
+    bool collectUnsampled = false;
 
     ShadeContext(const RenderOptions& options);
 };

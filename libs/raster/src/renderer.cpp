@@ -50,16 +50,26 @@ struct Materialised {
     Vec3 bary[3];
 };
 
+// A triangle that covers no sample centre: its centre pixel and nearest 1/w, tested against the
+// final depth after the tiles are done.
+struct Unsampled {
+    uint32_t globalTri;
+    int32_t x, y;
+    float maxInvW;
+};
+
 struct Chunk {
     // Full render: mesh-local triangle range of one mesh. Subset: a range of the subset list.
     size_t mesh = 0;
     size_t begin = 0, end = 0;
     std::vector<Materialised> materialised;
     std::vector<std::vector<BinnedTri>> bins;  // per tile
+    std::vector<Unsampled> unsampled;
     uint64_t clipped = 0, binned = 0;
 
     void reset(size_t tiles) {
         materialised.clear();
+        unsampled.clear();
         if (bins.size() != tiles) bins.resize(tiles);
         for (auto& b : bins) b.clear();
         clipped = binned = 0;
@@ -90,6 +100,9 @@ struct Renderer::Impl {
     void binChunk(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
                   std::span<const uint32_t>* subset, const Viewport& vp, const ShadeContext& ctx,
                   int tilesX);
+    void noteUnsampled(Chunk& chunk, const scene::Scene& scene, const RasterVertex v[3],
+                       const Viewport& vp, const ShadeContext& ctx, uint32_t localTri) const;
+    void collectUnsampled(const RenderTargets& rt, std::vector<uint32_t>* out) const;
     void addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int minY, int maxX, int maxY,
                    int tilesX) const;
     void clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera, size_t mesh,
@@ -152,6 +165,8 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     pool.parallelFor(tiles, 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) rasterizeTile(int(t), tilesX, scene, vp, ctx, options, rt);
     });
+
+    if (options.unsampledVisible && !subset) collectUnsampled(rt, options.unsampledVisible);
 
     RenderStats stats;
     stats.trianglesSubmitted = subset ? subset->size() : scene.triangleCount();
@@ -222,6 +237,43 @@ void Renderer::Impl::addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int
     for (int ty = ty0; ty <= ty1; ++ty)
         for (int tx = tx0; tx <= tx1; ++tx) chunk.bins[size_t(ty) * tilesX + tx].push_back(tri);
     ++chunk.binned;
+}
+
+void Renderer::Impl::noteUnsampled(Chunk& chunk, const scene::Scene& scene,
+                                   const RasterVertex v[3], const Viewport& vp,
+                                   const ShadeContext& ctx, uint32_t localTri) const {
+    int64_t area2 = int64_t(v[1].x - v[0].x) * (v[2].y - v[0].y) -
+                    int64_t(v[1].y - v[0].y) * (v[2].x - v[0].x);
+    if (area2 == 0 || (ctx.cullBackFaces && area2 > 0)) return;
+    int32_t cx = int32_t((int64_t(v[0].x) + v[1].x + v[2].x) / 3) >> kSubPixelBits;
+    int32_t cy = int32_t((int64_t(v[0].y) + v[1].y + v[2].y) / 3) >> kSubPixelBits;
+    if (cx < 0 || cy < 0 || cx >= vp.width || cy >= vp.height) return;
+    float maxInvW = std::max({v[0].invW, v[1].invW, v[2].invW});
+    chunk.unsampled.push_back(
+        {uint32_t(scene.firstTriangle(chunk.mesh) + localTri), cx, cy, maxInvW});
+}
+
+void Renderer::Impl::collectUnsampled(const RenderTargets& rt, std::vector<uint32_t>* out) const {
+    for (size_t c = 0; c < chunkCount; ++c) {
+        for (const Unsampled& u : chunks[c].unsampled) {
+            // Nearer than the surface drawn at any of the 3x3 pixels around it (or next to empty
+            // background): a slightly shifted sampling, such as the other eye's, could show it.
+            bool visible = false;
+            for (int dy = -1; dy <= 1 && !visible; ++dy) {
+                int y = u.y + dy;
+                if (y < 0 || y >= rt.depth.height) continue;
+                for (int dx = -1; dx <= 1; ++dx) {
+                    int x = u.x + dx;
+                    if (x < 0 || x >= rt.depth.width) continue;
+                    if (u.maxInvW > rt.depth.row(y)[x]) {
+                        visible = true;
+                        break;
+                    }
+                }
+            }
+            if (visible) out->push_back(u.globalTri);
+        }
+    }
 }
 
 namespace {
@@ -311,8 +363,10 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
         }
         RasterVertex v[3] = {{a.x, a.y, a.invW, {}}, {b.x, b.y, b.invW, {}}, {c.x, c.y, c.invW, {}}};
         int minX, minY, maxX, maxY;
-        if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
+        if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY)) {
+            if (ctx.collectUnsampled) noteUnsampled(chunk, scene, v, vp, ctx, uint32_t(t));
             continue;
+        }
         addToBins(chunk, makeBinned(v, uint32_t(t)), minX, minY, maxX, maxY, tilesX);
     }
 }

@@ -22,7 +22,8 @@ ShadeContext::ShadeContext(const RenderOptions& options)
     : shading(options.shading),
       lit(options.lit),
       ambient(options.ambient),
-      cullBackFaces(options.cullBackFaces) {
+      cullBackFaces(options.cullBackFaces),
+      collectUnsampled(options.unsampledVisible != nullptr) {
     float len = glm::length(options.lightDir);
     lightDir = len > 0.0f && std::isfinite(len) ? options.lightDir / len : Vec3(0.0f, 1.0f, 0.0f);
 }

@@ -408,3 +408,42 @@ TEST(Raster, GoldenImages) {
 
 }  // namespace
 }  // namespace plx::raster
+
+namespace plx::raster {
+namespace {
+
+TEST(Raster, ReportsUnsampledTrianglesInFrontOfTheDepth) {
+    // fov 90, 8x8, z = -1: world x maps to pixel 4x+4. A wall at z = -2 fills the image; two
+    // tiny triangles lie between the sample centres of pixel (3,3): one in front of the wall,
+    // one behind it.
+    Camera cam = makeCamera({0, 0, 0}, {0, 0, -1}, 8, 8, 90.0f, 0.1f, 100.0f);
+    Scene s;
+    Mesh wall;
+    wall.positions = {{-10, -10, -2}, {10, -10, -2}, {10, 10, -2}, {-10, 10, -2}};
+    wall.indices = {0, 1, 2, 0, 2, 3};
+    s.meshes.push_back(wall);
+    Mesh tiny;
+    auto px = [](float p) { return (p - 4.0f) / 4.0f; };
+    for (float z : {-1.0f, -3.0f}) {
+        float k = -z;  // keep the same pixel footprint at depth z
+        uint32_t base = uint32_t(tiny.positions.size());
+        tiny.positions.push_back({px(3.1f) * k, -px(3.1f) * k, z});
+        tiny.positions.push_back({px(3.3f) * k, -px(3.1f) * k, z});
+        tiny.positions.push_back({px(3.1f) * k, -px(3.3f) * k, z});
+        tiny.indices.insert(tiny.indices.end(), {base, base + 1, base + 2});
+    }
+    s.meshes.push_back(tiny);
+    ASSERT_TRUE(s.finalize().isOk());
+    auto r = makeRenderer(1, 8);
+    FrameBuffers fb;
+    fb.resize(8, 8);
+    std::vector<uint32_t> unsampled;
+    RenderOptions opt;
+    opt.unsampledVisible = &unsampled;
+    r->render(s, cam, opt, fb.targets());
+    EXPECT_EQ(countDistinctIds(fb.id), 2u);  // only the wall's two triangles hit samples
+    EXPECT_EQ(unsampled, std::vector<uint32_t>{2});  // the tiny one in front, not the one behind
+}
+
+}  // namespace
+}  // namespace plx::raster

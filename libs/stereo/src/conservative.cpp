@@ -13,35 +13,36 @@ int disparityBudgetPx(const StereoRig& rig, float nearestDepth) {
     return int(std::ceil(std::max(nearDisparity, farDisparity))) + 1;
 }
 
-// Marks pixels within `band` columns of a depth discontinuity: neighbouring 1/w values differing
-// by more than 10% of the nearer one (or drawn next to empty). Two sweeps per row, O(pixels).
-void markEdgeBand(const Image<float>& depth, int band, Image<uint8_t>* mask) {
+// Marks where the second eye can see past a first-eye depth edge. Between horizontal neighbours
+// with 1/w values a and b, the background is revealed over e * f * |a - b| pixels (the change of
+// disparity across the edge, eq. 1), on either side depending on which eye comes second; both
+// sides are marked. Two sweeps per row carry the remaining width, so the cost is O(pixels).
+void markEdgeBand(const Image<float>& depth, float disparityScale, int maxBand,
+                  Image<uint8_t>* mask) {
     const int w = depth.width(), h = depth.height();
     mask->resize(w, h);
-    auto isEdge = [&](const float* row, int x) {
-        float a = row[x], b = row[x + 1];
-        return std::fabs(a - b) > 0.1f * std::max(a, b);
-    };
-    std::vector<uint8_t> edge(size_t(std::max(w, 1)), 0);
+    std::vector<int> reveal(size_t(std::max(w, 1)), 0);  // width revealed at the edge x|x+1
     for (int y = 0; y < h; ++y) {
         const float* row = depth.row(y);
-        const float* up = y > 0 ? depth.row(y - 1) : nullptr;
-        for (int x = 0; x < w; ++x) {
-            bool e = x + 1 < w && isEdge(row, x);
-            // Vertical neighbours matter too: a tilted edge shifts sideways between the eyes.
-            if (up && std::fabs(row[x] - up[x]) > 0.1f * std::max(row[x], up[x])) e = true;
-            edge[size_t(x)] = e;
+        for (int x = 0; x + 1 < w; ++x) {
+            float a = row[x], b = row[x + 1];
+            float width = disparityScale * std::fabs(a - b);
+            reveal[size_t(x)] = std::fabs(a - b) > 0.02f * std::max(a, b)
+                                    ? std::min(int(std::ceil(width)) + 1, maxBand)
+                                    : 0;
         }
         uint8_t* out = mask->row(y);
-        int last = -band - 1;
+        int reach = 0;
         for (int x = 0; x < w; ++x) {
-            if (edge[size_t(x)]) last = x;
-            out[x] = x - last <= band;
+            out[x] = reach > 0;
+            reach = std::max(reach - 1, x + 1 < w ? reveal[size_t(x)] : 0);
+            out[x] |= reach > 0 && x + 1 < w && reveal[size_t(x)] > 0;
         }
-        last = w + band + 1;
+        reach = 0;
         for (int x = w - 1; x >= 0; --x) {
-            if (edge[size_t(x)]) last = x;
-            out[x] = out[x] || last - x <= band;
+            if (x + 1 < w) reach = std::max(reach, reveal[size_t(x)] + 1);
+            out[x] |= reach > 0;
+            reach = std::max(reach - 1, 0);
         }
     }
 }
@@ -75,11 +76,15 @@ int renderConservativeFirstEye(raster::Renderer& renderer, const scene::Scene& s
     raster::RenderTargets targets = s->wide.targets();
     targets.depth2 = s->depth2.view();
     targets.id2 = s->id2.view();
-    renderer.render(scene, wide, options.render, targets);
+    raster::RenderOptions renderOptions = options.render;
+    s->unsampled.clear();
+    renderOptions.unsampledVisible = &s->unsampled;
+    renderer.render(scene, wide, renderOptions, targets);
     cropColumns(s->wide.color, band, &first->color);
     cropColumns(s->wide.depth, band, &first->depth);
     cropColumns(s->wide.id, band, &first->id);
     s->bandPx = band;
+    s->disparityScale = rig.desc().separation * rig.projectionDistancePx();
     float maxInvW = 0.0f;
     for (size_t i = 0; i < s->wide.depth.pixelCount(); ++i)
         maxInvW = std::max(maxInvW, s->wide.depth.data()[i]);
@@ -89,8 +94,9 @@ int renderConservativeFirstEye(raster::Renderer& renderer, const scene::Scene& s
 
 void addConservativePolygons(ConservativeScratch& s, VisibleSetCollector* collector) {
     collector->add(s.wide.id);  // the guard band's polygons (the middle is already in)
-    markEdgeBand(s.wide.depth, std::max(s.bandPx, 1), &s.edgeBand);
+    markEdgeBand(s.wide.depth, s.disparityScale, std::max(s.bandPx, 1), &s.edgeBand);
     collector->addMasked(s.id2, s.edgeBand);
+    collector->addTriangles(s.unsampled);
 }
 
 }  // namespace plx::stereo

@@ -52,6 +52,17 @@ void VisibleSetCollector::addMasked(const Image<uint32_t>& ids, const Image<uint
     }
 }
 
+void VisibleSetCollector::addTriangles(std::span<const uint32_t> triangles) {
+    for (uint32_t tri : triangles) {
+        PLX_CHECK(tri < mStamp.size());
+        if (mStamp[tri] != mEpoch) {
+            mStamp[tri] = mEpoch;
+            mList.push_back(tri);
+            mSorted = false;
+        }
+    }
+}
+
 const std::vector<uint32_t>& VisibleSetCollector::sorted() {
     if (!mSorted) {
         std::sort(mList.begin(), mList.end());

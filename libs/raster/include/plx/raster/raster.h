@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include <plx/core/core.h>
 #include <plx/scene/scene.h>
@@ -51,6 +52,11 @@ struct RenderOptions {
     // false: no lighting, colour = material base colour (times the texture when textured). Image
     // re-projection passes (display predistortion, warping) render this way.
     bool lit = true;
+    // When set, receives (appended, global indices) the triangles that cover no sample centre
+    // (smaller than a pixel, between samples) yet lie in front of the final depth somewhere in
+    // the 3x3 pixels around their centre: visible polygons the sampling missed. Full renders of
+    // unclipped triangles only. The stereo module's conservative set uses it.
+    std::vector<uint32_t>* unsampledVisible = nullptr;
 };
 
 struct RenderStats {

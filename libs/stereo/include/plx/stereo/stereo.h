@@ -8,8 +8,9 @@
 //             rendered from the visible polygons only.
 // Beyond the paper, the conservative option widens the visible set towards what the second eye
 // sees and the first does not: a guard band of extra first-eye columns (polygons just outside the
-// first eye's frustum) and a second depth layer along depth discontinuities (polygons just behind
-// foreground edges), both sized from the eye separation (see conservative.cpp).
+// first eye's frustum), a second depth layer along depth discontinuities (polygons just behind
+// foreground edges), both sized from the eye separation, and the sub-pixel polygons the first
+// eye's samples fell between (see conservative.h).
 
 #include <memory>
 #include <span>
@@ -59,6 +60,8 @@ public:
     void add(const Image<uint32_t>& ids);
     // Adds the IDs of the pixels where mask is non-zero.
     void addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask);
+    // Adds triangle indices (each < triangleCount).
+    void addTriangles(std::span<const uint32_t> triangles);
     // Starts a new set for a scene of triangleCount triangles.
     void begin(size_t triangleCount);
     // The set so far, ascending (ascending order keeps the full render's draw order, so exact

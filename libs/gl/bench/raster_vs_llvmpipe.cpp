@@ -46,6 +46,7 @@ struct Options {
     int frames = 15;
     bool json = false;
     std::string csvPath;
+    std::string only;  // "parallax" or "llvmpipe": time that renderer alone (for profilers)
 };
 
 // A scene to measure: the spec as given, the loadable spec and the subdivision levels it asks for.
@@ -195,7 +196,9 @@ Status timeScene(Peers& peers, const scene::Scene& scene, const Camera& camera,
     for (int frame = 0; frame < options.warmup + options.frames; ++frame) {
         double parallaxTime = 0.0, glTime = 0.0;
         for (int turn = 0; turn < 2; ++turn) {
-            if ((turn + frame) % 2 == 0) {
+            bool parallaxTurn = (turn + frame) % 2 == 0;
+            if (options.only == (parallaxTurn ? "llvmpipe" : "parallax")) continue;
+            if (parallaxTurn) {
                 Stopwatch watch;
                 peers.parallax->render(scene, camera, peers.options, peers.buffers.targets());
                 parallaxTime = watch.elapsedMs();
@@ -211,9 +214,11 @@ Status timeScene(Peers& peers, const scene::Scene& scene, const Camera& camera,
     }
     row->parallaxMs = median(parallaxMs);
     row->glMs = median(glMs);
-    row->parallaxMtri = double(row->triangles) / (row->parallaxMs * 1e3);
-    row->glMtri = double(row->triangles) / (row->glMs * 1e3);
-    row->ratio = row->parallaxMtri / row->glMtri;
+    // Rows timing one renderer alone (--only) leave the other's figures and the ratio at 0.
+    auto mtri = [&](double ms) { return ms > 0.0 ? double(row->triangles) / (ms * 1e3) : 0.0; };
+    row->parallaxMtri = mtri(row->parallaxMs);
+    row->glMtri = mtri(row->glMs);
+    row->ratio = row->glMtri > 0.0 ? row->parallaxMtri / row->glMtri : 0.0;
     return Status::ok();
 }
 
@@ -371,6 +376,9 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_flag("--json", options.json, "machine-readable result on stdout instead of the table");
     app.add_option("--csv", options.csvPath, "also write the rows to this CSV file");
+    app.add_option("--only", options.only,
+                   "time one renderer alone, for profiling (the ratio is then not measured)")
+        ->check(CLI::IsMember({"parallax", "llvmpipe"}));
     CLI11_PARSE(app, argc, argv);
     Status status = run(options);
     if (!status) {

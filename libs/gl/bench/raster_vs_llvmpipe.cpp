@@ -268,13 +268,18 @@ Status writeCsv(std::ofstream& out, const std::string& path, const std::vector<R
     return Status::ok();
 }
 
+// A figure, or "-" for a renderer that --only left out.
+std::string cell(double value, const char* suffix = "") {
+    return value > 0.0 ? fmt::format("{:.2f}{}", value, suffix) : std::string("-");
+}
+
 void printTable(const std::vector<Row>& rows) {
     fmt::print("{:<36} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>9} {:>7}\n", "scene", "triangles",
                "visible", "ID match", "plx ms", "gl ms", "plx Mt/s", "gl Mt/s", "ratio");
     for (const Row& r : rows) {
-        fmt::print("{:<36} {:>9} {:>8} {:>7.2f}% {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>6.2f}x\n",
-                   r.scene, r.triangles, r.visible, 100.0 * r.idMatchDrawn, r.parallaxMs, r.glMs,
-                   r.parallaxMtri, r.glMtri, r.ratio);
+        fmt::print("{:<36} {:>9} {:>8} {:>7.2f}% {:>9} {:>9} {:>9} {:>9} {:>7}\n", r.scene,
+                   r.triangles, r.visible, 100.0 * r.idMatchDrawn, cell(r.parallaxMs),
+                   cell(r.glMs), cell(r.parallaxMtri), cell(r.glMtri), cell(r.ratio, "x"));
     }
 }
 

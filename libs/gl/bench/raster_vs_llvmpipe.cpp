@@ -13,7 +13,6 @@
 //   plx_raster_vs_llvmpipe --scene office:16 --scene model.glb --no-defaults --csv out/peer.csv
 //   plx_raster_vs_llvmpipe --scene subdiv2:model.glb  # the model midpoint-subdivided twice
 
-#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
@@ -57,7 +56,7 @@ struct SceneSpec {
 };
 
 struct Row {
-    std::string scene;  // honest label, e.g. "DamagedHelmet.glb subdivided x16"
+    std::string scene;  // label naming any subdivision, e.g. "DamagedHelmet.glb subdivided x16"
     std::string spec;
     uint64_t triangles = 0;
     size_t visible = 0;        // distinct IDs in Parallax's ID target

@@ -6,6 +6,8 @@
 // Vertices are kept inside a guard band of +-kGuardPixels pixels, so coordinate differences
 // fit in 2^24 and edge-function values (products of two differences) in 2^49: int64 is exact.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include <plx/raster/raster.h>
@@ -67,6 +69,20 @@ inline RasterVertex snapVertex(const Vec4& c, const Viewport& vp, const Vec3& ba
     return v;
 }
 
+inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px, int64_t py) {
+    return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);
+}
+
+// First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v.
+inline int firstPixelAtOrAfter(int32_t v) {
+    int64_t t = int64_t(v) - kSubPixelScale / 2;
+    return int(t >= 0 ? (t + kSubPixelScale - 1) >> kSubPixelBits : -((-t) >> kSubPixelBits));
+}
+inline int lastPixelAtOrBefore(int32_t v) {
+    int64_t t = int64_t(v) - kSubPixelScale / 2;
+    return int(t >> kSubPixelBits);  // arithmetic shift = floor division
+}
+
 // Clips a triangle (clip-space positions) against the near and far planes and the guard band.
 // Writes up to kMaxClippedTriangles triangles as RasterVertex triples; returns how many.
 constexpr int kMaxClippedTriangles = 8;
@@ -92,7 +108,21 @@ struct TriangleSetup {
     const scene::Texture* texture = nullptr;
     // Screen-space derivatives (per pixel) of the barycentric weights b1 and b2, for texture LOD.
     float b1dx = 0, b1dy = 0, b2dx = 0, b2dy = 0;
+    // Barycentric evaluation shared by every path (see rowBarycentrics): 1 / area2, and the
+    // per-pixel x steps of b1 and b2.
+    float invArea = 0, stepB1 = 0, stepB2 = 0;
 };
+
+// Barycentric weights b1, b2 (of vertices 1 and 2) at the first column minX of row y, from the
+// exact integer edge values. Along the row, b = rowValue + float(x - minX) * step. The
+// reference, the scalar loops and the AVX2 loops all evaluate exactly this expression, so their
+// depth and attributes agree to the bit; the coverage test itself stays exact integer.
+inline void rowBarycentrics(const TriangleSetup& t, int y, float* b1Row, float* b2Row) {
+    int64_t px = int64_t(t.minX) * kSubPixelScale + kSubPixelScale / 2;
+    int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
+    *b1Row = float(edgeAt(t.x[2], t.y[2], t.x[0], t.y[0], px, py)) * t.invArea;
+    *b2Row = float(edgeAt(t.x[0], t.y[0], t.x[1], t.y[1], px, py)) * t.invArea;
+}
 
 // Per-frame shading constants.
 struct ShadeContext {
@@ -117,10 +147,21 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
                   const ShadeContext& ctx);
 
 // Cheap pre-test for binning: pixel bounds of a snapped triangle, false when it covers no sample
-// centre, is degenerate, or is a back face that must be culled.
-bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                    const Viewport& vp, bool cullBackFaces, int* minX, int* minY, int* maxX,
-                    int* maxY);
+// centre, is degenerate, or is a back face that must be culled. Inline: it runs once per
+// triangle when binning and once per tile the triangle touches.
+inline bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                           const Viewport& vp, bool cullBackFaces, int* minX, int* minY,
+                           int* maxX, int* maxY) {
+    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
+    // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
+    // counter-clockwise front faces.
+    if (area2 == 0 || (cullBackFaces && area2 > 0)) return false;
+    *minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
+    *minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
+    *maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
+    *maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
+    return *minX <= *maxX && *minY <= *maxY;
+}
 
 inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
     if (!t.flatReady) {

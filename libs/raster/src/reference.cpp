@@ -15,8 +15,9 @@ int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
 }
 
 void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt) {
-    float invArea = 1.0f / float(t.area2);
     for (int y = t.minY; y <= t.maxY; ++y) {
+        float b1Row, b2Row;
+        rowBarycentrics(t, y, &b1Row, &b2Row);
         for (int x = t.minX; x <= t.maxX; ++x) {
             int64_t px = int64_t(x) * kSubPixelScale + kSubPixelScale / 2;
             int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
@@ -24,7 +25,8 @@ void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const R
                             edgeValue(t, 2, px, py)};
             if (e[0] + t.edgeBias[0] < 0 || e[1] + t.edgeBias[1] < 0 || e[2] + t.edgeBias[2] < 0)
                 continue;
-            float b1 = float(e[2]) * invArea, b2 = float(e[0]) * invArea;
+            float k = float(x - t.minX);
+            float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
             float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
             if (!(invW > rt.depth.at(x, y))) {
                 if (rt.id2.data && invW > rt.depth2.at(x, y)) {

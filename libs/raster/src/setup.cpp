@@ -30,42 +30,12 @@ ShadeContext::ShadeContext(const RenderOptions& options)
 
 namespace {
 
-inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px, int64_t py) {
-    return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);
-}
-
-
-// First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v.
-inline int firstPixelAtOrAfter(int32_t v) {
-    int64_t t = int64_t(v) - kSubPixelScale / 2;
-    // ceil(t / 256) for any sign.
-    return int(t >= 0 ? (t + kSubPixelScale - 1) >> kSubPixelBits : -((-t) >> kSubPixelBits));
-}
-inline int lastPixelAtOrBefore(int32_t v) {
-    int64_t t = int64_t(v) - kSubPixelScale / 2;
-    return int(t >> kSubPixelBits);  // arithmetic shift = floor division
-}
-
 // Lambert + ambient of a normal, two-sided (|n.l|) so open meshes look the same from both sides.
 inline float lambert(const Vec3& n, const ShadeContext& ctx) {
     return std::min(1.0f, ctx.ambient + (1.0f - ctx.ambient) * std::fabs(glm::dot(n, ctx.lightDir)));
 }
 
 }  // namespace
-
-bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                    const Viewport& vp, bool cullBackFaces, int* minX, int* minY, int* maxX,
-                    int* maxY) {
-    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
-    // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
-    // counter-clockwise front faces.
-    if (area2 == 0 || (cullBackFaces && area2 > 0)) return false;
-    *minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
-    *minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
-    *maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
-    *maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
-    return *minX <= *maxX && *minY <= *maxY;
-}
 
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                   const ShadeContext& ctx) {
@@ -108,6 +78,9 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
         bool topLeft = dy < 0 || (dy == 0 && dx > 0);
         t->edgeBias[i] = topLeft ? 0 : -1;
     }
+    t->invArea = 1.0f / float(area2);
+    t->stepB1 = float(-int64_t(t->y[0] - t->y[2]) * kSubPixelScale) * t->invArea;
+    t->stepB2 = float(-int64_t(t->y[1] - t->y[0]) * kSubPixelScale) * t->invArea;
 
     t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
     t->texture = nullptr;

@@ -1,11 +1,21 @@
-// The fast pixel loop: scanline spans from exact integer edge functions.
+// The fast pixel loops. Coverage is exact: integer edge functions with the top-left rule.
+// Interpolation follows rowBarycentrics (pipeline.h) in every loop, so depth, IDs and colours
+// are bit-identical to reference.cpp.
 //
-// For each row, each edge's half-plane E(x) >= -bias is solved for x with one integer division,
-// so the inner loop visits only covered samples and needs no inside test. Barycentric weights
-// come from the same exact int64 edge values as in the reference (converted to float once per
-// sample), so depth, IDs and colours are bit-identical to reference.cpp.
+//  - small triangles (both extents under kSimdMaxExtentPx): the bounding box walked eight pixels
+//    at a time with AVX2, edge values in int32 lanes;
+//  - larger triangles: each row's covered span solved with one integer division per edge, then
+//    filled eight pixels at a time with no coverage test;
+//  - scalar versions of both for builds without AVX2 (PLX_NO_SIMD) and for the second depth
+//    layer.
 
 #include <algorithm>
+#include <cstring>
+
+#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
+#include <immintrin.h>
+#define PLX_RASTER_AVX2 1
+#endif
 
 #include "pipeline.h"
 
@@ -23,113 +33,217 @@ inline void narrowSpan(int64_t e, int64_t a, int64_t bias, int64_t* lo, int64_t*
     if (a == 0) {
         if (c < 0) *hi = -1, *lo = 0;  // empty
     } else if (a > 0) {
-        // c + a k >= 0  <=>  k >= ceil(-c / a)
-        *lo = std::max(*lo, -floorDiv(c, a));
+        *lo = std::max(*lo, -floorDiv(c, a));  // c + a k >= 0  <=>  k >= ceil(-c / a)
     } else {
-        // c + a k >= 0  <=>  k <= floor(c / -a)
-        *hi = std::min(*hi, floorDiv(c, -a));
+        *hi = std::min(*hi, floorDiv(c, -a));  // c + a k >= 0  <=>  k <= floor(c / -a)
     }
 }
 
-// Writes one covered sample (depth test, ID, colour). e1, e2: unbiased edge values of edges 2 and
-// 0, proportional to the barycentric weights b1 and b2.
+// Edge i runs from vertex i to vertex i+1. Per-pixel steps in x (ax) and y (by), and the
+// values at the sample of (x0, y0), plus the top-left bias when `biased`.
+struct EdgeSteps {
+    int64_t ax[3], by[3], e[3];
+    EdgeSteps(const TriangleSetup& t, int x0, int y0, bool biased) {
+        const int64_t sx = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
+        const int64_t sy = int64_t(y0) * kSubPixelScale + kSubPixelScale / 2;
+        for (int i = 0; i < 3; ++i) {
+            int j = (i + 1) % 3;
+            ax[i] = -int64_t(t.y[j] - t.y[i]) * kSubPixelScale;
+            by[i] = int64_t(t.x[j] - t.x[i]) * kSubPixelScale;
+            e[i] = edgeAt(t.x[i], t.y[i], t.x[j], t.y[j], sx, sy) + (biased ? t.edgeBias[i] : 0);
+        }
+    }
+    void nextRow() {
+        for (int i = 0; i < 3; ++i) e[i] += by[i];
+    }
+};
+
+// One covered sample (scalar): depth test, ID, colour, second layer.
 template <Shading kShading, bool kColor, bool kLayer2>
-inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, int64_t e1, int64_t e2,
-                        float invArea, float* depth, uint32_t* id, Rgba8* color, float* depth2,
-                        uint32_t* id2) {
-    float b1 = float(e1) * invArea, b2 = float(e2) * invArea;
+inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
+                        const RenderTargets& rt, int x, int y) {
     float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
-    if (!(invW > *depth)) {
+    float& depth = rt.depth.row(y)[x];
+    if (!(invW > depth)) {
         if constexpr (kLayer2) {
-            if (invW > *depth2) {
-                *depth2 = invW;
-                *id2 = t.id;
+            if (invW > rt.depth2.row(y)[x]) {
+                rt.depth2.row(y)[x] = invW;
+                rt.id2.row(y)[x] = t.id;
             }
         }
         return;
     }
+    uint32_t& id = rt.id.row(y)[x];
     if constexpr (kLayer2) {
-        *depth2 = *depth;
-        *id2 = *id;
+        rt.depth2.row(y)[x] = depth;
+        rt.id2.row(y)[x] = id;
     }
-    *depth = invW;
-    *id = t.id;
+    depth = invW;
+    id = t.id;
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat)
-            *color = flatColorFor(t, ctx);
+            rt.color.row(y)[x] = flatColorFor(t, ctx);
         else
-            *color = shadeSample(t, ctx, b1, b2, invW);
+            rt.color.row(y)[x] = shadeSample(t, ctx, b1, b2, invW);
     }
 }
 
-// Small triangles: walk the bounding box testing the signs of the three incrementally stepped
-// edge values. Cheaper than solving spans when rows are only a few pixels long.
+// Scalar: small triangles walk the box testing edge signs, larger ones solve each row's span.
 template <Shading kShading, bool kColor, bool kLayer2>
-void rasterizeBox(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                  int x0, int y0, int x1, int y1) {
-    int64_t ax[3], by[3], rowE[3];
-    const int64_t sx = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
-    const int64_t sy = int64_t(y0) * kSubPixelScale + kSubPixelScale / 2;
-    for (int i = 0; i < 3; ++i) {
-        int j = (i + 1) % 3;
-        ax[i] = -int64_t(t.y[j] - t.y[i]) * kSubPixelScale;
-        by[i] = int64_t(t.x[j] - t.x[i]) * kSubPixelScale;
-        // Biased so that "covered" is simply e >= 0 for all three edges.
-        rowE[i] = int64_t(t.x[j] - t.x[i]) * (sy - t.y[i]) -
-                  int64_t(t.y[j] - t.y[i]) * (sx - t.x[i]) + t.edgeBias[i];
-    }
-    const float invArea = 1.0f / float(t.area2);
-    for (int y = y0; y <= y1; ++y, rowE[0] += by[0], rowE[1] += by[1], rowE[2] += by[2]) {
-        int64_t e0 = rowE[0], e1 = rowE[1], e2 = rowE[2];
-        float* depthRow = rt.depth.row(y);
-        uint32_t* idRow = rt.id.row(y);
-        Rgba8* colorRow = kColor ? rt.color.row(y) : nullptr;
-        float* depth2Row = kLayer2 ? rt.depth2.row(y) : nullptr;
-        uint32_t* id2Row = kLayer2 ? rt.id2.row(y) : nullptr;
-        for (int x = x0; x <= x1; ++x, e0 += ax[0], e1 += ax[1], e2 += ax[2]) {
-            if ((e0 | e1 | e2) < 0) continue;
-            writeSample<kShading, kColor, kLayer2>(
-                t, ctx, e2 - t.edgeBias[2], e0 - t.edgeBias[0], invArea, depthRow + x, idRow + x,
-                kColor ? colorRow + x : nullptr, kLayer2 ? depth2Row + x : nullptr,
-                kLayer2 ? id2Row + x : nullptr);
-        }
-    }
-}
-
-template <Shading kShading, bool kColor, bool kLayer2>
-void rasterizeSpans(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                    int x0, int y0, int x1, int y1) {
-    // Edge i runs from vertex i to vertex j = i+1; stepping one pixel in x adds ax[i], in y by[i].
-    int64_t ax[3], by[3], rowE[3];
-    const int64_t sx = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
-    const int64_t sy = int64_t(y0) * kSubPixelScale + kSubPixelScale / 2;
-    for (int i = 0; i < 3; ++i) {
-        int j = (i + 1) % 3;
-        ax[i] = -int64_t(t.y[j] - t.y[i]) * kSubPixelScale;
-        by[i] = int64_t(t.x[j] - t.x[i]) * kSubPixelScale;
-        rowE[i] = int64_t(t.x[j] - t.x[i]) * (sy - t.y[i]) - int64_t(t.y[j] - t.y[i]) * (sx - t.x[i]);
-    }
-    const float invArea = 1.0f / float(t.area2);
-    const int64_t width = x1 - x0;
-    for (int y = y0; y <= y1; ++y, rowE[0] += by[0], rowE[1] += by[1], rowE[2] += by[2]) {
-        int64_t lo = 0, hi = width;
-        for (int i = 0; i < 3; ++i) narrowSpan(rowE[i], ax[i], t.edgeBias[i], &lo, &hi);
-        if (lo > hi) continue;
-        // Edge 2 (2->0) is proportional to b1, edge 0 (0->1) to b2.
-        int64_t e1 = rowE[2] + ax[2] * lo, e2 = rowE[0] + ax[0] * lo;
-        float* depthRow = rt.depth.row(y);
-        uint32_t* idRow = rt.id.row(y);
-        Rgba8* colorRow = kColor ? rt.color.row(y) : nullptr;
-        float* depth2Row = kLayer2 ? rt.depth2.row(y) : nullptr;
-        uint32_t* id2Row = kLayer2 ? rt.id2.row(y) : nullptr;
-        for (int64_t k = lo; k <= hi; ++k, e1 += ax[2], e2 += ax[0]) {
+void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                     int x0, int y0, int x1, int y1, bool spans) {
+    EdgeSteps edges(t, x0, y0, true);
+    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+        float b1Row, b2Row;
+        rowBarycentrics(t, y, &b1Row, &b2Row);
+        int64_t lo = 0, hi = x1 - x0;
+        if (spans)
+            for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
+        int64_t e0 = edges.e[0] + edges.ax[0] * lo, e1 = edges.e[1] + edges.ax[1] * lo,
+                e2 = edges.e[2] + edges.ax[2] * lo;
+        for (int64_t k = lo; k <= hi; ++k, e0 += edges.ax[0], e1 += edges.ax[1], e2 += edges.ax[2]) {
+            if (!spans && (e0 | e1 | e2) < 0) continue;
             int x = x0 + int(k);
-            writeSample<kShading, kColor, kLayer2>(
-                t, ctx, e1, e2, invArea, depthRow + x, idRow + x, kColor ? colorRow + x : nullptr,
-                kLayer2 ? depth2Row + x : nullptr, kLayer2 ? id2Row + x : nullptr);
+            float dk = float(x - t.minX);
+            writeSample<kShading, kColor, kLayer2>(t, ctx, b1Row + dk * t.stepB1,
+                                                   b2Row + dk * t.stepB2, rt, x, y);
         }
     }
 }
+
+#ifdef PLX_RASTER_AVX2
+// Triangles spanning fewer pixels than this in x and y take the 8-wide box walk: their edge
+// values inside the bounding box stay below 2^31 (differences < 2^14 sub-pixels times steps
+// over < 2^14 sub-pixels, twice), so int32 lanes hold them exactly.
+constexpr int kSimdMaxExtentPx = 64;
+
+// Per-triangle constants of the 8-wide loops, loaded once (stores through the target rows could
+// alias the setup, so the compiler would otherwise reload them for every eight pixels).
+struct EightConstants {
+    __m256 w0, dw1, dw2;
+    __m256i id;
+    explicit EightConstants(const TriangleSetup& t)
+        : w0(_mm256_set1_ps(t.invW[0])),
+          dw1(_mm256_set1_ps(t.invW[1] - t.invW[0])),
+          dw2(_mm256_set1_ps(t.invW[2] - t.invW[0])),
+          id(_mm256_set1_epi32(int32_t(t.id))) {}
+};
+
+// The three target rows of one row of pixels.
+struct TargetRows {
+    float* depth;
+    uint32_t* id;
+    Rgba8* color;
+    TargetRows(const RenderTargets& rt, int y)
+        : depth(rt.depth.row(y)), id(rt.id.row(y)), color(rt.color.data ? rt.color.row(y) : nullptr) {}
+};
+
+// Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes.
+template <Shading kShading, bool kColor>
+inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
+                       const TargetRows& rows, int x, __m256i covered, __m256 b1, __m256 b2) {
+    __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
+                                _mm256_mul_ps(b2, k.dw2));
+    __m256 depth = _mm256_maskload_ps(rows.depth + x, covered);
+    __m256i pass =
+        _mm256_and_si256(covered, _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
+    if (_mm256_testz_si256(pass, pass)) return;
+    _mm256_maskstore_ps(rows.depth + x, pass, invW);
+    _mm256_maskstore_epi32(reinterpret_cast<int*>(rows.id + x), pass, k.id);
+    if constexpr (kColor) {
+        if constexpr (kShading == Shading::kFlat) {
+            Rgba8 c = flatColorFor(t, ctx);
+            int32_t packed;
+            std::memcpy(&packed, &c, 4);
+            _mm256_maskstore_epi32(reinterpret_cast<int*>(rows.color + x), pass,
+                                   _mm256_set1_epi32(packed));
+        } else {
+            alignas(32) float lb1[8], lb2[8], lw[8];
+            _mm256_store_ps(lb1, b1);
+            _mm256_store_ps(lb2, b2);
+            _mm256_store_ps(lw, invW);
+            for (int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass)); bits;
+                 bits &= bits - 1) {
+                int lane = __builtin_ctz(unsigned(bits));
+                rows.color[x + lane] = shadeSample(t, ctx, lb1[lane], lb2[lane], lw[lane]);
+            }
+        }
+    }
+}
+
+// b1, b2 for the eight pixels x .. x+7 of a row: rowValue + float(x + lane - minX) * step.
+inline void eightBarycentrics(int dx, __m256 b1Row, __m256 b2Row, __m256 step1, __m256 step2,
+                              __m256* b1, __m256* b2) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256 dk = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(dx), lane));
+    *b1 = _mm256_add_ps(b1Row, _mm256_mul_ps(dk, step1));
+    *b2 = _mm256_add_ps(b2Row, _mm256_mul_ps(dk, step2));
+}
+
+// Lanes whose pixel x + lane is at most x1.
+inline __m256i lanesUpTo(int x, int x1) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(x1 - x + 1), lane);
+}
+
+template <Shading kShading, bool kColor>
+void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                      int x0, int y0, int x1, int y1) {
+    EdgeSteps edges(t, x0, y0, true);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256i laneOffset[3], step8[3];
+    for (int i = 0; i < 3; ++i) {
+        laneOffset[i] = _mm256_mullo_epi32(lane, _mm256_set1_epi32(int32_t(edges.ax[i])));
+        step8[i] = _mm256_set1_epi32(int32_t(8 * edges.ax[i]));
+    }
+    const EightConstants k(t);
+    const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
+    const int minX = t.minX;
+    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+        float b1Row, b2Row;
+        rowBarycentrics(t, y, &b1Row, &b2Row);
+        const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
+        const TargetRows rows(rt, y);
+        __m256i e[3];
+        for (int i = 0; i < 3; ++i)
+            e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])), laneOffset[i]);
+        for (int x = x0; x <= x1; x += 8) {
+            __m256i sign = _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
+            __m256i covered = _mm256_andnot_si256(sign, lanesUpTo(x, x1));
+            if (!_mm256_testz_si256(covered, covered)) {
+                __m256 b1, b2;
+                eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
+                writeEight<kShading, kColor>(t, ctx, k, rows, x, covered, b1, b2);
+            }
+            for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], step8[i]);
+        }
+    }
+}
+
+template <Shading kShading, bool kColor>
+void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                        int x0, int y0, int x1, int y1) {
+    EdgeSteps edges(t, x0, y0, true);
+    const EightConstants k(t);
+    const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
+    const int minX = t.minX;
+    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+        int64_t lo = 0, hi = x1 - x0;
+        for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
+        if (lo > hi) continue;
+        float b1Row, b2Row;
+        rowBarycentrics(t, y, &b1Row, &b2Row);
+        const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
+        const TargetRows rows(rt, y);
+        int last = x0 + int(hi);
+        for (int x = x0 + int(lo); x <= last; x += 8) {
+            __m256 b1, b2;
+            eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
+            writeEight<kShading, kColor>(t, ctx, k, rows, x, lanesUpTo(x, last), b1, b2);
+        }
+    }
+}
+#endif
 
 }  // namespace
 
@@ -143,14 +257,27 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     // Rows of up to kBoxWidth pixels are tested pixel by pixel; longer rows solve their span
     // (three integer divisions a row) so large triangles touch only covered samples.
     constexpr int kBoxWidth = 24;
-    bool box = x1 - x0 < kBoxWidth;
+    bool spans = x1 - x0 >= kBoxWidth;
     bool color = rt.color.data != nullptr;
     bool flat = ctx.shading == Shading::kFlat;
+#ifdef PLX_RASTER_AVX2
+    constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;
+    bool small = std::max({t.x[0], t.x[1], t.x[2]}) - std::min({t.x[0], t.x[1], t.x[2]}) <
+                     kSimdMaxExtent &&
+                 std::max({t.y[0], t.y[1], t.y[2]}) - std::min({t.y[0], t.y[1], t.y[2]}) <
+                     kSimdMaxExtent;
+#endif
     auto run = [&]<Shading kS, bool kC, bool kL2>() {
-        if (box)
-            rasterizeBox<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1);
-        else
-            rasterizeSpans<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1);
+#ifdef PLX_RASTER_AVX2
+        if constexpr (!kL2) {
+            if (small)
+                rasterizeBoxAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+            else
+                rasterizeSpansAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+            return;
+        }
+#endif
+        rasterizeScalar<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1, spans);
     };
     if (rt.id2.data) {
         if (!color) run.template operator()<Shading::kFlat, false, true>();

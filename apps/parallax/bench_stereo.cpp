@@ -45,9 +45,9 @@ namespace {
 
 struct StereoBenchArgs {
     std::string out = "out/bench_stereo";
-    std::vector<int> rooms{1, 2, 4, 8, 15, 32, 64, 128, 280};
+    std::vector<int> rooms{1, 2, 3, 4, 8, 15, 32, 64, 128, 280};
     std::string size = "640x480";
-    int frames = 5;
+    int frames = 7;
     int threads = 0;
     float separation = 0.065f, convergence = 3.0f;
     bool noConservative = false;

@@ -7,26 +7,33 @@ namespace plx::stereo {
 namespace {
 
 struct MethodTiming {
-    double first = 0, second = 0, collect = 0;
+    std::vector<double> first, second, collect;
     StereoFrameStats last;
+    std::vector<uint32_t> drawn;  // the set the last pbuffer frame drew
+
+    void add(const StereoFrameStats& st) {
+        last = st;
+        first.push_back(st.firstEyeMs);
+        second.push_back(st.secondEyeMs);
+        collect.push_back(st.collectMs);
+    }
 };
 
-// Median timings of `frames` pairs after one warm-up pair.
-MethodTiming timeMethod(StereoRenderer& renderer, const scene::Scene& scene, const StereoRig& rig,
-                        const StereoOptions& options, int frames, StereoFrame* frame) {
-    std::vector<double> first, second, collect;
-    MethodTiming t;
-    t.last = renderer.renderPair(scene, rig, options, frame);
-    for (int f = 0; f < frames; ++f) {
-        t.last = renderer.renderPair(scene, rig, options, frame);
-        first.push_back(t.last.firstEyeMs);
-        second.push_back(t.last.secondEyeMs);
-        collect.push_back(t.last.collectMs);
+// Times the methods frame by frame in turn (full, pbuffer, conservative, full, ...) after one
+// warm-up pair each, so that load from other processes falls on all of them alike.
+void timeMethods(StereoRenderer& renderer, const scene::Scene& scene, const StereoRig& rig,
+                 std::vector<StereoOptions>& options, int frames, std::vector<StereoFrame>* out,
+                 std::vector<MethodTiming>* timings) {
+    timings->assign(options.size(), {});
+    for (int f = -1; f < frames; ++f) {
+        for (size_t m = 0; m < options.size(); ++m) {
+            StereoFrameStats st = renderer.renderPair(scene, rig, options[m], &(*out)[m]);
+            if (f >= 0) (*timings)[m].add(st);
+            if (f == frames - 1)
+                (*timings)[m].drawn.assign(renderer.lastVisibleSet().begin(),
+                                           renderer.lastVisibleSet().end());
+        }
     }
-    t.first = median(first);
-    t.second = median(second);
-    t.collect = median(collect);
-    return t;
 }
 
 }  // namespace
@@ -39,7 +46,6 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     auto renderer = StereoRenderer::create({config.threads});
     if (!renderer) return renderer.status();
     std::vector<StereoExperimentRow> rows;
-    StereoFrame frame, fullFrame;
     for (size_t i = 0; i < config.rooms.size(); ++i) {
         int n = config.rooms[i];
         auto scene = scene::generateOffice(n);
@@ -58,37 +64,42 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
         auto rig = StereoRig::create(*center, config.rig);
         if (!rig) return rig.status();
 
-        StereoOptions options;
-        options.render.shading = config.shading;
-        options.method = Method::kFull;
-        MethodTiming full = timeMethod(**renderer, *scene, *rig, options, config.frames, &fullFrame);
-        options.method = Method::kPBuffer;
-        MethodTiming pbuf = timeMethod(**renderer, *scene, *rig, options, config.frames, &frame);
+        std::vector<StereoOptions> options(config.conservative ? 3 : 2);
+        for (auto& o : options) o.render.shading = config.shading;
+        options[0].method = Method::kFull;
+        options[1].method = Method::kPBuffer;
+        if (config.conservative) {
+            options[2].method = Method::kPBuffer;
+            options[2].conservative = true;
+        }
+        std::vector<StereoFrame> frames(options.size());
+        std::vector<MethodTiming> t;
+        timeMethods(**renderer, *scene, *rig, options, config.frames, &frames, &t);
         Eye second = rig->secondEye();
-        SecondEyeQuality q = compareSecondEye(frame.eye(second), fullFrame.eye(second),
-                                              (*renderer)->lastVisibleSet());
+        const StereoFrame& fullFrame = frames[0];
+        SecondEyeQuality q =
+            compareSecondEye(frames[1].eye(second), fullFrame.eye(second), t[1].drawn);
         StereoExperimentRow row;
         row.rooms = n;
         row.polygons = scene->triangleCount();
-        row.visiblePolygons = pbuf.last.visibleTriangles;
-        row.fullFirstMs = full.first;
-        row.fullSecondMs = full.second;
-        row.pbufferFirstMs = pbuf.first;
-        row.pbufferSecondMs = pbuf.second;
-        row.collectMs = pbuf.collect;
-        row.pairSpeedup = (full.first + full.second) / (pbuf.first + pbuf.collect + pbuf.second);
+        row.visiblePolygons = t[1].last.visibleTriangles;
+        row.fullFirstMs = median(t[0].first);
+        row.fullSecondMs = median(t[0].second);
+        row.pbufferFirstMs = median(t[1].first);
+        row.pbufferSecondMs = median(t[1].second);
+        row.collectMs = median(t[1].collect);
+        row.pairSpeedup = (row.fullFirstMs + row.fullSecondMs) /
+                          (row.pbufferFirstMs + row.collectMs + row.pbufferSecondMs);
         row.secondEyePsnrDb = q.psnrDb;
         row.differingFraction = q.differingFraction;
         row.missedPolygons = q.missedPolygons;
         row.missedPixels = q.missedPixels;
         if (config.conservative) {
-            options.conservative = true;
-            MethodTiming cons = timeMethod(**renderer, *scene, *rig, options, config.frames, &frame);
-            SecondEyeQuality cq = compareSecondEye(frame.eye(second), fullFrame.eye(second),
-                                                   (*renderer)->lastVisibleSet());
-            row.conservativeExtra = cons.last.conservativeExtra;
-            row.conservativeFirstMs = cons.first;
-            row.conservativeSecondMs = cons.second + cons.collect;
+            SecondEyeQuality cq =
+                compareSecondEye(frames[2].eye(second), fullFrame.eye(second), t[2].drawn);
+            row.conservativeExtra = t[2].last.conservativeExtra;
+            row.conservativeFirstMs = median(t[2].first);
+            row.conservativeSecondMs = median(t[2].second) + median(t[2].collect);
             row.conservativePsnrDb = cq.psnrDb;
             row.conservativeMissedPolygons = cq.missedPolygons;
             row.conservativeMissedPixels = cq.missedPixels;

@@ -13,9 +13,9 @@
 namespace plx::stereo {
 
 struct StereoExperimentConfig {
-    std::vector<int> rooms{1, 2, 4, 8, 15, 32, 64, 128, 280};  // 280 rooms: over 1M triangles
+    std::vector<int> rooms{1, 2, 3, 4, 8, 15, 32, 64, 128, 280};  // 280: over 1M triangles
     int width = 640, height = 480;
-    int frames = 5;                // timed frames per method (median); one warm-up frame first
+    int frames = 7;  // timed frames per method (median), methods interleaved; one warm-up each
     int threads = 0;
     StereoRigDesc rig;             // default separation and convergence
     raster::Shading shading = raster::Shading::kFlat;  // the paper's constant shading

@@ -9,6 +9,10 @@
 namespace plx::cli {
 
 Command addBenchPredistort(CLI::App* bench);
+
+// The cone-shaped Virtual Showcase of examples/displays/cone_showcase.json, built in so that the
+// benchmark and the demo run from any directory.
+extern const char* const kConeShowcaseJson;
 Command addBenchStereo(CLI::App* bench);
 
 // Fig. 17 of Heo, Jung, Wohn from an experiment: (a) first-eye time, (b) second-eye time,

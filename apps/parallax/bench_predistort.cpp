@@ -15,9 +15,9 @@
 namespace plx::cli {
 namespace {
 
-// The cone-shaped Virtual Showcase of examples/displays/cone_showcase.json, used when --display
-// is not given so that the benchmark runs from any directory.
-constexpr const char* kConeShowcaseJson = R"json({
+}  // namespace
+
+const char* const kConeShowcaseJson = R"json({
   "name": "Cone-shaped Virtual Showcase (half-silvered conical mirror over a horizontal display)",
   "units": "mm",
   "optics": {"type": "cone_mirror", "bottom_radius": 150, "top_radius": 250, "height": 400},
@@ -25,6 +25,8 @@ constexpr const char* kConeShowcaseJson = R"json({
   "viewer": [0, 450, 800],
   "content": {"center": [0, 200, 0], "radius": 150}
 })json";
+
+namespace {
 
 struct PredistortBenchArgs {
     std::string display;

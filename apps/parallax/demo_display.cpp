@@ -7,20 +7,11 @@
 #include <plx/display/display_json.h>
 #include <plx/display/predistort.h>
 
+#include "bench.h"
 #include "demo.h"
 
 namespace plx::cli {
 namespace {
-
-// Same geometry as examples/displays/cone_showcase.json (the demo runs from any directory).
-constexpr const char* kConeShowcaseJson = R"json({
-  "name": "Cone-shaped Virtual Showcase",
-  "units": "mm",
-  "optics": {"type": "cone_mirror", "bottom_radius": 150, "top_radius": 250, "height": 400},
-  "display": {"min": [-600, -600], "max": [600, 600], "framebuffer": [1024, 1024]},
-  "viewer": [0, 450, 800],
-  "content": {"center": [0, 200, 0], "radius": 150}
-})json";
 
 std::string fmtMs(double ms) { return fmt::format("{:.2f}", ms); }
 

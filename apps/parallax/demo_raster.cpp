@@ -66,7 +66,7 @@ Status demoRasterSection(DemoContext& ctx) {
     for (int n = 1; n <= maxRooms; ++n) {
         auto scene = scene::generateFromSpec(fmt::format("office:{}", n));
         if (!scene) return scene.status();
-        auto cam = cameraAtViewpoint(*scene, scene->viewpoints.front(), width, height);
+        auto cam = scene::cameraAt(*scene, scene->viewpoints.front(), width, height);
         if (!cam) return cam.status();
         bool keep = n == 1 || n == 4 || n == maxRooms;
         auto run = renderScene(*scene, *cam, **renderer, raster::Shading::kFlat, frames, ctx,
@@ -99,10 +99,7 @@ Status demoRasterSection(DemoContext& ctx) {
     if (!ctx.quick && std::filesystem::exists(helmet)) {
         auto scene = scene::loadScene(helmet);
         if (!scene) return scene.status();
-        auto cam = cameraAtViewpoint(*scene, scene->viewpoints.empty()
-                                                 ? scene::framingViewpoint(scene->bounds(), 40.0f)
-                                                 : scene->viewpoints.front(),
-                                     width, height);
+        auto cam = scene::cameraAt(*scene, scene::defaultViewpoint(*scene), width, height);
         if (!cam) return cam.status();
         auto run = renderScene(*scene, *cam, **renderer, raster::Shading::kTextured, frames, ctx,
                                "helmet");

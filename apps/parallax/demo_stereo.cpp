@@ -42,7 +42,7 @@ Status demoStereoSection(DemoContext& ctx) {
     // One pair of the largest scene, shown three ways.
     auto scene = scene::generateOffice(rows->back().rooms);
     if (!scene) return scene.status();
-    auto center = cameraAtViewpoint(*scene, scene->viewpoints.front(), config.width, config.height);
+    auto center = scene::cameraAt(*scene, scene->viewpoints.front(), config.width, config.height);
     if (!center) return center.status();
     auto rig = StereoRig::create(*center, config.rig);
     if (!rig) return rig.status();

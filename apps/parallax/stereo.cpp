@@ -113,7 +113,7 @@ int runStereo(const StereoArgs& a) {
         for (size_t i = 0; i < poses.size(); ++i) {
             scene::Viewpoint vp{"path", poses[i].eyePos, poses[i].targetPos, poses[i].upDir,
                                 poses[i].fovYDegrees};
-            auto cam = cameraAtViewpoint(*scene, vp, size.x, size.y);
+            auto cam = scene::cameraAt(*scene, vp, size.x, size.y);
             if (!cam) return fail(fmt::format("pose {}: {}", i, cam.status().message()));
             cameras.push_back(*cam);
         }

@@ -15,24 +15,10 @@ void addViewOptions(CLI::App* app, ViewArgs* args) {
     app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
 }
 
-Result<Camera> cameraAtViewpoint(const scene::Scene& scene, const scene::Viewpoint& vp, int width,
-                                 int height) {
-    CameraDesc d;
-    d.eyePos = vp.eyePos;
-    d.targetPos = vp.targetPos;
-    d.upDir = vp.upDir;
-    d.fovYDegrees = vp.fovYDegrees;
-    d.width = width;
-    d.height = height;
-    scene::clipPlanesFor(scene.bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
-    return Camera::create(d);
-}
-
 namespace {
 Result<scene::Viewpoint> pickViewpoint(const scene::Scene& scene, const std::string& which) {
     if (which.empty())
-        return scene.viewpoints.empty() ? scene::framingViewpoint(scene.bounds())
-                                        : scene.viewpoints.front();
+        return scene::defaultViewpoint(scene);
     for (const auto& v : scene.viewpoints)
         if (v.name == which) return v;
     size_t index = 0;
@@ -72,7 +58,7 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
         vp = *picked;
     }
     if (args.fovDegrees != 0.0f) vp.fovYDegrees = args.fovDegrees;
-    auto cam = cameraAtViewpoint(scene, vp, size->x, size->y);
+    auto cam = scene::cameraAt(scene, vp, size->x, size->y);
     if (!cam) return cam.status();
     return cam;
 }

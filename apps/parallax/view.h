@@ -21,8 +21,4 @@ void addViewOptions(CLI::App* app, ViewArgs* args);
 // The camera the options describe for this scene; errors name the bad option.
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args);
 
-// A camera at a viewpoint with near/far planes fitted to the scene.
-Result<Camera> cameraAtViewpoint(const scene::Scene& scene, const scene::Viewpoint& viewpoint,
-                                 int width, int height);
-
 }  // namespace plx::cli

@@ -146,15 +146,7 @@ Result<Camera> frontCamera(const scene::Scene& scene, int width, int height) {
 }
 
 Result<Camera> framingCamera(const scene::Scene& scene, int width, int height) {
-    scene::Viewpoint view = scene::framingViewpoint(scene.bounds());
-    CameraDesc desc;
-    desc.eyePos = view.eyePos;
-    desc.targetPos = view.targetPos;
-    desc.fovYDegrees = view.fovYDegrees;
-    desc.width = width;
-    desc.height = height;
-    scene::clipPlanesFor(scene.bounds(), view.eyePos, &desc.nearPlane, &desc.farPlane);
-    return Camera::create(desc);
+    return scene::cameraAt(scene, scene::framingViewpoint(scene.bounds()), width, height);
 }
 
 Status parseSize(const std::string& text, int* width, int* height) {

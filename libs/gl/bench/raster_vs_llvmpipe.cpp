@@ -113,17 +113,7 @@ Result<scene::Scene> loadSpec(const SceneSpec& spec) {
 
 // The scene's first viewpoint, or one framing its bounds; one Camera serves both renderers.
 Result<Camera> sceneCamera(const scene::Scene& scene, int width, int height) {
-    scene::Viewpoint view = scene.viewpoints.empty() ? scene::framingViewpoint(scene.bounds())
-                                                     : scene.viewpoints.front();
-    CameraDesc desc;
-    desc.eyePos = view.eyePos;
-    desc.targetPos = view.targetPos;
-    desc.upDir = view.upDir;
-    desc.fovYDegrees = view.fovYDegrees;
-    desc.width = width;
-    desc.height = height;
-    scene::clipPlanesFor(scene.bounds(), view.eyePos, &desc.nearPlane, &desc.farPlane);
-    return Camera::create(desc);
+    return scene::cameraAt(scene, scene::defaultViewpoint(scene), width, height);
 }
 
 Status parseSize(const std::string& text, int* width, int* height) {

@@ -169,4 +169,20 @@ void clipPlanesFor(const Aabb& bounds, const Vec3& eyePos, float* nearPlane, flo
     *nearPlane = std::max(*farPlane / 20000.0f, 1e-4f);
 }
 
+Result<Camera> cameraAt(const Scene& scene, const Viewpoint& viewpoint, int width, int height) {
+    CameraDesc d;
+    d.eyePos = viewpoint.eyePos;
+    d.targetPos = viewpoint.targetPos;
+    d.upDir = viewpoint.upDir;
+    d.fovYDegrees = viewpoint.fovYDegrees;
+    d.width = width;
+    d.height = height;
+    clipPlanesFor(scene.bounds(), viewpoint.eyePos, &d.nearPlane, &d.farPlane);
+    return Camera::create(d);
+}
+
+Viewpoint defaultViewpoint(const Scene& scene) {
+    return scene.viewpoints.empty() ? framingViewpoint(scene.bounds()) : scene.viewpoints.front();
+}
+
 }  // namespace plx::scene

@@ -11,15 +11,7 @@ using namespace plx;
 
 void BM_Pair(benchmark::State& state, stereo::Method method) {
     scene::Scene s = *scene::generateOffice(int(state.range(0)));
-    const scene::Viewpoint& vp = s.viewpoints.front();
-    CameraDesc d;
-    d.eyePos = vp.eyePos;
-    d.targetPos = vp.targetPos;
-    d.fovYDegrees = vp.fovYDegrees;
-    d.width = 640;
-    d.height = 480;
-    scene::clipPlanesFor(s.bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
-    auto rig = *StereoRig::create(*Camera::create(d), {});
+    auto rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 640, 480), {});
     auto r = std::move(stereo::StereoRenderer::create({2})).value();
     stereo::StereoFrame frame;
     stereo::StereoOptions options;

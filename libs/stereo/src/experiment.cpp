@@ -50,16 +50,8 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
         int n = config.rooms[i];
         auto scene = scene::generateOffice(n);
         if (!scene) return scene.status();
-        const scene::Viewpoint& vp = scene->viewpoints.front();
-        CameraDesc d;
-        d.eyePos = vp.eyePos;
-        d.targetPos = vp.targetPos;
-        d.upDir = vp.upDir;
-        d.fovYDegrees = vp.fovYDegrees;
-        d.width = config.width;
-        d.height = config.height;
-        scene::clipPlanesFor(scene->bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
-        auto center = Camera::create(d);
+        auto center = scene::cameraAt(*scene, scene::defaultViewpoint(*scene), config.width,
+                                      config.height);
         if (!center) return center.status();
         auto rig = StereoRig::create(*center, config.rig);
         if (!rig) return rig.status();

@@ -12,16 +12,7 @@ namespace plx::stereo {
 namespace {
 
 Camera officeCamera(const scene::Scene& s, int w = 160, int h = 120) {
-    const scene::Viewpoint& vp = s.viewpoints.front();
-    CameraDesc d;
-    d.eyePos = vp.eyePos;
-    d.targetPos = vp.targetPos;
-    d.upDir = vp.upDir;
-    d.fovYDegrees = vp.fovYDegrees;
-    d.width = w;
-    d.height = h;
-    scene::clipPlanesFor(s.bounds(), vp.eyePos, &d.nearPlane, &d.farPlane);
-    return *Camera::create(d);
+    return *scene::cameraAt(s, s.viewpoints.front(), w, h);
 }
 
 std::unique_ptr<StereoRenderer> makeRenderer() {

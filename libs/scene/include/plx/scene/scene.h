@@ -108,4 +108,10 @@ Viewpoint framingViewpoint(const Aabb& bounds, float fovYDegrees = 60.0f);
 // Near and far planes that contain the scene's bounds as seen from eyePos.
 void clipPlanesFor(const Aabb& bounds, const Vec3& eyePos, float* nearPlane, float* farPlane);
 
+// A camera at a viewpoint with near and far planes fitted to the scene (clipPlanesFor).
+Result<Camera> cameraAt(const Scene& scene, const Viewpoint& viewpoint, int width, int height);
+
+// The scene's first viewpoint, or one framing its bounds when it has none.
+Viewpoint defaultViewpoint(const Scene& scene);
+
 }  // namespace plx::scene

@@ -27,6 +27,13 @@ namespace {
 
 using plx::ByteImage;
 
+// The coder of the "PTM" columns: PLX_PTM_CODER=2 or 3, else the library default.
+plx::ptm::EncodeConfig ptmConfig() {
+    plx::ptm::EncodeConfig cfg;
+    if (const char* c = std::getenv("PLX_PTM_CODER")) cfg.coder = plx::ptm::Coder(std::atoi(c));
+    return cfg;
+}
+
 // WebP and our JPEG XL set-up take RGB or RGBA: grey is widened (sizes stay comparable).
 ByteImage toRgbOrRgba(const ByteImage& in) {
     if (in.channels >= 3) return in;
@@ -211,7 +218,7 @@ int runSizes(std::vector<std::string> files) {
             if (peers.opti > 0) appendCache(cachePath, key, peers);
         }
         const size_t opti = peers.opti, webp = peers.webp, jxl = peers.jxl;
-        const std::vector<uint8_t> ptmFile = *plx::ptm::encode(*img);
+        const std::vector<uint8_t> ptmFile = *plx::ptm::encode(*img, ptmConfig());
         const size_t ptm = ptmFile.size();
         auto back = plx::ptm::decodeImage(ptmFile);
         if (!back || *back != *img) {
@@ -307,10 +314,11 @@ int runPtmSpeed(const std::vector<std::string>& files) {
         if (!img) continue;
         mb += double(img->bytes.size()) / 1e6;
         std::vector<uint8_t> file;
-        encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img); });
+        encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img, ptmConfig()); });
         decMs += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
     }
-    std::printf("PTM predict+rans: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n", mb,
+    std::printf("PTM coder %d: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n",
+                int(ptmConfig().coder), mb,
                 mb / (encMs / 1e3), mb / (decMs / 1e3));
     return 0;
 }

@@ -70,7 +70,8 @@ TEST(PtmCodec, RoundTripManySizesAndComponents) {
                                          {3, 127}, {100, 61}, {256, 1}};
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)
-            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans})
+            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
+                                  Coder::kPredictRansFast})
                 for (bool smooth : {false, true}) {
                     ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
                     EncodeConfig cfg;
@@ -161,7 +162,8 @@ TEST(PtmDecoder, WrongGroupIsRejected) {
 }
 
 TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
-    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans}) {
+    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
+                                  Coder::kPredictRansFast}) {
         EncodeConfig cfg;
         cfg.coder = coder;
         auto file = mustEncode(randomImage(23, 11, 4, 9, true), cfg);

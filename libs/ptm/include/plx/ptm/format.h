@@ -29,6 +29,7 @@ enum class Coder : uint8_t {
     kRaw = 0,          // planes hold the values themselves, uncompressed (the paper's layout)
     kPredictZstd = 1,  // planes hold prediction residuals; the payload is one zstd frame
     kPredictRans = 2,  // context-modelled residuals and eps, interleaved rANS (no planes)
+    kPredictRansFast = 3,  // as 2, contexts and runs laid out for a two-pass fast decoder
 };
 
 // Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.

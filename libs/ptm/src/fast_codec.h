@@ -1,0 +1,441 @@
+#pragma once
+// Private: Coder::kPredictRansFast (docs/ptm-format.md, "Coder 3"). Same information as coder 2
+// (the residual errors of eq. 3 and three pixels per 2x2 block), coded so that decoding splits
+// into passes without a per-symbol dependency on freshly decoded pixels:
+//
+// - per block row, the tokens come in *runs*: p00 of every full block (component-major), then
+//   p10, then p01, then eps; each run's contexts depend only on the previous block row, the
+//   lower level and the runs already decoded in this row, so the whole run's contexts are
+//   computed first and the entropy decoder is a tight loop of table look-ups;
+// - the pixels are then rebuilt from the residuals in a separate loop over the row's blocks
+//   (block-sum predictor, inter-component sub-predictor, eq. 3), with no dependency between
+//   blocks of a row;
+// - four interleaved rANS states; symbol j of a run uses state j mod 4.
+//
+// One walker, templated on an IO policy, runs in both directions (the encoder's IO records the
+// tokens of a run, the decoder's IO decodes them), so the two cannot disagree.
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include <plx/core/image.h>
+
+#include "codec.h"
+#include "ctx_codec.h"
+#include "rans.h"
+
+namespace plx::ptm::detail {
+
+inline constexpr int kFastStates = 4;
+
+// Decode table of one context for coder 3: the token of every 12-bit slot (one load per symbol)
+// and per token its frequency (low 16 bits) and cumulative start (high 16 bits).
+struct FastTable {
+    uint8_t sym[kRansTotal];
+    uint32_t freqCum[32];
+};
+// Fills t from freq (sum kRansTotal, or all zero: then every slot decodes token 0 with
+// frequency kRansTotal, which keeps the state and is caught by the final state check).
+void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t);
+
+// rANS-encodes symbols (decode order) with per-context frequencies over kFastStates states;
+// symbol i uses state lane[i]. Returns the four final states (each as high then low 16-bit
+// word) then the renormalisation words, each 16-bit word little-endian.
+struct LaneSymbol {
+    uint16_t ctx;
+    uint8_t token;
+    uint8_t lane;
+};
+std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
+                                     const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                                     const std::vector<uint16_t>& ctxToTable);
+
+// Encoder IO: records the tokens of a run (z is the input) and their extra bits.
+struct FastEncodeIO {
+    static constexpr bool kEncode = true;
+    std::vector<LaneSymbol> symbols;
+    BitWriter bits;
+    template <bool kExtra>
+    void run(const uint16_t* ctx, int n, uint8_t* z) {
+        for (int j = 0; j < n; ++j) {
+            if constexpr (kExtra) {
+                const TokenSplit s = splitToken(z[j]);
+                symbols.push_back({ctx[j], uint8_t(s.token), uint8_t(j % kFastStates)});
+                if (s.bits) bits.put(s.extra, s.bits);
+            } else {
+                symbols.push_back({ctx[j], z[j], uint8_t(j % kFastStates)});
+            }
+        }
+    }
+};
+
+// Decoder IO: four rANS states over a bounds-checked word stream, extra bits from a separate
+// bit stream. Past the end of either stream reads give zeros and the overrun is recorded.
+struct FastDecodeIO {
+    static constexpr bool kEncode = false;
+    const FastTable* const* tableOf;  // raw context -> its table
+    const uint8_t* ptr;
+    const uint8_t* end;
+    BitReader bits;
+    uint32_t x[kFastStates] = {};
+    bool overrun = false;
+
+    FastDecodeIO(const FastTable* const* tables, const uint8_t* begin, const uint8_t* streamEnd,
+                 BitReader extra)
+        : tableOf(tables), ptr(begin), end(streamEnd), bits(extra) {
+        for (uint32_t& s : x) {
+            s = readWord() << 16;
+            s |= readWord();
+        }
+    }
+    uint32_t readWord() {
+        if (end - ptr >= 2) {
+            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
+            ptr += 2;
+            return w;
+        }
+        overrun = true;
+        return 0;
+    }
+    // True when the stream was used up exactly and all states returned to their initial value.
+    bool finishedCleanly() const {
+        bool initial = true;
+        for (uint32_t s : x) initial = initial && s == kRansLow;
+        return !overrun && ptr == end && initial;
+    }
+
+    // One symbol with state s; the renormalisation word is read unchecked (the caller made sure
+    // that 2 bytes remain).
+    static inline int step(uint32_t& s, const FastTable& t, const uint8_t*& p) {
+        const uint32_t slot = s & (kRansTotal - 1);
+        const int tok = t.sym[slot];
+        const uint32_t fc = t.freqCum[tok];
+        s = (fc & 0xFFFF) * (s >> kRansPrecision) + slot - (fc >> 16);
+        const bool renorm = s < kRansLow;
+        uint16_t w;
+        std::memcpy(&w, p, 2);  // little-endian hosts only (checked in decoder.cpp)
+        s = renorm ? (s << 16) | w : s;
+        p += renorm ? 2 : 0;
+        return tok;
+    }
+
+    template <bool kExtra>
+    void run(const uint16_t* ctx, int n, uint8_t* z) {
+        uint32_t s0 = x[0], s1 = x[1], s2 = x[2], s3 = x[3];
+        const uint8_t* p = ptr;
+        int j = 0;
+        auto emit = [&](int at, int tok) {
+            if constexpr (kExtra)
+                z[at] = uint8_t(kTokens.base[size_t(tok)] + bits.get(kTokens.bits[size_t(tok)]));
+            else
+                z[at] = uint8_t(tok);
+        };
+        // Fast path: four symbols at a time while 8 bytes (four words) remain.
+        for (; j + 4 <= n && end - p >= 8; j += 4) {
+            const int t0 = step(s0, *tableOf[ctx[j]], p);
+            const int t1 = step(s1, *tableOf[ctx[j + 1]], p);
+            const int t2 = step(s2, *tableOf[ctx[j + 2]], p);
+            const int t3 = step(s3, *tableOf[ctx[j + 3]], p);
+            emit(j, t0);
+            emit(j + 1, t1);
+            emit(j + 2, t2);
+            emit(j + 3, t3);
+        }
+        ptr = p;
+        x[0] = s0, x[1] = s1, x[2] = s2, x[3] = s3;
+        for (; j < n; ++j) {  // the tail and the stream's end, checked
+            uint32_t& s = x[j % kFastStates];
+            const FastTable& t = *tableOf[ctx[j]];
+            const uint32_t slot = s & (kRansTotal - 1);
+            const int tok = t.sym[slot];
+            const uint32_t fc = t.freqCum[tok];
+            s = (fc & 0xFFFF) * (s >> kRansPrecision) + slot - (fc >> 16);
+            if (s < kRansLow) s = (s << 16) | readWord();
+            emit(j, tok);
+        }
+    }
+};
+
+// Raw context id (family 4c + kind, raw context q), as coder 2.
+inline uint16_t rawCtx(int c, int kind, int q) {
+    return uint16_t((4 * c + kind) * kFamilyContexts + q);
+}
+inline int magnitude(int z) { return (z + 1) >> 1; }  // |unzigzag(z)|
+
+// Per-level working rows of walkLevelFast, planar: index c * lw + bx.
+struct FastRows {
+    std::vector<int> m, u0, u1, u2, u3, act0;
+    std::vector<uint8_t> sel;
+    std::vector<uint8_t> z0, z1, z2, ze;  // tokens' values of the runs
+    std::vector<int> v0, v1, v2, v3;       // pixel values
+    std::vector<int> errA, errB;
+    std::vector<int> rA0, rA1, rA2;        // A-residuals of the previous component, per bx
+    std::vector<uint16_t> ctx;
+    // Statistics of the previous and the current block row, index c * (lw + 2) + bx + 1, the
+    // ends replicated: activity (sum of |residual|) and sub-predictor errors.
+    std::vector<uint16_t> prevAct, prevEA, prevEB, curAct, curEA, curEB;
+    explicit FastRows(int C, int lw) {
+        const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
+        for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &v0, &v1, &v2, &v3, &errA, &errB})
+            v->assign(n, 0);
+        for (auto* v : {&sel, &z0, &z1, &z2, &ze}) v->assign(n, 0);
+        for (auto* v : {&rA0, &rA1, &rA2}) v->assign(size_t(lw), 0);
+        ctx.assign(n, 0);
+        for (auto* v : {&prevAct, &prevEA, &prevEB, &curAct, &curEA, &curEB}) v->assign(s, 0);
+    }
+};
+
+// Prediction and reconstruction of the three stored pixels of every full block of a row
+// (runs packed as c * full + bx). Encode: values v0..v2 to run values z0..z2; decode: the
+// reverse. Sub-predictor A is the block-sum predictor (codec.h); B (components >= 1) is
+// clamp(A + r, 0, 255) with r the previous component's A-residual at the same pixel; the block
+// row's choice `sel` comes from the previous row (pass 0). No dependency between blocks.
+template <int C, bool kEncode>
+void codeFullRow(FastRows& R, int lw, int full) {
+    const size_t n = size_t(full);
+    for (int c = 0; c < C; ++c) {
+        const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * n;
+        const int* m = R.m.data() + pi;
+        const int* u0 = R.u0.data() + pi;
+        const int* u1 = R.u1.data() + pi;
+        const int* u2 = R.u2.data() + pi;
+        const int* u3 = R.u3.data() + pi;
+        const uint8_t* sel = R.sel.data() + pi;
+        int* v0 = R.v0.data() + ri;
+        int* v1 = R.v1.data() + ri;
+        int* v2 = R.v2.data() + ri;
+        uint8_t* z0 = R.z0.data() + ri;
+        uint8_t* z1 = R.z1.data() + ri;
+        uint8_t* z2 = R.z2.data() + ri;
+        int* errA = R.errA.data() + ri;
+        int* errB = R.errB.data() + ri;
+        int* rA0 = R.rA0.data();
+        int* rA1 = R.rA1.data();
+        int* rA2 = R.rA2.data();
+        const bool inter = c > 0;
+        // One stored pixel: prediction from A (and B), value <-> run value, A-residual kept
+        // for the next component.
+        auto one = [&](int pA, int& rA, int& v, uint8_t& z, int s, int& eA, int& eB) {
+            const int pB = inter ? std::clamp(pA + rA, 0, 255) : pA;
+            const int pred = s ? pB : pA;
+            if constexpr (kEncode)
+                z = uint8_t(zigzag(int(int8_t(uint8_t(v - pred)))));
+            else
+                v = uint8_t(pred + unzigzag(z));
+            rA = v - pA;
+            eA += std::abs(v - pA);
+            eB += std::abs(v - pB);
+        };
+        for (size_t bx = 0; bx < n; ++bx) {
+            const int mm = m[bx], s = sel[bx];
+            int eA = 0, eB = 0;
+            one(predictBlockPixel(4, mm, 0, u0[bx] + u1[bx] + u2[bx] + u3[bx], 4, u0[bx]),
+                rA0[bx], v0[bx], z0[bx], s, eA, eB);
+            one(predictBlockPixel(4, mm, v0[bx], u1[bx] + u2[bx] + u3[bx], 3, u1[bx]), rA1[bx],
+                v1[bx], z1[bx], s, eA, eB);
+            one(predictBlockPixel(4, mm, v0[bx] + v1[bx], u2[bx] + u3[bx], 2, u2[bx]), rA2[bx],
+                v2[bx], z2[bx], s, eA, eB);
+            errA[bx] = eA;
+            errB[bx] = eB;
+        }
+    }
+}
+
+// Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
+// outside 0..255.
+template <int C, class IO>
+bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO& ioRef) {
+    IO io = std::move(ioRef);  // a local whose address does not escape (see walkLevelRans)
+    const int lw = low.width, lh = low.height, full = width / 2;  // full: 2-wide blocks per row
+    const size_t stride = size_t(width) * C, lowStride = size_t(lw) * C;
+    const size_t sw = size_t(lw + 2);
+    FastRows R(C, lw);
+    unsigned bad = 0;
+    for (int by = 0; by < lh; ++by) {
+        const int y0 = 2 * by, y1 = std::min(y0 + 1, height - 1);
+        const bool tall = y1 > y0;  // blocks of this row have two pixel rows
+        uint8_t* r0 = cur + size_t(y0) * stride;
+        uint8_t* r1 = cur + size_t(y1) * stride;
+        const uint8_t* lm = low.bytes.data() + size_t(by) * lowStride;
+        const uint8_t* lu = low.bytes.data() + size_t(std::max(by - 1, 0)) * lowStride;
+        const uint8_t* ld = low.bytes.data() + size_t(std::min(by + 1, lh - 1)) * lowStride;
+        // Pass 0: parent values, upsamples, activity and sub-predictor choice of every block,
+        // from the lower level and the previous block row only.
+        for (int c = 0; c < C; ++c) {
+            const uint16_t* pAct = R.prevAct.data() + size_t(c) * sw + 1;
+            const uint16_t* pEA = R.prevEA.data() + size_t(c) * sw + 1;
+            const uint16_t* pEB = R.prevEB.data() + size_t(c) * sw + 1;
+            for (int bx = 0; bx < lw; ++bx) {
+                const size_t i = size_t(c) * size_t(lw) + size_t(bx);
+                const size_t xl = size_t(std::max(bx - 1, 0)) * C + c, xm = size_t(bx) * C + c;
+                const size_t xr = size_t(std::min(bx + 1, lw - 1)) * C + c;
+                const int m = lm[xm], l = lm[xl], r = lm[xr], up = lu[xm], dn = ld[xm];
+                R.m[i] = m;
+                R.u0[i] = upsample(m, l, up, lu[xl]);
+                R.u1[i] = upsample(m, r, up, lu[xr]);
+                R.u2[i] = upsample(m, l, dn, ld[xl]);
+                R.u3[i] = upsample(m, r, dn, ld[xr]);
+                const int grad = std::abs(l - r) + std::abs(up - dn);
+                if (by > 0) {
+                    R.act0[i] = ((3 * pAct[bx] + pAct[bx - 1] + pAct[bx + 1]) >> 1) + grad;
+                    const int ea = 2 * pEA[bx] + pEA[bx - 1] + pEA[bx + 1];
+                    const int eb = 2 * pEB[bx] + pEB[bx - 1] + pEB[bx + 1];
+                    R.sel[i] = uint8_t(c > 0 && eb < ea);
+                } else {
+                    R.act0[i] = 4 * grad;
+                    R.sel[i] = 0;
+                }
+            }
+        }
+        uint16_t* ctx = R.ctx.data();
+        if (tall && full > 0) {
+            const size_t n = size_t(full);
+            if constexpr (IO::kEncode) {
+                for (int c = 0; c < C; ++c)
+                    for (int bx = 0; bx < full; ++bx) {
+                        const size_t i = size_t(c) * n + size_t(bx), px = size_t(2 * bx) * C + c;
+                        R.v0[i] = r0[px];
+                        R.v1[i] = r0[px + C];
+                        R.v2[i] = r1[px];
+                        R.v3[i] = r1[px + C];
+                    }
+            }
+            // Runs are packed: index c * full + bx. The parent rows use c * lw + bx.
+            if constexpr (IO::kEncode) codeFullRow<C, true>(R, lw, full);
+            for (int c = 0; c < C; ++c)
+                for (int bx = 0; bx < full; ++bx)
+                    ctx[size_t(c) * n + size_t(bx)] = rawCtx(
+                        c, 0, activityBucket(R.act0[size_t(c) * size_t(lw) + size_t(bx)]));
+            io.template run<true>(ctx, int(C * n), R.z0.data());
+            for (int c = 0; c < C; ++c) {
+                const uint8_t* z0 = R.z0.data() + size_t(c) * n;
+                for (int bx = 0; bx < full; ++bx) {
+                    const int e = magnitude(z0[bx]);
+                    const int el = magnitude(z0[std::max(bx - 1, 0)]);
+                    const int er = magnitude(z0[std::min(bx + 1, full - 1)]);
+                    const int a = R.act0[size_t(c) * size_t(lw) + size_t(bx)];
+                    ctx[size_t(c) * n + size_t(bx)] =
+                        rawCtx(c, 1, activityBucket((a + 3 * e + el + er) >> 1));
+                }
+            }
+            io.template run<true>(ctx, int(C * n), R.z1.data());
+            for (int c = 0; c < C; ++c) {
+                const uint8_t* z0 = R.z0.data() + size_t(c) * n;
+                const uint8_t* z1 = R.z1.data() + size_t(c) * n;
+                for (int bx = 0; bx < full; ++bx) {
+                    const int e = magnitude(z0[bx]), e1 = magnitude(z1[bx]);
+                    const int el = magnitude(z1[std::max(bx - 1, 0)]);
+                    const int a = R.act0[size_t(c) * size_t(lw) + size_t(bx)];
+                    ctx[size_t(c) * n + size_t(bx)] =
+                        rawCtx(c, 2, activityBucket((a + 3 * e + 2 * e1 + el) >> 1));
+                }
+            }
+            io.template run<true>(ctx, int(C * n), R.z2.data());
+            if constexpr (!IO::kEncode) {
+                codeFullRow<C, false>(R, lw, full);
+                for (int c = 0; c < C; ++c)
+                    for (int bx = 0; bx < full; ++bx) {
+                        const size_t i = size_t(c) * n + size_t(bx), px = size_t(2 * bx) * C + c;
+                        r0[px] = uint8_t(R.v0[i]);
+                        r0[px + C] = uint8_t(R.v1[i]);
+                        r1[px] = uint8_t(R.v2[i]);
+                    }
+            }
+            // eps in the context of the block sum that the planar p11 ~ p10 + p01 - p00 implies.
+            for (int c = 0; c < C; ++c)
+                for (int bx = 0; bx < full; ++bx) {
+                    const size_t i = size_t(c) * n + size_t(bx);
+                    const int m = R.m[size_t(c) * size_t(lw) + size_t(bx)];
+                    const int sHat = std::clamp(2 * (R.v1[i] + R.v2[i]) - 4 * m, -2, 4);
+                    const int act = R.act0[size_t(c) * size_t(lw) + size_t(bx)] +
+                                    magnitude(R.z0[i]) + magnitude(R.z1[i]) + magnitude(R.z2[i]);
+                    ctx[i] = rawCtx(c, 3, (sHat + 2) * 2 + (act >= 12 ? 1 : 0));
+                    if constexpr (IO::kEncode)
+                        R.ze[i] = uint8_t(R.v0[i] + R.v1[i] + R.v2[i] + R.v3[i] - 4 * m);
+                }
+            io.template run<false>(ctx, int(C * n), R.ze.data());
+            for (int c = 0; c < C; ++c)
+                for (int bx = 0; bx < full; ++bx) {
+                    const size_t i = size_t(c) * n + size_t(bx);
+                    const int m = R.m[size_t(c) * size_t(lw) + size_t(bx)];
+                    const int ep = R.ze[i];
+                    const int last = 4 * m + ep - R.v0[i] - R.v1[i] - R.v2[i];  // eq. (3)
+                    bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
+                    if constexpr (!IO::kEncode) r1[size_t(2 * bx + 1) * C + c] = uint8_t(last);
+                    const size_t s = size_t(c) * sw + size_t(bx) + 1;
+                    R.curAct[s] = uint16_t(magnitude(R.z0[i]) + magnitude(R.z1[i]) +
+                                           magnitude(R.z2[i]));
+                    R.curEA[s] = uint16_t(R.errA[i]);
+                    R.curEB[s] = uint16_t(R.errB[i]);
+                }
+        }
+        // Blocks with two real pixels: the last column's 1x2 blocks (odd width) or the last
+        // row's 2x1 blocks (odd height). p00 is coded, the other pixel follows from eq. (3).
+        const int pairFrom = tall ? full : 0;
+        const int pairTo = tall ? (width & 1 ? lw : full) : full;
+        const int np = pairTo - pairFrom;
+        if (np > 0) {
+            const int uo = tall ? 2 : 1;  // the other pixel's upsample: p01 or p10
+            for (int c = 0; c < C; ++c)
+                for (int k = 0; k < np; ++k) {
+                    const size_t j = size_t(c) * size_t(np) + size_t(k);
+                    const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
+                    ctx[j] = rawCtx(c, 0, activityBucket(R.act0[i]));
+                    const int pred = predictBlockPixel(2, R.m[i], 0,
+                                                       R.u0[i] + (uo == 2 ? R.u2[i] : R.u1[i]),
+                                                       2, R.u0[i]);
+                    R.v3[j] = pred;
+                    if constexpr (IO::kEncode) {
+                        const size_t px = size_t(2 * (pairFrom + k)) * C + c;
+                        const int a = r0[px], o = tall ? r1[px] : r0[px + C];
+                        R.z0[j] = uint8_t(zigzag(int(int8_t(uint8_t(a - pred)))));
+                        R.ze[j] = uint8_t(a + o - 2 * R.m[i]);
+                    }
+                }
+            const int cnt = C * np;
+            io.template run<true>(ctx, cnt, R.z0.data());
+            for (int j = 0; j < cnt; ++j) ctx[j] = uint16_t(rawCtx(j / np, 3, kEpsContexts - 2));
+            io.template run<false>(ctx, cnt, R.ze.data());
+            for (int c = 0; c < C; ++c)
+                for (int k = 0; k < np; ++k) {
+                    const size_t j = size_t(c) * size_t(np) + size_t(k);
+                    const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
+                    const int a = uint8_t(R.v3[j] + unzigzag(R.z0[j]));
+                    const int ep = R.ze[j];
+                    const int last = 2 * R.m[i] + ep - a;  // eq. (3), n = 2
+                    bad |= unsigned(ep >= 2) | unsigned(unsigned(last) > 255u);
+                    const size_t px = size_t(2 * (pairFrom + k)) * C + c;
+                    if constexpr (!IO::kEncode) {
+                        r0[px] = uint8_t(a);
+                        (tall ? r1[px] : r0[px + C]) = uint8_t(last);
+                    }
+                    const int e = magnitude(R.z0[j]);
+                    const size_t s = size_t(c) * sw + size_t(pairFrom + k) + 1;
+                    R.curAct[s] = uint16_t(3 * e);
+                    R.curEA[s] = uint16_t(3 * e);
+                    R.curEB[s] = uint16_t(3 * e + 3);
+                }
+        }
+        if (!tall && (width & 1)) {  // the 1x1 corner block: eps = 0, the pixel is its parent
+            if constexpr (!IO::kEncode)
+                for (int c = 0; c < C; ++c) r0[size_t(width - 1) * C + c] = lm[size_t(lw - 1) * C + c];
+        }
+        for (int c = 0; c < C; ++c) {  // replicate the row's ends for the next row's diagonals
+            for (auto* v : {&R.curAct, &R.curEA, &R.curEB}) {
+                uint16_t* s = v->data() + size_t(c) * sw;
+                s[0] = s[1];
+                s[lw + 1] = s[lw];
+            }
+        }
+        std::swap(R.prevAct, R.curAct);
+        std::swap(R.prevEA, R.curEA);
+        std::swap(R.prevEB, R.curEB);
+    }
+    ioRef = std::move(io);
+    return bad == 0;
+}
+
+}  // namespace plx::ptm::detail

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -306,9 +307,23 @@ int runSpeed(const std::vector<std::string>& files) {
     return 0;
 }
 
-// PTM alone (coder 2, default settings): best-of-5 single-thread decode and encode MB/s.
+// Best of `reps` runs of f in process CPU time (ms): less sensitive than wall time to other
+// processes on a shared machine.
+template <class F>
+double bestCpuMs(int reps, F&& f) {
+    double best = 1e300;
+    for (int i = 0; i < reps; ++i) {
+        const std::clock_t t0 = std::clock();
+        f();
+        best = std::min(best, 1e3 * double(std::clock() - t0) / CLOCKS_PER_SEC);
+    }
+    return best;
+}
+
+// PTM alone (PLX_PTM_CODER or the default coder): best-of-N single-thread decode and encode
+// MB/s, wall and CPU time, and libpng's decode of the same images in the same run.
 int runPtmSpeed(const std::vector<std::string>& files) {
-    double mb = 0, encMs = 0, decMs = 0;
+    double mb = 0, encMs = 0, decMs = 0, decCpuMs = 0, pngCpuMs = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
@@ -316,10 +331,15 @@ int runPtmSpeed(const std::vector<std::string>& files) {
         std::vector<uint8_t> file;
         encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img, ptmConfig()); });
         decMs += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+        decCpuMs += bestCpuMs(7, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+        const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
+        pngCpuMs += bestCpuMs(5, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
     }
     std::printf("PTM coder %d: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n",
                 int(ptmConfig().coder), mb,
                 mb / (encMs / 1e3), mb / (decMs / 1e3));
+    std::printf("CPU time: PTM decode %.1f MB/s, libpng decode %.1f MB/s, ratio %.2f\n",
+                mb / (decCpuMs / 1e3), mb / (pngCpuMs / 1e3), pngCpuMs / decCpuMs);
     return 0;
 }
 
@@ -335,6 +355,15 @@ int main(int argc, char** argv) {
     if (mode == "sizes") return runSizes(files);
     if (mode == "speed") return runSpeed(files);
     if (mode == "ptmspeed") return runPtmSpeed(files);
+    if (mode == "ptmdecode") {  // for profilers: encode once, decode 20 times
+        for (const auto& f : files) {
+            auto img = plx::readImage(f);
+            if (!img) continue;
+            const std::vector<uint8_t> file = *plx::ptm::encode(*img, ptmConfig());
+            for (int i = 0; i < 20; ++i) PLX_CHECK(plx::ptm::decodeImage(file).isOk());
+        }
+        return 0;
+    }
     std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());
     return 2;
 }

@@ -160,88 +160,228 @@ struct FastDecodeIO {
 };
 
 // Raw context id (family 4c + kind, raw context q), as coder 2.
-inline uint16_t rawCtx(int c, int kind, int q) {
-    return uint16_t((4 * c + kind) * kFamilyContexts + q);
+inline int rawCtx(int c, int kind, int q) { return (4 * c + kind) * kFamilyContexts + q; }
+// |unzigzag(z)| and unzigzag(z), branch-free.
+inline int magnitude(int z) { return (z + 1) >> 1; }
+inline int unzigzagFast(int z) { return (z >> 1) ^ -(z & 1); }
+// activityBucket (ctx_codec.h) by comparisons, so that loops over a row vectorise.
+inline int bucketOf(int a) {
+    return (a >= 2) + (a >= 4) + (a >= 6) + (a >= 9) + (a >= 12) + (a >= 16) + (a >= 21) +
+           (a >= 28) + (a >= 38) + (a >= 52) + (a >= 72);
 }
-inline int magnitude(int z) { return (z + 1) >> 1; }  // |unzigzag(z)|
 
-// Per-level working rows of walkLevelFast, planar: index c * lw + bx.
+// Per-level working rows of walkLevelFast, planar. Parent rows and statistics are padded by
+// one replicated entry at each end: index c * (lw + 2) + bx + 1. Block rows: c * lw + bx.
+// Runs: c * n + bx for the n blocks of the run.
 struct FastRows {
-    std::vector<int> m, u0, u1, u2, u3, act0;
-    std::vector<uint8_t> sel;
-    std::vector<uint8_t> z0, z1, z2, ze;  // tokens' values of the runs
-    std::vector<int> v0, v1, v2, v3;       // pixel values
+    std::vector<int> pu, pm, pd;                   // lower level rows by - 1, by, by + 1
+    std::vector<int> m, u0, u1, u2, u3, act0, sel;  // per block of the row
+    std::vector<uint8_t> z0, z1, z2, ze;            // run values
+    std::vector<int> v0, v1, v2, v3;                // pixel values of the full blocks
     std::vector<int> errA, errB;
-    std::vector<int> rA0, rA1, rA2;        // A-residuals of the previous component, per bx
+    std::vector<int> rA0, rA1, rA2;  // A-residuals of the previous component, per bx
     std::vector<uint16_t> ctx;
-    // Statistics of the previous and the current block row, index c * (lw + 2) + bx + 1, the
-    // ends replicated: activity (sum of |residual|) and sub-predictor errors.
-    std::vector<uint16_t> prevAct, prevEA, prevEB, curAct, curEA, curEB;
+    std::vector<int> mag;  // scratch: magnitudes of a run, padded
+    // Statistics of the previous and the current block row: activity (sum of |residual|) and
+    // sub-predictor errors.
+    std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
     explicit FastRows(int C, int lw) {
         const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
-        for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &v0, &v1, &v2, &v3, &errA, &errB})
+        for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &sel, &v0, &v1, &v2, &v3, &errA, &errB})
             v->assign(n, 0);
-        for (auto* v : {&sel, &z0, &z1, &z2, &ze}) v->assign(n, 0);
+        for (auto* v : {&z0, &z1, &z2, &ze}) v->assign(n, 0);
         for (auto* v : {&rA0, &rA1, &rA2}) v->assign(size_t(lw), 0);
         ctx.assign(n, 0);
-        for (auto* v : {&prevAct, &prevEA, &prevEB, &curAct, &curEA, &curEB}) v->assign(s, 0);
+        mag.assign(size_t(lw) + 2, 0);
+        for (auto* v : {&pu, &pm, &pd, &prevAct, &prevEA, &prevEB, &curAct, &curEA, &curEB})
+            v->assign(s, 0);
     }
 };
 
-// Prediction and reconstruction of the three stored pixels of every full block of a row
-// (runs packed as c * full + bx). Encode: values v0..v2 to run values z0..z2; decode: the
-// reverse. Sub-predictor A is the block-sum predictor (codec.h); B (components >= 1) is
-// clamp(A + r, 0, 255) with r the previous component's A-residual at the same pixel; the block
-// row's choice `sel` comes from the previous row (pass 0). No dependency between blocks.
-template <int C, bool kEncode>
-void codeFullRow(FastRows& R, int lw, int full) {
-    const size_t n = size_t(full);
-    for (int c = 0; c < C; ++c) {
-        const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * n;
-        const int* m = R.m.data() + pi;
-        const int* u0 = R.u0.data() + pi;
-        const int* u1 = R.u1.data() + pi;
-        const int* u2 = R.u2.data() + pi;
-        const int* u3 = R.u3.data() + pi;
-        const uint8_t* sel = R.sel.data() + pi;
-        int* v0 = R.v0.data() + ri;
-        int* v1 = R.v1.data() + ri;
-        int* v2 = R.v2.data() + ri;
-        uint8_t* z0 = R.z0.data() + ri;
-        uint8_t* z1 = R.z1.data() + ri;
-        uint8_t* z2 = R.z2.data() + ri;
-        int* errA = R.errA.data() + ri;
-        int* errB = R.errB.data() + ri;
-        int* rA0 = R.rA0.data();
-        int* rA1 = R.rA1.data();
-        int* rA2 = R.rA2.data();
-        const bool inter = c > 0;
-        // One stored pixel: prediction from A (and B), value <-> run value, A-residual kept
-        // for the next component.
-        auto one = [&](int pA, int& rA, int& v, uint8_t& z, int s, int& eA, int& eB) {
-            const int pB = inter ? std::clamp(pA + rA, 0, 255) : pA;
-            const int pred = s ? pB : pA;
-            if constexpr (kEncode)
-                z = uint8_t(zigzag(int(int8_t(uint8_t(v - pred)))));
-            else
-                v = uint8_t(pred + unzigzag(z));
-            rA = v - pA;
-            eA += std::abs(v - pA);
-            eB += std::abs(v - pB);
-        };
-        for (size_t bx = 0; bx < n; ++bx) {
-            const int mm = m[bx], s = sel[bx];
-            int eA = 0, eB = 0;
-            one(predictBlockPixel(4, mm, 0, u0[bx] + u1[bx] + u2[bx] + u3[bx], 4, u0[bx]),
-                rA0[bx], v0[bx], z0[bx], s, eA, eB);
-            one(predictBlockPixel(4, mm, v0[bx], u1[bx] + u2[bx] + u3[bx], 3, u1[bx]), rA1[bx],
-                v1[bx], z1[bx], s, eA, eB);
-            one(predictBlockPixel(4, mm, v0[bx] + v1[bx], u2[bx] + u3[bx], 2, u2[bx]), rA2[bx],
-                v2[bx], z2[bx], s, eA, eB);
-            errA[bx] = eA;
-            errB[bx] = eB;
-        }
+// Deinterleaves component c of a lower-level row into a padded planar row.
+template <int C>
+void planarRow(const uint8_t* row, int lw, int c, int* out) {
+    for (int bx = 0; bx < lw; ++bx) out[bx + 1] = row[size_t(bx) * C + size_t(c)];
+    out[0] = out[1];
+    out[lw + 1] = out[lw];
+}
+
+// Pass 0 of a block row: parents, upsamples, activity and sub-predictor choice of every block
+// of component c, from the lower level and the previous block row only (no clamping: the
+// padded rows replicate the ends).
+inline void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
+    const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
+    const int* __restrict pu = R.pu.data() + o;
+    const int* __restrict pm = R.pm.data() + o;
+    const int* __restrict pd = R.pd.data() + o;
+    const int* __restrict act = R.prevAct.data() + o;
+    const int* __restrict ea = R.prevEA.data() + o;
+    const int* __restrict eb = R.prevEB.data() + o;
+    int* __restrict m = R.m.data() + b;
+    int* __restrict u0 = R.u0.data() + b;
+    int* __restrict u1 = R.u1.data() + b;
+    int* __restrict u2 = R.u2.data() + b;
+    int* __restrict u3 = R.u3.data() + b;
+    int* __restrict act0 = R.act0.data() + b;
+    int* __restrict sel = R.sel.data() + b;
+    const int inter = c > 0 && !firstRow ? 1 : 0;
+    const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
+#pragma GCC ivdep
+    for (int bx = 0; bx < lw; ++bx) {
+        const int mm = pm[bx], l = pm[bx - 1], r = pm[bx + 1], up = pu[bx], dn = pd[bx];
+        m[bx] = mm;
+        u0[bx] = upsample(mm, l, up, pu[bx - 1]);
+        u1[bx] = upsample(mm, r, up, pu[bx + 1]);
+        u2[bx] = upsample(mm, l, dn, pd[bx - 1]);
+        u3[bx] = upsample(mm, r, dn, pd[bx + 1]);
+        const int grad = std::abs(l - r) + std::abs(up - dn);
+        act0[bx] = upWeight * ((3 * act[bx] + act[bx - 1] + act[bx + 1]) >> 1) + gradWeight * grad;
+        const int errA = 2 * ea[bx] + ea[bx - 1] + ea[bx + 1];
+        const int errB = 2 * eb[bx] + eb[bx - 1] + eb[bx + 1];
+        sel[bx] = inter & (errB < errA ? 1 : 0);
     }
+}
+
+// Prediction and reconstruction of the three stored pixels of every full block of a row, for
+// component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
+// is the block-sum predictor (codec.h); B (components >= 1) is clamp(A + r, 0, 255) with r the
+// previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No dependency
+// between blocks, so the loop vectorises.
+template <bool kEncode>
+void codeFullRow(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict m = R.m.data() + pi;
+    const int* __restrict u0 = R.u0.data() + pi;
+    const int* __restrict u1 = R.u1.data() + pi;
+    const int* __restrict u2 = R.u2.data() + pi;
+    const int* __restrict u3 = R.u3.data() + pi;
+    const int* __restrict sel = R.sel.data() + pi;
+    int* __restrict v0 = R.v0.data() + ri;
+    int* __restrict v1 = R.v1.data() + ri;
+    int* __restrict v2 = R.v2.data() + ri;
+    uint8_t* __restrict z0 = R.z0.data() + ri;
+    uint8_t* __restrict z1 = R.z1.data() + ri;
+    uint8_t* __restrict z2 = R.z2.data() + ri;
+    int* __restrict errA = R.errA.data() + ri;
+    int* __restrict errB = R.errB.data() + ri;
+    int* __restrict rA0 = R.rA0.data();
+    int* __restrict rA1 = R.rA1.data();
+    int* __restrict rA2 = R.rA2.data();
+    const int inter = c > 0 ? 1 : 0;
+    // One stored pixel: prediction from A (and B), value <-> run value, A-residual kept for
+    // the next component.
+    auto one = [&](int pA, int& rA, int& v, uint8_t& z, int s, int& eA, int& eB) {
+        const int pB = inter ? std::clamp(pA + rA, 0, 255) : pA;
+        const int pred = s ? pB : pA;
+        if constexpr (kEncode)
+            z = uint8_t(zigzag(int(int8_t(uint8_t(v - pred)))));
+        else
+            v = (pred + unzigzagFast(z)) & 255;
+        rA = v - pA;
+        eA += std::abs(v - pA);
+        eB += std::abs(v - pB);
+    };
+#pragma GCC ivdep
+    for (int bx = 0; bx < full; ++bx) {
+        const int mm = m[bx], s = sel[bx];
+        int eA = 0, eB = 0;
+        one(predictBlockPixel(4, mm, 0, u0[bx] + u1[bx] + u2[bx] + u3[bx], 4, u0[bx]), rA0[bx],
+            v0[bx], z0[bx], s, eA, eB);
+        one(predictBlockPixel(4, mm, v0[bx], u1[bx] + u2[bx] + u3[bx], 3, u1[bx]), rA1[bx],
+            v1[bx], z1[bx], s, eA, eB);
+        one(predictBlockPixel(4, mm, v0[bx] + v1[bx], u2[bx] + u3[bx], 2, u2[bx]), rA2[bx],
+            v2[bx], z2[bx], s, eA, eB);
+        errA[bx] = eA;
+        errB[bx] = eB;
+    }
+}
+
+// Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
+// from the row's activity act0 and the magnitudes of the runs already decoded).
+template <int kKind>
+void fullRunContexts(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict act0 = R.act0.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    uint16_t* __restrict ctx = R.ctx.data() + ri;
+    int* __restrict e = R.mag.data() + 1;  // magnitudes of the previous run, ends replicated
+    const int base = rawCtx(c, kKind, 0);
+    if constexpr (kKind > 0) {
+        const uint8_t* __restrict zp = kKind == 1 ? z0 : z1;
+#pragma GCC ivdep
+        for (int bx = 0; bx < full; ++bx) e[bx] = magnitude(zp[bx]);
+        e[-1] = e[0];
+        e[full] = e[full - 1];
+    }
+#pragma GCC ivdep
+    for (int bx = 0; bx < full; ++bx) {
+        int a = act0[bx];
+        if constexpr (kKind == 1)
+            a = (a + 3 * e[bx] + e[bx - 1] + e[bx + 1]) >> 1;
+        else if constexpr (kKind == 2)
+            a = (a + 3 * magnitude(z0[bx]) + 2 * e[bx] + e[bx - 1]) >> 1;
+        ctx[bx] = uint16_t(base + bucketOf(a));
+    }
+}
+
+// eps of the full blocks of a row, component c: contexts from the block sum that the planar
+// prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
+template <bool kEncode>
+void epsContexts(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict m = R.m.data() + pi;
+    const int* __restrict act0 = R.act0.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    const uint8_t* __restrict z2 = R.z2.data() + ri;
+    const int* __restrict v0 = R.v0.data() + ri;
+    const int* __restrict v1 = R.v1.data() + ri;
+    const int* __restrict v2 = R.v2.data() + ri;
+    const int* __restrict v3 = R.v3.data() + ri;
+    uint8_t* __restrict ze = R.ze.data() + ri;
+    uint16_t* __restrict ctx = R.ctx.data() + ri;
+    const int base = rawCtx(c, 3, 0);
+#pragma GCC ivdep
+    for (int bx = 0; bx < full; ++bx) {
+        const int sHat = std::clamp(2 * (v1[bx] + v2[bx]) - 4 * m[bx], -2, 4);
+        const int act = act0[bx] + magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
+        ctx[bx] = uint16_t(base + (sHat + 2) * 2 + (act >= 12 ? 1 : 0));
+        if constexpr (kEncode) ze[bx] = uint8_t(v0[bx] + v1[bx] + v2[bx] + v3[bx] - 4 * m[bx]);
+    }
+}
+
+// p11 of the full blocks by eq. (3) and the row's statistics for the next row. Returns a
+// non-zero value on an eps >= 4 or a p11 outside 0..255.
+inline unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const size_t si = size_t(c) * size_t(lw + 2) + 1;
+    const int* __restrict m = R.m.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    const uint8_t* __restrict z2 = R.z2.data() + ri;
+    const uint8_t* __restrict ze = R.ze.data() + ri;
+    const int* __restrict v0 = R.v0.data() + ri;
+    const int* __restrict v1 = R.v1.data() + ri;
+    const int* __restrict v2 = R.v2.data() + ri;
+    int* __restrict v3 = R.v3.data() + ri;
+    const int* __restrict errA = R.errA.data() + ri;
+    const int* __restrict errB = R.errB.data() + ri;
+    int* __restrict act = R.curAct.data() + si;
+    int* __restrict ea = R.curEA.data() + si;
+    int* __restrict eb = R.curEB.data() + si;
+    unsigned bad = 0;
+#pragma GCC ivdep
+    for (int bx = 0; bx < full; ++bx) {
+        const int ep = ze[bx];
+        const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)
+        bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
+        v3[bx] = last;
+        act[bx] = magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
+        ea[bx] = errA[bx];
+        eb[bx] = errB[bx];
+    }
+    return bad;
 }
 
 // Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
@@ -262,134 +402,68 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         const uint8_t* lm = low.bytes.data() + size_t(by) * lowStride;
         const uint8_t* lu = low.bytes.data() + size_t(std::max(by - 1, 0)) * lowStride;
         const uint8_t* ld = low.bytes.data() + size_t(std::min(by + 1, lh - 1)) * lowStride;
-        // Pass 0: parent values, upsamples, activity and sub-predictor choice of every block,
-        // from the lower level and the previous block row only.
         for (int c = 0; c < C; ++c) {
-            const uint16_t* pAct = R.prevAct.data() + size_t(c) * sw + 1;
-            const uint16_t* pEA = R.prevEA.data() + size_t(c) * sw + 1;
-            const uint16_t* pEB = R.prevEB.data() + size_t(c) * sw + 1;
-            for (int bx = 0; bx < lw; ++bx) {
-                const size_t i = size_t(c) * size_t(lw) + size_t(bx);
-                const size_t xl = size_t(std::max(bx - 1, 0)) * C + c, xm = size_t(bx) * C + c;
-                const size_t xr = size_t(std::min(bx + 1, lw - 1)) * C + c;
-                const int m = lm[xm], l = lm[xl], r = lm[xr], up = lu[xm], dn = ld[xm];
-                R.m[i] = m;
-                R.u0[i] = upsample(m, l, up, lu[xl]);
-                R.u1[i] = upsample(m, r, up, lu[xr]);
-                R.u2[i] = upsample(m, l, dn, ld[xl]);
-                R.u3[i] = upsample(m, r, dn, ld[xr]);
-                const int grad = std::abs(l - r) + std::abs(up - dn);
-                if (by > 0) {
-                    R.act0[i] = ((3 * pAct[bx] + pAct[bx - 1] + pAct[bx + 1]) >> 1) + grad;
-                    const int ea = 2 * pEA[bx] + pEA[bx - 1] + pEA[bx + 1];
-                    const int eb = 2 * pEB[bx] + pEB[bx - 1] + pEB[bx + 1];
-                    R.sel[i] = uint8_t(c > 0 && eb < ea);
-                } else {
-                    R.act0[i] = 4 * grad;
-                    R.sel[i] = 0;
-                }
-            }
+            planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
+            planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
+            planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
+            prepareRow(R, lw, c, by == 0);
         }
         uint16_t* ctx = R.ctx.data();
         if (tall && full > 0) {
-            const size_t n = size_t(full);
+            const int n = C * full;
             if constexpr (IO::kEncode) {
-                for (int c = 0; c < C; ++c)
-                    for (int bx = 0; bx < full; ++bx) {
-                        const size_t i = size_t(c) * n + size_t(bx), px = size_t(2 * bx) * C + c;
+                for (int bx = 0; bx < full; ++bx)
+                    for (int c = 0; c < C; ++c) {
+                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
+                        const size_t px = size_t(2 * bx) * C + size_t(c);
                         R.v0[i] = r0[px];
                         R.v1[i] = r0[px + C];
                         R.v2[i] = r1[px];
                         R.v3[i] = r1[px + C];
                     }
+                for (int c = 0; c < C; ++c) codeFullRow<true>(R, lw, full, c);
             }
-            // Runs are packed: index c * full + bx. The parent rows use c * lw + bx.
-            if constexpr (IO::kEncode) codeFullRow<C, true>(R, lw, full);
-            for (int c = 0; c < C; ++c)
-                for (int bx = 0; bx < full; ++bx)
-                    ctx[size_t(c) * n + size_t(bx)] = rawCtx(
-                        c, 0, activityBucket(R.act0[size_t(c) * size_t(lw) + size_t(bx)]));
-            io.template run<true>(ctx, int(C * n), R.z0.data());
-            for (int c = 0; c < C; ++c) {
-                const uint8_t* z0 = R.z0.data() + size_t(c) * n;
-                for (int bx = 0; bx < full; ++bx) {
-                    const int e = magnitude(z0[bx]);
-                    const int el = magnitude(z0[std::max(bx - 1, 0)]);
-                    const int er = magnitude(z0[std::min(bx + 1, full - 1)]);
-                    const int a = R.act0[size_t(c) * size_t(lw) + size_t(bx)];
-                    ctx[size_t(c) * n + size_t(bx)] =
-                        rawCtx(c, 1, activityBucket((a + 3 * e + el + er) >> 1));
-                }
-            }
-            io.template run<true>(ctx, int(C * n), R.z1.data());
-            for (int c = 0; c < C; ++c) {
-                const uint8_t* z0 = R.z0.data() + size_t(c) * n;
-                const uint8_t* z1 = R.z1.data() + size_t(c) * n;
-                for (int bx = 0; bx < full; ++bx) {
-                    const int e = magnitude(z0[bx]), e1 = magnitude(z1[bx]);
-                    const int el = magnitude(z1[std::max(bx - 1, 0)]);
-                    const int a = R.act0[size_t(c) * size_t(lw) + size_t(bx)];
-                    ctx[size_t(c) * n + size_t(bx)] =
-                        rawCtx(c, 2, activityBucket((a + 3 * e + 2 * e1 + el) >> 1));
-                }
-            }
-            io.template run<true>(ctx, int(C * n), R.z2.data());
+            for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z0.data());
+            for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z1.data());
+            for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z2.data());
+            if constexpr (!IO::kEncode)
+                for (int c = 0; c < C; ++c) codeFullRow<false>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) epsContexts<IO::kEncode>(R, lw, full, c);
+            io.template run<false>(ctx, n, R.ze.data());
+            for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
             if constexpr (!IO::kEncode) {
-                codeFullRow<C, false>(R, lw, full);
-                for (int c = 0; c < C; ++c)
-                    for (int bx = 0; bx < full; ++bx) {
-                        const size_t i = size_t(c) * n + size_t(bx), px = size_t(2 * bx) * C + c;
-                        r0[px] = uint8_t(R.v0[i]);
-                        r0[px + C] = uint8_t(R.v1[i]);
-                        r1[px] = uint8_t(R.v2[i]);
+                for (int bx = 0; bx < full; ++bx) {
+                    uint8_t* q0 = r0 + size_t(2 * bx) * C;
+                    uint8_t* q1 = r1 + size_t(2 * bx) * C;
+                    for (int c = 0; c < C; ++c) {
+                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
+                        q0[c] = uint8_t(R.v0[i]);
+                        q0[C + c] = uint8_t(R.v1[i]);
+                        q1[c] = uint8_t(R.v2[i]);
+                        q1[C + c] = uint8_t(R.v3[i]);
                     }
+                }
             }
-            // eps in the context of the block sum that the planar p11 ~ p10 + p01 - p00 implies.
-            for (int c = 0; c < C; ++c)
-                for (int bx = 0; bx < full; ++bx) {
-                    const size_t i = size_t(c) * n + size_t(bx);
-                    const int m = R.m[size_t(c) * size_t(lw) + size_t(bx)];
-                    const int sHat = std::clamp(2 * (R.v1[i] + R.v2[i]) - 4 * m, -2, 4);
-                    const int act = R.act0[size_t(c) * size_t(lw) + size_t(bx)] +
-                                    magnitude(R.z0[i]) + magnitude(R.z1[i]) + magnitude(R.z2[i]);
-                    ctx[i] = rawCtx(c, 3, (sHat + 2) * 2 + (act >= 12 ? 1 : 0));
-                    if constexpr (IO::kEncode)
-                        R.ze[i] = uint8_t(R.v0[i] + R.v1[i] + R.v2[i] + R.v3[i] - 4 * m);
-                }
-            io.template run<false>(ctx, int(C * n), R.ze.data());
-            for (int c = 0; c < C; ++c)
-                for (int bx = 0; bx < full; ++bx) {
-                    const size_t i = size_t(c) * n + size_t(bx);
-                    const int m = R.m[size_t(c) * size_t(lw) + size_t(bx)];
-                    const int ep = R.ze[i];
-                    const int last = 4 * m + ep - R.v0[i] - R.v1[i] - R.v2[i];  // eq. (3)
-                    bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
-                    if constexpr (!IO::kEncode) r1[size_t(2 * bx + 1) * C + c] = uint8_t(last);
-                    const size_t s = size_t(c) * sw + size_t(bx) + 1;
-                    R.curAct[s] = uint16_t(magnitude(R.z0[i]) + magnitude(R.z1[i]) +
-                                           magnitude(R.z2[i]));
-                    R.curEA[s] = uint16_t(R.errA[i]);
-                    R.curEB[s] = uint16_t(R.errB[i]);
-                }
         }
-        // Blocks with two real pixels: the last column's 1x2 blocks (odd width) or the last
+        // Blocks with two real pixels: the last column's 1x2 block (odd width) or the last
         // row's 2x1 blocks (odd height). p00 is coded, the other pixel follows from eq. (3).
         const int pairFrom = tall ? full : 0;
         const int pairTo = tall ? (width & 1 ? lw : full) : full;
         const int np = pairTo - pairFrom;
         if (np > 0) {
-            const int uo = tall ? 2 : 1;  // the other pixel's upsample: p01 or p10
             for (int c = 0; c < C; ++c)
                 for (int k = 0; k < np; ++k) {
                     const size_t j = size_t(c) * size_t(np) + size_t(k);
                     const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
-                    ctx[j] = rawCtx(c, 0, activityBucket(R.act0[i]));
-                    const int pred = predictBlockPixel(2, R.m[i], 0,
-                                                       R.u0[i] + (uo == 2 ? R.u2[i] : R.u1[i]),
-                                                       2, R.u0[i]);
+                    ctx[j] = uint16_t(rawCtx(c, 0, bucketOf(R.act0[i])));
+                    const int uo = tall ? R.u2[i] : R.u1[i];  // the other pixel: p01 or p10
+                    const int pred = predictBlockPixel(2, R.m[i], 0, R.u0[i] + uo, 2, R.u0[i]);
                     R.v3[j] = pred;
                     if constexpr (IO::kEncode) {
-                        const size_t px = size_t(2 * (pairFrom + k)) * C + c;
+                        const size_t px = size_t(2 * (pairFrom + k)) * C + size_t(c);
                         const int a = r0[px], o = tall ? r1[px] : r0[px + C];
                         R.z0[j] = uint8_t(zigzag(int(int8_t(uint8_t(a - pred)))));
                         R.ze[j] = uint8_t(a + o - 2 * R.m[i]);
@@ -403,29 +477,30 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                 for (int k = 0; k < np; ++k) {
                     const size_t j = size_t(c) * size_t(np) + size_t(k);
                     const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
-                    const int a = uint8_t(R.v3[j] + unzigzag(R.z0[j]));
+                    const int a = (R.v3[j] + unzigzagFast(R.z0[j])) & 255;
                     const int ep = R.ze[j];
                     const int last = 2 * R.m[i] + ep - a;  // eq. (3), n = 2
                     bad |= unsigned(ep >= 2) | unsigned(unsigned(last) > 255u);
-                    const size_t px = size_t(2 * (pairFrom + k)) * C + c;
+                    const size_t px = size_t(2 * (pairFrom + k)) * C + size_t(c);
                     if constexpr (!IO::kEncode) {
                         r0[px] = uint8_t(a);
                         (tall ? r1[px] : r0[px + C]) = uint8_t(last);
                     }
                     const int e = magnitude(R.z0[j]);
                     const size_t s = size_t(c) * sw + size_t(pairFrom + k) + 1;
-                    R.curAct[s] = uint16_t(3 * e);
-                    R.curEA[s] = uint16_t(3 * e);
-                    R.curEB[s] = uint16_t(3 * e + 3);
+                    R.curAct[s] = 3 * e;
+                    R.curEA[s] = 3 * e;
+                    R.curEB[s] = 3 * e + 3;
                 }
         }
         if (!tall && (width & 1)) {  // the 1x1 corner block: eps = 0, the pixel is its parent
             if constexpr (!IO::kEncode)
-                for (int c = 0; c < C; ++c) r0[size_t(width - 1) * C + c] = lm[size_t(lw - 1) * C + c];
+                for (int c = 0; c < C; ++c)
+                    r0[size_t(width - 1) * C + size_t(c)] = lm[size_t(lw - 1) * C + size_t(c)];
         }
         for (int c = 0; c < C; ++c) {  // replicate the row's ends for the next row's diagonals
             for (auto* v : {&R.curAct, &R.curEA, &R.curEB}) {
-                uint16_t* s = v->data() + size_t(c) * sw;
+                int* s = v->data() + size_t(c) * sw;
                 s[0] = s[1];
                 s[lw + 1] = s[lw];
             }

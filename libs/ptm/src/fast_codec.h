@@ -114,48 +114,55 @@ struct FastDecodeIO {
         const int tok = t.sym[slot];
         const uint32_t fc = t.freqCum[tok];
         s = (fc & 0xFFFF) * (s >> kRansPrecision) + slot - (fc >> 16);
-        const bool renorm = s < kRansLow;
+        // Branch-free renormalisation (whether a word is read is unpredictable).
+        const uint32_t renorm = s < kRansLow ? 1u : 0u;
         uint16_t w;
         std::memcpy(&w, p, 2);  // little-endian hosts only (checked in decoder.cpp)
-        s = renorm ? (s << 16) | w : s;
-        p += renorm ? 2 : 0;
+        s = (s << (renorm << 4)) | (uint32_t(w) & (0u - renorm));
+        p += renorm << 1;
         return tok;
     }
 
     template <bool kExtra>
     void run(const uint16_t* ctx, int n, uint8_t* z) {
-        uint32_t s0 = x[0], s1 = x[1], s2 = x[2], s3 = x[3];
+        constexpr int L = kFastStates;
+        uint32_t s[L];
+        for (int l = 0; l < L; ++l) s[l] = x[l];
         const uint8_t* p = ptr;
+        BitReader br = bits;  // locals: the byte stores to z cannot alias them
         int j = 0;
-        auto emit = [&](int at, int tok) {
+        auto value = [&](int tok) {
             if constexpr (kExtra)
-                z[at] = uint8_t(kTokens.base[size_t(tok)] + bits.get(kTokens.bits[size_t(tok)]));
+                return uint8_t(kTokens.base[size_t(tok)] + br.take(kTokens.bits[size_t(tok)]));
             else
-                z[at] = uint8_t(tok);
+                return uint8_t(tok);
         };
-        // Fast path: four symbols at a time while 8 bytes (four words) remain.
-        for (; j + 4 <= n && end - p >= 8; j += 4) {
-            const int t0 = step(s0, *tableOf[ctx[j]], p);
-            const int t1 = step(s1, *tableOf[ctx[j + 1]], p);
-            const int t2 = step(s2, *tableOf[ctx[j + 2]], p);
-            const int t3 = step(s3, *tableOf[ctx[j + 3]], p);
-            emit(j, t0);
-            emit(j + 1, t1);
-            emit(j + 2, t2);
-            emit(j + 3, t3);
+        // Fast path: L symbols at a time while 2 L bytes (L words) remain. A token has at most
+        // 6 extra bits: ensure24 covers four tokens.
+        for (; j + L <= n && end - p >= 2 * L; j += L) {
+            int t[L];
+#pragma GCC unroll 8
+            for (int l = 0; l < L; ++l) t[l] = step(s[l], *tableOf[ctx[j + l]], p);
+#pragma GCC unroll 8
+            for (int l = 0; l < L; ++l) {
+                if (kExtra && l % 4 == 0) br.ensure24();
+                z[j + l] = value(t[l]);
+            }
         }
         ptr = p;
-        x[0] = s0, x[1] = s1, x[2] = s2, x[3] = s3;
+        for (int l = 0; l < L; ++l) x[l] = s[l];
         for (; j < n; ++j) {  // the tail and the stream's end, checked
-            uint32_t& s = x[j % kFastStates];
+            uint32_t& st = x[j % kFastStates];
             const FastTable& t = *tableOf[ctx[j]];
-            const uint32_t slot = s & (kRansTotal - 1);
+            const uint32_t slot = st & (kRansTotal - 1);
             const int tok = t.sym[slot];
             const uint32_t fc = t.freqCum[tok];
-            s = (fc & 0xFFFF) * (s >> kRansPrecision) + slot - (fc >> 16);
-            if (s < kRansLow) s = (s << 16) | readWord();
-            emit(j, tok);
+            st = (fc & 0xFFFF) * (st >> kRansPrecision) + slot - (fc >> 16);
+            if (st < kRansLow) st = (st << 16) | readWord();
+            if constexpr (kExtra) br.ensure24();
+            z[j] = value(tok);
         }
+        bits = br;
     }
 };
 

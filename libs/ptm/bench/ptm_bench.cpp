@@ -258,7 +258,10 @@ int runSizes(std::vector<std::string> files) {
     row("WebP lossless", t.webp);
     row("JPEG XL lossless e7", t.jxl);
     row("PTM predict+zstd (coder 1, all levels)", t.ptmZstd);
-    row("PTM predict+rans (coder 2, all levels)", t.ptm);
+    const std::string ptmName = std::string("PTM ") + plx::ptm::coderName(ptmConfig().coder) +
+                                " (coder " + std::to_string(int(ptmConfig().coder)) +
+                                ", all levels)";
+    row(ptmName.c_str(), t.ptm);
     std::printf("\nuncompressed residual overhead (raw-coder PTM / raw base - 1): %.2f%%\n",
                 100.0 * (t.ptmRaw / t.raw - 1.0));
     return 0;

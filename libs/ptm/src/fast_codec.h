@@ -123,12 +123,17 @@ struct FastDecodeIO {
         return tok;
     }
 
+    // Scalar code on purpose: GCC's SLP vectoriser packs the four states into a vector here,
+    // which serialises them on the shared word pointer.
     template <bool kExtra>
-    void run(const uint16_t* ctx, int n, uint8_t* z) {
+    __attribute__((optimize("no-tree-slp-vectorize"))) void run(const uint16_t* ctx, int n,
+                                                                 uint8_t* z) {
         constexpr int L = kFastStates;
         uint32_t s[L];
         for (int l = 0; l < L; ++l) s[l] = x[l];
         const uint8_t* p = ptr;
+        const uint8_t* const streamEnd = end;
+        const FastTable* const* const tabs = tableOf;  // locals: z's byte stores cannot alias
         BitReader br = bits;  // locals: the byte stores to z cannot alias them
         int j = 0;
         auto value = [&](int tok) {
@@ -139,10 +144,10 @@ struct FastDecodeIO {
         };
         // Fast path: L symbols at a time while 2 L bytes (L words) remain. A token has at most
         // 6 extra bits: ensure24 covers four tokens.
-        for (; j + L <= n && end - p >= 2 * L; j += L) {
+        for (; j + L <= n && streamEnd - p >= 2 * L; j += L) {
             int t[L];
 #pragma GCC unroll 8
-            for (int l = 0; l < L; ++l) t[l] = step(s[l], *tableOf[ctx[j + l]], p);
+            for (int l = 0; l < L; ++l) t[l] = step(s[l], *tabs[ctx[j + l]], p);
 #pragma GCC unroll 8
             for (int l = 0; l < L; ++l) {
                 if (kExtra && l % 4 == 0) br.ensure24();

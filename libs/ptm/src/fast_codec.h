@@ -27,6 +27,15 @@
 #include "ctx_codec.h"
 #include "rans.h"
 
+// Loop hints: rows of different arrays never overlap (ivdep); keep the rANS states scalar.
+#if defined(__clang__)  // the fuzzing build; no hints (clang warns where it cannot follow them)
+#define PLX_PTM_IVDEP
+#define PLX_PTM_NO_SLP
+#else
+#define PLX_PTM_IVDEP _Pragma("GCC ivdep")
+#define PLX_PTM_NO_SLP __attribute__((optimize("no-tree-slp-vectorize")))
+#endif
+
 namespace plx::ptm::detail {
 
 inline constexpr int kFastStates = 4;
@@ -126,8 +135,7 @@ struct FastDecodeIO {
     // Scalar code on purpose: GCC's SLP vectoriser packs the four states into a vector here,
     // which serialises them on the shared word pointer.
     template <bool kExtra>
-    __attribute__((optimize("no-tree-slp-vectorize"))) void run(const uint16_t* ctx, int n,
-                                                                 uint8_t* z) {
+    PLX_PTM_NO_SLP void run(const uint16_t* ctx, int n, uint8_t* z) {
         constexpr int L = kFastStates;
         uint32_t s[L];
         for (int l = 0; l < L; ++l) s[l] = x[l];
@@ -238,7 +246,7 @@ inline void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     int* __restrict sel = R.sel.data() + b;
     const int inter = c > 0 && !firstRow ? 1 : 0;
     const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
-#pragma GCC ivdep
+PLX_PTM_IVDEP
     for (int bx = 0; bx < lw; ++bx) {
         const int mm = pm[bx], l = pm[bx - 1], r = pm[bx + 1], up = pu[bx], dn = pd[bx];
         m[bx] = mm;
@@ -293,7 +301,7 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
         eA += std::abs(v - pA);
         eB += std::abs(v - pB);
     };
-#pragma GCC ivdep
+PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
         const int mm = m[bx], s = sel[bx];
         int eA = 0, eB = 0;
@@ -321,12 +329,12 @@ void fullRunContexts(FastRows& R, int lw, int full, int c) {
     const int base = rawCtx(c, kKind, 0);
     if constexpr (kKind > 0) {
         const uint8_t* __restrict zp = kKind == 1 ? z0 : z1;
-#pragma GCC ivdep
+PLX_PTM_IVDEP
         for (int bx = 0; bx < full; ++bx) e[bx] = magnitude(zp[bx]);
         e[-1] = e[0];
         e[full] = e[full - 1];
     }
-#pragma GCC ivdep
+PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
         int a = act0[bx];
         if constexpr (kKind == 1)
@@ -354,7 +362,7 @@ void epsContexts(FastRows& R, int lw, int full, int c) {
     uint8_t* __restrict ze = R.ze.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
     const int base = rawCtx(c, 3, 0);
-#pragma GCC ivdep
+PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
         const int sHat = std::clamp(2 * (v1[bx] + v2[bx]) - 4 * m[bx], -2, 4);
         const int act = act0[bx] + magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
@@ -383,7 +391,7 @@ inline unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     int* __restrict ea = R.curEA.data() + si;
     int* __restrict eb = R.curEB.data() + si;
     unsigned bad = 0;
-#pragma GCC ivdep
+PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
         const int ep = ze[bx];
         const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)

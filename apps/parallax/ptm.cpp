@@ -19,6 +19,7 @@ struct PtmArgs {
     int zstdLevel = 9;
     bool raw = false;
     bool zstd = false;
+    int coder = -1;  // --coder, overrides --raw / --zstd
     bool json = false;
 };
 
@@ -28,9 +29,10 @@ int runEncode(const PtmArgs& a) {
     ptm::EncodeConfig cfg;
     cfg.lowestMaxSide = a.lowest;
     cfg.zstdLevel = a.zstdLevel;
-    cfg.coder = a.raw    ? ptm::Coder::kRaw
-                : a.zstd ? ptm::Coder::kPredictZstd
-                         : ptm::Coder::kPredictRans;
+    cfg.coder = a.coder >= 0 ? ptm::Coder(a.coder)
+                : a.raw      ? ptm::Coder::kRaw
+                : a.zstd     ? ptm::Coder::kPredictZstd
+                             : ptm::EncodeConfig{}.coder;
     Stopwatch watch;
     auto file = ptm::encode(*image, cfg);
     if (!file) return fail(file.status());
@@ -156,8 +158,15 @@ Command registerPtm(CLI::App& app) {
         ->check(CLI::Range(1, 22));
     auto* rawFlag =
         enc->add_flag("--raw", args->raw, "Store the planes uncompressed (the paper's layout)");
-    enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 2, predict+rans)")
-        ->excludes(rawFlag);
+    auto* zstdFlag =
+        enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 3)")
+            ->excludes(rawFlag);
+    enc->add_option("--coder", args->coder,
+                    "Coder id: 0 raw, 1 predict+zstd, 2 predict+rans, 3 predict+rans-fast "
+                    "(default 3)")
+        ->check(CLI::Range(0, 3))
+        ->excludes(rawFlag)
+        ->excludes(zstdFlag);
     enc->add_flag("--json", args->json, "Machine-readable output on stdout");
     enc->footer("Example: parallax ptm encode wall.jpg -o wall.ptm --lowest 4");
     CLI::App* dec = sub->add_subcommand("decode", "Decode one level of a PTM to PNG");

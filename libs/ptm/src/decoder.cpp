@@ -8,6 +8,7 @@
 
 #include "codec.h"
 #include "ctx_codec.h"
+#include "fast_codec.h"
 
 static_assert(std::endian::native == std::endian::little, "the bit reader assumes little-endian");
 
@@ -36,9 +37,22 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
-// Coder 2 group (docs/ptm-format.md): family table counts, tables, rANS stream, extra bits.
-Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k) {
+// Coder 3, group k >= 1: runtime component count to the walker's template argument.
+bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, detail::FastDecodeIO& io) {
+    uint8_t* px = img.bytes.data();
+    switch (comps) {
+    case 1: return detail::walkLevelFast<1>(low, px, img.width, img.height, io);
+    case 2: return detail::walkLevelFast<2>(low, px, img.width, img.height, io);
+    case 3: return detail::walkLevelFast<3>(low, px, img.width, img.height, io);
+    default: return detail::walkLevelFast<4>(low, px, img.width, img.height, io);
+    }
+}
+
+// Coder 2 and 3 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra bits.
+Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
+                       bool fast) {
     const bool lowest = k == 0;
+    fast = fast && !lowest;  // coder 3's group 0 is coder 2's
     const uint8_t* p = in.data();
     const uint8_t* end = in.data() + in.size();
     std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
@@ -64,8 +78,25 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const uint32_t ransBytes =
         uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
     p += 4;
-    if (ransBytes < 8 || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
+    const uint32_t minBytes = fast ? 4 * detail::kFastStates : 8;
+    if (ransBytes < minBytes || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
         return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
+    if (fast) {
+        auto fastTables = std::make_unique<detail::FastTable[]>(tables);
+        for (size_t t = 0; t < tables; ++t) detail::buildFastTable(freqs[t], fastTables[t]);
+        std::vector<const detail::FastTable*> tableOf(detail::kMaxRawContexts);
+        for (size_t q = 0; q < tableOf.size(); ++q) tableOf[q] = &fastTables[ctxToTable[q]];
+        detail::FastDecodeIO io(tableOf.data(), p, p + ransBytes,
+                                detail::BitReader(p + ransBytes, end));
+        if (!decodeLevelFast(img.channels, *low, img, io))
+            return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) "
+                                       "out of range", k));
+        if (!io.finishedCleanly())
+            return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
+        if (!io.bits.exact(size_t(end - p) - ransBytes))
+            return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
+        return Status::ok();
+    }
     auto decodeTables = std::make_unique<detail::DecodeTable[]>(tables);
     for (size_t t = 0; t < tables; ++t) detail::buildDecodeTable(freqs[t], decodeTables[t]);
     detail::RansDecodeIO io{decodeTables.get(), ctxToTable.data(),
@@ -110,11 +141,12 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
-    if (mHeader.coder == Coder::kPredictRans) {
+    if (mHeader.coder == Coder::kPredictRans || mHeader.coder == Coder::kPredictRansFast) {
         ByteImage img{size.width, size.height, comps, {}};
         img.bytes.resize(img.rowBytes() * size_t(size.height));
         PLX_RETURN_IF_ERROR(
-            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k));
+            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k,
+                            mHeader.coder == Coder::kPredictRansFast));
         mLevels.push_back(std::move(img));
         return Status::ok();
     }

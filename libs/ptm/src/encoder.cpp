@@ -4,9 +4,11 @@
 #include <plx/ptm/encoder.h>
 
 #include <cmath>
+#include <type_traits>
 
 #include "codec.h"
 #include "ctx_codec.h"
+#include "fast_codec.h"
 
 namespace plx::ptm {
 namespace {
@@ -50,15 +52,32 @@ double tableCost(const std::array<uint32_t, detail::kTokenCount>& count) {
 // Coder 2 group (docs/ptm-format.md): per family the number g of tables its raw contexts are
 // merged into (raw context q uses table q * g / raw), chosen to minimise the estimated size;
 // the tables; the rANS stream's length (u32) and bytes; the extra bits.
-std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k) {
-    ByteImage level = chain[size_t(k)];
-    detail::RansEncodeIO io;
-    const bool lowest = k == 0;
-    if (lowest)
+// Coder 3 (groups k >= 1) differs only in the walker and the four-state rANS stream.
+template <class IO>
+void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level, IO& io) {
+    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
+        const ByteImage& low = chain[size_t(k - 1)];
+        uint8_t* px = level.bytes.data();
+        switch (level.channels) {
+        case 1: detail::walkLevelFast<1>(low, px, level.width, level.height, io); break;
+        case 2: detail::walkLevelFast<2>(low, px, level.width, level.height, io); break;
+        case 3: detail::walkLevelFast<3>(low, px, level.width, level.height, io); break;
+        default: detail::walkLevelFast<4>(low, px, level.width, level.height, io); break;
+        }
+    } else if (k == 0) {
         detail::walkLowestRans(level.bytes.data(), level.width, level.height, level.channels, io);
-    else
+    } else {
         detail::walkLevelRansAny(level.channels, chain[size_t(k - 1)], level.bytes.data(),
                                  level.width, level.height, io);
+    }
+}
+
+template <class IO>
+std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k) {
+    ByteImage level = chain[size_t(k)];
+    IO io;
+    const bool lowest = k == 0;
+    walkForEncode(chain, k, level, io);
     using Hist = std::array<uint32_t, detail::kTokenCount>;
     std::vector<Hist> hist(detail::kMaxRawContexts, Hist{});
     for (const auto& s : io.symbols) ++hist[s.ctx][s.token];
@@ -92,12 +111,21 @@ std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k)
         for (const Hist& h : merged(bestG)) freqs.push_back(detail::normalizeCounts(h));
     }
     for (const auto& f : freqs) detail::writeTable(out, f);
-    const std::vector<uint8_t> rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
+    std::vector<uint8_t> rans;
+    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>)
+        rans = detail::ransEncodeLanes(io.symbols, freqs, ctxToTable);
+    else
+        rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));
     out.insert(out.end(), rans.begin(), rans.end());
     const std::vector<uint8_t> bits = io.bits.finish();
     out.insert(out.end(), bits.begin(), bits.end());
     return out;
+}
+
+std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k, bool fast) {
+    return fast && k > 0 ? encodeGroupRansWith<detail::FastEncodeIO>(chain, k)
+                         : encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
 }
 
 Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
@@ -135,7 +163,7 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: pixel buffer size mismatch");
     if (config.lowestMaxSide < 1)
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
-    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRans))
+    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRansFast))
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
@@ -154,9 +182,11 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        std::vector<uint8_t> payload = config.coder == Coder::kPredictRans
-                                           ? encodeGroupRans(chain, k)
-                                           : buildPayload(chain, k, config.coder);
+        const bool rans =
+            config.coder == Coder::kPredictRans || config.coder == Coder::kPredictRansFast;
+        std::vector<uint8_t> payload =
+            rans ? encodeGroupRans(chain, k, config.coder == Coder::kPredictRansFast)
+                 : buildPayload(chain, k, config.coder);
         if (config.coder == Coder::kPredictZstd) {
             auto packed = compress(payload, config.zstdLevel);
             if (!packed) return packed.status();

@@ -1,5 +1,9 @@
 #include "rans.h"
 
+#include <cstring>
+
+#include "fast_codec.h"
+
 namespace plx::ptm::detail {
 
 std::array<uint16_t, kTokenCount> normalizeCounts(const std::array<uint32_t, kTokenCount>& c) {
@@ -134,6 +138,62 @@ std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
     putWord(x[0] & 0xFFFF);
     putWord(x[1] >> 16);
     putWord(x[1] & 0xFFFF);
+    for (size_t i = words.size(); i-- > 0;) putWord(words[i]);
+    return out;
+}
+
+void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t) {
+    unsigned cum = 0;
+    std::memset(t.freqCum, 0, sizeof t.freqCum);
+    for (int s = 0; s < kTokenCount; ++s) {
+        const unsigned f = freq[size_t(s)];
+        if (f == 0) continue;
+        std::memset(t.sym + cum, s, f);  // a valid table has cum + f <= kRansTotal (readTable)
+        t.freqCum[s] = f | cum << 16;
+        cum += f;
+    }
+    if (cum == 0) {  // empty table: token 0 everywhere, the state unchanged
+        std::memset(t.sym, 0, sizeof t.sym);
+        t.freqCum[0] = kRansTotal;
+    }
+}
+
+std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
+                                     const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                                     const std::vector<uint16_t>& ctxToTable) {
+    std::vector<std::array<uint16_t, kTokenCount>> cums(freqs.size());
+    for (size_t i = 0; i < freqs.size(); ++i) {
+        unsigned c = 0;
+        for (int t = 0; t < kTokenCount; ++t) {
+            cums[i][size_t(t)] = uint16_t(c);
+            c += freqs[i][size_t(t)];
+        }
+    }
+    std::vector<uint16_t> words;
+    words.reserve(symbols.size() / 2 + 8);
+    uint32_t x[kFastStates];
+    for (uint32_t& s : x) s = kRansLow;
+    for (size_t i = symbols.size(); i-- > 0;) {
+        const LaneSymbol& s = symbols[i];
+        const size_t table = ctxToTable[s.ctx];
+        const uint32_t f = freqs[table][s.token], c = cums[table][s.token];
+        uint32_t& st = x[s.lane];
+        if (uint64_t(st) >= (uint64_t(f) << (32 - kRansPrecision))) {  // state stays < 2^32
+            words.push_back(uint16_t(st & 0xFFFF));
+            st >>= 16;
+        }
+        st = ((st / f) << kRansPrecision) + (st % f) + c;
+    }
+    std::vector<uint8_t> out;
+    out.reserve(4 * kFastStates + 2 * words.size());
+    auto putWord = [&](uint32_t w) {
+        out.push_back(uint8_t(w & 0xFF));
+        out.push_back(uint8_t(w >> 8));
+    };
+    for (uint32_t s : x) {
+        putWord(s >> 16);
+        putWord(s & 0xFFFF);
+    }
     for (size_t i = words.size(); i-- > 0;) putWord(words[i]);
     return out;
 }

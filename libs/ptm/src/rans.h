@@ -101,17 +101,30 @@ private:
 // Bounds-checked LSB-first bit reader; past the end it yields zeros and counts the overrun.
 class BitReader {
 public:
-    BitReader(const uint8_t* begin, const uint8_t* end) : mPtr(begin), mEnd(end) { refill(); }
+    BitReader(const uint8_t* begin, const uint8_t* end) : mBegin(begin), mPtr(begin), mEnd(end) {
+        refill();
+    }
     uint32_t get(int n) {  // n in 0..24
         if (mCount < 24) refill();
+        return take(n);
+    }
+    // Makes at least 24 bits available to take().
+    void ensure24() {
+        if (mCount < 24) refill();
+    }
+    // n bits (0..24) of those made available by ensure24().
+    uint32_t take(int n) {
         const uint32_t v = uint32_t(mAcc) & ((1u << n) - 1);
         mAcc >>= n;
         mCount -= n;
-        mConsumedBits += uint64_t(n);
         return v;
     }
     // True when exactly the stream's bytes were used (the last one possibly in part).
-    bool exact(size_t streamBytes) const { return (mConsumedBits + 7) / 8 == streamBytes; }
+    bool exact(size_t streamBytes) const {
+        const uint64_t consumedBits =
+            (uint64_t(mPtr - mBegin) + mVirtual) * 8 - uint64_t(mCount);
+        return (consumedBits + 7) / 8 == streamBytes;
+    }
 
 private:
     void refill() {
@@ -125,15 +138,19 @@ private:
             return;
         }
         while (mCount <= 56) {
-            mAcc |= uint64_t(mPtr < mEnd ? *mPtr++ : 0) << mCount;
+            if (mPtr < mEnd)
+                mAcc |= uint64_t(*mPtr++) << mCount;
+            else
+                ++mVirtual;  // a zero byte past the end
             mCount += 8;
         }
     }
+    const uint8_t* mBegin;
     const uint8_t* mPtr;
     const uint8_t* mEnd;
     uint64_t mAcc = 0;
     int mCount = 0;
-    uint64_t mConsumedBits = 0;
+    uint64_t mVirtual = 0;
 };
 
 // Decode table of one context: per token its start and frequency, 32 entries (the tail padded

@@ -70,7 +70,8 @@ TEST(PtmCodec, RoundTripManySizesAndComponents) {
                                          {3, 127}, {100, 61}, {256, 1}};
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)
-            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans})
+            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
+                                  Coder::kPredictRansFast})
                 for (bool smooth : {false, true}) {
                     ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
                     EncodeConfig cfg;
@@ -161,7 +162,8 @@ TEST(PtmDecoder, WrongGroupIsRejected) {
 }
 
 TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
-    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans}) {
+    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
+                                  Coder::kPredictRansFast}) {
         EncodeConfig cfg;
         cfg.coder = coder;
         auto file = mustEncode(randomImage(23, 11, 4, 9, true), cfg);
@@ -198,11 +200,13 @@ std::vector<uint8_t> corruptGroup(std::vector<uint8_t> file, int k, size_t at, u
     return file;
 }
 
-TEST(PtmDecoder, HostileRansGroupsWithValidChecksumsNeverCrash) {
-    // Every byte of every group of a coder-2 file flipped, CRCs fixed up: the entropy decoder
-    // must stay in bounds (ASan/UBSan runs check it) and usually report the damage.
+class PtmHostileRans : public ::testing::TestWithParam<Coder> {};
+
+TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
+    // Every byte of every group of a coder-2 or coder-3 file flipped, CRCs fixed up: the entropy
+    // decoder must stay in bounds (ASan/UBSan runs check it) and usually report the damage.
     EncodeConfig cfg;
-    cfg.coder = Coder::kPredictRans;
+    cfg.coder = GetParam();
     const ByteImage img = randomImage(21, 10, 3, 5, true);
     auto file = mustEncode(img, cfg);
     auto h = parseHeader(file);
@@ -224,6 +228,9 @@ TEST(PtmDecoder, HostileRansGroupsWithValidChecksumsNeverCrash) {
     }
     EXPECT_GT(detected, total / 2) << detected << " of " << total;
 }
+
+INSTANTIATE_TEST_SUITE_P(Coders, PtmHostileRans,
+                         ::testing::Values(Coder::kPredictRans, Coder::kPredictRansFast));
 
 TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
     auto file = mustEncode(randomImage(19, 9, 3, 4, true));
@@ -341,7 +348,11 @@ TEST(PtmGolden, FrozenBitstream) {
     EncodeConfig rans;
     rans.coder = Coder::kPredictRans;
     auto ransFile = mustEncode(goldenImage(), rans);
+    EncodeConfig fast;
+    fast.coder = Coder::kPredictRansFast;
+    auto fastFile = mustEncode(goldenImage(), fast);
     if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_fast.ptm", fastFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_raw.ptm", rawFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_zstd.ptm", zstdFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans.ptm", ransFile).isOk());
@@ -353,6 +364,13 @@ TEST(PtmGolden, FrozenBitstream) {
     auto ransDecoded = decodeImage(*goldenRans);
     ASSERT_TRUE(ransDecoded.isOk()) << ransDecoded.status().toString();
     EXPECT_EQ(*ransDecoded, goldenImage());
+    // Coder 3 likewise.
+    auto goldenFast = readFileBytes(dir + "rgba_13x7_rans_fast.ptm");
+    ASSERT_TRUE(goldenFast.isOk()) << "golden file missing in " << dir;
+    EXPECT_EQ(fastFile, *goldenFast) << "the predict+rans-fast bitstream changed";
+    auto fastDecoded = decodeImage(*goldenFast);
+    ASSERT_TRUE(fastDecoded.isOk()) << fastDecoded.status().toString();
+    EXPECT_EQ(*fastDecoded, goldenImage());
     auto goldenRaw = readFileBytes(dir + "rgba_13x7_raw.ptm");
     auto goldenZstd = readFileBytes(dir + "rgba_13x7_zstd.ptm");
     ASSERT_TRUE(goldenRaw.isOk() && goldenZstd.isOk()) << "golden files missing in " << dir;

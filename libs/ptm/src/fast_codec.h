@@ -1,0 +1,536 @@
+#pragma once
+// Private: Coder::kPredictRansFast (docs/ptm-format.md, "Coder 3"). Same information as coder 2
+// (the residual errors of eq. 3 and three pixels per 2x2 block), coded so that decoding splits
+// into passes without a per-symbol dependency on freshly decoded pixels:
+//
+// - per block row, the tokens come in *runs*: p00 of every full block (component-major), then
+//   p10, then p01, then eps; each run's contexts depend only on the previous block row, the
+//   lower level and the runs already decoded in this row, so the whole run's contexts are
+//   computed first and the entropy decoder is a tight loop of table look-ups;
+// - the pixels are then rebuilt from the residuals in a separate loop over the row's blocks
+//   (block-sum predictor, inter-component sub-predictor, eq. 3), with no dependency between
+//   blocks of a row;
+// - four interleaved rANS states; symbol j of a run uses state j mod 4.
+//
+// One walker, templated on an IO policy, runs in both directions (the encoder's IO records the
+// tokens of a run, the decoder's IO decodes them), so the two cannot disagree.
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include <plx/core/image.h>
+
+#include "codec.h"
+#include "ctx_codec.h"
+#include "rans.h"
+
+// Loop hints: rows of different arrays never overlap (ivdep); keep the rANS states scalar.
+#if defined(__clang__)  // the fuzzing build; no hints (clang warns where it cannot follow them)
+#define PLX_PTM_IVDEP
+#define PLX_PTM_NO_SLP
+#else
+#define PLX_PTM_IVDEP _Pragma("GCC ivdep")
+#define PLX_PTM_NO_SLP __attribute__((optimize("no-tree-slp-vectorize")))
+#endif
+
+namespace plx::ptm::detail {
+
+inline constexpr int kFastStates = 4;
+
+// Decode table of one context for coder 3: the token of every 12-bit slot (one load per symbol)
+// and per token its frequency (low 16 bits) and cumulative start (high 16 bits).
+struct FastTable {
+    uint8_t sym[kRansTotal];
+    uint32_t freqCum[32];
+};
+// Fills t from freq (sum kRansTotal, or all zero: then every slot decodes token 0 with
+// frequency kRansTotal, which keeps the state and is caught by the final state check).
+void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t);
+
+// rANS-encodes symbols (decode order) with per-context frequencies over kFastStates states;
+// symbol i uses state lane[i]. Returns the four final states (each as high then low 16-bit
+// word) then the renormalisation words, each 16-bit word little-endian.
+struct LaneSymbol {
+    uint16_t ctx;
+    uint8_t token;
+    uint8_t lane;
+};
+std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
+                                     const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                                     const std::vector<uint16_t>& ctxToTable);
+
+// Encoder IO: records the tokens of a run (z is the input) and their extra bits.
+struct FastEncodeIO {
+    static constexpr bool kEncode = true;
+    std::vector<LaneSymbol> symbols;
+    BitWriter bits;
+    template <bool kExtra>
+    void run(const uint16_t* ctx, int n, uint8_t* z) {
+        for (int j = 0; j < n; ++j) {
+            if constexpr (kExtra) {
+                const TokenSplit s = splitToken(z[j]);
+                symbols.push_back({ctx[j], uint8_t(s.token), uint8_t(j % kFastStates)});
+                if (s.bits) bits.put(s.extra, s.bits);
+            } else {
+                symbols.push_back({ctx[j], z[j], uint8_t(j % kFastStates)});
+            }
+        }
+    }
+};
+
+// Decoder IO: four rANS states over a bounds-checked word stream, extra bits from a separate
+// bit stream. Past the end of either stream reads give zeros and the overrun is recorded.
+struct FastDecodeIO {
+    static constexpr bool kEncode = false;
+    const FastTable* const* tableOf;  // raw context -> its table
+    const uint8_t* ptr;
+    const uint8_t* end;
+    BitReader bits;
+    uint32_t x[kFastStates] = {};
+    bool overrun = false;
+
+    FastDecodeIO(const FastTable* const* tables, const uint8_t* begin, const uint8_t* streamEnd,
+                 BitReader extra)
+        : tableOf(tables), ptr(begin), end(streamEnd), bits(extra) {
+        for (uint32_t& s : x) {
+            s = readWord() << 16;
+            s |= readWord();
+        }
+    }
+    uint32_t readWord() {
+        if (end - ptr >= 2) {
+            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
+            ptr += 2;
+            return w;
+        }
+        overrun = true;
+        return 0;
+    }
+    // True when the stream was used up exactly and all states returned to their initial value.
+    bool finishedCleanly() const {
+        bool initial = true;
+        for (uint32_t s : x) initial = initial && s == kRansLow;
+        return !overrun && ptr == end && initial;
+    }
+
+    // One symbol with state s; the renormalisation word is read unchecked (the caller made sure
+    // that 2 bytes remain).
+    static inline int step(uint32_t& s, const FastTable& t, const uint8_t*& p) {
+        const uint32_t slot = s & (kRansTotal - 1);
+        const int tok = t.sym[slot];
+        const uint32_t fc = t.freqCum[tok];
+        s = (fc & 0xFFFF) * (s >> kRansPrecision) + slot - (fc >> 16);
+        // Branch-free renormalisation (whether a word is read is unpredictable).
+        const uint32_t renorm = s < kRansLow ? 1u : 0u;
+        uint16_t w;
+        std::memcpy(&w, p, 2);  // little-endian hosts only (checked in decoder.cpp)
+        s = (s << (renorm << 4)) | (uint32_t(w) & (0u - renorm));
+        p += renorm << 1;
+        return tok;
+    }
+
+    // Scalar code on purpose: GCC's SLP vectoriser packs the four states into a vector here,
+    // which serialises them on the shared word pointer.
+    template <bool kExtra>
+    PLX_PTM_NO_SLP void run(const uint16_t* ctx, int n, uint8_t* z) {
+        constexpr int L = kFastStates;
+        uint32_t s[L];
+        for (int l = 0; l < L; ++l) s[l] = x[l];
+        const uint8_t* p = ptr;
+        const uint8_t* const streamEnd = end;
+        const FastTable* const* const tabs = tableOf;  // locals: z's byte stores cannot alias
+        BitReader br = bits;  // locals: the byte stores to z cannot alias them
+        int j = 0;
+        auto value = [&](int tok) {
+            if constexpr (kExtra)
+                return uint8_t(kTokens.base[size_t(tok)] + br.take(kTokens.bits[size_t(tok)]));
+            else
+                return uint8_t(tok);
+        };
+        // Fast path: L symbols at a time while 2 L bytes (L words) remain. A token has at most
+        // 6 extra bits: ensure24 covers four tokens.
+        for (; j + L <= n && streamEnd - p >= 2 * L; j += L) {
+            int t[L];
+#pragma GCC unroll 8
+            for (int l = 0; l < L; ++l) t[l] = step(s[l], *tabs[ctx[j + l]], p);
+#pragma GCC unroll 8
+            for (int l = 0; l < L; ++l) {
+                if (kExtra && l % 4 == 0) br.ensure24();
+                z[j + l] = value(t[l]);
+            }
+        }
+        ptr = p;
+        for (int l = 0; l < L; ++l) x[l] = s[l];
+        for (; j < n; ++j) {  // the tail and the stream's end, checked
+            uint32_t& st = x[j % kFastStates];
+            const FastTable& t = *tableOf[ctx[j]];
+            const uint32_t slot = st & (kRansTotal - 1);
+            const int tok = t.sym[slot];
+            const uint32_t fc = t.freqCum[tok];
+            st = (fc & 0xFFFF) * (st >> kRansPrecision) + slot - (fc >> 16);
+            if (st < kRansLow) st = (st << 16) | readWord();
+            if constexpr (kExtra) br.ensure24();
+            z[j] = value(tok);
+        }
+        bits = br;
+    }
+};
+
+// Raw context id (family 4c + kind, raw context q), as coder 2.
+inline int rawCtx(int c, int kind, int q) { return (4 * c + kind) * kFamilyContexts + q; }
+// |unzigzag(z)| and unzigzag(z), branch-free.
+inline int magnitude(int z) { return (z + 1) >> 1; }
+inline int unzigzagFast(int z) { return (z >> 1) ^ -(z & 1); }
+// activityBucket (ctx_codec.h) by comparisons, so that loops over a row vectorise.
+inline int bucketOf(int a) {
+    return (a >= 2) + (a >= 4) + (a >= 6) + (a >= 9) + (a >= 12) + (a >= 16) + (a >= 21) +
+           (a >= 28) + (a >= 38) + (a >= 52) + (a >= 72);
+}
+
+// Per-level working rows of walkLevelFast, planar. Parent rows and statistics are padded by
+// one replicated entry at each end: index c * (lw + 2) + bx + 1. Block rows: c * lw + bx.
+// Runs: c * n + bx for the n blocks of the run.
+struct FastRows {
+    std::vector<int> pu, pm, pd;                   // lower level rows by - 1, by, by + 1
+    std::vector<int> m, u0, u1, u2, u3, act0, sel;  // per block of the row
+    std::vector<uint8_t> z0, z1, z2, ze;            // run values
+    std::vector<int> v0, v1, v2, v3;                // pixel values of the full blocks
+    std::vector<int> errA, errB;
+    std::vector<int> rA0, rA1, rA2;  // A-residuals of the previous component, per bx
+    std::vector<uint16_t> ctx;
+    std::vector<int> mag;  // scratch: magnitudes of a run, padded
+    // Statistics of the previous and the current block row: activity (sum of |residual|) and
+    // sub-predictor errors.
+    std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
+    explicit FastRows(int C, int lw) {
+        const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
+        for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &sel, &v0, &v1, &v2, &v3, &errA, &errB})
+            v->assign(n, 0);
+        for (auto* v : {&z0, &z1, &z2, &ze}) v->assign(n, 0);
+        for (auto* v : {&rA0, &rA1, &rA2}) v->assign(size_t(lw), 0);
+        ctx.assign(n, 0);
+        mag.assign(size_t(lw) + 2, 0);
+        for (auto* v : {&pu, &pm, &pd, &prevAct, &prevEA, &prevEB, &curAct, &curEA, &curEB})
+            v->assign(s, 0);
+    }
+};
+
+// Deinterleaves component c of a lower-level row into a padded planar row.
+template <int C>
+void planarRow(const uint8_t* row, int lw, int c, int* out) {
+    for (int bx = 0; bx < lw; ++bx) out[bx + 1] = row[size_t(bx) * C + size_t(c)];
+    out[0] = out[1];
+    out[lw + 1] = out[lw];
+}
+
+// Pass 0 of a block row: parents, upsamples, activity and sub-predictor choice of every block
+// of component c, from the lower level and the previous block row only (no clamping: the
+// padded rows replicate the ends).
+inline void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
+    const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
+    const int* __restrict pu = R.pu.data() + o;
+    const int* __restrict pm = R.pm.data() + o;
+    const int* __restrict pd = R.pd.data() + o;
+    const int* __restrict act = R.prevAct.data() + o;
+    const int* __restrict ea = R.prevEA.data() + o;
+    const int* __restrict eb = R.prevEB.data() + o;
+    int* __restrict m = R.m.data() + b;
+    int* __restrict u0 = R.u0.data() + b;
+    int* __restrict u1 = R.u1.data() + b;
+    int* __restrict u2 = R.u2.data() + b;
+    int* __restrict u3 = R.u3.data() + b;
+    int* __restrict act0 = R.act0.data() + b;
+    int* __restrict sel = R.sel.data() + b;
+    const int inter = c > 0 && !firstRow ? 1 : 0;
+    const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
+PLX_PTM_IVDEP
+    for (int bx = 0; bx < lw; ++bx) {
+        const int mm = pm[bx], l = pm[bx - 1], r = pm[bx + 1], up = pu[bx], dn = pd[bx];
+        m[bx] = mm;
+        u0[bx] = upsample(mm, l, up, pu[bx - 1]);
+        u1[bx] = upsample(mm, r, up, pu[bx + 1]);
+        u2[bx] = upsample(mm, l, dn, pd[bx - 1]);
+        u3[bx] = upsample(mm, r, dn, pd[bx + 1]);
+        const int grad = std::abs(l - r) + std::abs(up - dn);
+        act0[bx] = upWeight * ((3 * act[bx] + act[bx - 1] + act[bx + 1]) >> 1) + gradWeight * grad;
+        const int errA = 2 * ea[bx] + ea[bx - 1] + ea[bx + 1];
+        const int errB = 2 * eb[bx] + eb[bx - 1] + eb[bx + 1];
+        sel[bx] = inter & (errB < errA ? 1 : 0);
+    }
+}
+
+// Prediction and reconstruction of the three stored pixels of every full block of a row, for
+// component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
+// is the block-sum predictor (codec.h); B (components >= 1) is clamp(A + r, 0, 255) with r the
+// previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No dependency
+// between blocks, so the loop vectorises.
+template <bool kEncode>
+void codeFullRow(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict m = R.m.data() + pi;
+    const int* __restrict u0 = R.u0.data() + pi;
+    const int* __restrict u1 = R.u1.data() + pi;
+    const int* __restrict u2 = R.u2.data() + pi;
+    const int* __restrict u3 = R.u3.data() + pi;
+    const int* __restrict sel = R.sel.data() + pi;
+    int* __restrict v0 = R.v0.data() + ri;
+    int* __restrict v1 = R.v1.data() + ri;
+    int* __restrict v2 = R.v2.data() + ri;
+    uint8_t* __restrict z0 = R.z0.data() + ri;
+    uint8_t* __restrict z1 = R.z1.data() + ri;
+    uint8_t* __restrict z2 = R.z2.data() + ri;
+    int* __restrict errA = R.errA.data() + ri;
+    int* __restrict errB = R.errB.data() + ri;
+    int* __restrict rA0 = R.rA0.data();
+    int* __restrict rA1 = R.rA1.data();
+    int* __restrict rA2 = R.rA2.data();
+    const int inter = c > 0 ? 1 : 0;
+    // One stored pixel: prediction from A (and B), value <-> run value, A-residual kept for
+    // the next component.
+    auto one = [&](int pA, int& rA, int& v, uint8_t& z, int s, int& eA, int& eB) {
+        const int pB = inter ? std::clamp(pA + rA, 0, 255) : pA;
+        const int pred = s ? pB : pA;
+        if constexpr (kEncode)
+            z = uint8_t(zigzag(int(int8_t(uint8_t(v - pred)))));
+        else
+            v = (pred + unzigzagFast(z)) & 255;
+        rA = v - pA;
+        eA += std::abs(v - pA);
+        eB += std::abs(v - pB);
+    };
+PLX_PTM_IVDEP
+    for (int bx = 0; bx < full; ++bx) {
+        const int mm = m[bx], s = sel[bx];
+        int eA = 0, eB = 0;
+        one(predictBlockPixel(4, mm, 0, u0[bx] + u1[bx] + u2[bx] + u3[bx], 4, u0[bx]), rA0[bx],
+            v0[bx], z0[bx], s, eA, eB);
+        one(predictBlockPixel(4, mm, v0[bx], u1[bx] + u2[bx] + u3[bx], 3, u1[bx]), rA1[bx],
+            v1[bx], z1[bx], s, eA, eB);
+        one(predictBlockPixel(4, mm, v0[bx] + v1[bx], u2[bx] + u3[bx], 2, u2[bx]), rA2[bx],
+            v2[bx], z2[bx], s, eA, eB);
+        errA[bx] = eA;
+        errB[bx] = eB;
+    }
+}
+
+// Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
+// from the row's activity act0 and the magnitudes of the runs already decoded).
+template <int kKind>
+void fullRunContexts(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict act0 = R.act0.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    uint16_t* __restrict ctx = R.ctx.data() + ri;
+    int* __restrict e = R.mag.data() + 1;  // magnitudes of the previous run, ends replicated
+    const int base = rawCtx(c, kKind, 0);
+    if constexpr (kKind > 0) {
+        const uint8_t* __restrict zp = kKind == 1 ? z0 : z1;
+PLX_PTM_IVDEP
+        for (int bx = 0; bx < full; ++bx) e[bx] = magnitude(zp[bx]);
+        e[-1] = e[0];
+        e[full] = e[full - 1];
+    }
+PLX_PTM_IVDEP
+    for (int bx = 0; bx < full; ++bx) {
+        int a = act0[bx];
+        if constexpr (kKind == 1)
+            a = (a + 3 * e[bx] + e[bx - 1] + e[bx + 1]) >> 1;
+        else if constexpr (kKind == 2)
+            a = (a + 3 * magnitude(z0[bx]) + 2 * e[bx] + e[bx - 1]) >> 1;
+        ctx[bx] = uint16_t(base + bucketOf(a));
+    }
+}
+
+// eps of the full blocks of a row, component c: contexts from the block sum that the planar
+// prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
+template <bool kEncode>
+void epsContexts(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* __restrict m = R.m.data() + pi;
+    const int* __restrict act0 = R.act0.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    const uint8_t* __restrict z2 = R.z2.data() + ri;
+    const int* __restrict v0 = R.v0.data() + ri;
+    const int* __restrict v1 = R.v1.data() + ri;
+    const int* __restrict v2 = R.v2.data() + ri;
+    const int* __restrict v3 = R.v3.data() + ri;
+    uint8_t* __restrict ze = R.ze.data() + ri;
+    uint16_t* __restrict ctx = R.ctx.data() + ri;
+    const int base = rawCtx(c, 3, 0);
+PLX_PTM_IVDEP
+    for (int bx = 0; bx < full; ++bx) {
+        const int sHat = std::clamp(2 * (v1[bx] + v2[bx]) - 4 * m[bx], -2, 4);
+        const int act = act0[bx] + magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
+        ctx[bx] = uint16_t(base + (sHat + 2) * 2 + (act >= 12 ? 1 : 0));
+        if constexpr (kEncode) ze[bx] = uint8_t(v0[bx] + v1[bx] + v2[bx] + v3[bx] - 4 * m[bx]);
+    }
+}
+
+// p11 of the full blocks by eq. (3) and the row's statistics for the next row. Returns a
+// non-zero value on an eps >= 4 or a p11 outside 0..255.
+inline unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const size_t si = size_t(c) * size_t(lw + 2) + 1;
+    const int* __restrict m = R.m.data() + pi;
+    const uint8_t* __restrict z0 = R.z0.data() + ri;
+    const uint8_t* __restrict z1 = R.z1.data() + ri;
+    const uint8_t* __restrict z2 = R.z2.data() + ri;
+    const uint8_t* __restrict ze = R.ze.data() + ri;
+    const int* __restrict v0 = R.v0.data() + ri;
+    const int* __restrict v1 = R.v1.data() + ri;
+    const int* __restrict v2 = R.v2.data() + ri;
+    int* __restrict v3 = R.v3.data() + ri;
+    const int* __restrict errA = R.errA.data() + ri;
+    const int* __restrict errB = R.errB.data() + ri;
+    int* __restrict act = R.curAct.data() + si;
+    int* __restrict ea = R.curEA.data() + si;
+    int* __restrict eb = R.curEB.data() + si;
+    unsigned bad = 0;
+PLX_PTM_IVDEP
+    for (int bx = 0; bx < full; ++bx) {
+        const int ep = ze[bx];
+        const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)
+        bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
+        v3[bx] = last;
+        act[bx] = magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
+        ea[bx] = errA[bx];
+        eb[bx] = errB[bx];
+    }
+    return bad;
+}
+
+// Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
+// outside 0..255.
+template <int C, class IO>
+bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO& ioRef) {
+    IO io = std::move(ioRef);  // a local whose address does not escape (see walkLevelRans)
+    const int lw = low.width, lh = low.height, full = width / 2;  // full: 2-wide blocks per row
+    const size_t stride = size_t(width) * C, lowStride = size_t(lw) * C;
+    const size_t sw = size_t(lw + 2);
+    FastRows R(C, lw);
+    unsigned bad = 0;
+    for (int by = 0; by < lh; ++by) {
+        const int y0 = 2 * by, y1 = std::min(y0 + 1, height - 1);
+        const bool tall = y1 > y0;  // blocks of this row have two pixel rows
+        uint8_t* r0 = cur + size_t(y0) * stride;
+        uint8_t* r1 = cur + size_t(y1) * stride;
+        const uint8_t* lm = low.bytes.data() + size_t(by) * lowStride;
+        const uint8_t* lu = low.bytes.data() + size_t(std::max(by - 1, 0)) * lowStride;
+        const uint8_t* ld = low.bytes.data() + size_t(std::min(by + 1, lh - 1)) * lowStride;
+        for (int c = 0; c < C; ++c) {
+            planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
+            planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
+            planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
+            prepareRow(R, lw, c, by == 0);
+        }
+        uint16_t* ctx = R.ctx.data();
+        if (tall && full > 0) {
+            const int n = C * full;
+            if constexpr (IO::kEncode) {
+                for (int bx = 0; bx < full; ++bx)
+                    for (int c = 0; c < C; ++c) {
+                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
+                        const size_t px = size_t(2 * bx) * C + size_t(c);
+                        R.v0[i] = r0[px];
+                        R.v1[i] = r0[px + C];
+                        R.v2[i] = r1[px];
+                        R.v3[i] = r1[px + C];
+                    }
+                for (int c = 0; c < C; ++c) codeFullRow<true>(R, lw, full, c);
+            }
+            for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z0.data());
+            for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z1.data());
+            for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c);
+            io.template run<true>(ctx, n, R.z2.data());
+            if constexpr (!IO::kEncode)
+                for (int c = 0; c < C; ++c) codeFullRow<false>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) epsContexts<IO::kEncode>(R, lw, full, c);
+            io.template run<false>(ctx, n, R.ze.data());
+            for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
+            if constexpr (!IO::kEncode) {
+                for (int bx = 0; bx < full; ++bx) {
+                    uint8_t* q0 = r0 + size_t(2 * bx) * C;
+                    uint8_t* q1 = r1 + size_t(2 * bx) * C;
+                    for (int c = 0; c < C; ++c) {
+                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
+                        q0[c] = uint8_t(R.v0[i]);
+                        q0[C + c] = uint8_t(R.v1[i]);
+                        q1[c] = uint8_t(R.v2[i]);
+                        q1[C + c] = uint8_t(R.v3[i]);
+                    }
+                }
+            }
+        }
+        // Blocks with two real pixels: the last column's 1x2 block (odd width) or the last
+        // row's 2x1 blocks (odd height). p00 is coded, the other pixel follows from eq. (3).
+        const int pairFrom = tall ? full : 0;
+        const int pairTo = tall ? (width & 1 ? lw : full) : full;
+        const int np = pairTo - pairFrom;
+        if (np > 0) {
+            for (int c = 0; c < C; ++c)
+                for (int k = 0; k < np; ++k) {
+                    const size_t j = size_t(c) * size_t(np) + size_t(k);
+                    const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
+                    ctx[j] = uint16_t(rawCtx(c, 0, bucketOf(R.act0[i])));
+                    const int uo = tall ? R.u2[i] : R.u1[i];  // the other pixel: p01 or p10
+                    const int pred = predictBlockPixel(2, R.m[i], 0, R.u0[i] + uo, 2, R.u0[i]);
+                    R.v3[j] = pred;
+                    if constexpr (IO::kEncode) {
+                        const size_t px = size_t(2 * (pairFrom + k)) * C + size_t(c);
+                        const int a = r0[px], o = tall ? r1[px] : r0[px + C];
+                        R.z0[j] = uint8_t(zigzag(int(int8_t(uint8_t(a - pred)))));
+                        R.ze[j] = uint8_t(a + o - 2 * R.m[i]);
+                    }
+                }
+            const int cnt = C * np;
+            io.template run<true>(ctx, cnt, R.z0.data());
+            for (int j = 0; j < cnt; ++j) ctx[j] = uint16_t(rawCtx(j / np, 3, kEpsContexts - 2));
+            io.template run<false>(ctx, cnt, R.ze.data());
+            for (int c = 0; c < C; ++c)
+                for (int k = 0; k < np; ++k) {
+                    const size_t j = size_t(c) * size_t(np) + size_t(k);
+                    const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
+                    const int a = (R.v3[j] + unzigzagFast(R.z0[j])) & 255;
+                    const int ep = R.ze[j];
+                    const int last = 2 * R.m[i] + ep - a;  // eq. (3), n = 2
+                    bad |= unsigned(ep >= 2) | unsigned(unsigned(last) > 255u);
+                    const size_t px = size_t(2 * (pairFrom + k)) * C + size_t(c);
+                    if constexpr (!IO::kEncode) {
+                        r0[px] = uint8_t(a);
+                        (tall ? r1[px] : r0[px + C]) = uint8_t(last);
+                    }
+                    const int e = magnitude(R.z0[j]);
+                    const size_t s = size_t(c) * sw + size_t(pairFrom + k) + 1;
+                    R.curAct[s] = 3 * e;
+                    R.curEA[s] = 3 * e;
+                    R.curEB[s] = 3 * e + 3;
+                }
+        }
+        if (!tall && (width & 1)) {  // the 1x1 corner block: eps = 0, the pixel is its parent
+            if constexpr (!IO::kEncode)
+                for (int c = 0; c < C; ++c)
+                    r0[size_t(width - 1) * C + size_t(c)] = lm[size_t(lw - 1) * C + size_t(c)];
+        }
+        for (int c = 0; c < C; ++c) {  // replicate the row's ends for the next row's diagonals
+            for (auto* v : {&R.curAct, &R.curEA, &R.curEB}) {
+                int* s = v->data() + size_t(c) * sw;
+                s[0] = s[1];
+                s[lw + 1] = s[lw];
+            }
+        }
+        std::swap(R.prevAct, R.curAct);
+        std::swap(R.prevEA, R.curEA);
+        std::swap(R.prevEB, R.curEB);
+    }
+    ioRef = std::move(io);
+    return bad == 0;
+}
+
+}  // namespace plx::ptm::detail

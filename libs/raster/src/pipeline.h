@@ -176,7 +176,8 @@ inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
 Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2, float invW);
 
 // Rasterises t into targets restricted to the inclusive pixel rectangle [x0,x1]x[y0,y1], with
-// incremental edge functions (the fast path).
+// incremental edge functions (the fast path). The rectangle must belong to the calling thread:
+// pixels of it outside the triangle may be rewritten with their own values.
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                        int x0, int y0, int x1, int y1);
 

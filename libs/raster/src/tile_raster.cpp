@@ -138,25 +138,37 @@ struct TargetRows {
         : depth(rt.depth.row(y)), id(rt.id.row(y)), color(rt.color.data ? rt.color.row(y) : nullptr) {}
 };
 
-// Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes.
+// Writes the lanes of `value` selected by `mask` to p[0..7]. Masked stores (vpmaskmov) are
+// microcoded and slow on some x86 cores, so where all eight pixels belong to this thread's tile
+// (`whole`) the row is read, blended and written back instead.
+inline void storeLanes(void* p, __m256i mask, __m256i value, bool whole) {
+    auto* v = reinterpret_cast<__m256i*>(p);
+    if (whole)
+        _mm256_storeu_si256(v, _mm256_blendv_epi8(_mm256_loadu_si256(v), value, mask));
+    else
+        _mm256_maskstore_epi32(reinterpret_cast<int*>(p), mask, value);
+}
+
+// Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes and
+// `whole` says that all eight pixels lie inside the tile being drawn.
 template <Shading kShading, bool kColor>
 inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
-                       const TargetRows& rows, int x, __m256i covered, __m256 b1, __m256 b2) {
+                       const TargetRows& rows, int x, __m256i covered, __m256 b1, __m256 b2,
+                       bool whole) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
-    __m256 depth = _mm256_maskload_ps(rows.depth + x, covered);
+    __m256 depth = whole ? _mm256_loadu_ps(rows.depth + x) : _mm256_maskload_ps(rows.depth + x, covered);
     __m256i pass =
         _mm256_and_si256(covered, _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
     if (_mm256_testz_si256(pass, pass)) return;
-    _mm256_maskstore_ps(rows.depth + x, pass, invW);
-    _mm256_maskstore_epi32(reinterpret_cast<int*>(rows.id + x), pass, k.id);
+    storeLanes(rows.depth + x, pass, _mm256_castps_si256(invW), whole);
+    storeLanes(rows.id + x, pass, k.id, whole);
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat) {
             Rgba8 c = flatColorFor(t, ctx);
             int32_t packed;
             std::memcpy(&packed, &c, 4);
-            _mm256_maskstore_epi32(reinterpret_cast<int*>(rows.color + x), pass,
-                                   _mm256_set1_epi32(packed));
+            storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), whole);
         } else {
             alignas(32) float lb1[8], lb2[8], lw[8];
             _mm256_store_ps(lb1, b1);
@@ -188,7 +200,7 @@ inline __m256i lanesUpTo(int x, int x1) {
 
 template <Shading kShading, bool kColor>
 void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                      int x0, int y0, int x1, int y1) {
+                      int x0, int y0, int x1, int y1, int limitX) {
     EdgeSteps edges(t, x0, y0, true);
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     __m256i laneOffset[3], step8[3];
@@ -213,7 +225,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
                 eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-                writeEight<kShading, kColor>(t, ctx, k, rows, x, covered, b1, b2);
+                writeEight<kShading, kColor>(t, ctx, k, rows, x, covered, b1, b2, x + 7 <= limitX);
             }
             for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], step8[i]);
         }
@@ -222,7 +234,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
 
 template <Shading kShading, bool kColor>
 void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                        int x0, int y0, int x1, int y1) {
+                        int x0, int y0, int x1, int y1, int limitX) {
     EdgeSteps edges(t, x0, y0, true);
     const EightConstants k(t);
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
@@ -239,7 +251,8 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
         for (int x = x0 + int(lo); x <= last; x += 8) {
             __m256 b1, b2;
             eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-            writeEight<kShading, kColor>(t, ctx, k, rows, x, lanesUpTo(x, last), b1, b2);
+            writeEight<kShading, kColor>(t, ctx, k, rows, x, lanesUpTo(x, last), b1, b2,
+                                         x + 7 <= limitX);
         }
     }
 }
@@ -249,6 +262,7 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
 
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                        int x0, int y0, int x1, int y1) {
+    const int limitX = x1;  // the caller's rectangle is ours to write, past the triangle too
     x0 = std::max(x0, t.minX);
     y0 = std::max(y0, t.minY);
     x1 = std::min(x1, t.maxX);
@@ -271,9 +285,9 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
 #ifdef PLX_RASTER_AVX2
         if constexpr (!kL2) {
             if (small)
-                rasterizeBoxAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+                rasterizeBoxAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
             else
-                rasterizeSpansAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1);
+                rasterizeSpansAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
             return;
         }
 #endif

@@ -25,6 +25,10 @@ namespace {
 // Triangles per binning chunk: large enough to amortise the per-chunk, per-tile list overhead,
 // small enough to give every thread several chunks on 100k-triangle scenes.
 constexpr size_t kChunkTriangles = 8192;
+// Subsets are short (a P-buffer's visible set is a few thousand triangles) and each of their
+// triangles costs more (vertices transformed per triangle, scattered memory), so they are cut
+// finer to keep every thread binning.
+constexpr size_t kSubsetChunkTriangles = 512;
 // Bin entries with this bit refer to a chunk's materialised triangles (clipped or subset).
 constexpr uint32_t kMaterialisedBit = 0x80000000u;
 
@@ -220,8 +224,8 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
         c.reset(tiles);
     };
     if (subset) {
-        for (size_t b = 0; b < subset->size(); b += kChunkTriangles)
-            add(0, b, std::min(subset->size(), b + kChunkTriangles));
+        for (size_t b = 0; b < subset->size(); b += kSubsetChunkTriangles)
+            add(0, b, std::min(subset->size(), b + kSubsetChunkTriangles));
         return;
     }
     for (size_t m = 0; m < scene.meshes.size(); ++m) {

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <plx/core/image_io.h>
+
 #include <plx/core/parallel.h>
 #include <plx/display/container.h>
 #include <plx/display/display_json.h>
@@ -58,6 +60,19 @@ TEST(DisplayJson, ExamplesLoad) {
     // Metres are converted to millimetres.
     EXPECT_NEAR(std::get<DomeScreen>(std::get<ProjectedScreen>(dome.optics).surface).radiusMm,
                 2500.0, 1e-9);
+}
+
+TEST(DisplayJson, EveryPrefixOfAnExampleFailsCleanly) {
+    auto bytes = readFileBytes(examplePath("cone_showcase.json"));
+    ASSERT_TRUE(bytes.isOk());
+    std::string text(bytes->begin(), bytes->end());
+    ASSERT_TRUE(parseDisplayJson(text).isOk());
+    size_t end = text.find_last_of('}');
+    for (size_t cut = 0; cut < end; ++cut) {
+        auto r = parseDisplayJson(text.substr(0, cut));
+        ASSERT_FALSE(r.isOk()) << "prefix " << cut;
+        EXPECT_EQ(r.status().message().find('\n'), std::string::npos) << r.status().message();
+    }
 }
 
 TEST(DisplayJson, MalformedFilesGiveOneLineErrors) {
@@ -320,11 +335,14 @@ TEST(MeshIo, BourkeRoundTripAndObjPfm) {
         EXPECT_LT(glm::length(parsed->uvs[v] - grid.uvs[v]), 1e-8);
     }
     EXPECT_EQ(meshFromGrid(*parsed).triangleCount(), size_t(2 * 32 * 32));
-    // Truncated and corrupt files are refused with a line number.
-    for (size_t cut : {size_t(0), size_t(2), text.size() / 2}) {
+    // Truncated and corrupt files are refused with a line number: prefixes that end before the
+    // last grid line (a cut inside the final number can still parse as a shorter number); every
+    // one through the header and first rows, then every 37th (the file is ~50k characters).
+    size_t lastLine = text.rfind('\n', text.size() - 2);
+    for (size_t cut = 0; cut < lastLine; cut += cut < 2048 ? 1 : 37) {
         auto r = parseBourke(d, text.substr(0, cut));
-        ASSERT_FALSE(r.isOk());
-        EXPECT_NE(r.status().message().find("line"), std::string::npos);
+        ASSERT_FALSE(r.isOk()) << "prefix " << cut;
+        EXPECT_NE(r.status().message().find("line"), std::string::npos) << r.status().message();
     }
     EXPECT_FALSE(parseBourke(d, "2\n2 2\n0 0 0 0 1\n0 0 nan 0 1\n0 0 0 0 1\n0 0 0 0 1\n").isOk());
     std::string obj = formatObj(mesh);

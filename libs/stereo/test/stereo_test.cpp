@@ -162,6 +162,18 @@ TEST(Stereo, BadNamesAndPathsGiveClearErrors) {
     EXPECT_EQ((*ok)[0].fovYDegrees, 50.0f);
 }
 
+TEST(Stereo, EveryPrefixOfAPathParsesOrFailsCleanly) {
+    const std::string text =
+        R"({"poses": [{"eye": [1, 1.6, 1], "target": [5, 1, 5], "up": [0, 1, 0], "fov": 55},)"
+        R"( {"eye": [1.2, 1.6, 1], "target": [5, 1, 5]}]})";
+    ASSERT_TRUE(parsePath(text).isOk());
+    for (size_t cut = 0; cut < text.size(); ++cut) {
+        auto r = parsePath(text.substr(0, cut));
+        EXPECT_FALSE(r.isOk()) << "prefix " << cut;
+        EXPECT_FALSE(r.status().message().empty());
+    }
+}
+
 TEST(Stereo, ExperimentProducesRowsWithSpeedupAndQuality) {
     StereoExperimentConfig config;
     config.rooms = {1, 3};

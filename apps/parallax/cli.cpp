@@ -45,25 +45,6 @@ Result<Vec3> parseVec3(const std::string& text) {
     return out;
 }
 
-Result<IVec2> parseSize(const std::string& text) {
-    size_t x = text.find_first_of("xX");
-    auto bad = [&] {
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("size '{}' is not of the form WxH (e.g. 1280x720)", text));
-    };
-    if (x == std::string::npos) return bad();
-    long long w = 0, h = 0;
-    auto r1 = std::from_chars(text.data(), text.data() + x, w);
-    auto r2 = std::from_chars(text.data() + x + 1, text.data() + text.size(), h);
-    if (r1.ec != std::errc() || r1.ptr != text.data() + x || r2.ec != std::errc() ||
-        r2.ptr != text.data() + text.size())
-        return bad();
-    if (w < 1 || h < 1 || w > Camera::kMaxImageSide || h > Camera::kMaxImageSide)
-        return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("size {} outside 1x1 .. {}x{}", text, Camera::kMaxImageSide,
-                                       Camera::kMaxImageSide));
-    return IVec2(int(w), int(h));
-}
 
 void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }
 

@@ -31,7 +31,7 @@ int fail(const Status& status);
 
 // "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
 Result<Vec3> parseVec3(const std::string& text);
-Result<IVec2> parseSize(const std::string& text);
+inline Result<IVec2> parseSize(const std::string& text) { return parseImageSize(text); }
 
 // Writes the JSON document as the only thing on stdout.
 void printJson(const nlohmann::json& doc);

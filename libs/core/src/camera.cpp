@@ -1,5 +1,7 @@
 #include <plx/core/camera.h>
 
+#include <charconv>
+
 #include <fmt/format.h>
 
 namespace plx {
@@ -50,6 +52,26 @@ bool Camera::projectToPixel(const Vec3& worldPos, Vec2* pixel) const {
     if (clip.w <= 0.0f) return false;
     *pixel = pixelFromClip(clip);
     return true;
+}
+
+Result<IVec2> parseImageSize(const std::string& text) {
+    size_t x = text.find_first_of("xX");
+    auto bad = [&] {
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("size '{}' is not of the form WxH (e.g. 1280x720)", text));
+    };
+    if (x == std::string::npos) return bad();
+    long long w = 0, h = 0;
+    auto r1 = std::from_chars(text.data(), text.data() + x, w);
+    auto r2 = std::from_chars(text.data() + x + 1, text.data() + text.size(), h);
+    if (r1.ec != std::errc() || r1.ptr != text.data() + x || r2.ec != std::errc() ||
+        r2.ptr != text.data() + text.size())
+        return bad();
+    if (w < 1 || h < 1 || w > Camera::kMaxImageSide || h > Camera::kMaxImageSide)
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("size {} outside 1x1 .. {}x{}", text, Camera::kMaxImageSide,
+                                       Camera::kMaxImageSide));
+    return IVec2(int(w), int(h));
 }
 
 }  // namespace plx

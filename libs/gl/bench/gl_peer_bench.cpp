@@ -149,17 +149,6 @@ Result<Camera> framingCamera(const scene::Scene& scene, int width, int height) {
     return scene::cameraAt(scene, scene::framingViewpoint(scene.bounds()), width, height);
 }
 
-Status parseSize(const std::string& text, int* width, int* height) {
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%dx%d%c", width, height, &tail) != 2 || *width < 1 ||
-        *height < 1 || *width > Camera::kMaxImageSide || *height > Camera::kMaxImageSide) {
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--size '{}' is not WxH with sides in [1, {}]", text,
-                                       Camera::kMaxImageSide));
-    }
-    return Status::ok();
-}
-
 struct Options {
     std::string sceneFile;
     long procedural = 0;
@@ -172,8 +161,9 @@ struct Options {
 };
 
 Status run(const Options& options) {
-    int width = 0, height = 0;
-    PLX_RETURN_IF_ERROR(parseSize(options.size, &width, &height));
+    auto size = parseImageSize(options.size);
+    if (!size) return errorStatus(size.status().code(), "--size: " + size.status().message());
+    const int width = size->x, height = size->y;
     Result<scene::Scene> scene =
         options.sceneFile.empty() ? sphereSet(options.procedural) : loadModel(options.sceneFile);
     if (!scene) return scene.status();

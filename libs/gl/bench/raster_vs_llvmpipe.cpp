@@ -116,17 +116,6 @@ Result<Camera> sceneCamera(const scene::Scene& scene, int width, int height) {
     return scene::cameraAt(scene, scene::defaultViewpoint(scene), width, height);
 }
 
-Status parseSize(const std::string& text, int* width, int* height) {
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%dx%d%c", width, height, &tail) != 2 || *width < 1 ||
-        *height < 1 || *width > Camera::kMaxImageSide || *height > Camera::kMaxImageSide) {
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--size '{}' is not WxH with sides in [1, {}]", text,
-                                       Camera::kMaxImageSide));
-    }
-    return Status::ok();
-}
-
 // The two renderers and Parallax's caller-owned targets, set up once for every scene.
 struct Peers {
     std::unique_ptr<raster::Renderer> parallax;
@@ -288,8 +277,9 @@ Status checkOptions(const Options& options) {
 
 Status run(const Options& options) {
     PLX_RETURN_IF_ERROR(checkOptions(options));
-    int width = 0, height = 0;
-    PLX_RETURN_IF_ERROR(parseSize(options.size, &width, &height));
+    auto size = parseImageSize(options.size);
+    if (!size) return errorStatus(size.status().code(), "--size: " + size.status().message());
+    const int width = size->x, height = size->y;
     std::vector<std::string> specs = options.noDefaults ? std::vector<std::string>{}
                                                         : defaultScenes();
     specs.insert(specs.end(), options.scenes.begin(), options.scenes.end());

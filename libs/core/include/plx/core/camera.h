@@ -3,6 +3,8 @@
 // planes and image size. Follows the Conventions block in <plx/core/core.h>: right-handed world,
 // camera looks down -z in its own space, OpenGL clip space (-w <= x,y,z <= w).
 
+#include <string>
+
 #include <plx/core/math.h>
 #include <plx/core/status.h>
 
@@ -59,5 +61,9 @@ private:
     Vec3 mForward, mRight, mUp;
     Mat4 mViewFromWorld, mClipFromView, mClipFromWorld;
 };
+
+// Parses an image size "WxH" (e.g. "1280x720"); errors name the text and the accepted range
+// 1x1 .. kMaxImageSide x kMaxImageSide.
+Result<IVec2> parseImageSize(const std::string& text);
 
 }  // namespace plx

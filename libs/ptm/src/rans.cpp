@@ -102,10 +102,10 @@ void buildDecodeTable(const std::array<uint16_t, kTokenCount>& freq, DecodeTable
     }
 }
 
-std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
-                                const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                const std::vector<uint16_t>& ctxToTable) {
-    // Cumulative frequencies per table.
+namespace {
+// Cumulative frequencies (exclusive prefix sums) of each table, for the encoders.
+std::vector<std::array<uint16_t, kTokenCount>> cumulativeFrequencies(
+    const std::vector<std::array<uint16_t, kTokenCount>>& freqs) {
     std::vector<std::array<uint16_t, kTokenCount>> cums(freqs.size());
     for (size_t i = 0; i < freqs.size(); ++i) {
         unsigned c = 0;
@@ -114,6 +114,14 @@ std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
             c += freqs[i][size_t(t)];
         }
     }
+    return cums;
+}
+}  // namespace
+
+std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
+                                const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                                const std::vector<uint16_t>& ctxToTable) {
+    const auto cums = cumulativeFrequencies(freqs);
     std::vector<uint16_t> words;
     words.reserve(symbols.size() / 2 + 8);
     uint32_t x[2] = {kRansLow, kRansLow};
@@ -161,14 +169,7 @@ void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t)
 std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
                                      const std::vector<uint16_t>& ctxToTable) {
-    std::vector<std::array<uint16_t, kTokenCount>> cums(freqs.size());
-    for (size_t i = 0; i < freqs.size(); ++i) {
-        unsigned c = 0;
-        for (int t = 0; t < kTokenCount; ++t) {
-            cums[i][size_t(t)] = uint16_t(c);
-            c += freqs[i][size_t(t)];
-        }
-    }
+    const auto cums = cumulativeFrequencies(freqs);
     std::vector<uint16_t> words;
     words.reserve(symbols.size() / 2 + 8);
     uint32_t x[kFastStates];

@@ -59,12 +59,13 @@ scene::Scene sphereGrid(int spheres, int rings) {
     return s;
 }
 
-void BM_RenderSphereGrid(benchmark::State& state) {
-    scene::Scene s = sphereGrid(int(state.range(0)), 32);
+// Renders `s` from the origin looking down -z at 1280x720 with state.range(1) threads and
+// reports Mtri/s and the visible triangle count.
+void renderLoop(benchmark::State& state, const scene::Scene& s, float fovYDegrees) {
     CameraDesc d;
     d.eyePos = {0, 0, 0};
     d.targetPos = {0, 0, -1};
-    d.fovYDegrees = 50.0f;
+    d.fovYDegrees = fovYDegrees;
     Camera cam = *Camera::create(d);
     auto r = std::move(raster::Renderer::create({int(state.range(1)), 64})).value();
     raster::FrameBuffers fb;
@@ -74,21 +75,15 @@ void BM_RenderSphereGrid(benchmark::State& state) {
                                                   benchmark::Counter::kIsRate);
     state.counters["visible"] = double(raster::countDistinctIds(fb.id));
 }
+
+void BM_RenderSphereGrid(benchmark::State& state) {
+    renderLoop(state, sphereGrid(int(state.range(0)), 32), 50.0f);
+}
 BENCHMARK(BM_RenderSphereGrid)->Args({25, 1})->Args({25, 2})->Args({256, 1})->Args({256, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_RenderSmallTriangles(benchmark::State& state) {
-    scene::Scene s = smallTriangles(int(state.range(0)));
-    CameraDesc d;
-    d.eyePos = {0, 0, 0};
-    d.targetPos = {0, 0, -1};
-    Camera cam = *Camera::create(d);
-    auto r = std::move(raster::Renderer::create({int(state.range(1)), 64})).value();
-    raster::FrameBuffers fb;
-    fb.resize(d.width, d.height);
-    for (auto _ : state) r->render(s, cam, {}, fb.targets());
-    state.counters["Mtri/s"] = benchmark::Counter(double(s.triangleCount()) * state.iterations() / 1e6,
-                                                  benchmark::Counter::kIsRate);
+    renderLoop(state, smallTriangles(int(state.range(0))), 60.0f);
 }
 BENCHMARK(BM_RenderSmallTriangles)->Args({100000, 1})->Args({100000, 2})->Args({1000000, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime();

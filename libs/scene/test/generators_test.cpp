@@ -98,18 +98,24 @@ TEST(Office, IsDeterministic) {
 TEST(Office, ViewpointsStandInsideTheFirstRoomAndAbove) {
     auto s = generateOffice(4);
     ASSERT_TRUE(s.isOk());
-    ASSERT_GE(s->viewpoints.size(), 2u);
-    const Viewpoint& v = s->viewpoints[0];
-    EXPECT_EQ(v.name, "default");
-    EXPECT_NEAR(v.eyePos.y, 1.6f, 0.2f);
-    EXPECT_LT(v.eyePos.x, 8.0f);
-    EXPECT_LT(v.eyePos.z, 8.0f);
-    Vec3 dir = v.targetPos - v.eyePos;
-    EXPECT_GT(dir.x, 0.0f);
-    EXPECT_GT(dir.z, 0.0f);
-    EXPECT_LT(dir.y, 0.0f);  // slight downward tilt
-    EXPECT_EQ(s->viewpoints[1].name, "overview");
-    EXPECT_GT(s->viewpoints[1].eyePos.y, s->bounds().hi.y);
+    ASSERT_EQ(s->viewpoints.size(), 3u);
+    // "default" and "vista" stand in the corner room and look diagonally across the grid; the
+    // default looks down far enough that the top of its view stays below the horizon.
+    for (int i = 0; i < 2; ++i) {
+        const Viewpoint& v = s->viewpoints[size_t(i)];
+        EXPECT_EQ(v.name, i == 0 ? "default" : "vista");
+        EXPECT_NEAR(v.eyePos.y, 1.6f, 0.2f);
+        EXPECT_LT(v.eyePos.x, 8.0f);
+        EXPECT_LT(v.eyePos.z, 8.0f);
+        Vec3 dir = glm::normalize(v.targetPos - v.eyePos);
+        EXPECT_GT(dir.x, 0.0f);
+        EXPECT_GT(dir.z, 0.0f);
+        float pitch = std::asin(-dir.y) * 180.0f / kPi;
+        if (i == 0) EXPECT_GT(pitch - 0.5f * v.fovYDegrees, 0.0f);  // top edge below horizon
+        else EXPECT_LT(pitch - 0.5f * v.fovYDegrees, 0.0f);        // horizon in view
+    }
+    EXPECT_EQ(s->viewpoints[2].name, "overview");
+    EXPECT_GT(s->viewpoints[2].eyePos.y, s->bounds().hi.y);
 }
 
 TEST(Museum, HasTexturedRoomsWithMipChains) {

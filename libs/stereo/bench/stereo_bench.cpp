@@ -2,6 +2,8 @@
 // office scenes of growing size (the second-eye time should stay flat).
 #include <benchmark/benchmark.h>
 
+#include <plx/core/timing.h>
+#include <plx/raster/raster.h>
 #include <plx/scene/generators.h>
 #include <plx/stereo/stereo.h>
 
@@ -26,6 +28,86 @@ void BM_PairFull(benchmark::State& state) { BM_Pair(state, stereo::Method::kFull
 void BM_PairPBuffer(benchmark::State& state) { BM_Pair(state, stereo::Method::kPBuffer); }
 BENCHMARK(BM_PairFull)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PairPBuffer)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// office:N at the default viewpoint with a 2-thread renderer and the two eyes' targets.
+struct SecondEyeFixture {
+    scene::Scene scene;
+    StereoRig rig;
+    std::unique_ptr<raster::Renderer> renderer;
+    raster::FrameBuffers first, second;
+    stereo::VisibleSetCollector visible;
+
+    explicit SecondEyeFixture(int rooms)
+        : scene(*scene::generateOffice(rooms)),
+          rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 640, 480), {})),
+          renderer(std::move(raster::Renderer::create({2})).value()) {
+        first.resize(640, 480);
+        second.resize(640, 480);
+    }
+    // Renders the first eye and collects its visible set.
+    const std::vector<uint32_t>& firstEye() {
+        renderer->render(scene, rig.first(), {}, first.targets());
+        return collect();
+    }
+    const std::vector<uint32_t>& collect() {
+        visible.begin(scene.triangleCount());
+        visible.add(first.id);
+        return visible.sorted();
+    }
+    void secondEye(const std::vector<uint32_t>& subset) {
+        renderer->renderSubset(scene, rig.second(), subset, {}, second.targets());
+    }
+    void count(benchmark::State& state) const {
+        state.counters["visible"] = double(visible.size());
+        state.counters["triangles"] = double(scene.triangleCount());
+    }
+};
+
+// The second eye's subset render alone, the first eye's visible set collected once. With
+// Arg(1) == 1 a 64 MiB stream before each iteration (untimed) evicts the caches, as the first
+// eye's full pass over a large scene does in a real frame; with 0 the subset's data stays hot.
+void BM_SecondEyeSubset(benchmark::State& state) {
+    SecondEyeFixture f(int(state.range(0)));
+    std::vector<uint32_t> subset = f.firstEye();
+    std::vector<uint64_t> evict(state.range(1) ? (64u << 20) / 8 : 0);
+    uint64_t sink = 0;
+    for (auto _ : state) {
+        state.PauseTiming();
+        for (uint64_t& v : evict) sink += ++v;
+        state.ResumeTiming();
+        f.secondEye(subset);
+    }
+    benchmark::DoNotOptimize(sink);
+    f.count(state);
+}
+BENCHMARK(BM_SecondEyeSubset)
+    ->ArgsProduct({{3, 30, 280}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The second eye of the P-buffer method in parts, manually timed: each iteration renders the
+// first eye in full (untimed, so the caches hold what they hold in a real frame: the whole scene
+// streamed through), then times the visible-set collection and the subset render of the second
+// eye. Their sum is the second-eye time that should not follow N.
+void BM_SecondEyeParts(benchmark::State& state) {
+    SecondEyeFixture f(int(state.range(0)));
+    double collectMs = 0, subsetMs = 0;
+    for (auto _ : state) {
+        f.renderer->render(f.scene, f.rig.first(), {}, f.first.targets());
+        Stopwatch clock;
+        const std::vector<uint32_t>& subset = f.collect();
+        double collect = clock.elapsedMs();
+        f.secondEye(subset);
+        double total = clock.elapsedMs();
+        collectMs += collect;
+        subsetMs += total - collect;
+        state.SetIterationTime(total / 1000.0);
+    }
+    state.counters["collect_ms"] = collectMs / double(state.iterations());
+    state.counters["subset_ms"] = subsetMs / double(state.iterations());
+    f.count(state);
+}
+BENCHMARK(BM_SecondEyeParts)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 }  // namespace
 

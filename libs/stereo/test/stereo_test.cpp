@@ -26,6 +26,23 @@ std::set<uint32_t> distinctTriangles(const Image<uint32_t>& ids) {
     return out;
 }
 
+// The premise of Table 1: from the office's default viewpoint the visible polygons level off as
+// rooms are added (the second eye's cost follows them), while the "vista" viewpoint, which sees
+// the horizon, keeps gaining polygons from far rooms.
+TEST(Stereo, OfficeDefaultViewpointVisibleSetLevelsOff) {
+    auto visibleAt = [](int rooms, size_t viewpoint) {
+        scene::Scene s = *scene::generateOffice(rooms);
+        auto rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints[viewpoint], 320, 240), {});
+        auto r = makeRenderer();
+        StereoFrame frame;
+        return r->renderPair(s, rig, {}, &frame).visibleTriangles;
+    };
+    size_t at8 = visibleAt(8, 0), at32 = visibleAt(32, 0);
+    EXPECT_LE(double(at32), 1.05 * double(at8)) << at8 << " -> " << at32;
+    size_t vista8 = visibleAt(8, 1), vista32 = visibleAt(32, 1);
+    EXPECT_GT(double(vista32), 1.2 * double(vista8)) << vista8 << " -> " << vista32;
+}
+
 TEST(Stereo, VisibleSetIsTheDistinctIdsOfThePBuffer) {
     scene::Scene s = *scene::generateOffice(4);
     auto rig = StereoRig::create(officeCamera(s), {});

@@ -6,8 +6,9 @@
 //   floor, 3,632 triangles per 8 m x 8 m room (the paper's room has 3,652 polygons), replicated
 //   N times on a near-square grid of ceil(sqrt(N)) columns as in the paper's Table 1, one merged
 //   mesh per material. Viewpoints: "default" inside the corner room at eye height looking
-//   diagonally across the grid, tilted 12 degrees down, so that the number of visible polygons
-//   levels off as N grows; "overview" from above.
+//   diagonally across the floor, 32 degrees down (the top of the view just below the horizon),
+//   so that the number of visible polygons levels off as N grows; "vista" from the same place
+//   12 degrees down, over the whole grid to the horizon; "overview" from above.
 // museum:N - N 10 m x 10 m textured rooms on a near-square grid joined by doorways, one painting
 //   per wall (each with its own procedural 256x256, 512x512 or 512x256 texture, up to 128
 //   distinct ones), tiled floor and plaster walls. Viewpoints: "default" in room 0 looking

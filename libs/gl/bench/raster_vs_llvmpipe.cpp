@@ -48,11 +48,13 @@ struct Options {
     std::string only;  // "parallax" or "llvmpipe": time that renderer alone (for profilers)
 };
 
-// A scene to measure: the spec as given, the loadable spec and the subdivision levels it asks for.
+// A scene to measure: the spec as given, the loadable spec, the subdivision levels it asks for
+// and the viewpoint it names ("SPEC@NAME"; empty: the scene's default viewpoint).
 struct SceneSpec {
     std::string spec;
     std::string source;
     int levels = 0;
+    std::string viewpoint;
 };
 
 struct Row {
@@ -73,24 +75,35 @@ std::string helmetPath() {
 
 std::vector<std::string> defaultScenes() {
     std::string helmet = helmetPath();
-    return {"office:64", "office:280", helmet, "subdiv2:" + helmet, "subdiv3:" + helmet};
+    return {"office:64",        "office:64@vista",     "office:280",
+            "office:280@vista", helmet,                "subdiv2:" + helmet,
+            "subdiv3:" + helmet};
 }
 
 // "subdivN:SPEC" asks for SPEC midpoint-subdivided N times; anything else is loaded as is.
 Result<SceneSpec> parseSceneSpec(const std::string& spec) {
-    SceneSpec out{spec, spec, 0};
+    SceneSpec out{spec, spec, 0, ""};
+    size_t at = spec.rfind('@');
+    if (at != std::string::npos && spec.find('/', at) == std::string::npos) {
+        out.viewpoint = spec.substr(at + 1);
+        out.source = spec.substr(0, at);
+        if (out.viewpoint.empty() || out.source.empty())
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               fmt::format("scene '{}': expected SPEC@VIEWPOINT", spec));
+    }
+    const std::string whole = out.source;
     size_t prefix = std::string(kSubdividePrefix).size();
-    size_t colon = spec.find(':');
-    if (spec.rfind(kSubdividePrefix, 0) != 0 || colon == std::string::npos) return out;
+    size_t colon = whole.find(':');
+    if (whole.rfind(kSubdividePrefix, 0) != 0 || colon == std::string::npos) return out;
     int levels = -1;
-    auto [end, ec] = std::from_chars(spec.data() + prefix, spec.data() + colon, levels);
-    if (ec != std::errc() || end != spec.data() + colon || levels < 0 ||
-        levels > scene::kMaxSubdivisionLevels || colon + 1 == spec.size()) {
+    auto [end, ec] = std::from_chars(whole.data() + prefix, whole.data() + colon, levels);
+    if (ec != std::errc() || end != whole.data() + colon || levels < 0 ||
+        levels > scene::kMaxSubdivisionLevels || colon + 1 == whole.size()) {
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("scene '{}': expected subdivN:SPEC with N in [0, {}]",
                                        spec, scene::kMaxSubdivisionLevels));
     }
-    out.source = spec.substr(colon + 1);
+    out.source = whole.substr(colon + 1);
     out.levels = levels;
     return out;
 }
@@ -99,6 +112,7 @@ std::string sceneLabel(const SceneSpec& spec) {
     std::string name = scene::isGeneratorSpec(spec.source)
                            ? spec.source
                            : std::filesystem::path(spec.source).filename().string();
+    if (!spec.viewpoint.empty()) name += fmt::format(" ({} view)", spec.viewpoint);
     if (spec.levels == 0) return name;
     return fmt::format("{} subdivided x{}", name, 1u << (2 * spec.levels));
 }
@@ -111,9 +125,15 @@ Result<scene::Scene> loadSpec(const SceneSpec& spec) {
     return scene::subdivideMidpoint(*loaded, spec.levels);
 }
 
-// The scene's first viewpoint, or one framing its bounds; one Camera serves both renderers.
-Result<Camera> sceneCamera(const scene::Scene& scene, int width, int height) {
-    return scene::cameraAt(scene, scene::defaultViewpoint(scene), width, height);
+// The named viewpoint, else the scene's first one or one framing its bounds; one Camera serves
+// both renderers.
+Result<Camera> sceneCamera(const scene::Scene& scene, const std::string& viewpoint, int width,
+                           int height) {
+    if (viewpoint.empty())
+        return scene::cameraAt(scene, scene::defaultViewpoint(scene), width, height);
+    for (const scene::Viewpoint& v : scene.viewpoints)
+        if (v.name == viewpoint) return scene::cameraAt(scene, v, width, height);
+    return errorStatus(ErrorCode::kNotFound, fmt::format("no viewpoint named '{}'", viewpoint));
 }
 
 // The two renderers and Parallax's caller-owned targets, set up once for every scene.
@@ -204,7 +224,7 @@ Result<Row> measureScene(Peers& peers, const SceneSpec& spec, const Options& opt
                          int height) {
     auto scene = loadSpec(spec);
     if (!scene) return scene.status();
-    auto camera = sceneCamera(*scene, width, height);
+    auto camera = sceneCamera(*scene, spec.viewpoint, width, height);
     if (!camera) return camera.status();
     PLX_RETURN_IF_ERROR(peers.llvmpipe->upload(*scene));
     peers.buffers.resize(width, height);
@@ -347,10 +367,11 @@ int main(int argc, char** argv) {
     Options options;
     app.add_option("--scene", options.scenes,
                    "extra scene: model file, generator spec (office:N), or subdivN:SPEC for SPEC "
-                   "midpoint-subdivided N times; repeatable");
+                   "midpoint-subdivided N times; a suffix @NAME picks the scene's viewpoint NAME "
+                   "(office:64@vista); repeatable");
     app.add_flag("--no-defaults", options.noDefaults,
-                 "measure only the --scene list (defaults: office:64, office:280, DamagedHelmet "
-                 "as is and subdivided x16, x64)");
+                 "measure only the --scene list (defaults: office:64 and office:280 from their "
+                 "default and vista viewpoints, DamagedHelmet as is and subdivided x16, x64)");
     app.add_option("--size", options.size, "image size WxH")->capture_default_str();
     app.add_option("--threads", options.threads, "threads of each renderer (LP_NUM_THREADS)")
         ->capture_default_str();

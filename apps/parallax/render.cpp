@@ -73,6 +73,7 @@ int runRender(const RenderArgs& a) {
                    {"mtris_per_s", mtris},
                    {"triangles_clipped", last.trianglesClipped},
                    {"triangles_binned", last.trianglesBinned},
+                   {"tile_pairs_occluded", last.tilePairsOccluded},
                    {"outputs", {colorPath, depthPath, idPath}}});
     } else {
         fmt::print("{}: {} triangles, {} visible, {}x{}, {} shading, {} threads\n", a.scene,

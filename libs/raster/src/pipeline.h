@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <vector>
 
 #include <plx/raster/raster.h>
 
@@ -175,10 +177,51 @@ inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
 // in screen space; invW: interpolated 1/w at the sample.
 Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2, float invW);
 
+// Coarse occlusion culling (beyond the P-buffer paper; the hierarchical-z idea of z-buffer
+// hardware): per 8x8 pixel block, a lower bound of the depth (1/w, larger is nearer) stored in
+// it. Depth only grows during a frame, so a bound taken earlier stays a valid lower bound; blocks
+// written since their bound was taken are marked dirty and their bound is refreshed on demand. A
+// triangle whose every sample lies at or behind the bound of each block it touches fails the
+// strict depth test everywhere there and is skipped before setup; results do not change.
+// Tiles are whole blocks, so each block belongs to one thread.
+struct DepthBlocks {
+    static constexpr int kShift = 3;  // 8x8 pixels
+    int blocksX = 0, blocksY = 0;
+    std::vector<float> bound;      // per block: <= every depth value in it
+    std::vector<uint8_t> dirty;    // per block: written since `bound` was taken
+
+    void resize(int width, int height);
+    // Resets the blocks of the pixel rectangle [x0,x1]x[y0,y1] (whole blocks) to `depth` (the
+    // cleared value), or marks them dirty when the depth they hold is unknown.
+    void reset(int x0, int y0, int x1, int y1, bool cleared);
+    // Marks the blocks of the pixel rectangle [x0,x1]x[y0,y1] as possibly written.
+    void markDirty(int x0, int y0, int x1, int y1);
+    // True when a triangle whose samples all have 1/w <= `nearest` is hidden at every pixel of
+    // [x0,x1]x[y0,y1] (refreshes the dirty blocks it reads from `depth`).
+    bool hides(int x0, int y0, int x1, int y1, float nearest, const ImageView<float>& depth);
+};
+
+// The largest 1/w any covered sample of the snapped triangle (a, b, c) can be given by
+// rowBarycentrics' float interpolation, or +infinity when no safe bound is known. Interpolated
+// 1/w is a convex combination of the vertices' values up to rounding; the rounding grows with
+// the barycentric weights at the bounding box corners, which stay below 2 * box / area, so
+// slivers (area under 1/64 of their box) get no bound and the rest a 1/64 relative margin, far
+// above the rounding (< 1e-4 relative with weights below 128).
+inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c) {
+    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
+    if (area2 < 0) area2 = -area2;
+    int64_t boxW = std::max({a.x, b.x, c.x}) - std::min({a.x, b.x, c.x});
+    int64_t boxH = std::max({a.y, b.y, c.y}) - std::min({a.y, b.y, c.y});
+    if (area2 * 32 < boxW * boxH) return std::numeric_limits<float>::infinity();
+    float nearest = std::max({a.invW, b.invW, c.invW});
+    return nearest + nearest * (1.0f / 64.0f);
+}
+
 // Rasterises t into targets restricted to the inclusive pixel rectangle [x0,x1]x[y0,y1], with
 // incremental edge functions (the fast path). The rectangle must belong to the calling thread:
-// pixels of it outside the triangle may be rewritten with their own values.
+// pixels of it outside the triangle may be rewritten with their own values. `blocks`, when not
+// null, gets the blocks this triangle writes marked dirty.
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                       int x0, int y0, int x1, int y1);
+                       int x0, int y0, int x1, int y1, DepthBlocks* blocks = nullptr);
 
 }  // namespace plx::raster::detail

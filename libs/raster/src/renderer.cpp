@@ -90,6 +90,9 @@ struct Renderer::Impl {
     std::vector<size_t> meshVertexBase;
     std::vector<Chunk> chunks;
     size_t chunkCount = 0;
+    // Coarse occlusion per 8x8 block; each tile touches only its own blocks (see DepthBlocks).
+    mutable DepthBlocks blocks;
+    mutable std::vector<uint64_t> occludedPerTile;  // this frame's tilePairsOccluded, per tile
 
     explicit Impl(const RendererConfig& c) : config(c), pool(c.threads) {
         while ((1 << tileShift) < c.tileSize) ++tileShift;
@@ -114,6 +117,8 @@ struct Renderer::Impl {
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
                        const RenderTargets& rt) const;
+    bool hidden(const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx, int x0,
+                int y0, int x1, int y1, const ImageView<float>& depth) const;
 };
 
 Result<std::unique_ptr<Renderer>> Renderer::create(const RendererConfig& config) {
@@ -161,6 +166,9 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     int tilesX = (vp.width + tileSize - 1) / tileSize, tilesY = (vp.height + tileSize - 1) / tileSize;
     size_t tiles = size_t(tilesX) * size_t(tilesY);
 
+    if (blocks.blocksX != (vp.width + 7) / 8 || blocks.blocksY != (vp.height + 7) / 8)
+        blocks.resize(vp.width, vp.height);
+    occludedPerTile.assign(tiles, 0);
     if (!subset) transformVertices(scene, camera, vp);
     planChunks(scene, subset, tiles);
     pool.parallelFor(chunkCount, 1, [&](size_t b, size_t e) {
@@ -178,6 +186,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
         stats.trianglesClipped += chunks[c].clipped;
         stats.trianglesBinned += chunks[c].binned;
     }
+    for (uint64_t n : occludedPerTile) stats.tilePairsOccluded += n;
     stats.milliseconds = clock.elapsedMs();
     return stats;
 }
@@ -375,6 +384,21 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
     }
 }
 
+// True when the triangle's part in the tile [x0,x1]x[y0,y1] lies behind what the tile's blocks
+// already hold (or covers no sample there), so drawing it would change nothing.
+bool Renderer::Impl::hidden(const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
+                            int x0, int y0, int x1, int y1, const ImageView<float>& depth) const {
+    int minX, minY, maxX, maxY;
+    if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
+        return true;
+    minX = std::max(minX, x0);
+    minY = std::max(minY, y0);
+    maxX = std::min(maxX, x1);
+    maxY = std::min(maxY, y1);
+    if (minX > maxX || minY > maxY) return true;
+    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2]), depth);
+}
+
 void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& scene,
                                    const Viewport& vp, const ShadeContext& ctx,
                                    const RenderOptions& options, const RenderTargets& rt) const {
@@ -393,6 +417,9 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             }
         }
     }
+    blocks.reset(x0, y0, x1, y1, options.clearTargets);
+    // The second depth layer needs the hidden triangles too: no occlusion culling for it.
+    DepthBlocks* occlusion = rt.id2.data ? nullptr : &blocks;
     TriangleSetup setup;
     for (size_t c = 0; c < chunkCount; ++c) {
         const Chunk& chunk = chunks[c];
@@ -400,6 +427,10 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             RasterVertex v[3];
             for (int k = 0; k < 3; ++k)
                 v[k] = {tri.x[k], tri.y[k], tri.invW[k], Vec3(k == 0, k == 1, k == 2)};
+            if (occlusion && hidden(v, vp, ctx, x0, y0, x1, y1, rt.depth)) {
+                ++occludedPerTile[size_t(tile)];
+                continue;
+            }
             size_t mesh = chunk.mesh;
             uint32_t localTri = tri.ref;
             if (tri.ref & kMaterialisedBit) {
@@ -409,7 +440,7 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
                 for (int k = 0; k < 3; ++k) v[k].bary = m.bary[k];
             }
             if (setupTriangle(scene, mesh, localTri, v, vp, ctx, &setup))
-                rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1);
+                rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }
 }

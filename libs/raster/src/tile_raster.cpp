@@ -260,14 +260,79 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
 
 }  // namespace
 
+namespace {
+
+// The minimum depth over the 8x8 block at (px0, py0), clipped to the image.
+float blockMinimum(const ImageView<float>& depth, int px0, int py0) {
+    int px1 = std::min(px0 + 8, depth.width), py1 = std::min(py0 + 8, depth.height);
+#ifdef PLX_RASTER_AVX2
+    if (px1 - px0 == 8) {
+        __m256 m = _mm256_loadu_ps(depth.row(py0) + px0);
+        for (int y = py0 + 1; y < py1; ++y) m = _mm256_min_ps(m, _mm256_loadu_ps(depth.row(y) + px0));
+        __m128 h = _mm_min_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps(m, 1));
+        h = _mm_min_ps(h, _mm_movehl_ps(h, h));
+        h = _mm_min_ss(h, _mm_shuffle_ps(h, h, 1));
+        return _mm_cvtss_f32(h);
+    }
+#endif
+    float m = std::numeric_limits<float>::infinity();
+    for (int y = py0; y < py1; ++y) {
+        const float* d = depth.row(y);
+        for (int x = px0; x < px1; ++x) m = std::min(m, d[x]);
+    }
+    return m;
+}
+
+}  // namespace
+
+void DepthBlocks::resize(int width, int height) {
+    blocksX = (width + (1 << kShift) - 1) >> kShift;
+    blocksY = (height + (1 << kShift) - 1) >> kShift;
+    bound.assign(size_t(blocksX) * size_t(blocksY), 0.0f);
+    dirty.assign(bound.size(), 1);
+}
+
+void DepthBlocks::reset(int x0, int y0, int x1, int y1, bool cleared) {
+    for (int by = y0 >> kShift; by <= y1 >> kShift; ++by) {
+        size_t row = size_t(by) * size_t(blocksX);
+        for (int bx = x0 >> kShift; bx <= x1 >> kShift; ++bx) {
+            bound[row + size_t(bx)] = 0.0f;  // the cleared depth, or a bound that always holds
+            dirty[row + size_t(bx)] = cleared ? 0 : 1;
+        }
+    }
+}
+
+void DepthBlocks::markDirty(int x0, int y0, int x1, int y1) {
+    for (int by = y0 >> kShift; by <= y1 >> kShift; ++by)
+        std::fill_n(dirty.data() + size_t(by) * size_t(blocksX) + size_t(x0 >> kShift),
+                    (x1 >> kShift) - (x0 >> kShift) + 1, uint8_t(1));
+}
+
+bool DepthBlocks::hides(int x0, int y0, int x1, int y1, float nearest,
+                        const ImageView<float>& depth) {
+    for (int by = y0 >> kShift; by <= y1 >> kShift; ++by) {
+        size_t row = size_t(by) * size_t(blocksX);
+        for (int bx = x0 >> kShift; bx <= x1 >> kShift; ++bx) {
+            float& b = bound[row + size_t(bx)];
+            if (nearest <= b) continue;
+            if (!dirty[row + size_t(bx)]) return false;
+            b = blockMinimum(depth, bx << kShift, by << kShift);
+            dirty[row + size_t(bx)] = 0;
+            if (!(nearest <= b)) return false;
+        }
+    }
+    return true;
+}
+
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                       int x0, int y0, int x1, int y1) {
+                       int x0, int y0, int x1, int y1, DepthBlocks* blocks) {
     const int limitX = x1;  // the caller's rectangle is ours to write, past the triangle too
     x0 = std::max(x0, t.minX);
     y0 = std::max(y0, t.minY);
     x1 = std::min(x1, t.maxX);
     y1 = std::min(y1, t.maxY);
     if (x0 > x1 || y0 > y1) return;
+    if (blocks) blocks->markDirty(x0, y0, x1, y1);
     // Rows of up to kBoxWidth pixels are tested pixel by pixel; longer rows solve their span
     // (three integer divisions a row) so large triangles touch only covered samples.
     constexpr int kBoxWidth = 24;

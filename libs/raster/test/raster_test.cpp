@@ -283,6 +283,63 @@ TEST(Raster, FastPathEqualsScalarReference) {
     }
 }
 
+// A wall in front of a soup of triangles: behind it (many), level with it (equal depth fails the
+// strict test), in front of it and thin slivers behind it. The tiles skip most of the soup as
+// hidden by the wall's depth, and the targets stay exactly the reference's; the same holds when
+// the wall was drawn by an earlier call and the targets are not cleared.
+TEST(Raster, OcclusionCullingChangesNothing) {
+    Scene wall;
+    Mesh quad;
+    quad.positions = {{-9, -9, -2}, {9, -9, -2}, {9, 9, -2}, {-9, 9, -2}};
+    quad.indices = {0, 1, 2, 0, 2, 3};
+    wall.meshes.push_back(quad);
+    wall.materials.push_back({"grey", {0.5f, 0.5f, 0.5f, 1.0f}, -1});
+    PLX_CHECK(wall.finalize().isOk());
+    Scene both = wall;
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<float> xy(-3.0f, 3.0f), off(-0.6f, 0.6f);
+    Mesh soup;
+    for (int t = 0; t < 600; ++t) {
+        float z = t % 10 == 0 ? -2.0f : (t % 10 == 1 ? -1.5f : -2.5f - float(t % 7));
+        Vec3 c(xy(rng), xy(rng), z);
+        bool sliver = t % 5 == 0;
+        for (int k = 0; k < 3; ++k) {
+            Vec3 d(off(rng), sliver ? 0.002f * float(k) : off(rng), z == -2.0f ? 0.0f : off(rng) * 0.2f);
+            soup.positions.push_back(c + d);
+            soup.indices.push_back(uint32_t(soup.positions.size() - 1));
+        }
+    }
+    both.meshes.push_back(soup);
+    both.meshes[1].materialIndex = 0;
+    PLX_CHECK(both.finalize().isOk());
+    Scene onlySoup = both;
+    onlySoup.meshes.erase(onlySoup.meshes.begin());
+    PLX_CHECK(onlySoup.finalize().isOk());
+
+    Camera cam = makeCamera({0.2f, 0.1f, 3.0f}, {0, 0, -2}, 150, 100, 70.0f);
+    FrameBuffers ref, fast;
+    ref.resize(150, 100);
+    fast.resize(150, 100);
+    renderReference(both, cam, {}, ref.targets());
+    for (int tile : {8, 64}) {
+        auto r = makeRenderer(2, tile);
+        RenderStats st = r->render(both, cam, {}, fast.targets());
+        EXPECT_GT(st.tilePairsOccluded, 300u) << "tile " << tile;
+        expectSameTargets(fast, ref, "one call, tile " + std::to_string(tile));
+        // The wall first, then the soup over the kept targets: the blocks start unknown.
+        RenderOptions keep;
+        keep.clearTargets = false;
+        r->render(wall, cam, {}, fast.targets());
+        st = r->render(onlySoup, cam, keep, fast.targets());
+        EXPECT_GT(st.tilePairsOccluded, 300u) << "tile " << tile;
+        FrameBuffers ref2;
+        ref2.resize(150, 100);
+        renderReference(wall, cam, {}, ref2.targets());
+        renderReference(onlySoup, cam, keep, ref2.targets());
+        expectSameTargets(fast, ref2, "two calls, tile " + std::to_string(tile));
+    }
+}
+
 TEST(Raster, SubsetOfAllTrianglesReproducesFullRender) {
     Scene s = randomSoup(200, 9, true);
     Camera cam = makeCamera({1, 2, 9}, {0, 0, 0}, 96, 64);

@@ -63,6 +63,9 @@ struct RenderStats {
     uint64_t trianglesSubmitted = 0;  // triangles considered
     uint64_t trianglesClipped = 0;    // triangles that crossed a clip plane
     uint64_t trianglesBinned = 0;     // triangles (after clipping) that reached the tiles
+    // Triangle-tile pairs skipped before setup because the depth already in the tile's 8x8
+    // blocks hides them (coarse occlusion culling; the images are the same without it).
+    uint64_t tilePairsOccluded = 0;
     double milliseconds = 0.0;
 };
 

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -70,6 +71,19 @@ inline RasterVertex snapVertex(const Vec4& c, const Viewport& vp, const Vec3& ba
     v.bary = bary;
     return v;
 }
+
+// A transformed mesh vertex: its outcode, and, when the code has no kOutNeedsClip bit, its
+// snapped position and 1/w (zero otherwise).
+struct VertexOut {
+    int32_t x, y;  // fixed point
+    float invW;
+    uint32_t code;
+};
+
+// Transforms positions[0 .. count) to clip space (clipFromWorld * (p, 1)), outcodes and snaps
+// them into out[0 .. count).
+void transformPositions(const Vec3* positions, size_t count, const Mat4& clipFromWorld,
+                        const Viewport& vp, VertexOut* out);
 
 inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px, int64_t py) {
     return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);

@@ -32,12 +32,6 @@ constexpr size_t kSubsetChunkTriangles = 512;
 // Bin entries with this bit refer to a chunk's materialised triangles (clipped or subset).
 constexpr uint32_t kMaterialisedBit = 0x80000000u;
 
-struct VertexOut {
-    int32_t x, y;  // fixed point, valid when code has no kOutNeedsClip bit
-    float invW;
-    uint32_t code;
-};
-
 // A binned triangle carries its snapped vertices, so the tile stage streams
 // through its bins instead of gathering vertices from scattered memory (measured: gathering
 // made random-order scenes 3x slower). Barycentric weights of clipped or subset triangles stay
@@ -205,18 +199,7 @@ void Renderer::Impl::transformVertices(const scene::Scene& scene, const Camera& 
         const auto& positions = scene.meshes[m].positions;
         VertexOut* out = vertices.data() + meshVertexBase[m];
         pool.parallelFor(positions.size(), 16384, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) {
-                Vec4 c = clipFromWorld * Vec4(positions[i], 1.0f);
-                uint32_t code = outcode(c, vp);
-                VertexOut v{0, 0, 0.0f, code};
-                if (!(code & kOutNeedsClip)) {
-                    RasterVertex r = snapVertex(c, vp, Vec3(0.0f));
-                    v.x = r.x;
-                    v.y = r.y;
-                    v.invW = r.invW;
-                }
-                out[i] = v;
-            }
+            transformPositions(positions.data() + b, e - b, clipFromWorld, vp, out + b);
         });
     }
 }

@@ -326,7 +326,8 @@ bool DepthBlocks::hides(int x0, int y0, int x1, int y1, float nearest,
 
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                        int x0, int y0, int x1, int y1, DepthBlocks* blocks) {
-    [[maybe_unused]] const int limitX = x1;  // the caller's rectangle is ours to write, past the triangle too
+    // The caller's rectangle is ours to write, past the triangle too.
+    [[maybe_unused]] const int limitX = x1;
     x0 = std::max(x0, t.minX);
     y0 = std::max(y0, t.minY);
     x1 = std::min(x1, t.maxX);

@@ -58,16 +58,15 @@ void transformEight(const Vec3* p, const Mat4& m, const Viewport& vp, VertexOut*
     code = _mm256_or_si256(code, bitWhere(_mm256_cmp_ps(cy, cw, _CMP_GT_OQ), kOutTop));
     code = _mm256_or_si256(code, bitWhere(_mm256_cmp_ps(cz, negW, _CMP_LT_OQ), kOutNear));
     code = _mm256_or_si256(code, bitWhere(_mm256_cmp_ps(cz, cw, _CMP_GT_OQ), kOutFar));
-    __m256 guard = _mm256_or_ps(
-        _mm256_cmp_ps(_mm256_and_ps(cx, absMask), _mm256_mul_ps(_mm256_set1_ps(vp.guardX), cw),
-                      _CMP_GT_OQ),
-        _mm256_cmp_ps(_mm256_and_ps(cy, absMask), _mm256_mul_ps(_mm256_set1_ps(vp.guardY), cw),
-                      _CMP_GT_OQ));
+    __m256 guard =
+        _mm256_or_ps(_mm256_cmp_ps(_mm256_and_ps(cx, absMask),
+                                   _mm256_mul_ps(_mm256_set1_ps(vp.guardX), cw), _CMP_GT_OQ),
+                     _mm256_cmp_ps(_mm256_and_ps(cy, absMask),
+                                   _mm256_mul_ps(_mm256_set1_ps(vp.guardY), cw), _CMP_GT_OQ));
     code = _mm256_or_si256(code, bitWhere(guard, kOutGuard));
-    __m256 nan = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(cw, cw, _CMP_UNORD_Q),
-                                           _mm256_cmp_ps(cx, cx, _CMP_UNORD_Q)),
-                              _mm256_or_ps(_mm256_cmp_ps(cy, cy, _CMP_UNORD_Q),
-                                           _mm256_cmp_ps(cz, cz, _CMP_UNORD_Q)));
+    __m256 nan = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(cw, cw, _CMP_UNORD_Q), _mm256_cmp_ps(cx, cx, _CMP_UNORD_Q)),
+        _mm256_or_ps(_mm256_cmp_ps(cy, cy, _CMP_UNORD_Q), _mm256_cmp_ps(cz, cz, _CMP_UNORD_Q)));
     code = _mm256_or_si256(code, bitWhere(nan, kOutFrustum));
     // snapVertex() for the lanes that need no clipping; the others stay zero.
     const __m256i snapped = _mm256_cmpeq_epi32(

@@ -56,6 +56,28 @@ struct Unsampled {
     float maxInvW;
 };
 
+// Decides, per tile, whether the occlusion test is worth its cost: once it has hidden fewer than
+// one in kMinHitRatio of the tile's triangles (a dense mesh whose triangles are in front as they
+// come, say) it only probes every kProbeStride-th triangle, so such tiles pay a sixteenth of the
+// test, and resumes testing all if the probes start hitting. Only the cost changes, never the
+// image. Measured (callgrind, one 1280x720 frame): the subdivided helmet 347M -> 315M
+// instructions, office:64 304M -> 308M.
+class OcclusionProbe {
+public:
+    bool shouldTest() {
+        if (mTests < kWarmup || mHits * kMinHitRatio >= mTests) return true;
+        return ++mSkipped % kProbeStride == 0;
+    }
+    void record(bool hit) {
+        ++mTests;
+        mHits += hit ? 1 : 0;
+    }
+
+private:
+    static constexpr uint32_t kWarmup = 32, kMinHitRatio = 16, kProbeStride = 16;
+    uint32_t mTests = 0, mHits = 0, mSkipped = 0;
+};
+
 struct Chunk {
     // Full render: mesh-local triangle range of one mesh. Subset: a range of the subset list.
     size_t mesh = 0;
@@ -403,6 +425,7 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     blocks.reset(x0, y0, x1, y1, options.clearTargets);
     // The second depth layer needs the hidden triangles too: no occlusion culling for it.
     DepthBlocks* occlusion = rt.id2.data ? nullptr : &blocks;
+    OcclusionProbe probe;
     TriangleSetup setup;
     for (size_t c = 0; c < chunkCount; ++c) {
         const Chunk& chunk = chunks[c];
@@ -410,9 +433,13 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             RasterVertex v[3];
             for (int k = 0; k < 3; ++k)
                 v[k] = {tri.x[k], tri.y[k], tri.invW[k], Vec3(k == 0, k == 1, k == 2)};
-            if (occlusion && hidden(v, vp, ctx, x0, y0, x1, y1, rt.depth)) {
-                ++occludedPerTile[size_t(tile)];
-                continue;
+            if (occlusion && probe.shouldTest()) {
+                bool hit = hidden(v, vp, ctx, x0, y0, x1, y1, rt.depth);
+                probe.record(hit);
+                if (hit) {
+                    ++occludedPerTile[size_t(tile)];
+                    continue;
+                }
             }
             size_t mesh = chunk.mesh;
             uint32_t localTri = tri.ref;

@@ -98,7 +98,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const uint32_t ransBytes =
         uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
     p += 4;
-    const uint32_t minBytes = simd ? 4 * detail::kSimdStates : fast ? 4 * detail::kFastStates : 8;
+    const int simdStates = detail::simdStoredStates(img.channels, img.width);
+    const uint32_t minBytes = simd ? 4 * uint32_t(simdStates) : fast ? 4 * detail::kFastStates : 8;
     if (ransBytes < minBytes || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
         return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
     const size_t extraBytes = size_t(end - p) - ransBytes;
@@ -107,7 +108,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
         std::vector<uint32_t> entries(tables * detail::kRansTotal);
         for (size_t t = 0; t < tables; ++t)
             detail::buildSimdTable(freqs[t], entries.data() + t * detail::kRansTotal);
-        detail::SimdDecodeIO io(entries.data(), familyTables, p, p + ransBytes,
+        detail::SimdDecodeIO io(entries.data(), familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
         const bool walked = decodeLevelFast(img.channels, *low, img, io);
         return finishFast(walked, io, extraBytes, k);

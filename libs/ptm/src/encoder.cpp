@@ -116,7 +116,10 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     for (const auto& f : freqs) detail::writeTable(out, f);
     std::vector<uint8_t> rans;
     if constexpr (std::is_same_v<IO, detail::FastEncodeIO>)
-        rans = detail::ransEncodeLanes(io.symbols, freqs, ctxToTable, lanes);
+        rans = detail::ransEncodeLanes(
+            io.symbols, freqs, ctxToTable, lanes,
+            lanes == detail::kSimdStates ? detail::simdStoredStates(level.channels, level.width)
+                                         : lanes);
     else
         rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));

@@ -66,9 +66,9 @@ struct FastTable {
 void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t);
 
 // rANS-encodes symbols (decode order) with per-context frequencies over `lanes` states (4 for
-// coder 3, kSimdStates for coder 4); symbol i uses state lane[i]. Returns the final states (state
-// 0 first, each as high then low 16-bit word) then the renormalisation words, each 16-bit word
-// little-endian.
+// coder 3, kSimdStates for coder 4); symbol i uses state lane[i]. Returns the final states of
+// lanes 0..stored-1 (state 0 first, each as high then low 16-bit word; lanes from `stored` on
+// must be unused) then the renormalisation words, each 16-bit word little-endian.
 struct LaneSymbol {
     uint16_t ctx;
     uint8_t token;
@@ -76,7 +76,8 @@ struct LaneSymbol {
 };
 std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                     const std::vector<uint16_t>& ctxToTable, int lanes);
+                                     const std::vector<uint16_t>& ctxToTable, int lanes,
+                                     int stored);
 
 // Encoder IO: records the tokens of a run (z is the input) and their extra bits.
 struct FastEncodeIO {

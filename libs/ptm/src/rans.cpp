@@ -2,6 +2,8 @@
 
 #include <cstring>
 
+#include <plx/core/check.h>
+
 #include "fast_codec.h"
 #include "simd_codec.h"
 
@@ -182,7 +184,8 @@ void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* ent
 
 std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                     const std::vector<uint16_t>& ctxToTable, int lanes) {
+                                     const std::vector<uint16_t>& ctxToTable, int lanes,
+                                     int stored) {
     const auto cums = cumulativeFrequencies(freqs);
     std::vector<uint16_t> words;
     words.reserve(symbols.size() / 2 + 8);
@@ -199,14 +202,18 @@ std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
         st = ((st / f) << kRansPrecision) + (st % f) + c;
     }
     std::vector<uint8_t> out;
-    out.reserve(4 * size_t(lanes) + 2 * words.size());
+    out.reserve(4 * size_t(stored) + 2 * words.size());
     auto putWord = [&](uint32_t w) {
         out.push_back(uint8_t(w & 0xFF));
         out.push_back(uint8_t(w >> 8));
     };
-    for (uint32_t s : x) {
-        putWord(s >> 16);
-        putWord(s & 0xFFFF);
+    for (int l = 0; l < lanes; ++l) {
+        if (l >= stored) {
+            PLX_CHECK(x[size_t(l)] == kRansLow);  // an unused lane (not stored)
+            continue;
+        }
+        putWord(x[size_t(l)] >> 16);
+        putWord(x[size_t(l)] & 0xFFFF);
     }
     for (size_t i = words.size(); i-- > 0;) putWord(words[i]);
     return out;

@@ -16,6 +16,7 @@
 // A scalar decoder of the same stream handles the tail of a run (fewer than 32 symbols), the last
 // 64 bytes of the stream (bounds-checked reads) and builds without AVX2.
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
@@ -34,6 +35,12 @@ namespace plx::ptm::detail {
 
 inline constexpr int kSimdStates = 32;
 inline constexpr int kSimdVectors = kSimdStates / 8;
+
+// States a group stores (the others are unused and stay 2^16): as many as the longest run of the
+// level (C times the blocks of a block row that code p00, at least C), at most kSimdStates.
+inline int simdStoredStates(int comps, int width) {
+    return std::min(kSimdStates, comps * std::max(1, width / 2));
+}
 
 // Decode entry of one slot: frequency in bits 0..12 (1..4096), slot - cumulative start in bits
 // 13..24, token in bits 27..31.
@@ -79,16 +86,21 @@ struct SimdDecodeIO {
     bool overrun = false;
 
     // familyTables[f] = {first table, g} of family f (context map).
-    SimdDecodeIO(const uint32_t* tableEntries, const std::array<std::array<int, 2>, 16>& familyTables,
+    // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.
+    SimdDecodeIO(const uint32_t* tableEntries,
+                 const std::array<std::array<int, 2>, 16>& familyTables, int stored,
                  const uint8_t* begin, const uint8_t* streamEnd, BitReader extra)
         : entries(tableEntries), ptr(begin), end(streamEnd), bits(extra) {
         for (size_t f = 0; f < families.size(); ++f) {
             const int g = familyTables[f][1];
             families[f] = {familyTables[f][0], familyRawContexts(int(f) & 3) == 16 ? 512 * g : 683 * g};
         }
-        for (uint32_t& s : x) {
-            s = readWord() << 16;
-            s |= readWord();
+        for (int i = 0; i < kSimdStates; ++i) {
+            x[i] = kRansLow;
+            if (i < stored) {
+                x[i] = readWord() << 16;
+                x[i] |= readWord();
+            }
         }
     }
     CtxMap ctxMap(int c, int kind) const { return families[size_t(4 * c + kind)]; }

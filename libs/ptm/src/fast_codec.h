@@ -438,9 +438,16 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         const uint8_t* lm = low.bytes.data() + size_t(by) * lowStride;
         const uint8_t* lu = low.bytes.data() + size_t(std::max(by - 1, 0)) * lowStride;
         const uint8_t* ld = low.bytes.data() + size_t(std::min(by + 1, lh - 1)) * lowStride;
+        if (by == 0) {
+            for (int c = 0; c < C; ++c) {
+                planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
+                planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
+            }
+        } else {  // rows by - 1 and by are the previous block row's by and by + 1
+            std::swap(R.pu, R.pm);
+            std::swap(R.pm, R.pd);
+        }
         for (int c = 0; c < C; ++c) {
-            planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
-            planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
             planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
             prepareRow(R, lw, c, by == 0);
         }

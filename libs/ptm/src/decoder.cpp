@@ -105,10 +105,11 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const size_t extraBytes = size_t(end - p) - ransBytes;
     if (simd) {
         // One 32-bit entry per slot (16 KB per table); the walker's contexts are table indices.
-        std::vector<uint32_t> entries(tables * detail::kRansTotal);
+        // buildSimdTable writes every entry (a valid table's frequencies sum to kRansTotal).
+        auto entries = std::make_unique_for_overwrite<uint32_t[]>(tables * detail::kRansTotal);
         for (size_t t = 0; t < tables; ++t)
-            detail::buildSimdTable(freqs[t], entries.data() + t * detail::kRansTotal);
-        detail::SimdDecodeIO io(entries.data(), familyTables, simdStates, p, p + ransBytes,
+            detail::buildSimdTable(freqs[t], entries.get() + t * detail::kRansTotal);
+        detail::SimdDecodeIO io(entries.get(), familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
         const bool walked = decodeLevelFast(img.channels, *low, img, io);
         return finishFast(walked, io, extraBytes, k);

@@ -383,8 +383,11 @@ int runCoderAB(const std::vector<std::string>& files) {
         const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
         double best3 = 1e30, best4 = 1e30;
         for (int i = 0; i < 5; ++i) {
-            best3 = std::min(best3, bestCpuMs(2, [&] { PLX_CHECK(plx::ptm::decodeImage(f3).isOk()); }));
-            best4 = std::min(best4, bestCpuMs(2, [&] { PLX_CHECK(plx::ptm::decodeImage(f4).isOk()); }));
+            auto decode = [](const std::vector<uint8_t>& file) {
+                return [&file] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); };
+            };
+            best3 = std::min(best3, bestCpuMs(2, decode(f3)));
+            best4 = std::min(best4, bestCpuMs(2, decode(f4)));
         }
         ms3 += best3;
         ms4 += best4;

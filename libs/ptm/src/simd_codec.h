@@ -93,7 +93,8 @@ struct SimdDecodeIO {
         : entries(tableEntries), ptr(begin), end(streamEnd), bits(extra) {
         for (size_t f = 0; f < families.size(); ++f) {
             const int g = familyTables[f][1];
-            families[f] = {familyTables[f][0], familyRawContexts(int(f) & 3) == 16 ? 512 * g : 683 * g};
+            const int mul = familyRawContexts(int(f) & 3) == 16 ? 512 * g : 683 * g;
+            families[f] = {familyTables[f][0], mul};
         }
         for (int i = 0; i < kSimdStates; ++i) {
             x[i] = kRansLow;
@@ -198,7 +199,8 @@ struct SimdDecodeIO {
         int j = runVector(ctx, n, z);
         for (; j < n; ++j) {  // the tail and the stream's end, checked
             uint32_t& st = x[j % kSimdStates];
-            const uint32_t e = entries[(uint32_t(ctx[j]) << kRansPrecision) + (st & (kRansTotal - 1))];
+            const uint32_t slot = st & (kRansTotal - 1);
+            const uint32_t e = entries[(uint32_t(ctx[j]) << kRansPrecision) + slot];
             st = (e & kEntryFreqMask) * (st >> kRansPrecision) + ((e >> kEntryBiasShift) & 0xFFF);
             if (st < kRansLow) st = (st << 16) | readWord();
             z[j] = uint8_t(e >> kEntryTokenShift);

@@ -2,7 +2,8 @@
 //   plx_ptm_bench sizes [--cache CSV] FILES...
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
-//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=1..3) next to libpng decode
+//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=1..4) next to libpng decode
+//   plx_ptm_bench coderab FILES...  coder 3 against coder 4: sizes, decode MB/s, libpng
 //   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers)
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
@@ -29,7 +30,7 @@ namespace {
 
 using plx::ByteImage;
 
-// The coder of the "PTM" columns: PLX_PTM_CODER=2 or 3, else the library default.
+// The coder of the "PTM" columns: PLX_PTM_CODER=1..4, else the library default.
 plx::ptm::EncodeConfig ptmConfig() {
     plx::ptm::EncodeConfig cfg;
     if (const char* c = std::getenv("PLX_PTM_CODER")) cfg.coder = plx::ptm::Coder(std::atoi(c));
@@ -294,19 +295,21 @@ double bestCpuMs(int reps, F&& f) {
 int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
-    constexpr int kCodecs = 6;
+    constexpr int kCodecs = 7;
     double enc[kCodecs] = {}, dec[kCodecs] = {};
-    const char* names[kCodecs] = {"PTM predict+rans-fast (coder 3, default)",
+    const char* names[kCodecs] = {"PTM predict+rans-fast (coder 3)",
                                   "PTM predict+rans (coder 2)",
                                   "PTM predict+zstd (coder 1, zstd 9)", "PNG (libpng 9)",
-                                  "WebP lossless", "JPEG XL lossless e7"};
+                                  "WebP lossless", "JPEG XL lossless e7",
+                                  "PTM predict+rans-simd (coder 4, default)"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
-        std::vector<uint8_t> p3, p2, p1, png, webp, jxl;
-        plx::ptm::EncodeConfig c3, c2, c1;
+        std::vector<uint8_t> p4, p3, p2, p1, png, webp, jxl;
+        plx::ptm::EncodeConfig c4, c3, c2, c1;
+        c4.coder = plx::ptm::Coder::kPredictRansSimd;
         c3.coder = plx::ptm::Coder::kPredictRansFast;
         c2.coder = plx::ptm::Coder::kPredictRans;
         c1.coder = plx::ptm::Coder::kPredictZstd;
@@ -318,6 +321,7 @@ int runSpeed(const std::vector<std::string>& files) {
         enc[3] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
         enc[4] += bestMs(1, [&] { webp = webpEncode(peer); });
         enc[5] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
+        enc[6] += bestMs(3, [&] { p4 = *plx::ptm::encode(*img, c4); });
         dec[0] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p3).isOk()); });
         dec[1] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p2).isOk()); });
         dec[2] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p1).isOk()); });
@@ -325,6 +329,7 @@ int runSpeed(const std::vector<std::string>& files) {
         dec[4] += bestCpuMs(5, [&] { PLX_CHECK(webpDecode(webp, peer.channels)); });
         std::vector<uint8_t> px;
         dec[5] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
+        dec[6] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p4).isOk()); });
     }
     std::printf("%.1f MB of base-level pixels, single thread\n", mb);
     std::printf("| codec | encode MB/s | decode MB/s (CPU time) | decode vs libpng |\n"
@@ -338,23 +343,62 @@ int runSpeed(const std::vector<std::string>& files) {
 // PTM alone (PLX_PTM_CODER or the default coder): best-of-N single-thread decode and encode
 // MB/s, wall and CPU time, and libpng's decode of the same images in the same run.
 int runPtmSpeed(const std::vector<std::string>& files) {
-    double mb = 0, encMs = 0, decMs = 0, decCpuMs = 0, pngCpuMs = 0;
+    double mb = 0, encMs = 0, decMs = 0, decCpuMs = 0, pngCpuMs = 0, ptmBytes = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         mb += double(img->bytes.size()) / 1e6;
         std::vector<uint8_t> file;
         encMs += bestMs(3, [&] { file = *plx::ptm::encode(*img, ptmConfig()); });
+        ptmBytes += double(file.size());
         decMs += bestMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
         decCpuMs += bestCpuMs(7, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
         const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
         pngCpuMs += bestCpuMs(5, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
     }
-    std::printf("PTM coder %d: %.1f MB, encode %.1f MB/s, decode %.1f MB/s (one thread)\n",
-                int(ptmConfig().coder), mb,
-                mb / (encMs / 1e3), mb / (decMs / 1e3));
+    std::printf("PTM coder %d: %.1f MB, %.0f PTM bytes, encode %.1f MB/s, decode %.1f MB/s (one "
+                "thread)\n",
+                int(ptmConfig().coder), mb, ptmBytes, mb / (encMs / 1e3), mb / (decMs / 1e3));
     std::printf("CPU time: PTM decode %.1f MB/s, libpng decode %.1f MB/s, ratio %.2f\n",
                 mb / (decCpuMs / 1e3), mb / (pngCpuMs / 1e3), pngCpuMs / decCpuMs);
+    return 0;
+}
+
+// Coder 3 against coder 4 on the same images: sizes and best-of-N CPU decode times, the two
+// decoders alternated so that load on a shared machine hits both alike; libpng in the same run.
+int runCoderAB(const std::vector<std::string>& files) {
+    double mb = 0, bytes3 = 0, bytes4 = 0, ms3 = 0, ms4 = 0, pngMs = 0;
+    for (const auto& f : files) {
+        auto img = plx::readImage(f);
+        if (!img) continue;
+        mb += double(img->bytes.size()) / 1e6;
+        plx::ptm::EncodeConfig c3, c4;
+        c3.coder = plx::ptm::Coder::kPredictRansFast;
+        c4.coder = plx::ptm::Coder::kPredictRansSimd;
+        const std::vector<uint8_t> f3 = *plx::ptm::encode(*img, c3);
+        const std::vector<uint8_t> f4 = *plx::ptm::encode(*img, c4);
+        PLX_CHECK(*plx::ptm::decodeImage(f3) == *img && *plx::ptm::decodeImage(f4) == *img);
+        bytes3 += double(f3.size());
+        bytes4 += double(f4.size());
+        const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
+        double best3 = 1e30, best4 = 1e30;
+        for (int i = 0; i < 5; ++i) {
+            auto decode = [](const std::vector<uint8_t>& file) {
+                return [&file] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); };
+            };
+            best3 = std::min(best3, bestCpuMs(2, decode(f3)));
+            best4 = std::min(best4, bestCpuMs(2, decode(f4)));
+        }
+        ms3 += best3;
+        ms4 += best4;
+        pngMs += bestCpuMs(7, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
+    }
+    std::printf("%.1f MB of base pixels; bytes: coder 3 %.0f, coder 4 %.0f (%.4fx)\n", mb, bytes3,
+                bytes4, bytes4 / bytes3);
+    std::printf("decode MB/s (CPU time): coder 3 %.1f, coder 4 %.1f (%.2fx), libpng %.1f; vs "
+                "libpng: %.2f, %.2f\n",
+                mb / (ms3 / 1e3), mb / (ms4 / 1e3), ms3 / ms4, mb / (pngMs / 1e3), pngMs / ms3,
+                pngMs / ms4);
     return 0;
 }
 
@@ -370,6 +414,7 @@ int main(int argc, char** argv) {
     if (mode == "sizes") return runSizes(files);
     if (mode == "speed") return runSpeed(files);
     if (mode == "ptmspeed") return runPtmSpeed(files);
+    if (mode == "coderab") return runCoderAB(files);
     if (mode == "ptmdecode") {  // for profilers: encode once, decode 20 times
         for (const auto& f : files) {
             auto img = plx::readImage(f);

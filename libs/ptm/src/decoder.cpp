@@ -9,6 +9,7 @@
 #include "codec.h"
 #include "ctx_codec.h"
 #include "fast_codec.h"
+#include "simd_codec.h"
 
 static_assert(std::endian::native == std::endian::little, "the bit reader assumes little-endian");
 
@@ -37,8 +38,9 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
-// Coder 3, group k >= 1: runtime component count to the walker's template argument.
-bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, detail::FastDecodeIO& io) {
+// Coders 3 and 4, group k >= 1: runtime component count to the walker's template argument.
+template <class IO>
+bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
     uint8_t* px = img.bytes.data();
     switch (comps) {
     case 1: return detail::walkLevelFast<1>(low, px, img.width, img.height, io);
@@ -48,11 +50,27 @@ bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, detail::Fa
     }
 }
 
-// Coder 2 and 3 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra bits.
+// The end of a coder 3 or 4 group: the walker's result, then the streams' ends.
+template <class IO>
+Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
+    if (!walked)
+        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
+                                   "of range", k));
+    if (!io.finishedCleanly())
+        return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
+    if (!io.bits.exact(extraBytes))
+        return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
+    return Status::ok();
+}
+
+// Coder 2, 3 and 4 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra
+// bits.
 Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
-                       bool fast) {
+                       Coder coder) {
     const bool lowest = k == 0;
-    fast = fast && !lowest;  // coder 3's group 0 is coder 2's
+    const bool simd = coder == Coder::kPredictRansSimd && !lowest;
+    // coder 3's and 4's group 0 is coder 2's
+    const bool fast = coder == Coder::kPredictRansFast && !lowest;
     const uint8_t* p = in.data();
     const uint8_t* end = in.data() + in.size();
     std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
@@ -60,6 +78,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const int families = detail::familyCount(img.channels, lowest);
     if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
     size_t tables = 0;
+    std::array<std::array<int, 2>, 16> familyTables{};  // coder 4: {first table, g} per family
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -68,6 +87,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
             return corrupt(fmt::format("level {}: bad table count {} in the context map", k, g));
         for (int q = 0; q < raw; ++q)
             ctxToTable[size_t(f * detail::kFamilyContexts + q)] = uint16_t(tables + size_t(q * g / raw));
+        familyTables[size_t(f)] = {int(tables), g};
         tables += size_t(g);
     }
     freqs.resize(tables);
@@ -78,9 +98,22 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const uint32_t ransBytes =
         uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
     p += 4;
-    const uint32_t minBytes = fast ? 4 * detail::kFastStates : 8;
+    const int simdStates = detail::simdStoredStates(img.channels, img.width);
+    const uint32_t minBytes = simd ? 4 * uint32_t(simdStates) : fast ? 4 * detail::kFastStates : 8;
     if (ransBytes < minBytes || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
         return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
+    const size_t extraBytes = size_t(end - p) - ransBytes;
+    if (simd) {
+        // One 32-bit entry per slot (16 KB per table); the walker's contexts are table indices.
+        // buildSimdTable writes every entry (a valid table's frequencies sum to kRansTotal).
+        auto entries = std::make_unique_for_overwrite<uint32_t[]>(tables * detail::kRansTotal);
+        for (size_t t = 0; t < tables; ++t)
+            detail::buildSimdTable(freqs[t], entries.get() + t * detail::kRansTotal);
+        detail::SimdDecodeIO io(entries.get(), familyTables, simdStates, p, p + ransBytes,
+                                detail::BitReader(p + ransBytes, end));
+        const bool walked = decodeLevelFast(img.channels, *low, img, io);
+        return finishFast(walked, io, extraBytes, k);
+    }
     if (fast) {
         auto fastTables = std::make_unique<detail::FastTable[]>(tables);
         for (size_t t = 0; t < tables; ++t) detail::buildFastTable(freqs[t], fastTables[t]);
@@ -88,14 +121,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
         for (size_t q = 0; q < tableOf.size(); ++q) tableOf[q] = &fastTables[ctxToTable[q]];
         detail::FastDecodeIO io(tableOf.data(), p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
-        if (!decodeLevelFast(img.channels, *low, img, io))
-            return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) "
-                                       "out of range", k));
-        if (!io.finishedCleanly())
-            return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
-        if (!io.bits.exact(size_t(end - p) - ransBytes))
-            return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
-        return Status::ok();
+        const bool walked = decodeLevelFast(img.channels, *low, img, io);
+        return finishFast(walked, io, extraBytes, k);
     }
     auto decodeTables = std::make_unique<detail::DecodeTable[]>(tables);
     for (size_t t = 0; t < tables; ++t) detail::buildDecodeTable(freqs[t], decodeTables[t]);
@@ -113,7 +140,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
                                    "of range", k));
     if (!io.rans.finishedCleanly())
         return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
-    if (!io.bits.exact(size_t(end - p) - ransBytes))
+    if (!io.bits.exact(extraBytes))
         return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
     return Status::ok();
 }
@@ -141,12 +168,12 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
-    if (mHeader.coder == Coder::kPredictRans || mHeader.coder == Coder::kPredictRansFast) {
+    if (mHeader.coder == Coder::kPredictRans || mHeader.coder == Coder::kPredictRansFast ||
+        mHeader.coder == Coder::kPredictRansSimd) {
         ByteImage img{size.width, size.height, comps, {}};
         img.bytes.resize(img.rowBytes() * size_t(size.height));
         PLX_RETURN_IF_ERROR(
-            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k,
-                            mHeader.coder == Coder::kPredictRansFast));
+            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k, mHeader.coder));
         mLevels.push_back(std::move(img));
         return Status::ok();
     }

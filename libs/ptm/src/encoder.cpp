@@ -9,6 +9,7 @@
 #include "codec.h"
 #include "ctx_codec.h"
 #include "fast_codec.h"
+#include "simd_codec.h"
 
 namespace plx::ptm {
 namespace {
@@ -73,9 +74,11 @@ void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level,
 }
 
 template <class IO>
-std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k) {
+std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
+                                         int lanes = detail::kFastStates) {
     ByteImage level = chain[size_t(k)];
     IO io;
+    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) io.lanes = lanes;
     const bool lowest = k == 0;
     walkForEncode(chain, k, level, io);
     using Hist = std::array<uint32_t, detail::kTokenCount>;
@@ -113,7 +116,10 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     for (const auto& f : freqs) detail::writeTable(out, f);
     std::vector<uint8_t> rans;
     if constexpr (std::is_same_v<IO, detail::FastEncodeIO>)
-        rans = detail::ransEncodeLanes(io.symbols, freqs, ctxToTable);
+        rans = detail::ransEncodeLanes(
+            io.symbols, freqs, ctxToTable, lanes,
+            lanes == detail::kSimdStates ? detail::simdStoredStates(level.channels, level.width)
+                                         : lanes);
     else
         rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));
@@ -123,9 +129,12 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     return out;
 }
 
-std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k, bool fast) {
-    return fast && k > 0 ? encodeGroupRansWith<detail::FastEncodeIO>(chain, k)
-                         : encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
+// Coder 2 everywhere, coders 3 and 4 for groups k >= 1 (4 or kSimdStates rANS states).
+std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k, Coder coder) {
+    if (k == 0 || coder == Coder::kPredictRans)
+        return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
+    const int lanes = coder == Coder::kPredictRansSimd ? detail::kSimdStates : detail::kFastStates;
+    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes);
 }
 
 Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
@@ -163,7 +172,7 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: pixel buffer size mismatch");
     if (config.lowestMaxSide < 1)
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
-    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRansFast))
+    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRansSimd))
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
@@ -182,11 +191,11 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        const bool rans =
-            config.coder == Coder::kPredictRans || config.coder == Coder::kPredictRansFast;
+        const bool rans = config.coder == Coder::kPredictRans ||
+                          config.coder == Coder::kPredictRansFast ||
+                          config.coder == Coder::kPredictRansSimd;
         std::vector<uint8_t> payload =
-            rans ? encodeGroupRans(chain, k, config.coder == Coder::kPredictRansFast)
-                 : buildPayload(chain, k, config.coder);
+            rans ? encodeGroupRans(chain, k, config.coder) : buildPayload(chain, k, config.coder);
         if (config.coder == Coder::kPredictZstd) {
             auto packed = compress(payload, config.zstdLevel);
             if (!packed) return packed.status();

@@ -40,6 +40,21 @@ namespace plx::ptm::detail {
 
 inline constexpr int kFastStates = 4;
 
+// Raw context id (family 4c + kind, raw context q), as coder 2.
+inline int rawCtx(int c, int kind, int q) { return (4 * c + kind) * kFamilyContexts + q; }
+
+// The context ids a walker writes for family (c, kind): raw context q becomes
+// `base + ((q * mul) >> 13)`. The encoder and coder 3's decoder use the raw ids (base =
+// rawCtx(c, kind, 0), mul = 8192); coder 4's decoder maps straight to the family's table index
+// `first + q * g / R` of the context map (exact with mul = 683 g for R = 12, q * g <= 132, and
+// mul = 512 g for R = 16).
+struct CtxMap {
+    int base = 0;
+    int mul = 8192;
+    int operator()(int q) const { return base + ((q * mul) >> 13); }
+};
+inline CtxMap rawCtxMap(int c, int kind) { return {rawCtx(c, kind, 0), 8192}; }
+
 // Decode table of one context for coder 3: the token of every 12-bit slot (one load per symbol)
 // and per token its frequency (low 16 bits) and cumulative start (high 16 bits).
 struct FastTable {
@@ -50,9 +65,10 @@ struct FastTable {
 // frequency kRansTotal, which keeps the state and is caught by the final state check).
 void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t);
 
-// rANS-encodes symbols (decode order) with per-context frequencies over kFastStates states;
-// symbol i uses state lane[i]. Returns the four final states (each as high then low 16-bit
-// word) then the renormalisation words, each 16-bit word little-endian.
+// rANS-encodes symbols (decode order) with per-context frequencies over `lanes` states (4 for
+// coder 3, kSimdStates for coder 4); symbol i uses state lane[i]. Returns the final states of
+// lanes 0..stored-1 (state 0 first, each as high then low 16-bit word; lanes from `stored` on
+// must be unused) then the renormalisation words, each 16-bit word little-endian.
 struct LaneSymbol {
     uint16_t ctx;
     uint8_t token;
@@ -60,22 +76,25 @@ struct LaneSymbol {
 };
 std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                     const std::vector<uint16_t>& ctxToTable);
+                                     const std::vector<uint16_t>& ctxToTable, int lanes,
+                                     int stored);
 
 // Encoder IO: records the tokens of a run (z is the input) and their extra bits.
 struct FastEncodeIO {
     static constexpr bool kEncode = true;
     std::vector<LaneSymbol> symbols;
     BitWriter bits;
+    int lanes = kFastStates;  // symbol j of a run uses state j mod lanes
+    CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
     template <bool kExtra>
     void run(const uint16_t* ctx, int n, uint8_t* z) {
         for (int j = 0; j < n; ++j) {
             if constexpr (kExtra) {
                 const TokenSplit s = splitToken(z[j]);
-                symbols.push_back({ctx[j], uint8_t(s.token), uint8_t(j % kFastStates)});
+                symbols.push_back({ctx[j], uint8_t(s.token), uint8_t(j % lanes)});
                 if (s.bits) bits.put(s.extra, s.bits);
             } else {
-                symbols.push_back({ctx[j], z[j], uint8_t(j % kFastStates)});
+                symbols.push_back({ctx[j], z[j], uint8_t(j % lanes)});
             }
         }
     }
@@ -115,6 +134,7 @@ struct FastDecodeIO {
         for (uint32_t s : x) initial = initial && s == kRansLow;
         return !overrun && ptr == end && initial;
     }
+    CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
 
     // One symbol with state s; the renormalisation word is read unchecked (the caller made sure
     // that 2 bytes remain).
@@ -179,8 +199,6 @@ struct FastDecodeIO {
     }
 };
 
-// Raw context id (family 4c + kind, raw context q), as coder 2.
-inline int rawCtx(int c, int kind, int q) { return (4 * c + kind) * kFamilyContexts + q; }
 // |unzigzag(z)| and unzigzag(z), branch-free.
 inline int magnitude(int z) { return (z + 1) >> 1; }
 inline int unzigzagFast(int z) { return (z >> 1) ^ -(z & 1); }
@@ -319,14 +337,13 @@ PLX_PTM_IVDEP
 // Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
 // from the row's activity act0 and the magnitudes of the runs already decoded).
 template <int kKind>
-void fullRunContexts(FastRows& R, int lw, int full, int c) {
+void fullRunContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const int* __restrict act0 = R.act0.data() + pi;
     const uint8_t* __restrict z0 = R.z0.data() + ri;
     const uint8_t* __restrict z1 = R.z1.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
     int* __restrict e = R.mag.data() + 1;  // magnitudes of the previous run, ends replicated
-    const int base = rawCtx(c, kKind, 0);
     if constexpr (kKind > 0) {
         const uint8_t* __restrict zp = kKind == 1 ? z0 : z1;
 PLX_PTM_IVDEP
@@ -341,14 +358,14 @@ PLX_PTM_IVDEP
             a = (a + 3 * e[bx] + e[bx - 1] + e[bx + 1]) >> 1;
         else if constexpr (kKind == 2)
             a = (a + 3 * magnitude(z0[bx]) + 2 * e[bx] + e[bx - 1]) >> 1;
-        ctx[bx] = uint16_t(base + bucketOf(a));
+        ctx[bx] = uint16_t(map(bucketOf(a)));
     }
 }
 
 // eps of the full blocks of a row, component c: contexts from the block sum that the planar
 // prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
 template <bool kEncode>
-void epsContexts(FastRows& R, int lw, int full, int c) {
+void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const int* __restrict m = R.m.data() + pi;
     const int* __restrict act0 = R.act0.data() + pi;
@@ -361,12 +378,11 @@ void epsContexts(FastRows& R, int lw, int full, int c) {
     const int* __restrict v3 = R.v3.data() + ri;
     uint8_t* __restrict ze = R.ze.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
-    const int base = rawCtx(c, 3, 0);
 PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
         const int sHat = std::clamp(2 * (v1[bx] + v2[bx]) - 4 * m[bx], -2, 4);
         const int act = act0[bx] + magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
-        ctx[bx] = uint16_t(base + (sHat + 2) * 2 + (act >= 12 ? 1 : 0));
+        ctx[bx] = uint16_t(map((sHat + 2) * 2 + (act >= 12 ? 1 : 0)));
         if constexpr (kEncode) ze[bx] = uint8_t(v0[bx] + v1[bx] + v2[bx] + v3[bx] - 4 * m[bx]);
     }
 }
@@ -422,9 +438,16 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         const uint8_t* lm = low.bytes.data() + size_t(by) * lowStride;
         const uint8_t* lu = low.bytes.data() + size_t(std::max(by - 1, 0)) * lowStride;
         const uint8_t* ld = low.bytes.data() + size_t(std::min(by + 1, lh - 1)) * lowStride;
+        if (by == 0) {
+            for (int c = 0; c < C; ++c) {
+                planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
+                planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
+            }
+        } else {  // rows by - 1 and by are the previous block row's by and by + 1
+            std::swap(R.pu, R.pm);
+            std::swap(R.pm, R.pd);
+        }
         for (int c = 0; c < C; ++c) {
-            planarRow<C>(lu, lw, c, R.pu.data() + size_t(c) * sw);
-            planarRow<C>(lm, lw, c, R.pm.data() + size_t(c) * sw);
             planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
             prepareRow(R, lw, c, by == 0);
         }
@@ -443,15 +466,15 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                     }
                 for (int c = 0; c < C; ++c) codeFullRow<true>(R, lw, full, c);
             }
-            for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c, io.ctxMap(c, 0));
             io.template run<true>(ctx, n, R.z0.data());
-            for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c, io.ctxMap(c, 1));
             io.template run<true>(ctx, n, R.z1.data());
-            for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c, io.ctxMap(c, 2));
             io.template run<true>(ctx, n, R.z2.data());
             if constexpr (!IO::kEncode)
                 for (int c = 0; c < C; ++c) codeFullRow<false>(R, lw, full, c);
-            for (int c = 0; c < C; ++c) epsContexts<IO::kEncode>(R, lw, full, c);
+            for (int c = 0; c < C; ++c) epsContexts<IO::kEncode>(R, lw, full, c, io.ctxMap(c, 3));
             io.template run<false>(ctx, n, R.ze.data());
             for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
             if constexpr (!IO::kEncode) {
@@ -478,7 +501,7 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                 for (int k = 0; k < np; ++k) {
                     const size_t j = size_t(c) * size_t(np) + size_t(k);
                     const size_t i = size_t(c) * size_t(lw) + size_t(pairFrom + k);
-                    ctx[j] = uint16_t(rawCtx(c, 0, bucketOf(R.act0[i])));
+                    ctx[j] = uint16_t(io.ctxMap(c, 0)(bucketOf(R.act0[i])));
                     const int uo = tall ? R.u2[i] : R.u1[i];  // the other pixel: p01 or p10
                     const int pred = predictBlockPixel(2, R.m[i], 0, R.u0[i] + uo, 2, R.u0[i]);
                     R.v3[j] = pred;
@@ -491,7 +514,8 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                 }
             const int cnt = C * np;
             io.template run<true>(ctx, cnt, R.z0.data());
-            for (int j = 0; j < cnt; ++j) ctx[j] = uint16_t(rawCtx(j / np, 3, kEpsContexts - 2));
+            for (int j = 0; j < cnt; ++j)
+                ctx[j] = uint16_t(io.ctxMap(j / np, 3)(kEpsContexts - 2));
             io.template run<false>(ctx, cnt, R.ze.data());
             for (int c = 0; c < C; ++c)
                 for (int k = 0; k < np; ++k) {

@@ -2,7 +2,10 @@
 
 #include <cstring>
 
+#include <plx/core/check.h>
+
 #include "fast_codec.h"
+#include "simd_codec.h"
 
 namespace plx::ptm::detail {
 
@@ -166,14 +169,27 @@ void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t)
     }
 }
 
+void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries) {
+    uint32_t cum = 0;
+    for (int s = 0; s < kTokenCount; ++s) {
+        const uint32_t f = freq[size_t(s)];
+        const uint32_t head = f | uint32_t(s) << kEntryTokenShift;
+        uint32_t* e = entries + cum;  // a valid table has cum + f <= kRansTotal (readTable)
+        for (uint32_t i = 0; i < f; ++i) e[i] = head | i << kEntryBiasShift;
+        cum += f;
+    }
+    if (cum == 0)  // empty table: token 0 everywhere, the state unchanged
+        for (uint32_t i = 0; i < kRansTotal; ++i) entries[i] = kRansTotal | i << kEntryBiasShift;
+}
+
 std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                     const std::vector<uint16_t>& ctxToTable) {
+                                     const std::vector<uint16_t>& ctxToTable, int lanes,
+                                     int stored) {
     const auto cums = cumulativeFrequencies(freqs);
     std::vector<uint16_t> words;
     words.reserve(symbols.size() / 2 + 8);
-    uint32_t x[kFastStates];
-    for (uint32_t& s : x) s = kRansLow;
+    std::vector<uint32_t> x(size_t(lanes), kRansLow);
     for (size_t i = symbols.size(); i-- > 0;) {
         const LaneSymbol& s = symbols[i];
         const size_t table = ctxToTable[s.ctx];
@@ -186,14 +202,18 @@ std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
         st = ((st / f) << kRansPrecision) + (st % f) + c;
     }
     std::vector<uint8_t> out;
-    out.reserve(4 * kFastStates + 2 * words.size());
+    out.reserve(4 * size_t(stored) + 2 * words.size());
     auto putWord = [&](uint32_t w) {
         out.push_back(uint8_t(w & 0xFF));
         out.push_back(uint8_t(w >> 8));
     };
-    for (uint32_t s : x) {
-        putWord(s >> 16);
-        putWord(s & 0xFFFF);
+    for (int l = 0; l < lanes; ++l) {
+        if (l >= stored) {
+            PLX_CHECK(x[size_t(l)] == kRansLow);  // an unused lane (not stored)
+            continue;
+        }
+        putWord(x[size_t(l)] >> 16);
+        putWord(x[size_t(l)] & 0xFFFF);
     }
     for (size_t i = words.size(); i-- > 0;) putWord(words[i]);
     return out;

@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <random>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <zstd.h>
@@ -71,7 +72,7 @@ TEST(PtmCodec, RoundTripManySizesAndComponents) {
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)
             for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
-                                  Coder::kPredictRansFast})
+                                  Coder::kPredictRansFast, Coder::kPredictRansSimd})
                 for (bool smooth : {false, true}) {
                     ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
                     EncodeConfig cfg;
@@ -163,10 +164,13 @@ TEST(PtmDecoder, WrongGroupIsRejected) {
 
 TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
     for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
-                                  Coder::kPredictRansFast}) {
+                        Coder::kPredictRansFast, Coder::kPredictRansSimd}) {
         EncodeConfig cfg;
         cfg.coder = coder;
-        auto file = mustEncode(randomImage(23, 11, 4, 9, true), cfg);
+        // Coder 4: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
+        auto file = coder == Coder::kPredictRansSimd
+                        ? mustEncode(randomImage(40, 9, 3, 9, true), cfg)
+                        : mustEncode(randomImage(23, 11, 4, 9, true), cfg);
         auto header = parseHeader(file);
         ASSERT_TRUE(header.isOk());
         for (size_t n = 0; n < file.size(); ++n) {
@@ -203,11 +207,13 @@ std::vector<uint8_t> corruptGroup(std::vector<uint8_t> file, int k, size_t at, u
 class PtmHostileRans : public ::testing::TestWithParam<Coder> {};
 
 TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
-    // Every byte of every group of a coder-2 or coder-3 file flipped, CRCs fixed up: the entropy
+    // Every byte of every group of a coder-2, 3 or 4 file flipped, CRCs fixed up: the entropy
     // decoder must stay in bounds (ASan/UBSan runs check it) and usually report the damage.
+    // Coder 4's image is wide enough for its vectorised rounds (runs of 3 * 35 symbols).
     EncodeConfig cfg;
     cfg.coder = GetParam();
-    const ByteImage img = randomImage(21, 10, 3, 5, true);
+    const ByteImage img = GetParam() == Coder::kPredictRansSimd ? randomImage(70, 10, 3, 5, true)
+                                                                : randomImage(21, 10, 3, 5, true);
     auto file = mustEncode(img, cfg);
     auto h = parseHeader(file);
     ASSERT_TRUE(h.isOk());
@@ -230,7 +236,8 @@ TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Coders, PtmHostileRans,
-                         ::testing::Values(Coder::kPredictRans, Coder::kPredictRansFast));
+                         ::testing::Values(Coder::kPredictRans, Coder::kPredictRansFast,
+                                           Coder::kPredictRansSimd));
 
 TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
     auto file = mustEncode(randomImage(19, 9, 3, 4, true));
@@ -324,6 +331,17 @@ ByteImage goldenImage() {
     return img;
 }
 
+// A 70x9 RGB image of fixed content: its top level's runs (3 * 35 symbols) reach coder 4's
+// vectorised rounds.
+ByteImage goldenWideImage() {
+    ByteImage img{70, 9, 3, std::vector<uint8_t>(70 * 9 * 3)};
+    for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 70; ++x)
+            for (int k = 0; k < 3; ++k)
+                img.pixel(x, y)[k] = uint8_t((x * 3 + y * 7 + k * 29 + (x * y * 13) % 17) % 256);
+    return img;
+}
+
 std::vector<std::vector<uint8_t>> payloads(const std::vector<uint8_t>& file) {
     auto h = parseHeader(file);
     std::vector<std::vector<uint8_t>> out;
@@ -351,7 +369,14 @@ TEST(PtmGolden, FrozenBitstream) {
     EncodeConfig fast;
     fast.coder = Coder::kPredictRansFast;
     auto fastFile = mustEncode(goldenImage(), fast);
+    EncodeConfig simd;
+    simd.coder = Coder::kPredictRansSimd;
+    auto simdFile = mustEncode(goldenImage(), simd);
+    // Coder 4 also on an image wide enough for its vectorised rounds.
+    auto simdWideFile = mustEncode(goldenWideImage(), simd);
     if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_simd.ptm", simdFile).isOk());
+        ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_rans_simd.ptm", simdWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_fast.ptm", fastFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_raw.ptm", rawFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_zstd.ptm", zstdFile).isOk());
@@ -371,6 +396,17 @@ TEST(PtmGolden, FrozenBitstream) {
     auto fastDecoded = decodeImage(*goldenFast);
     ASSERT_TRUE(fastDecoded.isOk()) << fastDecoded.status().toString();
     EXPECT_EQ(*fastDecoded, goldenImage());
+    // Coder 4 likewise, on both images.
+    for (const auto& [name, file, image] :
+         {std::tuple{"rgba_13x7_rans_simd.ptm", simdFile, goldenImage()},
+          std::tuple{"rgb_70x9_rans_simd.ptm", simdWideFile, goldenWideImage()}}) {
+        auto golden = readFileBytes(dir + name);
+        ASSERT_TRUE(golden.isOk()) << "golden file missing in " << dir;
+        EXPECT_EQ(file, *golden) << "the predict+rans-simd bitstream changed: " << name;
+        auto back = decodeImage(*golden);
+        ASSERT_TRUE(back.isOk()) << back.status().toString();
+        EXPECT_EQ(*back, image) << name;
+    }
     auto goldenRaw = readFileBytes(dir + "rgba_13x7_raw.ptm");
     auto goldenZstd = readFileBytes(dir + "rgba_13x7_zstd.ptm");
     ASSERT_TRUE(goldenRaw.isOk() && goldenZstd.isOk()) << "golden files missing in " << dir;

@@ -1,0 +1,235 @@
+#pragma once
+// Private: the decoder side of Coder::kPredictRansSimd (docs/ptm-format.md, "Coder 4"). Coder 4
+// is coder 3 (same runs, contexts, predictions, tables, tokens and extra bits) with kSimdStates
+// interleaved rANS states instead of four: symbol j of a run uses state j mod 32, and the
+// renormalisation words are read in symbol order, so that a round of 32 symbols decodes as four
+// AVX2 vectors of eight states each:
+//
+// - one 32-bit decode entry per (table, slot): frequency, slot - cumulative start and token, so
+//   a symbol is one gather, a multiply and an add;
+// - the states that fall below 2^16 take the next words in lane order: a movemask gives the
+//   lanes, a 256-entry table of packed lane-to-word permutations moves the eight words loaded at
+//   the stream pointer into them, and the pointer advances by the popcount;
+// - the extra bits of a run's tokens are read afterwards in a scalar pass (symbol order, as
+//   coder 3's separate bit stream).
+//
+// A scalar decoder of the same stream handles the tail of a run (fewer than 32 symbols), the last
+// 64 bytes of the stream (bounds-checked reads) and builds without AVX2.
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+#include "ctx_codec.h"
+#include "fast_codec.h"
+#include "rans.h"
+
+namespace plx::ptm::detail {
+
+inline constexpr int kSimdStates = 32;
+inline constexpr int kSimdVectors = kSimdStates / 8;
+
+// States a group stores (the others are unused and stay 2^16): as many as the longest run of the
+// level (C times the blocks of a block row that code p00, at least C), at most kSimdStates.
+inline int simdStoredStates(int comps, int width) {
+    return std::min(kSimdStates, comps * std::max(1, width / 2));
+}
+
+// Decode entry of one slot: frequency in bits 0..12 (1..4096), slot - cumulative start in bits
+// 13..24, token in bits 27..31.
+inline constexpr uint32_t kEntryFreqMask = 0x1FFF;
+inline constexpr int kEntryBiasShift = 13;
+inline constexpr int kEntryTokenShift = 27;
+
+// Fills the kRansTotal entries of one table from freq (sum kRansTotal, or all zero: then every
+// slot decodes token 0 with frequency kRansTotal, which keeps the state and is caught by the
+// final state check).
+void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries);
+
+// Packed lane-to-word permutations for the renormalisation: for a mask of the lanes that read a
+// word, 3 bits per lane (lane l at bits 3l) giving the index of its word among the words read
+// (the number of reading lanes below it); 0 for lanes that read nothing.
+struct RenormPermutations {
+    std::array<uint32_t, 256> packed{};
+    constexpr RenormPermutations() {
+        for (unsigned m = 0; m < 256; ++m) {
+            uint32_t v = 0;
+            unsigned k = 0;
+            for (unsigned l = 0; l < 8; ++l)
+                if (m >> l & 1) v |= (k++) << (3 * l);
+            packed[m] = v;
+        }
+    }
+};
+inline constexpr RenormPermutations kRenormPerm{};
+
+// Decoder IO of coder 4 for walkLevelFast: kSimdStates rANS states over a bounds-checked word
+// stream, extra bits from a separate bit stream. Past the end of either stream reads give zeros
+// and the overrun is recorded.
+struct SimdDecodeIO {
+    static constexpr bool kEncode = false;
+    const uint32_t* entries;  // all tables, table t at t * kRansTotal
+    // Per family (4c + kind), the context map's first table and `g`, as CtxMap: the walker's
+    // contexts are table indices.
+    std::array<CtxMap, 16> families{};
+    const uint8_t* ptr;
+    const uint8_t* end;
+    BitReader bits;
+    alignas(32) uint32_t x[kSimdStates] = {};
+    bool overrun = false;
+
+    // familyTables[f] = {first table, g} of family f (context map).
+    // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.
+    SimdDecodeIO(const uint32_t* tableEntries,
+                 const std::array<std::array<int, 2>, 16>& familyTables, int stored,
+                 const uint8_t* begin, const uint8_t* streamEnd, BitReader extra)
+        : entries(tableEntries), ptr(begin), end(streamEnd), bits(extra) {
+        for (size_t f = 0; f < families.size(); ++f) {
+            const int g = familyTables[f][1];
+            const int mul = familyRawContexts(int(f) & 3) == 16 ? 512 * g : 683 * g;
+            families[f] = {familyTables[f][0], mul};
+        }
+        for (int i = 0; i < kSimdStates; ++i) {
+            x[i] = kRansLow;
+            if (i < stored) {
+                x[i] = readWord() << 16;
+                x[i] |= readWord();
+            }
+        }
+    }
+    CtxMap ctxMap(int c, int kind) const { return families[size_t(4 * c + kind)]; }
+    uint32_t readWord() {
+        if (end - ptr >= 2) {
+            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
+            ptr += 2;
+            return w;
+        }
+        overrun = true;
+        return 0;
+    }
+    // True when the stream was used up exactly and all states returned to their initial value.
+    bool finishedCleanly() const {
+        bool initial = true;
+        for (uint32_t s : x) initial = initial && s == kRansLow;
+        return !overrun && ptr == end && initial;
+    }
+
+    // The symbols of a run, from the first, while whole rounds of kSimdStates symbols remain and
+    // 2 kSimdStates bytes are left (a round reads at most one word per state; the last vector's
+    // 16-byte load starts at most 48 bytes in); returns the first symbol not done.
+    int runVector(const uint16_t* ctx, int n, uint8_t* tok) {
+        int j = 0;
+#if defined(__AVX2__)
+        const __m256i mask12 = _mm256_set1_epi32(int(kRansTotal - 1));
+        const __m256i freqMask = _mm256_set1_epi32(int(kEntryFreqMask));
+        const __m256i biasMask = _mm256_set1_epi32(0xFFF);
+        const __m256i zero = _mm256_setzero_si256();
+        const __m256i permShift = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+        const __m256i seven = _mm256_set1_epi32(7);
+        // Byte 0 of each 32-bit lane to the low 4 bytes of each 128-bit half.
+        const __m256i tokBytes = _mm256_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1,
+                                                  -1, -1, -1, -1, 0, 4, 8, 12, -1, -1, -1, -1,
+                                                  -1, -1, -1, -1, -1, -1, -1, -1);
+        const int* const tab = reinterpret_cast<const int*>(entries);
+        __m256i s[kSimdVectors];
+        for (int v = 0; v < kSimdVectors; ++v)
+            s[v] = _mm256_load_si256(reinterpret_cast<const __m256i*>(x + 8 * v));
+        const uint8_t* p = ptr;
+        for (; j + kSimdStates <= n && end - p >= 2 * kSimdStates; j += kSimdStates) {
+#pragma GCC unroll 4
+            for (int v = 0; v < kSimdVectors; ++v) {
+                const __m256i off = _mm256_slli_epi32(
+                    _mm256_cvtepu16_epi32(
+                        _mm_loadu_si128(reinterpret_cast<const __m128i*>(ctx + j + 8 * v))),
+                    kRansPrecision);
+                const __m256i slot = _mm256_and_si256(s[v], mask12);
+                // Eight scalar loads: faster than vpgatherdd on the measured machine (Zen 3),
+                // and checked by AddressSanitizer.
+                alignas(32) uint32_t ix[8];
+                _mm256_store_si256(reinterpret_cast<__m256i*>(ix), _mm256_add_epi32(off, slot));
+                const __m256i e = _mm256_setr_epi32(tab[ix[0]], tab[ix[1]], tab[ix[2]],
+                                                    tab[ix[3]], tab[ix[4]], tab[ix[5]],
+                                                    tab[ix[6]], tab[ix[7]]);
+                const __m256i freq = _mm256_and_si256(e, freqMask);
+                const __m256i bias =
+                    _mm256_and_si256(_mm256_srli_epi32(e, kEntryBiasShift), biasMask);
+                __m256i xs = _mm256_add_epi32(
+                    _mm256_mullo_epi32(freq, _mm256_srli_epi32(s[v], kRansPrecision)), bias);
+                const __m256i t = _mm256_shuffle_epi8(_mm256_srli_epi32(e, kEntryTokenShift),
+                                                      tokBytes);
+                const uint32_t lo = uint32_t(_mm256_cvtsi256_si32(t));
+                const uint32_t hi = uint32_t(_mm_cvtsi128_si32(_mm256_extracti128_si256(t, 1)));
+                std::memcpy(tok + j + 8 * v, &lo, 4);
+                std::memcpy(tok + j + 8 * v + 4, &hi, 4);
+                // Renormalisation: lanes below 2^16 take the next words in lane order.
+                const __m256i low = _mm256_cmpeq_epi32(_mm256_srli_epi32(xs, 16), zero);
+                const unsigned m = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(low)));
+                const __m256i words = _mm256_cvtepu16_epi32(
+                    _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+                const __m256i perm = _mm256_and_si256(
+                    _mm256_srlv_epi32(_mm256_set1_epi32(int(kRenormPerm.packed[m])), permShift),
+                    seven);
+                const __m256i refilled = _mm256_or_si256(
+                    _mm256_slli_epi32(xs, 16), _mm256_permutevar8x32_epi32(words, perm));
+                s[v] = _mm256_blendv_epi8(xs, refilled, low);
+                p += 2 * std::popcount(m);
+            }
+        }
+        ptr = p;
+        for (int v = 0; v < kSimdVectors; ++v)
+            _mm256_store_si256(reinterpret_cast<__m256i*>(x + 8 * v), s[v]);
+#else
+        (void)ctx;
+        (void)n;
+        (void)tok;
+#endif
+        return j;
+    }
+
+    // A run of n symbols with contexts ctx: tokens (kExtra: plus their extra bits) into z.
+    template <bool kExtra>
+    void run(const uint16_t* ctx, int n, uint8_t* z) {
+        int j = runVector(ctx, n, z);
+        for (; j < n; ++j) {  // the tail and the stream's end, checked
+            uint32_t& st = x[j % kSimdStates];
+            const uint32_t slot = st & (kRansTotal - 1);
+            const uint32_t e = entries[(uint32_t(ctx[j]) << kRansPrecision) + slot];
+            st = (e & kEntryFreqMask) * (st >> kRansPrecision) + ((e >> kEntryBiasShift) & 0xFFF);
+            if (st < kRansLow) st = (st << 16) | readWord();
+            z[j] = uint8_t(e >> kEntryTokenShift);
+        }
+        if constexpr (kExtra) {
+            BitReader br = bits;  // a local: the byte stores to z cannot alias it
+            int i = 0;
+            for (; i + 8 <= n; i += 8) {
+                uint64_t eight;
+                std::memcpy(&eight, z + i, 8);
+                if ((eight & 0xF0F0F0F0F0F0F0F0ull) == 0) continue;  // tokens < 16: no extra bits
+                // A token has at most 6 extra bits: ensure24 covers four tokens.
+                for (int h = 0; h < 8; h += 4) {
+                    br.ensure24();
+#pragma GCC unroll 4
+                    for (int l = h; l < h + 4; ++l) {
+                        const size_t t = z[i + l];
+                        z[i + l] = uint8_t(kTokens.base[t] + br.take(kTokens.bits[t]));
+                    }
+                }
+            }
+            for (; i < n; ++i) {
+                br.ensure24();
+                const size_t t = z[i];
+                z[i] = uint8_t(kTokens.base[t] + br.take(kTokens.bits[t]));
+            }
+            bits = br;
+        }
+    }
+};
+
+}  // namespace plx::ptm::detail

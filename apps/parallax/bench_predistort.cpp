@@ -34,6 +34,7 @@ struct PredistortBenchArgs {
     std::vector<double> thresholdsMm{8.0, 4.0, 2.0, 1.0, 0.5, 0.1};
     int repetitions = 5;
     int threads = 0;
+    int errorDirectionLevel = display::ExperimentConfig{}.errorDirectionLevel;
     bool json = false;
 };
 
@@ -89,6 +90,7 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     config.repetitions = a.repetitions;
     config.thresholdsMm = a.thresholdsMm;
     config.threads = a.threads;
+    config.errorDirectionLevel = a.errorDirectionLevel;
     auto content = display::fitSceneToContent(display::makeShowcaseScene(), *d);
     auto result = display::runPredistortExperiment(*d, d->defaultViewerMm, content, config);
     if (!result) return fail(result.status());
@@ -123,6 +125,9 @@ Command addBenchPredistort(CLI::App* bench) {
         ->check(CLI::Range(1, 100));
     sub->add_option("--threads", pd->threads, "Pass-2 renderer threads (0 = all)")
         ->check(CLI::Range(0, 256));
+    sub->add_option("--lambda", pd->errorDirectionLevel,
+                    "Error-direction LOD Lambda (section 7.4); above the grid level: off")
+        ->check(CLI::Range(0, 99));
     sub->add_flag("--json", pd->json, "Print the result as JSON");
     return {sub, [pd] { return runPredistortBench(*pd); }};
 }

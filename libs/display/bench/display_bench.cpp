@@ -22,7 +22,7 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     auto scene = fitSceneToContent(makeShowcaseScene(), d);
     Container c = makeContainer(state.range(1) ? ContainerKind::kObb : ContainerKind::kNone,
                                 scenePointsMm(scene));
-    auto warper = QuadtreeWarper::create({9, thr, 99, 1});
+    auto warper = QuadtreeWarper::create({9, thr});
     WarpMesh mesh;
     WarpStats stats;
     for (auto _ : state) {

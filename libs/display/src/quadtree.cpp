@@ -321,12 +321,17 @@ struct QuadtreeWarper::Impl {
         const DVec2& d01 = mapping[vid(x0, y1)].displayPos;
         glm::dmat2 jac(((d10 - d00) + (d11 - d01)) / (2.0 * patchUv),
                        ((d01 - d00) + (d11 - d10)) / (2.0 * patchUv));
+        double worst = -1.0;
         if (level >= config.errorDirectionLevel && *dir >= 0) {
             // Section 7.4: above Lambda only the parent's largest-error side is evaluated.
             const int* s = sides[*dir];
-            return sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket) > config.thresholdMm;
+            worst = sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket);
+            if (worst > config.thresholdMm) return true;
+            // Safety re-check: a patch about to stop whose error in the inherited direction is
+            // close to the threshold samples its other sides too, in case the direction of the
+            // largest error has turned (the heuristic's assumption, checked where it matters).
+            if (worst <= config.errorDirectionRecheck * config.thresholdMm) return false;
         }
-        double worst = -1.0;
         for (int k = 0; k < 4; ++k) {
             const int* s = sides[k];
             double e = sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket);

@@ -32,7 +32,7 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     state.counters["triangles"] = double(mesh.triangleCount());
     state.counters["vertex_transformations"] = double(stats.vertexTransformations);
 }
-BENCHMARK(BM_AdaptiveGenerate)->Args({10, 0})->Args({10, 1})->Args({1, 0})->Args({1, 1})
+BENCHMARK(BM_AdaptiveGenerate)->Args({20, 1})->Args({10, 0})->Args({10, 1})->Args({5, 1})->Args({1, 0})->Args({1, 1})
     ->Unit(benchmark::kMillisecond);
 
 void BM_UniformGenerate(benchmark::State& state) {

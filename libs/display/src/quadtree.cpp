@@ -102,6 +102,9 @@ struct QuadtreeWarper::Impl {
     std::vector<uint32_t> meshIndex;
     // Node states per LOD 0 .. m-1 (4^n nodes each).
     std::vector<std::vector<uint8_t>> nodes;
+    // Per LOD, the nodes this frame made present (py << 16 | px): balancing, triangulation and
+    // the reset of the next frame visit these instead of scanning all 4^n nodes of each LOD.
+    std::vector<std::vector<uint32_t>> touched;
 
     // Per frame.
     const Display* display = nullptr;
@@ -111,6 +114,8 @@ struct QuadtreeWarper::Impl {
     std::vector<uint32_t> frontTriangles;  // indices into container->indices / 3
     std::vector<DVec2> frontVertexUvs;     // front-facing container vertices on the image plane
     std::vector<DVec2> silhouette;         // convex outline of the projected container
+    std::vector<uint8_t> front;            // per container vertex: on a front-facing triangle
+    std::vector<DVec2> projected;          // container vertices on the image plane
     WarpStats* stats = nullptr;
     WarpMesh* mesh = nullptr;
 
@@ -121,6 +126,11 @@ struct QuadtreeWarper::Impl {
     }
     int patchSize(int level) const { return 1 << (m - level); }
     uint8_t& node(int level, int px, int py) { return nodes[level][size_t(py << level) + px]; }
+    void setNode(int level, int px, int py, uint8_t state) {
+        uint8_t& n = node(level, px, py);
+        if (n == kAbsent) touched[level].push_back(uint32_t(py) << 16 | uint32_t(px));
+        n = state;
+    }
 
     // TransformPatchVertices for one vertex: mapped once per frame. A vertex that the error
     // solver already mapped (a T-vertex, see sideError) is reused and counted now.
@@ -203,8 +213,8 @@ struct QuadtreeWarper::Impl {
         culling = container && container->triangleCount() > 0;
         if (!culling) return;
         const DVec3 eye = plane->eyeMm;
-        std::vector<bool> front(container->verticesMm.size(), false);
-        std::vector<DVec2> projected;
+        front.assign(container->verticesMm.size(), 0);
+        projected.clear();
         for (const DVec3& p : container->verticesMm) {
             DVec3 onPlane;
             if (!plane->projectFromEye(p, &onPlane)) {
@@ -220,7 +230,7 @@ struct QuadtreeWarper::Impl {
                                  container->verticesMm[idx[2]] - a);
             if (glm::dot(n, a - eye) >= 0.0) continue;  // back-facing
             frontTriangles.push_back(uint32_t(t));
-            for (int k = 0; k < 3; ++k) front[idx[k]] = true;
+            for (int k = 0; k < 3; ++k) front[idx[k]] = 1;
         }
         for (size_t i = 0; i < front.size(); ++i)
             if (front[i]) frontVertexUvs.push_back(projected[i]);
@@ -378,7 +388,7 @@ struct QuadtreeWarper::Impl {
         int h = patchSize(level);
         int x0 = px * h, y0 = py * h;
         if (!generatePatch(level, px, py)) {
-            node(level, px, py) = kCulled;
+            setNode(level, px, py, kCulled);
             ++stats->culledPatches;
             return;
         }
@@ -389,19 +399,19 @@ struct QuadtreeWarper::Impl {
             // Partly outside the optics: subdivide towards the edge of what can be shown, and
             // drop what is left at the finest LOD.
             if (!canRefine) {
-                node(level, px, py) = kCulled;
+                setNode(level, px, py, kCulled);
                 ++stats->culledPatches;
                 return;
             }
         }
         ++stats->patches;
         stats->deepestLevel = std::max(stats->deepestLevel, level);
-        node(level, px, py) = kLeaf;
+        setNode(level, px, py, kLeaf);
         AlphaBracket bracket = level == 0 ? range : parentBracket;
         int dir = parentDir;
         bool refine = !mapped || (canRefine && refineFurther(level, x0, y0, h, bracket, &dir));
         if (!refine) return;
-        node(level, px, py) = kRefined;
+        setNode(level, px, py, kRefined);
         for (int k = 0; k < 4; ++k)
             recurse(level + 1, 2 * px + (k & 1), 2 * py + (k >> 1), range, dir);
         countTransitions(x0, y0, h);
@@ -409,24 +419,24 @@ struct QuadtreeWarper::Impl {
 
     // Splits a leaf whose neighbour is two or more LODs finer; its children become leaves.
     void forceRefine(int level, int px, int py) {
-        node(level, px, py) = kRefined;
+        setNode(level, px, py, kRefined);
         ++stats->balanceRefinements;
         int h = patchSize(level);
         for (int k = 0; k < 4; ++k) {
             int cx = 2 * px + (k & 1), cy = 2 * py + (k >> 1);
             if (!generatePatch(level + 1, cx, cy)) {
-                node(level + 1, cx, cy) = kCulled;
+                setNode(level + 1, cx, cy, kCulled);
                 ++stats->culledPatches;
                 continue;
             }
             AlphaBracket range;
             int ch = h / 2;
             if (!transformPatchVertices(cx * ch, cy * ch, ch, &range)) {
-                node(level + 1, cx, cy) = kCulled;
+                setNode(level + 1, cx, cy, kCulled);
                 ++stats->culledPatches;
                 continue;
             }
-            node(level + 1, cx, cy) = kLeaf;
+            setNode(level + 1, cx, cy, kLeaf);
             ++stats->patches;
             stats->deepestLevel = std::max(stats->deepestLevel, level + 1);
         }
@@ -439,14 +449,14 @@ struct QuadtreeWarper::Impl {
     void balance() {
         for (int level = m - 2; level >= 1; --level) {
             int count = 1 << level;
-            for (int py = 0; py < count; ++py) {
-                for (int px = 0; px < count; ++px) {
-                    if (node(level, px, py) != kRefined) continue;
-                    const int nb[4][2] = {{px, py - 1}, {px + 1, py}, {px, py + 1}, {px - 1, py}};
-                    for (const auto& q : nb) {
-                        if (q[0] < 0 || q[1] < 0 || q[0] >= count || q[1] >= count) continue;
-                        ensureExists(level, q[0], q[1]);
-                    }
+            // Index loop: refinements forced here may append to this LOD's list.
+            for (size_t i = 0; i < touched[level].size(); ++i) {
+                int px = int(touched[level][i] & 0xffffu), py = int(touched[level][i] >> 16);
+                if (node(level, px, py) != kRefined) continue;
+                const int nb[4][2] = {{px, py - 1}, {px + 1, py}, {px, py + 1}, {px - 1, py}};
+                for (const auto& q : nb) {
+                    if (q[0] < 0 || q[1] < 0 || q[0] >= count || q[1] >= count) continue;
+                    ensureExists(level, q[0], q[1]);
                 }
             }
         }
@@ -510,15 +520,19 @@ struct QuadtreeWarper::Impl {
                 std::fill(s->begin(), s->end(), 0u);
             frame = 1;
         }
-        for (auto& level : nodes) std::fill(level.begin(), level.end(), uint8_t(kAbsent));
+        for (int level = 0; level < m; ++level) {
+            for (uint32_t packed : touched[level])
+                node(level, int(packed & 0xffffu), int(packed >> 16)) = kAbsent;
+            touched[level].clear();
+        }
         prepareContainer();
         recurse(0, 0, 0, AlphaBracket{}, -1);
         balance();
         for (int level = 0; level < m; ++level) {
-            int count = 1 << level;
-            for (int py = 0; py < count; ++py)
-                for (int px = 0; px < count; ++px)
-                    if (node(level, px, py) == kLeaf) triangulateLeaf(level, px, py);
+            for (uint32_t packed : touched[level]) {
+                int px = int(packed & 0xffffu), py = int(packed >> 16);
+                if (node(level, px, py) == kLeaf) triangulateLeaf(level, px, py);
+            }
         }
     }
 };
@@ -549,6 +563,7 @@ Result<std::unique_ptr<QuadtreeWarper>> QuadtreeWarper::create(const QuadtreeCon
     impl->rayHit.assign(count, 0);
     impl->meshIndex.assign(count, 0);
     impl->nodes.resize(size_t(config.gridLevel));
+    impl->touched.resize(size_t(config.gridLevel));
     for (int l = 0; l < config.gridLevel; ++l) impl->nodes[l].assign(size_t(1) << (2 * l), 0);
     return std::unique_ptr<QuadtreeWarper>(new QuadtreeWarper(std::move(impl)));
 }

@@ -35,6 +35,7 @@ struct PredistortBenchArgs {
     int repetitions = 5;
     int threads = 0;
     int errorDirectionLevel = display::ExperimentConfig{}.errorDirectionLevel;
+    std::string container = "obb";
     bool json = false;
 };
 
@@ -86,7 +87,10 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create {}: {}", a.out, ec.message()));
+    auto containerKind = display::parseContainerKind(a.container);
+    if (!containerKind) return fail(containerKind.status());
     display::ExperimentConfig config;
+    config.container = *containerKind;
     config.repetitions = a.repetitions;
     config.thresholdsMm = a.thresholdsMm;
     config.threads = a.threads;
@@ -128,6 +132,8 @@ Command addBenchPredistort(CLI::App* bench) {
     sub->add_option("--lambda", pd->errorDirectionLevel,
                     "Error-direction LOD Lambda (section 7.4); above the grid level: off")
         ->check(CLI::Range(0, 99));
+    sub->add_option("--container", pd->container,
+                    "Container of the limited grid B: obb (the paper's) or hull");
     sub->add_flag("--json", pd->json, "Print the result as JSON");
     return {sub, [pd] { return runPredistortBench(*pd); }};
 }

@@ -34,6 +34,8 @@ struct PredistortBenchArgs {
     std::vector<double> thresholdsMm{8.0, 4.0, 2.0, 1.0, 0.5, 0.1};
     int repetitions = 5;
     int threads = 0;
+    int errorDirectionLevel = display::ExperimentConfig{}.errorDirectionLevel;
+    std::string container = "obb";
     bool json = false;
 };
 
@@ -85,10 +87,14 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create {}: {}", a.out, ec.message()));
+    auto containerKind = display::parseContainerKind(a.container);
+    if (!containerKind) return fail(containerKind.status());
     display::ExperimentConfig config;
+    config.container = *containerKind;
     config.repetitions = a.repetitions;
     config.thresholdsMm = a.thresholdsMm;
     config.threads = a.threads;
+    config.errorDirectionLevel = a.errorDirectionLevel;
     auto content = display::fitSceneToContent(display::makeShowcaseScene(), *d);
     auto result = display::runPredistortExperiment(*d, d->defaultViewerMm, content, config);
     if (!result) return fail(result.status());
@@ -123,6 +129,11 @@ Command addBenchPredistort(CLI::App* bench) {
         ->check(CLI::Range(1, 100));
     sub->add_option("--threads", pd->threads, "Pass-2 renderer threads (0 = all)")
         ->check(CLI::Range(0, 256));
+    sub->add_option("--lambda", pd->errorDirectionLevel,
+                    "Error-direction LOD Lambda (section 7.4); above the grid level: off")
+        ->check(CLI::Range(0, 99));
+    sub->add_option("--container", pd->container,
+                    "Container of the limited grid B: obb (the paper's) or hull");
     sub->add_flag("--json", pd->json, "Print the result as JSON");
     return {sub, [pd] { return runPredistortBench(*pd); }};
 }

@@ -36,7 +36,7 @@ Status demoDisplaySection(DemoContext& ctx) {
     Image<Rgba8> pass1;
     PLX_RETURN_IF_ERROR(display::renderViewerImage((*pass2)->renderer(), content, plane,
                                                    ctx.quick ? 256 : 512, &pass1, nullptr));
-    auto warper = display::QuadtreeWarper::create({gridLevel, showcaseMm, 99, 1});
+    auto warper = display::QuadtreeWarper::create({gridLevel, showcaseMm});
     if (!warper) return warper.status();
     display::Container container =
         display::makeContainer(display::ContainerKind::kObb, display::scenePointsMm(content));

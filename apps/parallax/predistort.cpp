@@ -119,7 +119,7 @@ int run(const PredistortArgs& a) {
     std::vector<double> genMs;
     int uniformLevel = -1;
     if (method == "adaptive") {
-        auto warper = display::QuadtreeWarper::create({a.gridLevel, a.errorMm, 99, 1});
+        auto warper = display::QuadtreeWarper::create({a.gridLevel, a.errorMm});
         if (!warper) return fail(warper.status());
         display::Container container =
             display::makeContainer(*containerKind, display::scenePointsMm(*content));

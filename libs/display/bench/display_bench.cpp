@@ -22,7 +22,7 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     auto scene = fitSceneToContent(makeShowcaseScene(), d);
     Container c = makeContainer(state.range(1) ? ContainerKind::kObb : ContainerKind::kNone,
                                 scenePointsMm(scene));
-    auto warper = QuadtreeWarper::create({9, thr, 99, 1});
+    auto warper = QuadtreeWarper::create({9, thr});
     WarpMesh mesh;
     WarpStats stats;
     for (auto _ : state) {
@@ -32,7 +32,7 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     state.counters["triangles"] = double(mesh.triangleCount());
     state.counters["vertex_transformations"] = double(stats.vertexTransformations);
 }
-BENCHMARK(BM_AdaptiveGenerate)->Args({10, 0})->Args({10, 1})->Args({1, 0})->Args({1, 1})
+BENCHMARK(BM_AdaptiveGenerate)->Args({20, 1})->Args({10, 0})->Args({10, 1})->Args({5, 1})->Args({1, 0})->Args({1, 1})
     ->Unit(benchmark::kMillisecond);
 
 void BM_UniformGenerate(benchmark::State& state) {

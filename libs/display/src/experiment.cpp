@@ -39,8 +39,11 @@ Result<nlohmann::json> runPredistortExperiment(const Display& display, const DVe
     viewed.defaultViewerMm = viewerMm;
     PLX_RETURN_IF_ERROR(validateDisplay(viewed));
     ImagePlane plane = makeImagePlane(viewerMm, display.contentCenterMm, display.contentRadiusMm);
-    auto warper = QuadtreeWarper::create(
-        {config.gridLevel, config.thresholdsMm[0], config.errorDirectionLevel, 1});
+    QuadtreeConfig warpConfig;
+    warpConfig.gridLevel = config.gridLevel;
+    warpConfig.thresholdMm = config.thresholdsMm[0];
+    warpConfig.errorDirectionLevel = config.errorDirectionLevel;
+    auto warper = QuadtreeWarper::create(warpConfig);
     if (!warper) return warper.status();
     auto pass2 = PredistortRenderer::create(config.threads);
     if (!pass2) return pass2.status();
@@ -140,6 +143,7 @@ Result<nlohmann::json> runPredistortExperiment(const Display& display, const DVe
                           {"viewer_mm", {viewerMm.x, viewerMm.y, viewerMm.z}},
                           {"grid_level", config.gridLevel},
                           {"error_direction_level", config.errorDirectionLevel},
+                          {"error_direction_recheck", warpConfig.errorDirectionRecheck},
                           {"container", containerKindName(config.container)},
                           {"renderer_threads", (*pass2)->renderer().threadCount()},
                           {"generation_threads", 1},

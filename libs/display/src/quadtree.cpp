@@ -91,17 +91,32 @@ struct QuadtreeWarper::Impl {
     int m = 0;
     int side = 0;  // 2^m + 1
     uint32_t frame = 0;
-    // Per vertex of the matrix; a stamp equal to `frame` marks this frame's data as valid (the
-    // marker flags of section 6, cleared for free by advancing the frame number).
-    std::vector<uint32_t> transformStamp, tcStamp, rayStamp, meshStamp, errorStamp;
-    std::vector<double> errorValue;  // cached side errors at T-vertices
-    std::vector<VertexMapping> mapping;
-    std::vector<uint8_t> solverOnly;  // mapped by the error solver, not yet counted as a vt
-    std::vector<uint8_t> tc;      // T-vertex counters (0, 1, 2)
-    std::vector<uint8_t> rayHit;  // cached line-of-sight/container result
-    std::vector<uint32_t> meshIndex;
+    // Per vertex of the matrix, this frame's cached work in one cache line (the sparse vertices
+    // a frame touches then cost one miss each, not one per array). A stamp equal to `frame`
+    // marks the flags and data as this frame's: the marker flags of section 6, cleared for free
+    // by advancing the frame number.
+    enum VertexFlag : uint8_t {
+        kTransformed = 1,  // mapping holds this frame's TransformPatchVertices result
+        kSolverOnly = 2,   // mapped by the error solver, not yet counted as a vt
+        kRayDone = 4,      // line-of-sight/container result cached
+        kRayHit = 8,
+        kInMesh = 16,      // emitted into the mesh at meshIndex
+        kErrorDone = 32,   // errorValue holds the side error sampled at this T-vertex
+    };
+    struct alignas(64) VertexState {
+        VertexMapping mapping;
+        double errorValue = 0.0;
+        uint32_t stamp = 0;
+        uint32_t meshIndex = 0;
+        uint8_t flags = 0;
+        uint8_t tc = 0;  // T-vertex counter (0, 1, 2)
+    };
+    std::vector<VertexState> verts;
     // Node states per LOD 0 .. m-1 (4^n nodes each).
     std::vector<std::vector<uint8_t>> nodes;
+    // Per LOD, the nodes this frame made present (py << 16 | px): balancing, triangulation and
+    // the reset of the next frame visit these instead of scanning all 4^n nodes of each LOD.
+    std::vector<std::vector<uint32_t>> touched;
 
     // Per frame.
     const Display* display = nullptr;
@@ -111,44 +126,56 @@ struct QuadtreeWarper::Impl {
     std::vector<uint32_t> frontTriangles;  // indices into container->indices / 3
     std::vector<DVec2> frontVertexUvs;     // front-facing container vertices on the image plane
     std::vector<DVec2> silhouette;         // convex outline of the projected container
+    std::vector<uint8_t> front;            // per container vertex: on a front-facing triangle
+    std::vector<DVec2> projected;          // container vertices on the image plane
     WarpStats* stats = nullptr;
     WarpMesh* mesh = nullptr;
 
     uint32_t vid(int x, int y) const { return uint32_t(y) * uint32_t(side) + uint32_t(x); }
+    // The vertex's state for this frame (flags and counter cleared on first touch).
+    VertexState& vertex(uint32_t v) {
+        VertexState& s = verts[v];
+        if (s.stamp != frame) s.stamp = frame, s.flags = 0, s.tc = 0;
+        return s;
+    }
+    const VertexMapping& mapping(int x, int y) const { return verts[vid(x, y)].mapping; }
     DVec2 uvOf(int x, int y) const {
         double s = 1.0 / double(side - 1);
         return {x * s, y * s};
     }
     int patchSize(int level) const { return 1 << (m - level); }
     uint8_t& node(int level, int px, int py) { return nodes[level][size_t(py << level) + px]; }
+    void setNode(int level, int px, int py, uint8_t state) {
+        uint8_t& n = node(level, px, py);
+        if (n == kAbsent) touched[level].push_back(uint32_t(py) << 16 | uint32_t(px));
+        n = state;
+    }
 
     // TransformPatchVertices for one vertex: mapped once per frame. A vertex that the error
     // solver already mapped (a T-vertex, see sideError) is reused and counted now.
     const VertexMapping& transformVertex(int x, int y) {
-        uint32_t v = vid(x, y);
-        if (transformStamp[v] != frame) {
-            transformStamp[v] = frame;
-            solverOnly[v] = 0;
-            mapping[v] = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
+        VertexState& s = vertex(vid(x, y));
+        if (!(s.flags & kTransformed)) {
+            s.flags |= kTransformed;
+            s.mapping = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
             ++stats->vertexTransformations;
-        } else if (solverOnly[v]) {
-            solverOnly[v] = 0;
+        } else if (s.flags & kSolverOnly) {
+            s.flags &= uint8_t(~kSolverOnly);
             ++stats->vertexTransformations;
         }
-        return mapping[v];
+        return s.mapping;
     }
 
     // The same mapping made for the error solver: cached like a transformation, but counted as
     // a vertex transformation only if the vertex later joins the grid.
     const VertexMapping& mapForSolver(int x, int y) {
-        uint32_t v = vid(x, y);
-        if (transformStamp[v] != frame) {
-            transformStamp[v] = frame;
-            solverOnly[v] = 1;
-            mapping[v] = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
+        VertexState& s = vertex(vid(x, y));
+        if (!(s.flags & kTransformed)) {
+            s.flags |= kTransformed | kSolverOnly;
+            s.mapping = imageToDisplay(*display, *plane, plane->pointAt(uvOf(x, y)));
             ++stats->solver.forwardEvaluations;
         }
-        return mapping[v];
+        return s.mapping;
     }
 
     // Object-image solve for one sample (section 7.3) by Newton steps on the forward mapping:
@@ -187,13 +214,11 @@ struct QuadtreeWarper::Impl {
     }
 
     void bumpCounter(int x, int y) {
-        uint32_t v = vid(x, y);
-        if (tcStamp[v] != frame) tcStamp[v] = frame, tc[v] = 0;
-        ++tc[v];
+        ++vertex(vid(x, y)).tc;
     }
     int counter(int x, int y) const {
-        uint32_t v = vid(x, y);
-        return tcStamp[v] == frame ? tc[v] : 0;
+        const VertexState& s = verts[vid(x, y)];
+        return s.stamp == frame ? s.tc : 0;
     }
 
     void prepareContainer() {
@@ -203,8 +228,8 @@ struct QuadtreeWarper::Impl {
         culling = container && container->triangleCount() > 0;
         if (!culling) return;
         const DVec3 eye = plane->eyeMm;
-        std::vector<bool> front(container->verticesMm.size(), false);
-        std::vector<DVec2> projected;
+        front.assign(container->verticesMm.size(), 0);
+        projected.clear();
         for (const DVec3& p : container->verticesMm) {
             DVec3 onPlane;
             if (!plane->projectFromEye(p, &onPlane)) {
@@ -220,7 +245,7 @@ struct QuadtreeWarper::Impl {
                                  container->verticesMm[idx[2]] - a);
             if (glm::dot(n, a - eye) >= 0.0) continue;  // back-facing
             frontTriangles.push_back(uint32_t(t));
-            for (int k = 0; k < 3; ++k) front[idx[k]] = true;
+            for (int k = 0; k < 3; ++k) front[idx[k]] = 1;
         }
         for (size_t i = 0; i < front.size(); ++i)
             if (front[i]) frontVertexUvs.push_back(projected[i]);
@@ -230,8 +255,8 @@ struct QuadtreeWarper::Impl {
     // First test of section 7.1 for one L-vertex: the line of sight from the eye through it
     // against the front-facing container triangles (Moller-Trumbore), cached per vertex.
     bool lineOfSightHits(int x, int y) {
-        uint32_t v = vid(x, y);
-        if (rayStamp[v] == frame) return rayHit[v] != 0;
+        VertexState& s = vertex(vid(x, y));
+        if (s.flags & kRayDone) return (s.flags & kRayHit) != 0;
         DVec3 dir = plane->pointAt(uvOf(x, y)) - plane->eyeMm;
         bool hit = false;
         for (uint32_t t : frontTriangles) {
@@ -245,8 +270,7 @@ struct QuadtreeWarper::Impl {
                 break;
             }
         }
-        rayStamp[v] = frame;
-        rayHit[v] = hit;
+        s.flags |= uint8_t(kRayDone | (hit ? kRayHit : 0));
         return hit;
     }
 
@@ -274,10 +298,10 @@ struct QuadtreeWarper::Impl {
     double sideError(int ax, int ay, int bx, int by, const glm::dmat2& jac, double patchUv,
                      const AlphaBracket& parentBracket) {
         int tx = (ax + bx) / 2, ty = (ay + by) / 2;
-        uint32_t t = vid(tx, ty);
-        if (errorStamp[t] == frame) return errorValue[t];
-        const VertexMapping& a = mapping[vid(ax, ay)];
-        const VertexMapping& b = mapping[vid(bx, by)];
+        VertexState& ts = vertex(vid(tx, ty));
+        if (ts.flags & kErrorDone) return ts.errorValue;
+        const VertexMapping& a = mapping(ax, ay);
+        const VertexMapping& b = mapping(bx, by);
         ++stats->errorSamples;
         // The pixel with the T-vertex's texture coordinates lies at the middle of the displayed
         // L-L edge (linear interpolation), section 7.2 / Fig. 4.
@@ -300,8 +324,8 @@ struct QuadtreeWarper::Impl {
             }
             e = sampleErrorMm(*display, *plane, samplePos, desiredUv, bracket, &stats->solver);
         }
-        errorStamp[t] = frame;
-        errorValue[t] = e;
+        ts.flags |= kErrorDone;
+        ts.errorValue = e;
         return e;
     }
 
@@ -315,18 +339,23 @@ struct QuadtreeWarper::Impl {
         // Finite-difference Jacobian of the warp over the patch (display per uv), from the four
         // L-vertices TransformPatchVertices has just mapped.
         double patchUv = double(h) / double(side - 1);
-        const DVec2& d00 = mapping[vid(x0, y0)].displayPos;
-        const DVec2& d10 = mapping[vid(x1, y0)].displayPos;
-        const DVec2& d11 = mapping[vid(x1, y1)].displayPos;
-        const DVec2& d01 = mapping[vid(x0, y1)].displayPos;
+        const DVec2& d00 = mapping(x0, y0).displayPos;
+        const DVec2& d10 = mapping(x1, y0).displayPos;
+        const DVec2& d11 = mapping(x1, y1).displayPos;
+        const DVec2& d01 = mapping(x0, y1).displayPos;
         glm::dmat2 jac(((d10 - d00) + (d11 - d01)) / (2.0 * patchUv),
                        ((d01 - d00) + (d11 - d10)) / (2.0 * patchUv));
+        double worst = -1.0;
         if (level >= config.errorDirectionLevel && *dir >= 0) {
             // Section 7.4: above Lambda only the parent's largest-error side is evaluated.
             const int* s = sides[*dir];
-            return sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket) > config.thresholdMm;
+            worst = sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket);
+            if (worst > config.thresholdMm) return true;
+            // Safety re-check: a patch about to stop whose error in the inherited direction is
+            // close to the threshold samples its other sides too, in case the direction of the
+            // largest error has turned (the heuristic's assumption, checked where it matters).
+            if (worst <= config.errorDirectionRecheck * config.thresholdMm) return false;
         }
-        double worst = -1.0;
         for (int k = 0; k < 4; ++k) {
             const int* s = sides[k];
             double e = sideError(s[0], s[1], s[2], s[3], jac, patchUv, bracket);
@@ -373,7 +402,7 @@ struct QuadtreeWarper::Impl {
         int h = patchSize(level);
         int x0 = px * h, y0 = py * h;
         if (!generatePatch(level, px, py)) {
-            node(level, px, py) = kCulled;
+            setNode(level, px, py, kCulled);
             ++stats->culledPatches;
             return;
         }
@@ -384,19 +413,19 @@ struct QuadtreeWarper::Impl {
             // Partly outside the optics: subdivide towards the edge of what can be shown, and
             // drop what is left at the finest LOD.
             if (!canRefine) {
-                node(level, px, py) = kCulled;
+                setNode(level, px, py, kCulled);
                 ++stats->culledPatches;
                 return;
             }
         }
         ++stats->patches;
         stats->deepestLevel = std::max(stats->deepestLevel, level);
-        node(level, px, py) = kLeaf;
+        setNode(level, px, py, kLeaf);
         AlphaBracket bracket = level == 0 ? range : parentBracket;
         int dir = parentDir;
         bool refine = !mapped || (canRefine && refineFurther(level, x0, y0, h, bracket, &dir));
         if (!refine) return;
-        node(level, px, py) = kRefined;
+        setNode(level, px, py, kRefined);
         for (int k = 0; k < 4; ++k)
             recurse(level + 1, 2 * px + (k & 1), 2 * py + (k >> 1), range, dir);
         countTransitions(x0, y0, h);
@@ -404,24 +433,24 @@ struct QuadtreeWarper::Impl {
 
     // Splits a leaf whose neighbour is two or more LODs finer; its children become leaves.
     void forceRefine(int level, int px, int py) {
-        node(level, px, py) = kRefined;
+        setNode(level, px, py, kRefined);
         ++stats->balanceRefinements;
         int h = patchSize(level);
         for (int k = 0; k < 4; ++k) {
             int cx = 2 * px + (k & 1), cy = 2 * py + (k >> 1);
             if (!generatePatch(level + 1, cx, cy)) {
-                node(level + 1, cx, cy) = kCulled;
+                setNode(level + 1, cx, cy, kCulled);
                 ++stats->culledPatches;
                 continue;
             }
             AlphaBracket range;
             int ch = h / 2;
             if (!transformPatchVertices(cx * ch, cy * ch, ch, &range)) {
-                node(level + 1, cx, cy) = kCulled;
+                setNode(level + 1, cx, cy, kCulled);
                 ++stats->culledPatches;
                 continue;
             }
-            node(level + 1, cx, cy) = kLeaf;
+            setNode(level + 1, cx, cy, kLeaf);
             ++stats->patches;
             stats->deepestLevel = std::max(stats->deepestLevel, level + 1);
         }
@@ -434,14 +463,14 @@ struct QuadtreeWarper::Impl {
     void balance() {
         for (int level = m - 2; level >= 1; --level) {
             int count = 1 << level;
-            for (int py = 0; py < count; ++py) {
-                for (int px = 0; px < count; ++px) {
-                    if (node(level, px, py) != kRefined) continue;
-                    const int nb[4][2] = {{px, py - 1}, {px + 1, py}, {px, py + 1}, {px - 1, py}};
-                    for (const auto& q : nb) {
-                        if (q[0] < 0 || q[1] < 0 || q[0] >= count || q[1] >= count) continue;
-                        ensureExists(level, q[0], q[1]);
-                    }
+            // Index loop: refinements forced here may append to this LOD's list.
+            for (size_t i = 0; i < touched[level].size(); ++i) {
+                int px = int(touched[level][i] & 0xffffu), py = int(touched[level][i] >> 16);
+                if (node(level, px, py) != kRefined) continue;
+                const int nb[4][2] = {{px, py - 1}, {px + 1, py}, {px, py + 1}, {px - 1, py}};
+                for (const auto& q : nb) {
+                    if (q[0] < 0 || q[1] < 0 || q[0] >= count || q[1] >= count) continue;
+                    ensureExists(level, q[0], q[1]);
                 }
             }
         }
@@ -461,14 +490,15 @@ struct QuadtreeWarper::Impl {
 
     uint32_t emitVertex(int x, int y) {
         uint32_t v = vid(x, y);
-        if (meshStamp[v] == frame) return meshIndex[v];
+        VertexState& s = vertex(v);
+        if (s.flags & kInMesh) return s.meshIndex;
         const VertexMapping& vm = transformVertex(x, y);  // a T-vertex of a culled neighbour
-        meshStamp[v] = frame;
-        meshIndex[v] = uint32_t(mesh->uvs.size());
+        s.flags |= kInMesh;
+        s.meshIndex = uint32_t(mesh->uvs.size());
         mesh->gridIds.push_back(v);
         mesh->uvs.push_back(uvOf(x, y));
         mesh->displayPos.push_back(vm.displayPos);
-        return meshIndex[v];
+        return s.meshIndex;
     }
 
     void emitTriangle(int ax, int ay, int bx, int by, int cx, int cy) {
@@ -494,6 +524,17 @@ struct QuadtreeWarper::Impl {
         ++stats->leafPatches;
     }
 
+    // Triangulates the leaves below a node depth first, so that neighbouring leaves, which share
+    // vertices, are emitted together while those vertices' states are still in cache.
+    void triangulate(int level, int px, int py) {
+        uint8_t state = node(level, px, py);
+        if (state == kLeaf) {
+            triangulateLeaf(level, px, py);
+        } else if (state == kRefined) {
+            for (int k = 0; k < 4; ++k) triangulate(level + 1, 2 * px + (k & 1), 2 * py + (k >> 1));
+        }
+    }
+
     void run(const Display& d, const ImagePlane& p, const Container* c, WarpMesh* out,
              WarpStats* st) {
         display = &d, plane = &p, container = c, mesh = out, stats = st;
@@ -501,20 +542,18 @@ struct QuadtreeWarper::Impl {
         clearKeepingCapacity(mesh);
         mesh->gridLevel = m;
         if (++frame == 0) {  // stamps wrapped: clear them once every 2^32 frames
-            for (auto* s : {&transformStamp, &tcStamp, &rayStamp, &meshStamp, &errorStamp})
-                std::fill(s->begin(), s->end(), 0u);
+            for (VertexState& s : verts) s.stamp = 0;
             frame = 1;
         }
-        for (auto& level : nodes) std::fill(level.begin(), level.end(), uint8_t(kAbsent));
+        for (int level = 0; level < m; ++level) {
+            for (uint32_t packed : touched[level])
+                node(level, int(packed & 0xffffu), int(packed >> 16)) = kAbsent;
+            touched[level].clear();
+        }
         prepareContainer();
         recurse(0, 0, 0, AlphaBracket{}, -1);
         balance();
-        for (int level = 0; level < m; ++level) {
-            int count = 1 << level;
-            for (int py = 0; py < count; ++py)
-                for (int px = 0; px < count; ++px)
-                    if (node(level, px, py) == kLeaf) triangulateLeaf(level, px, py);
-        }
+        triangulate(0, 0, 0);
     }
 };
 
@@ -534,16 +573,9 @@ Result<std::unique_ptr<QuadtreeWarper>> QuadtreeWarper::create(const QuadtreeCon
     impl->m = config.gridLevel;
     impl->side = (1 << config.gridLevel) + 1;
     size_t count = size_t(impl->side) * size_t(impl->side);
-    for (auto* s : {&impl->transformStamp, &impl->tcStamp, &impl->rayStamp, &impl->meshStamp,
-                    &impl->errorStamp})
-        s->assign(count, 0u);
-    impl->mapping.resize(count);
-    impl->errorValue.assign(count, 0.0);
-    impl->tc.assign(count, 0);
-    impl->solverOnly.assign(count, 0);
-    impl->rayHit.assign(count, 0);
-    impl->meshIndex.assign(count, 0);
+    impl->verts.resize(count);
     impl->nodes.resize(size_t(config.gridLevel));
+    impl->touched.resize(size_t(config.gridLevel));
     for (int l = 0; l < config.gridLevel; ++l) impl->nodes[l].assign(size_t(1) << (2 * l), 0);
     return std::unique_ptr<QuadtreeWarper>(new QuadtreeWarper(std::move(impl)));
 }

@@ -204,23 +204,48 @@ TEST(Quadtree, ErrorBoundHoldsOnRandomViewpoints) {
     std::mt19937 rng(11);
     for (const char* name : {"cone_showcase.json", "cylinder_screen.json", "dome_screen.json"}) {
         Display d = loadExample(name);
-        auto warper = QuadtreeWarper::create({8, 1.0, 99, 1});
-        ASSERT_TRUE(warper.isOk());
+        // Every side sampled (Lambda off), and the defaults: Lambda = 3 with the re-check.
+        // Grid level 9: level 8 cannot reach 0.1 mm on the cone at all.
+        auto full = QuadtreeWarper::create({9, 1.0, 99, 1});
+        auto directional = QuadtreeWarper::create({9, 1.0});
+        ASSERT_TRUE(full.isOk() && directional.isOk());
         for (int view = 0; view < 3; ++view) {
             ImagePlane plane = makeImagePlane(randomViewer(d, rng), d.contentCenterMm,
                                               d.contentRadiusMm);
-            for (double thr : {2.0, 0.5}) {
-                (*warper)->setThresholdMm(thr);
-                WarpMesh mesh;
-                WarpStats stats;
-                (*warper)->generate(d, plane, nullptr, &mesh, &stats);
-                expectCrackFree(mesh, true);
-                ErrorMeasurement e = measureMeshError(d, plane, mesh, 4, &pool);
-                EXPECT_LE(e.maxErrorMm, thr) << name << " view " << view;
-                EXPECT_EQ(e.unmapped, 0u);
+            for (QuadtreeWarper* warper : {full->get(), directional->get()}) {
+                for (double thr : {2.0, 0.5, 0.1}) {
+                    warper->setThresholdMm(thr);
+                    WarpMesh mesh;
+                    WarpStats stats;
+                    warper->generate(d, plane, nullptr, &mesh, &stats);
+                    expectCrackFree(mesh, true);
+                    ErrorMeasurement e = measureMeshError(d, plane, mesh, 4, &pool);
+                    EXPECT_LE(e.maxErrorMm, thr)
+                        << name << " view " << view << " Lambda "
+                        << warper->config().errorDirectionLevel;
+                    EXPECT_EQ(e.unmapped, 0u);
+                }
             }
         }
     }
+}
+
+TEST(Quadtree, ErrorDirectionHeuristicSavesSamples) {
+    // Section 7.4 with Lambda = 3: patches above Lambda sample one side (plus the re-check near
+    // the threshold), so far fewer error samples, while on the cone's well-behaved optics the
+    // mesh stays the one that sampling every side gives.
+    Display d = loadExample("cone_showcase.json");
+    ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
+    auto full = QuadtreeWarper::create({9, 0.5, 99, 1});
+    auto directional = QuadtreeWarper::create({9, 0.5, 3, 1});
+    ASSERT_TRUE(full.isOk() && directional.isOk());
+    WarpMesh meshFull, meshDir;
+    WarpStats statsFull, statsDir;
+    (*full)->generate(d, plane, nullptr, &meshFull, &statsFull);
+    (*directional)->generate(d, plane, nullptr, &meshDir, &statsDir);
+    EXPECT_LT(statsDir.errorSamples * 10, statsFull.errorSamples * 7);
+    EXPECT_EQ(meshDir.gridIds, meshFull.gridIds);
+    EXPECT_EQ(meshDir.indices, meshFull.indices);
 }
 
 TEST(Quadtree, UniformGridErrorShrinksQuadratically) {
@@ -353,3 +378,4 @@ TEST(MeshIo, BourkeRoundTripAndObjPfm) {
 
 }  // namespace
 }  // namespace plx::display
+

@@ -127,18 +127,29 @@ Vec3 sampleBilinear(const Image<Rgba8>& level, float u, float v) {
     float fx = u * float(level.width()) - 0.5f, fy = v * float(level.height()) - 0.5f;
     float flx = std::floor(fx), fly = std::floor(fy);
     float ax = fx - flx, ay = fy - fly;
-    auto wrap = [](int64_t i, int n) { return int(((i % n) + n) % n); };
-    // Large UVs: reduce in int64 so the float->int conversion cannot overflow.
-    int64_t ix = std::isfinite(flx) ? int64_t(std::clamp(flx, -1e15f, 1e15f)) : 0;
-    int64_t iy = std::isfinite(fly) ? int64_t(std::clamp(fly, -1e15f, 1e15f)) : 0;
-    int x0 = wrap(ix, level.width()), x1 = wrap(ix + 1, level.width());
-    int y0 = wrap(iy, level.height()), y1 = wrap(iy + 1, level.height());
-    auto texel = [&](int x, int y) {
-        Rgba8 c = level.at(x, y);
+    int w = level.width(), h = level.height();
+    int x0, x1, y0, y1;
+    if (flx >= 0.0f && flx < float(w - 1) && fly >= 0.0f && fly < float(h - 1)) {
+        // All four texels inside the level (uv away from the border, the common case): the
+        // wrap below would return them unchanged, so skip its divisions. NaN fails the tests.
+        x0 = int(flx), y0 = int(fly);
+        x1 = x0 + 1, y1 = y0 + 1;
+    } else {
+        auto wrap = [](int64_t i, int n) { return int(((i % n) + n) % n); };
+        // Large UVs: reduce in int64 so the float->int conversion cannot overflow.
+        int64_t ix = std::isfinite(flx) ? int64_t(std::clamp(flx, -1e15f, 1e15f)) : 0;
+        int64_t iy = std::isfinite(fly) ? int64_t(std::clamp(fly, -1e15f, 1e15f)) : 0;
+        x0 = wrap(ix, w), x1 = wrap(ix + 1, w);
+        y0 = wrap(iy, h), y1 = wrap(iy + 1, h);
+    }
+    const Rgba8* row0 = level.row(y0);
+    const Rgba8* row1 = level.row(y1);
+    auto texel = [&](const Rgba8* row, int x) {
+        Rgba8 c = row[x];
         return Vec3(decode[c.r], decode[c.g], decode[c.b]);
     };
-    Vec3 top = texel(x0, y0) * (1.0f - ax) + texel(x1, y0) * ax;
-    Vec3 bottom = texel(x0, y1) * (1.0f - ax) + texel(x1, y1) * ax;
+    Vec3 top = texel(row0, x0) * (1.0f - ax) + texel(row0, x1) * ax;
+    Vec3 bottom = texel(row1, x0) * (1.0f - ax) + texel(row1, x1) * ax;
     return top * (1.0f - ay) + bottom * ay;
 }
 

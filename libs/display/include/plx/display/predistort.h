@@ -69,7 +69,7 @@ Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,
 struct ExperimentConfig {
     std::vector<double> thresholdsMm{8.0, 4.0, 2.0, 1.0, 0.5, 0.1};
     int gridLevel = 9;
-    int errorDirectionLevel = 99;  // Lambda (section 7.4); > gridLevel: off
+    int errorDirectionLevel = 3;  // Lambda (section 7.4, the paper's 3); > gridLevel: off
     ContainerKind container = ContainerKind::kObb;
     int repetitions = 5;  // timing: median of this many frames
     int pass1Size = 512;

@@ -3,6 +3,10 @@
 
 #include <algorithm>
 
+#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
+#include <immintrin.h>
+#endif
+
 #include <plx/stereo/stereo.h>
 
 namespace plx::stereo {
@@ -24,9 +28,8 @@ void VisibleSetCollector::add(const Image<uint32_t>& ids) {
     const uint32_t* p = ids.data();
     const size_t n = ids.pixelCount();
     uint32_t last = 0;  // runs of one ID are common: skip them without touching the stamps
-    for (size_t i = 0; i < n; ++i) {
-        uint32_t id = p[i];
-        if (id == last || id == 0) continue;
+    auto visit = [&](uint32_t id) {
+        if (id == last || id == 0) return;
         last = id;
         uint32_t tri = id - 1;
         PLX_DCHECK(tri < mStamp.size());
@@ -35,7 +38,20 @@ void VisibleSetCollector::add(const Image<uint32_t>& ids) {
             mList.push_back(tri);
             mSorted = false;
         }
+    };
+    size_t i = 0;
+#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
+    // Eight pixels at a time: a group that only continues the current run (or holds the
+    // background) is skipped with one comparison; the others go through visit() in order.
+    for (; i + 8 <= n; i += 8) {
+        __m256i v = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + i));
+        __m256i same = _mm256_or_si256(_mm256_cmpeq_epi32(v, _mm256_set1_epi32(int32_t(last))),
+                                       _mm256_cmpeq_epi32(v, _mm256_setzero_si256()));
+        if (_mm256_movemask_epi8(same) == -1) continue;
+        for (size_t k = i; k < i + 8; ++k) visit(p[k]);
     }
+#endif
+    for (; i < n; ++i) visit(p[i]);
 }
 
 void VisibleSetCollector::addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask) {

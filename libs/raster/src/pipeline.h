@@ -157,26 +157,48 @@ struct ShadeContext {
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
                    TriangleSetup* out);
+// The same, for a triangle whose box (triangleBox returned true) is already known.
+struct TriangleBox;
+void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                        const RasterVertex v[3], const TriangleBox& box,
+                        const ShadeContext& ctx, TriangleSetup* out);
 
 // The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                   const ShadeContext& ctx);
 
-// Cheap pre-test for binning: pixel bounds of a snapped triangle, false when it covers no sample
-// centre, is degenerate, or is a back face that must be culled. Inline: it runs once per
-// triangle when binning and once per tile the triangle touches.
+// Pixel bounds (inclusive, clamped to the viewport) and doubled signed area of a snapped
+// triangle.
+struct TriangleBox {
+    int minX = 0, minY = 0, maxX = -1, maxY = -1;
+    int64_t area2 = 0;
+};
+
+// Cheap pre-test for binning and tiles: the box of a snapped triangle, false when it covers no
+// sample centre, is degenerate, or is a back face that must be culled.
+inline bool triangleBox(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                        const Viewport& vp, bool cullBackFaces, TriangleBox* box) {
+    box->area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
+    // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
+    // counter-clockwise front faces.
+    if (box->area2 == 0 || (cullBackFaces && box->area2 > 0)) return false;
+    box->minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
+    box->minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
+    box->maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
+    box->maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
+    return box->minX <= box->maxX && box->minY <= box->maxY;
+}
+
 inline bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
                            const Viewport& vp, bool cullBackFaces, int* minX, int* minY,
                            int* maxX, int* maxY) {
-    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
-    // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
-    // counter-clockwise front faces.
-    if (area2 == 0 || (cullBackFaces && area2 > 0)) return false;
-    *minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
-    *minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
-    *maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
-    *maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
-    return *minX <= *maxX && *minY <= *maxY;
+    TriangleBox box;
+    bool covers = triangleBox(a, b, c, vp, cullBackFaces, &box);
+    *minX = box.minX;
+    *minY = box.minY;
+    *maxX = box.maxX;
+    *maxY = box.maxY;
+    return covers;
 }
 
 inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
@@ -221,8 +243,8 @@ struct DepthBlocks {
 // the barycentric weights at the bounding box corners, which stay below 2 * box / area, so
 // slivers (area under 1/64 of their box) get no bound and the rest a 1/64 relative margin, far
 // above the rounding (< 1e-4 relative with weights below 128).
-inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c) {
-    int64_t area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
+inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                              int64_t area2) {
     if (area2 < 0) area2 = -area2;
     int64_t boxW = std::max({a.x, b.x, c.x}) - std::min({a.x, b.x, c.x});
     int64_t boxH = std::max({a.y, b.y, c.y}) - std::min({a.y, b.y, c.y});

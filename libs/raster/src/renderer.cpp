@@ -133,8 +133,8 @@ struct Renderer::Impl {
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
                        const RenderTargets& rt) const;
-    bool hidden(const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx, int x0,
-                int y0, int x1, int y1, const ImageView<float>& depth) const;
+    bool hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0, int x1, int y1,
+                const ImageView<float>& depth) const;
 };
 
 Result<std::unique_ptr<Renderer>> Renderer::create(const RendererConfig& config) {
@@ -391,17 +391,13 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
 
 // True when the triangle's part in the tile [x0,x1]x[y0,y1] lies behind what the tile's blocks
 // already hold (or covers no sample there), so drawing it would change nothing.
-bool Renderer::Impl::hidden(const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
-                            int x0, int y0, int x1, int y1, const ImageView<float>& depth) const {
-    int minX, minY, maxX, maxY;
-    if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
-        return true;
-    minX = std::max(minX, x0);
-    minY = std::max(minY, y0);
-    maxX = std::min(maxX, x1);
-    maxY = std::min(maxY, y1);
+bool Renderer::Impl::hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0,
+                            int x1, int y1, const ImageView<float>& depth) const {
+    int minX = std::max(box.minX, x0), minY = std::max(box.minY, y0);
+    int maxX = std::min(box.maxX, x1), maxY = std::min(box.maxY, y1);
     if (minX > maxX || minY > maxY) return true;
-    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2]), depth);
+    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2], box.area2),
+                        depth);
 }
 
 void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& scene,
@@ -431,10 +427,15 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
         const Chunk& chunk = chunks[c];
         for (const BinnedTri& tri : chunk.bins[size_t(tile)]) {
             RasterVertex v[3];
-            for (int k = 0; k < 3; ++k)
-                v[k] = {tri.x[k], tri.y[k], tri.invW[k], Vec3(k == 0, k == 1, k == 2)};
+            for (int k = 0; k < 3; ++k) {
+                v[k].x = tri.x[k];
+                v[k].y = tri.y[k];
+                v[k].invW = tri.invW[k];
+            }
+            TriangleBox box;
+            if (!triangleBox(v[0], v[1], v[2], vp, ctx.cullBackFaces, &box)) continue;
             if (occlusion && probe.shouldTest()) {
-                bool hit = hidden(v, vp, ctx, x0, y0, x1, y1, rt.depth);
+                bool hit = hidden(v, box, x0, y0, x1, y1, rt.depth);
                 probe.record(hit);
                 if (hit) {
                     ++occludedPerTile[size_t(tile)];
@@ -448,9 +449,11 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
                 mesh = m.mesh;
                 localTri = m.localTri;
                 for (int k = 0; k < 3; ++k) v[k].bary = m.bary[k];
+            } else if (ctx.shading != Shading::kFlat) {  // flat shading reads no weights
+                for (int k = 0; k < 3; ++k) v[k].bary = Vec3(k == 0, k == 1, k == 2);
             }
-            if (setupTriangle(scene, mesh, localTri, v, vp, ctx, &setup))
-                rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
+            setupTriangleInBox(scene, mesh, localTri, v, box, ctx, &setup);
+            rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }
 }

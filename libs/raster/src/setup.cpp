@@ -53,11 +53,21 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex vin[3], const Viewport& vp, const ShadeContext& ctx,
                    TriangleSetup* t) {
-    if (!triangleBounds(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &t->minX, &t->minY,
-                        &t->maxX, &t->maxY))
-        return false;
+    TriangleBox box;
+    if (!triangleBox(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &box)) return false;
+    setupTriangleInBox(scene, meshIndex, localTri, vin, box, ctx, t);
+    return true;
+}
+
+void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                        const RasterVertex vin[3], const TriangleBox& box,
+                        const ShadeContext& ctx, TriangleSetup* t) {
+    t->minX = box.minX;
+    t->minY = box.minY;
+    t->maxX = box.maxX;
+    t->maxY = box.maxY;
     // Orient so the signed area is positive: swap vertices 1 and 2 of front faces.
-    int64_t area2 = edgeAt(vin[0].x, vin[0].y, vin[1].x, vin[1].y, vin[2].x, vin[2].y);
+    int64_t area2 = box.area2;
     const RasterVertex* v[3] = {&vin[0], &vin[1], &vin[2]};
     if (area2 < 0) {
         std::swap(v[1], v[2]);
@@ -89,7 +99,7 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
         t->scene = &scene;
         t->meshIndex = uint32_t(meshIndex);
         t->localTri = localTri;
-        return true;
+        return;
     }
     const scene::Mesh& mesh = scene.meshes[meshIndex];
     const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
@@ -116,7 +126,6 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
     t->b1dy = float(t->x[0] - t->x[2]) * inv;
     t->b2dx = -float(t->y[1] - t->y[0]) * inv;
     t->b2dy = float(t->x[1] - t->x[0]) * inv;
-    return true;
 }
 
 namespace {

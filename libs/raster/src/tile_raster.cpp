@@ -58,6 +58,28 @@ struct EdgeSteps {
     }
 };
 
+// rowBarycentrics' integer numerators (edge 2->0 for b1, 0->1 for b2, at column minX), stepped
+// row by row instead of recomputed: the same exact integers, so the same floats.
+struct RowWeights {
+    int64_t e1, e2, step1, step2;
+    RowWeights(const TriangleSetup& t, int y) {
+        const int64_t px = int64_t(t.minX) * kSubPixelScale + kSubPixelScale / 2;
+        const int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
+        e1 = edgeAt(t.x[2], t.y[2], t.x[0], t.y[0], px, py);
+        e2 = edgeAt(t.x[0], t.y[0], t.x[1], t.y[1], px, py);
+        step1 = int64_t(t.x[0] - t.x[2]) * kSubPixelScale;
+        step2 = int64_t(t.x[1] - t.x[0]) * kSubPixelScale;
+    }
+    void get(const TriangleSetup& t, float* b1Row, float* b2Row) const {
+        *b1Row = float(e1) * t.invArea;
+        *b2Row = float(e2) * t.invArea;
+    }
+    void nextRow() {
+        e1 += step1;
+        e2 += step2;
+    }
+};
+
 // One covered sample (scalar): depth test, ID, colour, second layer.
 template <Shading kShading, bool kColor, bool kLayer2>
 inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
@@ -93,9 +115,10 @@ template <Shading kShading, bool kColor, bool kLayer2>
 void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                      int x0, int y0, int x1, int y1, bool spans) {
     EdgeSteps edges(t, x0, y0, true);
-    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+    RowWeights weights(t, y0);
+    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow()) {
         float b1Row, b2Row;
-        rowBarycentrics(t, y, &b1Row, &b2Row);
+        weights.get(t, &b1Row, &b2Row);
         int64_t lo = 0, hi = x1 - x0;
         if (spans)
             for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
@@ -211,9 +234,10 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
     const EightConstants k(t);
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
-    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+    RowWeights weights(t, y0);
+    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow()) {
         float b1Row, b2Row;
-        rowBarycentrics(t, y, &b1Row, &b2Row);
+        weights.get(t, &b1Row, &b2Row);
         const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
         const TargetRows rows(rt, y);
         __m256i e[3];
@@ -239,12 +263,13 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
     const EightConstants k(t);
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
-    for (int y = y0; y <= y1; ++y, edges.nextRow()) {
+    RowWeights weights(t, y0);
+    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow()) {
         int64_t lo = 0, hi = x1 - x0;
         for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
         if (lo > hi) continue;
         float b1Row, b2Row;
-        rowBarycentrics(t, y, &b1Row, &b2Row);
+        weights.get(t, &b1Row, &b2Row);
         const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
         const TargetRows rows(rt, y);
         int last = x0 + int(hi);

@@ -107,7 +107,15 @@ void BM_SecondEyeParts(benchmark::State& state) {
     state.counters["subset_ms"] = subsetMs / double(state.iterations());
     f.count(state);
 }
-BENCHMARK(BM_SecondEyeParts)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseManualTime();
+BENCHMARK(BM_SecondEyeParts)
+    ->Arg(3)
+    ->Arg(8)
+    ->Arg(32)
+    ->Arg(64)
+    ->Arg(128)
+    ->Arg(280)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime();
 
 }  // namespace
 

@@ -2,7 +2,9 @@
 // Interpolation follows rowBarycentrics (pipeline.h) in every loop, so depth, IDs and colours
 // are bit-identical to reference.cpp.
 //
-//  - small triangles (both extents under kSimdMaxExtentPx): the bounding box walked eight pixels
+//  - small triangles (both extents under kSimdMaxExtentPx) at most eight pixels wide in the tile:
+//    one group of eight per row, everything stepped row by row;
+//  - other small triangles: the bounding box walked eight pixels
 //    at a time with AVX2, edge values in int32 lanes;
 //  - larger triangles: each row's covered span solved with one integer division per edge, then
 //    filled eight pixels at a time with no coverage test;
@@ -256,6 +258,43 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
     }
 }
 
+// Triangles whose part in the tile is at most eight pixels wide (most triangles of dense
+// meshes): one group of eight per row, so the int32 edge values, the barycentric numerators and
+// the lane offsets are set up once and stepped row by row, with no loop across the row. The
+// barycentric expression is eightBarycentrics' (rowValue + dk * step, dk fixed for the column),
+// so results stay bit-identical to the other paths.
+template <Shading kShading, bool kColor>
+void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                         int x0, int y0, int x1, int y1, int limitX) {
+    const EdgeSteps edges(t, x0, y0, true);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256i e[3], stepY[3];
+    for (int i = 0; i < 3; ++i) {
+        e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])),
+                                _mm256_mullo_epi32(lane, _mm256_set1_epi32(int32_t(edges.ax[i]))));
+        stepY[i] = _mm256_set1_epi32(int32_t(edges.by[i]));
+    }
+    const __m256i inRect = lanesUpTo(x0, x1);
+    const EightConstants k(t);
+    const __m256 dk = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0 - t.minX), lane));
+    const __m256 offset1 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB1));
+    const __m256 offset2 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB2));
+    const bool whole = x0 + 7 <= limitX;
+    RowWeights weights(t, y0);
+    for (int y = y0; y <= y1; ++y, weights.nextRow()) {
+        __m256i sign = _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
+        __m256i covered = _mm256_andnot_si256(sign, inRect);
+        if (!_mm256_testz_si256(covered, covered)) {
+            float b1Row, b2Row;
+            weights.get(t, &b1Row, &b2Row);
+            __m256 b1 = _mm256_add_ps(_mm256_set1_ps(b1Row), offset1);
+            __m256 b2 = _mm256_add_ps(_mm256_set1_ps(b2Row), offset2);
+            writeEight<kShading, kColor>(t, ctx, k, TargetRows(rt, y), x0, covered, b1, b2, whole);
+        }
+        for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], stepY[i]);
+    }
+}
+
 template <Shading kShading, bool kColor>
 void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                         int x0, int y0, int x1, int y1, int limitX) {
@@ -375,7 +414,9 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     auto run = [&]<Shading kS, bool kC, bool kL2>() {
 #ifdef PLX_RASTER_AVX2
         if constexpr (!kL2) {
-            if (small)
+            if (small && x1 - x0 < 8)
+                rasterizeNarrowAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
+            else if (small)
                 rasterizeBoxAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
             else
                 rasterizeSpansAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);

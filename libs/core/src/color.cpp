@@ -16,7 +16,7 @@ float linearToSrgb(float l) {
 namespace {
 // 4096 entries over [0,1]: the encode error stays below half an 8-bit step except in the
 // steepest part of the curve near black, where 12 bits of input still resolve every code.
-constexpr int kEncodeEntries = 4096;
+constexpr int kEncodeEntries = kSrgbEncodeEntries;
 
 struct Tables {
     std::array<float, 256> decode;
@@ -37,11 +37,8 @@ const Tables& tables() {
 
 const float* srgbDecodeTable() { return tables().decode.data(); }
 
-uint8_t encodeSrgb8(float linear) {
-    // NaN compares false and lands on 0 through the first test.
-    if (!(linear > 0.0f)) return 0;
-    if (linear >= 1.0f) return 255;
-    return tables().encode[int(linear * float(kEncodeEntries) + 0.5f)];
-}
+const uint8_t* srgbEncodeTable() { return tables().encode.data(); }
+
+uint8_t encodeSrgb8(float linear) { return encodeSrgb8(linear, srgbEncodeTable()); }
 
 }  // namespace plx

@@ -102,38 +102,22 @@ struct FastEncodeIO {
 
 // Decoder IO: four rANS states over a bounds-checked word stream, extra bits from a separate
 // bit stream. Past the end of either stream reads give zeros and the overrun is recorded.
-struct FastDecodeIO {
+struct FastDecodeIO : WordStream {
     static constexpr bool kEncode = false;
     const FastTable* const* tableOf;  // raw context -> its table
-    const uint8_t* ptr;
-    const uint8_t* end;
     BitReader bits;
     uint32_t x[kFastStates] = {};
-    bool overrun = false;
 
     FastDecodeIO(const FastTable* const* tables, const uint8_t* begin, const uint8_t* streamEnd,
                  BitReader extra)
-        : tableOf(tables), ptr(begin), end(streamEnd), bits(extra) {
+        : WordStream{begin, streamEnd}, tableOf(tables), bits(extra) {
         for (uint32_t& s : x) {
             s = readWord() << 16;
             s |= readWord();
         }
     }
-    uint32_t readWord() {
-        if (end - ptr >= 2) {
-            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
-            ptr += 2;
-            return w;
-        }
-        overrun = true;
-        return 0;
-    }
     // True when the stream was used up exactly and all states returned to their initial value.
-    bool finishedCleanly() const {
-        bool initial = true;
-        for (uint32_t s : x) initial = initial && s == kRansLow;
-        return !overrun && ptr == end && initial;
-    }
+    bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
     CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
 
     // One symbol with state s; the renormalisation word is read unchecked (the caller made sure

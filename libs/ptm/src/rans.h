@@ -183,10 +183,35 @@ std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
                                 const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
                                 const std::vector<uint16_t>& ctxToTable);
 
+// The renormalisation words of a rANS stream (16-bit, little-endian), bounds-checked: past the
+// end a read gives zero and records the overrun. Shared by every rANS decoder.
+struct WordStream {
+    const uint8_t* ptr;
+    const uint8_t* end;
+    bool overrun = false;
+
+    uint32_t readWord() {
+        if (end - ptr >= 2) {
+            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
+            ptr += 2;
+            return w;
+        }
+        overrun = true;
+        return 0;
+    }
+    // True when the stream was used up exactly and every state is back at its initial value.
+    template <size_t N>
+    bool finishedCleanly(const uint32_t (&states)[N]) const {
+        bool initial = true;
+        for (uint32_t s : states) initial = initial && s == kRansLow;
+        return !overrun && ptr == end && initial;
+    }
+};
+
 // Two-state interleaved rANS decoder over a bounds-checked word stream.
 class RansDecoder {
 public:
-    RansDecoder(const uint8_t* begin, const uint8_t* end) : mPtr(begin), mEnd(end) {
+    RansDecoder(const uint8_t* begin, const uint8_t* end) : mWords{begin, end} {
         mX0 = readWord() << 16;
         mX0 |= readWord();
         mX1 = readWord() << 16;
@@ -203,23 +228,14 @@ public:
     }
     // True when the stream was used up exactly and both states returned to their initial value.
     bool finishedCleanly() const {
-        return !mOverrun && mPtr == mEnd && mX0 == kRansLow && mX1 == kRansLow;
+        const uint32_t states[2] = {mX0, mX1};
+        return mWords.finishedCleanly(states);
     }
 
 private:
-    uint32_t readWord() {
-        if (mEnd - mPtr >= 2) {
-            const uint32_t w = uint32_t(mPtr[0]) | uint32_t(mPtr[1]) << 8;
-            mPtr += 2;
-            return w;
-        }
-        mOverrun = true;
-        return 0;
-    }
-    const uint8_t* mPtr;
-    const uint8_t* mEnd;
+    uint32_t readWord() { return mWords.readWord(); }
+    WordStream mWords;
     uint32_t mX0 = 0, mX1 = 0;
-    bool mOverrun = false;
 };
 
 }  // namespace plx::ptm::detail

@@ -73,24 +73,21 @@ inline constexpr RenormPermutations kRenormPerm{};
 // Decoder IO of coder 4 for walkLevelFast: kSimdStates rANS states over a bounds-checked word
 // stream, extra bits from a separate bit stream. Past the end of either stream reads give zeros
 // and the overrun is recorded.
-struct SimdDecodeIO {
+struct SimdDecodeIO : WordStream {
     static constexpr bool kEncode = false;
     const uint32_t* entries;  // all tables, table t at t * kRansTotal
     // Per family (4c + kind), the context map's first table and `g`, as CtxMap: the walker's
     // contexts are table indices.
     std::array<CtxMap, 16> families{};
-    const uint8_t* ptr;
-    const uint8_t* end;
     BitReader bits;
     alignas(32) uint32_t x[kSimdStates] = {};
-    bool overrun = false;
 
     // familyTables[f] = {first table, g} of family f (context map).
     // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.
     SimdDecodeIO(const uint32_t* tableEntries,
                  const std::array<std::array<int, 2>, 16>& familyTables, int stored,
                  const uint8_t* begin, const uint8_t* streamEnd, BitReader extra)
-        : entries(tableEntries), ptr(begin), end(streamEnd), bits(extra) {
+        : WordStream{begin, streamEnd}, entries(tableEntries), bits(extra) {
         for (size_t f = 0; f < families.size(); ++f) {
             const int g = familyTables[f][1];
             const int mul = familyRawContexts(int(f) & 3) == 16 ? 512 * g : 683 * g;
@@ -105,21 +102,8 @@ struct SimdDecodeIO {
         }
     }
     CtxMap ctxMap(int c, int kind) const { return families[size_t(4 * c + kind)]; }
-    uint32_t readWord() {
-        if (end - ptr >= 2) {
-            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
-            ptr += 2;
-            return w;
-        }
-        overrun = true;
-        return 0;
-    }
     // True when the stream was used up exactly and all states returned to their initial value.
-    bool finishedCleanly() const {
-        bool initial = true;
-        for (uint32_t s : x) initial = initial && s == kRansLow;
-        return !overrun && ptr == end && initial;
-    }
+    bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
 
     // The symbols of a run, from the first, while whole rounds of kSimdStates symbols remain and
     // 2 kSimdStates bytes are left (a round reads at most one word per state; the last vector's

@@ -1,5 +1,3 @@
-#include <charconv>
-
 #include <fmt/format.h>
 
 #include "view.h"
@@ -14,24 +12,6 @@ void addViewOptions(CLI::App* app, ViewArgs* args) {
     app->add_option("--fov", args->fovDegrees, "Vertical field of view in degrees");
     app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
 }
-
-namespace {
-Result<scene::Viewpoint> pickViewpoint(const scene::Scene& scene, const std::string& which) {
-    if (which.empty())
-        return scene::defaultViewpoint(scene);
-    for (const auto& v : scene.viewpoints)
-        if (v.name == which) return v;
-    size_t index = 0;
-    auto [end, ec] = std::from_chars(which.data(), which.data() + which.size(), index);
-    if (ec == std::errc() && end == which.data() + which.size() && index < scene.viewpoints.size())
-        return scene.viewpoints[index];
-    std::string names;
-    for (const auto& v : scene.viewpoints) names += (names.empty() ? "" : ", ") + v.name;
-    return errorStatus(ErrorCode::kNotFound,
-                       fmt::format("no viewpoint '{}' in the scene (it has: {})", which,
-                                   names.empty() ? "none" : names));
-}
-}  // namespace
 
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     auto size = parseSize(args.size);
@@ -53,7 +33,7 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
         vp.targetPos = *target;
         vp.upDir = *up;
     } else {
-        auto picked = pickViewpoint(scene, args.viewpoint);
+        auto picked = scene::findViewpoint(scene, args.viewpoint);
         if (!picked) return picked.status();
         vp = *picked;
     }

@@ -125,15 +125,12 @@ Result<scene::Scene> loadSpec(const SceneSpec& spec) {
     return scene::subdivideMidpoint(*loaded, spec.levels);
 }
 
-// The named viewpoint, else the scene's first one or one framing its bounds; one Camera serves
-// both renderers.
+// The named viewpoint, else the scene's default one; one Camera serves both renderers.
 Result<Camera> sceneCamera(const scene::Scene& scene, const std::string& viewpoint, int width,
                            int height) {
-    if (viewpoint.empty())
-        return scene::cameraAt(scene, scene::defaultViewpoint(scene), width, height);
-    for (const scene::Viewpoint& v : scene.viewpoints)
-        if (v.name == viewpoint) return scene::cameraAt(scene, v, width, height);
-    return errorStatus(ErrorCode::kNotFound, fmt::format("no viewpoint named '{}'", viewpoint));
+    auto v = scene::findViewpoint(scene, viewpoint);
+    if (!v) return v.status();
+    return scene::cameraAt(scene, *v, width, height);
 }
 
 // The two renderers and Parallax's caller-owned targets, set up once for every scene.

@@ -226,6 +226,7 @@ struct DepthBlocks {
     std::vector<float> bound;      // per block: <= every depth value in it
     std::vector<uint8_t> dirty;    // per block: written since `bound` was taken
 
+    // Sizes the blocks for a width x height target (keeps them when the size is unchanged).
     void resize(int width, int height);
     // Resets the blocks of the pixel rectangle [x0,x1]x[y0,y1] (whole blocks) to `depth` (the
     // cleared value), or marks them dirty when the depth they hold is unknown.

@@ -183,8 +183,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     int tilesX = (vp.width + tileSize - 1) / tileSize, tilesY = (vp.height + tileSize - 1) / tileSize;
     size_t tiles = size_t(tilesX) * size_t(tilesY);
 
-    if (blocks.blocksX != (vp.width + 7) / 8 || blocks.blocksY != (vp.height + 7) / 8)
-        blocks.resize(vp.width, vp.height);
+    blocks.resize(vp.width, vp.height);
     occludedPerTile.assign(tiles, 0);
     if (!subset) transformVertices(scene, camera, vp);
     planChunks(scene, subset, tiles);

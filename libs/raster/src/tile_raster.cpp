@@ -350,8 +350,10 @@ float blockMinimum(const ImageView<float>& depth, int px0, int py0) {
 }  // namespace
 
 void DepthBlocks::resize(int width, int height) {
-    blocksX = (width + (1 << kShift) - 1) >> kShift;
-    blocksY = (height + (1 << kShift) - 1) >> kShift;
+    const int bx = (width + (1 << kShift) - 1) >> kShift, by = (height + (1 << kShift) - 1) >> kShift;
+    if (bx == blocksX && by == blocksY) return;  // every tile resets its blocks each frame
+    blocksX = bx;
+    blocksY = by;
     bound.assign(size_t(blocksX) * size_t(blocksY), 0.0f);
     dirty.assign(bound.size(), 1);
 }

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <charconv>
 
 #include <fmt/format.h>
 
@@ -183,6 +184,21 @@ Result<Camera> cameraAt(const Scene& scene, const Viewpoint& viewpoint, int widt
 
 Viewpoint defaultViewpoint(const Scene& scene) {
     return scene.viewpoints.empty() ? framingViewpoint(scene.bounds()) : scene.viewpoints.front();
+}
+
+Result<Viewpoint> findViewpoint(const Scene& scene, const std::string& which) {
+    if (which.empty()) return defaultViewpoint(scene);
+    for (const auto& v : scene.viewpoints)
+        if (v.name == which) return v;
+    size_t index = 0;
+    auto [end, ec] = std::from_chars(which.data(), which.data() + which.size(), index);
+    if (ec == std::errc() && end == which.data() + which.size() && index < scene.viewpoints.size())
+        return scene.viewpoints[index];
+    std::string names;
+    for (const auto& v : scene.viewpoints) names += (names.empty() ? "" : ", ") + v.name;
+    return errorStatus(ErrorCode::kNotFound,
+                       fmt::format("no viewpoint '{}' in the scene (it has: {})", which,
+                                   names.empty() ? "none" : names));
 }
 
 }  // namespace plx::scene

@@ -114,4 +114,8 @@ Result<Camera> cameraAt(const Scene& scene, const Viewpoint& viewpoint, int widt
 // The scene's first viewpoint, or one framing its bounds when it has none.
 Viewpoint defaultViewpoint(const Scene& scene);
 
+// The viewpoint named `which`, else the one at index `which` (decimal); empty: the default
+// viewpoint. Errors: kNotFound naming the scene's viewpoints.
+Result<Viewpoint> findViewpoint(const Scene& scene, const std::string& which);
+
 }  // namespace plx::scene

@@ -180,7 +180,8 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     Viewport vp(camera);
     ShadeContext ctx(options);
     int tileSize = 1 << tileShift;
-    int tilesX = (vp.width + tileSize - 1) / tileSize, tilesY = (vp.height + tileSize - 1) / tileSize;
+    int tilesX = (vp.width + tileSize - 1) / tileSize,
+        tilesY = (vp.height + tileSize - 1) / tileSize;
     size_t tiles = size_t(tilesX) * size_t(tilesY);
 
     blocks.resize(vp.width, vp.height);
@@ -308,7 +309,8 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
     Vec4 clip[3];
     uint32_t codes[3];
     for (int k = 0; k < 3; ++k) {
-        clip[k] = camera.clipFromWorld() * Vec4(m.positions[m.indices[3 * size_t(localTri) + k]], 1.0f);
+        clip[k] =
+            camera.clipFromWorld() * Vec4(m.positions[m.indices[3 * size_t(localTri) + k]], 1.0f);
         codes[k] = outcode(clip[k], vp);
     }
     if (codes[0] & codes[1] & codes[2] & kOutFrustum) return;
@@ -379,7 +381,8 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
             clipAndBin(chunk, scene, camera, chunk.mesh, uint32_t(t), vp, ctx, tilesX);
             continue;
         }
-        RasterVertex v[3] = {{a.x, a.y, a.invW, {}}, {b.x, b.y, b.invW, {}}, {c.x, c.y, c.invW, {}}};
+        RasterVertex v[3] = {
+            {a.x, a.y, a.invW, {}}, {b.x, b.y, b.invW, {}}, {c.x, c.y, c.invW, {}}};
         int minX, minY, maxX, maxY;
         if (!triangleBounds(v[0], v[1], v[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY)) {
             if (ctx.collectUnsampled) noteUnsampled(chunk, scene, v, vp, ctx, uint32_t(t));

@@ -32,7 +32,8 @@ namespace {
 
 // Lambert + ambient of a normal, two-sided (|n.l|) so open meshes look the same from both sides.
 inline float lambert(const Vec3& n, const ShadeContext& ctx) {
-    return std::min(1.0f, ctx.ambient + (1.0f - ctx.ambient) * std::fabs(glm::dot(n, ctx.lightDir)));
+    return std::min(1.0f,
+                    ctx.ambient + (1.0f - ctx.ambient) * std::fabs(glm::dot(n, ctx.lightDir)));
 }
 
 }  // namespace
@@ -187,11 +188,13 @@ Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, flo
         Vec2 dUVdx = (dQdx - uv * dInvWdx) * w, dUVdy = (dQdy - uv * dInvWdy) * w;
         const Image<Rgba8>& base = t.texture->mips[0];
         Vec2 size(float(base.width()), float(base.height()));
-        float rho2 = std::max(glm::dot(dUVdx * size, dUVdx * size), glm::dot(dUVdy * size, dUVdy * size));
+        float rho2 =
+            std::max(glm::dot(dUVdx * size, dUVdx * size), glm::dot(dUVdy * size, dUVdy * size));
         // Nearest mip level: log2(rho) = 0.5 * log2(rho^2), rounded.
         int level = 0;
         if (rho2 > 1.0f && std::isfinite(rho2))
-            level = std::min(int(std::lround(0.5f * std::log2(rho2))), int(t.texture->mips.size()) - 1);
+            level =
+                std::min(int(std::lround(0.5f * std::log2(rho2))), int(t.texture->mips.size()) - 1);
         color *= sampleBilinear(t.texture->mips[size_t(level)], uv.x, uv.y);
     }
     return encodeRgb(color);

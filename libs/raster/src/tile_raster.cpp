@@ -126,7 +126,8 @@ void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const Rend
             for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
         int64_t e0 = edges.e[0] + edges.ax[0] * lo, e1 = edges.e[1] + edges.ax[1] * lo,
                 e2 = edges.e[2] + edges.ax[2] * lo;
-        for (int64_t k = lo; k <= hi; ++k, e0 += edges.ax[0], e1 += edges.ax[1], e2 += edges.ax[2]) {
+        for (int64_t k = lo; k <= hi;
+             ++k, e0 += edges.ax[0], e1 += edges.ax[1], e2 += edges.ax[2]) {
             if (!spans && (e0 | e1 | e2) < 0) continue;
             int x = x0 + int(k);
             float dk = float(x - t.minX);
@@ -160,7 +161,9 @@ struct TargetRows {
     uint32_t* id;
     Rgba8* color;
     TargetRows(const RenderTargets& rt, int y)
-        : depth(rt.depth.row(y)), id(rt.id.row(y)), color(rt.color.data ? rt.color.row(y) : nullptr) {}
+        : depth(rt.depth.row(y)),
+          id(rt.id.row(y)),
+          color(rt.color.data ? rt.color.row(y) : nullptr) {}
 };
 
 // Writes the lanes of `value` selected by `mask` to p[0..7]. Masked stores (vpmaskmov) are
@@ -182,7 +185,8 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
                        bool whole) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
-    __m256 depth = whole ? _mm256_loadu_ps(rows.depth + x) : _mm256_maskload_ps(rows.depth + x, covered);
+    __m256 depth =
+        whole ? _mm256_loadu_ps(rows.depth + x) : _mm256_maskload_ps(rows.depth + x, covered);
     __m256i pass =
         _mm256_and_si256(covered, _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
     if (_mm256_testz_si256(pass, pass)) return;
@@ -246,7 +250,8 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
         for (int i = 0; i < 3; ++i)
             e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])), laneOffset[i]);
         for (int x = x0; x <= x1; x += 8) {
-            __m256i sign = _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
+            __m256i sign =
+                _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
             __m256i covered = _mm256_andnot_si256(sign, lanesUpTo(x, x1));
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
@@ -332,7 +337,8 @@ float blockMinimum(const ImageView<float>& depth, int px0, int py0) {
 #ifdef PLX_RASTER_AVX2
     if (px1 - px0 == 8) {
         __m256 m = _mm256_loadu_ps(depth.row(py0) + px0);
-        for (int y = py0 + 1; y < py1; ++y) m = _mm256_min_ps(m, _mm256_loadu_ps(depth.row(y) + px0));
+        for (int y = py0 + 1; y < py1; ++y)
+            m = _mm256_min_ps(m, _mm256_loadu_ps(depth.row(y) + px0));
         __m128 h = _mm_min_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps(m, 1));
         h = _mm_min_ps(h, _mm_movehl_ps(h, h));
         h = _mm_min_ss(h, _mm_shuffle_ps(h, h, 1));
@@ -350,7 +356,8 @@ float blockMinimum(const ImageView<float>& depth, int px0, int py0) {
 }  // namespace
 
 void DepthBlocks::resize(int width, int height) {
-    const int bx = (width + (1 << kShift) - 1) >> kShift, by = (height + (1 << kShift) - 1) >> kShift;
+    const int bx = (width + (1 << kShift) - 1) >> kShift;
+    const int by = (height + (1 << kShift) - 1) >> kShift;
     if (bx == blocksX && by == blocksY) return;  // every tile resets its blocks each frame
     blocksX = bx;
     blocksY = by;

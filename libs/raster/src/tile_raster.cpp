@@ -227,6 +227,12 @@ inline __m256i lanesUpTo(int x, int x1) {
     return _mm256_cmpgt_epi32(_mm256_set1_epi32(x1 - x + 1), lane);
 }
 
+// The lanes of `allowed` whose three (biased) edge values are all >= 0: the covered samples.
+inline __m256i insideLanes(const __m256i e[3], __m256i allowed) {
+    __m256i sign = _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
+    return _mm256_andnot_si256(sign, allowed);
+}
+
 template <Shading kShading, bool kColor>
 void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                       int x0, int y0, int x1, int y1, int limitX) {
@@ -250,9 +256,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
         for (int i = 0; i < 3; ++i)
             e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])), laneOffset[i]);
         for (int x = x0; x <= x1; x += 8) {
-            __m256i sign =
-                _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
-            __m256i covered = _mm256_andnot_si256(sign, lanesUpTo(x, x1));
+            __m256i covered = insideLanes(e, lanesUpTo(x, x1));
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
                 eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
@@ -287,8 +291,7 @@ void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const 
     const bool whole = x0 + 7 <= limitX;
     RowWeights weights(t, y0);
     for (int y = y0; y <= y1; ++y, weights.nextRow()) {
-        __m256i sign = _mm256_srai_epi32(_mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]), 31);
-        __m256i covered = _mm256_andnot_si256(sign, inRect);
+        __m256i covered = insideLanes(e, inRect);
         if (!_mm256_testz_si256(covered, covered)) {
             float b1Row, b2Row;
             weights.get(t, &b1Row, &b2Row);

@@ -463,6 +463,11 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }
+    if (options.tileIds) {
+        // Threads outside the pool's arena only run tiles when the loop runs inline, alone.
+        int slot = std::clamp(currentThreadSlot(), 0, pool.threadCount() - 1);
+        options.tileIds->visitTile(rt.id, x0, y0, x1, y1, slot);
+    }
 }
 
 }  // namespace plx::raster

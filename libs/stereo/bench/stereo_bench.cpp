@@ -29,7 +29,8 @@ void BM_PairPBuffer(benchmark::State& state) { BM_Pair(state, stereo::Method::kP
 BENCHMARK(BM_PairFull)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PairPBuffer)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// office:N at the default viewpoint with a 2-thread renderer and the two eyes' targets.
+// office:N at the default viewpoint with a renderer of `threads` threads and the two eyes'
+// targets.
 struct SecondEyeFixture {
     scene::Scene scene;
     StereoRig rig;
@@ -37,21 +38,21 @@ struct SecondEyeFixture {
     raster::FrameBuffers first, second;
     stereo::VisibleSetCollector visible;
 
-    explicit SecondEyeFixture(int rooms)
+    explicit SecondEyeFixture(int rooms, int threads = 2)
         : scene(*scene::generateOffice(rooms)),
           rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 640, 480), {})),
-          renderer(std::move(raster::Renderer::create({2})).value()) {
+          renderer(std::move(raster::Renderer::create({threads})).value()) {
         first.resize(640, 480);
         second.resize(640, 480);
     }
-    // Renders the first eye and collects its visible set.
-    const std::vector<uint32_t>& firstEye() {
-        renderer->render(scene, rig.first(), {}, first.targets());
-        return collect();
-    }
-    const std::vector<uint32_t>& collect() {
-        visible.begin(scene.triangleCount());
-        visible.add(first.id);
+    // Renders the first eye, collecting its visible set tile by tile during the render (as the
+    // P-buffer method does), or, with perTile false, in a pass over the finished ID target.
+    const std::vector<uint32_t>& firstEye(bool perTile = true) {
+        visible.begin(scene.triangleCount(), renderer->threadCount());
+        raster::RenderOptions options;
+        if (perTile) options.tileIds = &visible;
+        renderer->render(scene, rig.first(), options, first.targets());
+        if (!perTile) visible.add(first.id);
         return visible.sorted();
     }
     void secondEye(const std::vector<uint32_t>& subset) {
@@ -66,8 +67,10 @@ struct SecondEyeFixture {
 // The second eye's subset render alone, the first eye's visible set collected once. With
 // Arg(1) == 1 a 64 MiB stream before each iteration (untimed) evicts the caches, as the first
 // eye's full pass over a large scene does in a real frame; with 0 the subset's data stays hot.
+// Arg(2) is the renderer's thread count: with 1 the work runs on the benchmark's thread, so its
+// CPU time is the render's whole cost, a steadier figure than wall time on a loaded machine.
 void BM_SecondEyeSubset(benchmark::State& state) {
-    SecondEyeFixture f(int(state.range(0)));
+    SecondEyeFixture f(int(state.range(0)), int(state.range(2)));
     std::vector<uint32_t> subset = f.firstEye();
     std::vector<uint64_t> evict(state.range(1) ? (64u << 20) / 8 : 0);
     uint64_t sink = 0;
@@ -81,21 +84,41 @@ void BM_SecondEyeSubset(benchmark::State& state) {
     f.count(state);
 }
 BENCHMARK(BM_SecondEyeSubset)
-    ->ArgsProduct({{3, 30, 280}, {0, 1}})
+    ->ArgsProduct({{3, 30, 280}, {0, 1}, {2}})
+    ->Args({3, 0, 1})
+    ->Args({280, 1, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The first eye with its visible set: Arg(1) == 1 collects it during the render, tile by tile
+// on the renderer's threads; 0 renders and then passes over the whole ID target on one thread
+// (the last loop of Fig. 6 as a separate pass). The difference is what the P-buffer method's
+// collection costs.
+void BM_FirstEyeWithVisibleSet(benchmark::State& state) {
+    SecondEyeFixture f(int(state.range(0)));
+    for (auto _ : state) benchmark::DoNotOptimize(f.firstEye(state.range(1) != 0).data());
+    f.count(state);
+}
+BENCHMARK(BM_FirstEyeWithVisibleSet)
+    ->ArgsProduct({{3, 280}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
 // The second eye of the P-buffer method in parts, manually timed: each iteration renders the
-// first eye in full (untimed, so the caches hold what they hold in a real frame: the whole scene
-// streamed through), then times the visible-set collection and the subset render of the second
-// eye. Their sum is the second-eye time that should not follow N.
+// first eye in full, collecting its visible set tile by tile (untimed, so the caches hold what
+// they hold in a real frame: the whole scene streamed through), then times the set's gathering
+// and sorting and the subset render of the second eye. Their sum is the second-eye time that
+// should not follow N.
 void BM_SecondEyeParts(benchmark::State& state) {
     SecondEyeFixture f(int(state.range(0)));
     double collectMs = 0, subsetMs = 0;
     for (auto _ : state) {
-        f.renderer->render(f.scene, f.rig.first(), {}, f.first.targets());
+        f.visible.begin(f.scene.triangleCount(), f.renderer->threadCount());
+        raster::RenderOptions options;
+        options.tileIds = &f.visible;
+        f.renderer->render(f.scene, f.rig.first(), options, f.first.targets());
         Stopwatch clock;
-        const std::vector<uint32_t>& subset = f.collect();
+        const std::vector<uint32_t>& subset = f.visible.sorted();
         double collect = clock.elapsedMs();
         f.secondEye(subset);
         double total = clock.elapsedMs();

@@ -92,14 +92,20 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
         stats->guardBandPx =
             renderConservativeFirstEye(*renderer, scene, rig, options, &conservative, &first);
     } else {
-        renderer->render(scene, rig.first(), options.render, first.targets());
+        // Fig. 6, last loop (the visible flag of every polygon in the P-buffer), run inside the
+        // render: each thread scans the tiles it has just drawn, while they are in its cache.
+        collector.begin(scene.triangleCount(), renderer->threadCount());
+        raster::RenderOptions firstEye = options.render;
+        firstEye.tileIds = &collector;
+        renderer->render(scene, rig.first(), firstEye, first.targets());
     }
     stats->firstEyeMs = clock.elapsedMs();
 
-    // Fig. 6, last loop: the visible flag of every polygon in the P-buffer.
     clock.restart();
-    collector.begin(scene.triangleCount());
-    collector.add(first.id);
+    if (options.conservative) {  // the first eye's targets were cropped from a wider render
+        collector.begin(scene.triangleCount());
+        collector.add(first.id);
+    }
     stats->visibleTriangles = collector.size();
     if (options.conservative) addConservativePolygons(conservative, &collector);
     stats->conservativeExtra = collector.size() - stats->visibleTriangles;

@@ -59,6 +59,30 @@ TEST(Stereo, VisibleSetIsTheDistinctIdsOfThePBuffer) {
     EXPECT_LT(st.visibleTriangles, s.triangleCount() / 4);
 }
 
+// Collecting during the render (each thread scanning the tiles it drew) finds exactly the
+// distinct IDs a pass over the finished P-buffer finds, with many small tiles on two threads,
+// and a second frame from elsewhere forgets the first.
+TEST(Stereo, CollectingPerTileEqualsAPassOverTheIds) {
+    scene::Scene s = *scene::generateOffice(3);
+    auto renderer = std::move(raster::Renderer::create({2, 16})).value();
+    raster::FrameBuffers fb;
+    VisibleSetCollector perTile;
+    raster::RenderOptions options;
+    options.tileIds = &perTile;
+    for (size_t view = 0; view < s.viewpoints.size(); ++view) {
+        Camera cam = *scene::cameraAt(s, s.viewpoints[view], 203, 117);
+        fb.resize(cam.width(), cam.height());
+        perTile.begin(s.triangleCount(), renderer->threadCount());
+        renderer->render(s, cam, options, fb.targets());
+        std::set<uint32_t> expected = distinctTriangles(fb.id);
+        ASSERT_GT(expected.size(), 100u);
+        EXPECT_EQ(perTile.size(), expected.size()) << "viewpoint " << view;
+        const std::vector<uint32_t>& got = perTile.sorted();
+        EXPECT_EQ(std::set<uint32_t>(got.begin(), got.end()), expected) << "viewpoint " << view;
+        EXPECT_EQ(got.size(), expected.size()) << "duplicates, viewpoint " << view;
+    }
+}
+
 TEST(Stereo, CollectorForgetsEarlierFrames) {
     VisibleSetCollector c;
     Image<uint32_t> a(4, 1), b(4, 1);

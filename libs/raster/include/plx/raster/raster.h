@@ -42,6 +42,20 @@ struct RenderTargets {
     ImageView<uint32_t> id2;
 };
 
+// Receives each tile of the ID target as soon as the renderer has finished drawing it: the
+// P-buffer's last loop ("for each pixel: set the visible flag of pid", Heo, Jung, Wohn Fig. 6)
+// run per tile by the thread that drew it, while the tile is still in that core's cache,
+// instead of a separate single-threaded pass over the whole target afterwards.
+class TileIdVisitor {
+public:
+    virtual ~TileIdVisitor() = default;
+    // Called once per tile, concurrently from the renderer's threads; `slot` (in
+    // [0, Renderer::threadCount())) is distinct among threads running at the same time. The
+    // tile is the rectangle [x0, x1] x [y0, y1] of `ids`.
+    virtual void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1,
+                           int slot) = 0;
+};
+
 struct RenderOptions {
     Shading shading = Shading::kFlat;
     bool cullBackFaces = false;  // counter-clockwise triangles (as seen) are front faces
@@ -57,6 +71,8 @@ struct RenderOptions {
     // the 3x3 pixels around their centre: visible polygons the sampling missed. Full renders of
     // unclipped triangles only. The stereo module's conservative set uses it.
     std::vector<uint32_t>* unsampledVisible = nullptr;
+    // When set, sees every finished tile of the ID target (see TileIdVisitor).
+    TileIdVisitor* tileIds = nullptr;
 };
 
 struct RenderStats {

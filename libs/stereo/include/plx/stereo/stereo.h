@@ -53,8 +53,9 @@ struct StereoFrame {
 // Collects the distinct polygon IDs of a P-buffer as sorted triangle indices, in
 // O(pixels + visible) per frame: each triangle has an epoch stamp, and a new frame only bumps
 // the epoch instead of clearing a flag per polygon (so the scene size never enters the cost
-// after the one-time allocation).
-class VisibleSetCollector {
+// after the one-time allocation). As a raster::TileIdVisitor it collects during the render,
+// tile by tile on the renderer's threads (RenderOptions::tileIds).
+class VisibleSetCollector : public raster::TileIdVisitor {
 public:
     // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
     void add(const Image<uint32_t>& ids);
@@ -62,20 +63,30 @@ public:
     void addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask);
     // Adds triangle indices (each < triangleCount).
     void addTriangles(std::span<const uint32_t> triangles);
-    // Starts a new set for a scene of triangleCount triangles.
-    void begin(size_t triangleCount);
+    // Adds the IDs of one tile. Safe to call from several threads at once with distinct slots
+    // below the `slots` given to begin(); not concurrently with the other add functions.
+    void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1,
+                   int slot) override;
+    // Starts a new set for a scene of triangleCount triangles; up to `slots` threads may call
+    // visitTile concurrently.
+    void begin(size_t triangleCount, int slots = 1);
     // The set so far, ascending (ascending order keeps the full render's draw order, so exact
     // depth ties resolve the same way in both methods).
     const std::vector<uint32_t>& sorted();
-    size_t size() const { return mList.size(); }
+    size_t size() const;
     bool contains(uint32_t triangle) const {
         return triangle < mStamp.size() && mStamp[triangle] == mEpoch;
     }
 
 private:
+    // One thread's finds during visitTile, on a cache line of its own.
+    struct alignas(64) SlotList {
+        std::vector<uint32_t> triangles;
+    };
     std::vector<uint32_t> mStamp;  // per triangle: the epoch in which it was last seen
     uint32_t mEpoch = 0;
     std::vector<uint32_t> mList;
+    std::vector<SlotList> mSlots;
     bool mSorted = true;
 };
 

@@ -166,12 +166,19 @@ struct TargetRows {
           color(rt.color.data ? rt.color.row(y) : nullptr) {}
 };
 
+// How storeLanes may write: only the masked lanes (vpmaskmov), by reading, blending and writing
+// back all eight (they belong to this thread's tile), or all eight outright (every lane passed).
+enum class LaneStore { kMasked, kBlend, kAll };
+
 // Writes the lanes of `value` selected by `mask` to p[0..7]. Masked stores (vpmaskmov) are
 // microcoded and slow on some x86 cores, so where all eight pixels belong to this thread's tile
-// (`whole`) the row is read, blended and written back instead.
-inline void storeLanes(void* p, __m256i mask, __m256i value, bool whole) {
+// the row is read, blended and written back instead, or, where every lane passed (the inside
+// of large triangles), simply overwritten.
+inline void storeLanes(void* p, __m256i mask, __m256i value, LaneStore how) {
     auto* v = reinterpret_cast<__m256i*>(p);
-    if (whole)
+    if (how == LaneStore::kAll)
+        _mm256_storeu_si256(v, value);
+    else if (how == LaneStore::kBlend)
         _mm256_storeu_si256(v, _mm256_blendv_epi8(_mm256_loadu_si256(v), value, mask));
     else
         _mm256_maskstore_epi32(reinterpret_cast<int*>(p), mask, value);
@@ -190,14 +197,18 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
     __m256i pass =
         _mm256_and_si256(covered, _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
     if (_mm256_testz_si256(pass, pass)) return;
-    storeLanes(rows.depth + x, pass, _mm256_castps_si256(invW), whole);
-    storeLanes(rows.id + x, pass, k.id, whole);
+    const LaneStore how = !whole ? LaneStore::kMasked
+                          : _mm256_movemask_ps(_mm256_castsi256_ps(pass)) == 0xFF
+                              ? LaneStore::kAll
+                              : LaneStore::kBlend;
+    storeLanes(rows.depth + x, pass, _mm256_castps_si256(invW), how);
+    storeLanes(rows.id + x, pass, k.id, how);
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat) {
             Rgba8 c = flatColorFor(t, ctx);
             int32_t packed;
             std::memcpy(&packed, &c, 4);
-            storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), whole);
+            storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), how);
         } else {
             alignas(32) float lb1[8], lb2[8], lw[8];
             _mm256_store_ps(lb1, b1);

@@ -404,6 +404,22 @@ PLX_PTM_IVDEP
     return bad;
 }
 
+// One pixel row of the full blocks of a block row, interleaved: pixels 2 bx and 2 bx + 1 of
+// component c are a[c * full + bx] and b[c * full + bx] (planar rows of the walker).
+template <int C>
+void writeFullRow(const int* __restrict a, const int* __restrict b, int full,
+                  uint8_t* __restrict row) {
+    const size_t n = size_t(full);
+PLX_PTM_IVDEP
+    for (size_t bx = 0; bx < n; ++bx) {
+#pragma GCC unroll 4
+        for (size_t c = 0; c < size_t(C); ++c) {
+            row[2 * bx * C + c] = uint8_t(a[c * n + bx]);
+            row[2 * bx * C + C + c] = uint8_t(b[c * n + bx]);
+        }
+    }
+}
+
 // Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
 // outside 0..255.
 template <int C, class IO>
@@ -462,17 +478,8 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
             io.template run<false>(ctx, n, R.ze.data());
             for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
             if constexpr (!IO::kEncode) {
-                for (int bx = 0; bx < full; ++bx) {
-                    uint8_t* q0 = r0 + size_t(2 * bx) * C;
-                    uint8_t* q1 = r1 + size_t(2 * bx) * C;
-                    for (int c = 0; c < C; ++c) {
-                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
-                        q0[c] = uint8_t(R.v0[i]);
-                        q0[C + c] = uint8_t(R.v1[i]);
-                        q1[c] = uint8_t(R.v2[i]);
-                        q1[C + c] = uint8_t(R.v3[i]);
-                    }
-                }
+                writeFullRow<C>(R.v0.data(), R.v1.data(), full, r0);
+                writeFullRow<C>(R.v2.data(), R.v3.data(), full, r1);
             }
         }
         // Blocks with two real pixels: the last column's 1x2 block (odd width) or the last

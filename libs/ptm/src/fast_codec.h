@@ -523,14 +523,77 @@ PLX_PTM_IVDEP
     return bad;
 }
 
+// Byte shuffles that interleave three planes of 16 bytes into 48: output byte g = 16 j + k is
+// pixel g / 3 of plane g % 3; mask 3 j + ch picks plane ch's bytes of output vector j.
+struct RgbShuffles {
+    alignas(16) int8_t mask[9][16]{};
+    constexpr RgbShuffles() {
+        for (int j = 0; j < 3; ++j)
+            for (int ch = 0; ch < 3; ++ch)
+                for (int k = 0; k < 16; ++k) {
+                    const int g = 16 * j + k;
+                    mask[3 * j + ch][k] = g % 3 == ch ? int8_t(g / 3) : int8_t(-128);
+                }
+    }
+};
+inline constexpr RgbShuffles kRgbShuffles{};
+
 // One pixel row of the full blocks of a block row, interleaved: pixels 2 bx and 2 bx + 1 of
 // component c are a[c * full + bx] and b[c * full + bx] (planar rows of the walker).
+// Values outside 0..255 (only in a level that fails eq. 3's range check, whose pixels are then
+// discarded) may differ between the vector and the scalar path.
 template <int C>
 void writeFullRow(const int* __restrict a, const int* __restrict b, int full,
                   uint8_t* __restrict row) {
     const size_t n = size_t(full);
+    size_t start = 0;
+#if defined(__AVX2__)
+    // Sixteen blocks (32 pixels) per step: each component's 16 + 16 values packed to bytes and
+    // interleaved into one planar 32-pixel row, then the C planes interleaved by byte shuffles.
+    auto bytes16 = [](const int* p) {
+        auto ld = [p](int i) {
+            return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 4 * i));
+        };
+        return _mm_packus_epi16(_mm_packus_epi32(ld(0), ld(1)), _mm_packus_epi32(ld(2), ld(3)));
+    };
+    for (; start + 16 <= n; start += 16) {
+        __m128i lo[C], hi[C];  // pixels 0..15 and 16..31 of the step, per component
+        for (size_t c = 0; c < size_t(C); ++c) {
+            const __m128i va = bytes16(a + c * n + start), vb = bytes16(b + c * n + start);
+            lo[c] = _mm_unpacklo_epi8(va, vb);
+            hi[c] = _mm_unpackhi_epi8(va, vb);
+        }
+        uint8_t* out = row + 2 * start * C;
+        for (int h = 0; h < 2; ++h) {
+            const __m128i* q = h ? hi : lo;
+            __m128i* o = reinterpret_cast<__m128i*>(out + size_t(h) * 16 * C);
+            if constexpr (C == 1) {
+                _mm_storeu_si128(o, q[0]);
+            } else if constexpr (C == 2) {
+                _mm_storeu_si128(o, _mm_unpacklo_epi8(q[0], q[1]));
+                _mm_storeu_si128(o + 1, _mm_unpackhi_epi8(q[0], q[1]));
+            } else if constexpr (C == 4) {
+                const __m128i rg0 = _mm_unpacklo_epi8(q[0], q[1]), rg1 = _mm_unpackhi_epi8(q[0], q[1]);
+                const __m128i ba0 = _mm_unpacklo_epi8(q[2], q[3]), ba1 = _mm_unpackhi_epi8(q[2], q[3]);
+                _mm_storeu_si128(o, _mm_unpacklo_epi16(rg0, ba0));
+                _mm_storeu_si128(o + 1, _mm_unpackhi_epi16(rg0, ba0));
+                _mm_storeu_si128(o + 2, _mm_unpacklo_epi16(rg1, ba1));
+                _mm_storeu_si128(o + 3, _mm_unpackhi_epi16(rg1, ba1));
+            } else {
+                const auto* sh = reinterpret_cast<const __m128i*>(kRgbShuffles.mask);
+#pragma GCC unroll 3
+                for (int j = 0; j < 3; ++j) {
+                    const __m128i v0 = _mm_shuffle_epi8(q[0], _mm_load_si128(sh + 3 * j));
+                    const __m128i v1 = _mm_shuffle_epi8(q[1], _mm_load_si128(sh + 3 * j + 1));
+                    const __m128i v2 = _mm_shuffle_epi8(q[2], _mm_load_si128(sh + 3 * j + 2));
+                    _mm_storeu_si128(o + j, _mm_or_si128(_mm_or_si128(v0, v1), v2));
+                }
+            }
+        }
+    }
+#endif
 PLX_PTM_IVDEP
-    for (size_t bx = 0; bx < n; ++bx) {
+    for (size_t bx = start; bx < n; ++bx) {
 #pragma GCC unroll 4
         for (size_t c = 0; c < size_t(C); ++c) {
             row[2 * bx * C + c] = uint8_t(a[c * n + bx]);

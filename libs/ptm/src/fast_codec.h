@@ -573,8 +573,10 @@ void writeFullRow(const int* __restrict a, const int* __restrict b, int full,
                 _mm_storeu_si128(o, _mm_unpacklo_epi8(q[0], q[1]));
                 _mm_storeu_si128(o + 1, _mm_unpackhi_epi8(q[0], q[1]));
             } else if constexpr (C == 4) {
-                const __m128i rg0 = _mm_unpacklo_epi8(q[0], q[1]), rg1 = _mm_unpackhi_epi8(q[0], q[1]);
-                const __m128i ba0 = _mm_unpacklo_epi8(q[2], q[3]), ba1 = _mm_unpackhi_epi8(q[2], q[3]);
+                const __m128i rg0 = _mm_unpacklo_epi8(q[0], q[1]);
+                const __m128i rg1 = _mm_unpackhi_epi8(q[0], q[1]);
+                const __m128i ba0 = _mm_unpacklo_epi8(q[2], q[3]);
+                const __m128i ba1 = _mm_unpackhi_epi8(q[2], q[3]);
                 _mm_storeu_si128(o, _mm_unpacklo_epi16(rg0, ba0));
                 _mm_storeu_si128(o + 1, _mm_unpackhi_epi16(rg0, ba0));
                 _mm_storeu_si128(o + 2, _mm_unpacklo_epi16(rg1, ba1));

@@ -4,7 +4,7 @@
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
 //   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=1..4) next to libpng decode
 //   plx_ptm_bench coderab FILES...  coder 3 against coder 4: sizes, decode MB/s, libpng
-//   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers)
+//   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers); PLX_PTM_REPS=N
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
 
@@ -415,12 +415,14 @@ int main(int argc, char** argv) {
     if (mode == "speed") return runSpeed(files);
     if (mode == "ptmspeed") return runPtmSpeed(files);
     if (mode == "coderab") return runCoderAB(files);
-    if (mode == "ptmdecode") {  // for profilers: encode once, decode 20 times
+    if (mode == "ptmdecode") {  // for profilers: encode once, decode 20 (PLX_PTM_REPS) times
+        const char* repsEnv = std::getenv("PLX_PTM_REPS");
+        const int reps = repsEnv ? std::max(1, std::atoi(repsEnv)) : 20;
         for (const auto& f : files) {
             auto img = plx::readImage(f);
             if (!img) continue;
             const std::vector<uint8_t> file = *plx::ptm::encode(*img, ptmConfig());
-            for (int i = 0; i < 20; ++i) PLX_CHECK(plx::ptm::decodeImage(file).isOk());
+            for (int i = 0; i < reps; ++i) PLX_CHECK(plx::ptm::decodeImage(file).isOk());
         }
         return 0;
     }

@@ -21,6 +21,10 @@
 #include <cstring>
 #include <vector>
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
 #include <plx/core/image.h>
 
 #include "codec.h"
@@ -264,6 +268,119 @@ PLX_PTM_IVDEP
     }
 }
 
+#if defined(__AVX2__)
+namespace avx2 {
+// Sixteen int rows entries as int16 lanes, in order, and back.
+inline __m256i load16(const int* p) {
+    const __m256i a = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+    const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + 8));
+    return _mm256_permute4x64_epi64(_mm256_packs_epi32(a, b), 0xD8);
+}
+inline void store16(int* p, __m256i v) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p),
+                        _mm256_cvtepi16_epi32(_mm256_castsi256_si128(v)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p + 8),
+                        _mm256_cvtepi16_epi32(_mm256_extracti128_si256(v, 1)));
+}
+// x / 2^k truncated toward zero (C++ division), int16 lanes.
+template <int kShift>
+inline __m256i divPow2(__m256i x) {
+    const __m256i bias = _mm256_and_si256(_mm256_srai_epi16(x, 15),
+                                          _mm256_set1_epi16(int16_t((1 << kShift) - 1)));
+    return _mm256_srai_epi16(_mm256_add_epi16(x, bias), kShift);
+}
+// x / 3 truncated toward zero for every int16 x: high half of x * 0x5556, plus 1 if x < 0.
+inline __m256i div3(__m256i x) {
+    return _mm256_sub_epi16(_mm256_mulhi_epi16(x, _mm256_set1_epi16(0x5556)),
+                            _mm256_srai_epi16(x, 15));
+}
+inline __m256i clamp255(__m256i x) {
+    return _mm256_min_epi16(_mm256_max_epi16(x, _mm256_setzero_si256()),
+                            _mm256_set1_epi16(255));
+}
+}  // namespace avx2
+#endif
+
+// codeFullRow's decode for blocks 0..16k-1 of component c, sixteen blocks per step in int16
+// lanes (every intermediate of the block-sum predictor lies in -8160..4086). Bit-exact with the
+// scalar loop, which decodes the rest. Returns the first block not done.
+inline int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
+    int bx = 0;
+#if defined(__AVX2__)
+    using namespace avx2;
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* m = R.m.data() + pi;
+    const int* u0 = R.u0.data() + pi;
+    const int* u1 = R.u1.data() + pi;
+    const int* u2 = R.u2.data() + pi;
+    const int* u3 = R.u3.data() + pi;
+    const int* sel = R.sel.data() + pi;
+    int* v0 = R.v0.data() + ri;
+    int* v1 = R.v1.data() + ri;
+    int* v2 = R.v2.data() + ri;
+    const uint8_t* z0 = R.z0.data() + ri;
+    const uint8_t* z1 = R.z1.data() + ri;
+    const uint8_t* z2 = R.z2.data() + ri;
+    int* errA = R.errA.data() + ri;
+    int* errB = R.errB.data() + ri;
+    int* rA0 = R.rA0.data();
+    int* rA1 = R.rA1.data();
+    int* rA2 = R.rA2.data();
+    const bool inter = c > 0;
+    const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi16(1);
+    const __m256i mask255 = _mm256_set1_epi16(255);
+    for (; bx + 16 <= full; bx += 16) {
+        const __m256i mm = load16(m + bx), w0 = load16(u0 + bx), w1 = load16(u1 + bx);
+        const __m256i w2 = load16(u2 + bx), w3 = load16(u3 + bx);
+        const __m256i pickB = _mm256_cmpgt_epi16(load16(sel + bx), zero);
+        const __m256i target = _mm256_add_epi16(_mm256_slli_epi16(mm, 4), _mm256_set1_epi16(6));
+        __m256i eA = zero, eB = zero;
+        // One stored pixel (codeFullRow's `one`): prediction pA from the block-sum predictor's
+        // correction corr, B from the previous component's A-residual, value from the run value.
+        auto pixel = [&](__m256i u, __m256i corr, int* rA, const uint8_t* z, int* v) {
+            const __m256i pA = clamp255(_mm256_add_epi16(u, corr));
+            __m256i pB = pA;
+            if (inter) pB = clamp255(_mm256_add_epi16(pA, load16(rA + bx)));
+            const __m256i pred = _mm256_blendv_epi8(pA, pB, pickB);
+            const __m256i zz = _mm256_cvtepu8_epi16(
+                _mm_loadu_si128(reinterpret_cast<const __m128i*>(z + bx)));
+            const __m256i unz = _mm256_xor_si256(_mm256_srli_epi16(zz, 1),
+                                                 _mm256_sub_epi16(zero, _mm256_and_si256(zz, one)));
+            const __m256i val = _mm256_and_si256(_mm256_add_epi16(pred, unz), mask255);
+            store16(v + bx, val);
+            store16(rA + bx, _mm256_sub_epi16(val, pA));
+            eA = _mm256_add_epi16(eA, _mm256_abs_epi16(_mm256_sub_epi16(val, pA)));
+            eB = _mm256_add_epi16(eB, _mm256_abs_epi16(_mm256_sub_epi16(val, pB)));
+            return val;
+        };
+        // predictBlockPixel(4, m, known, sumU, rem, u): corr = (16 m + 6 - 4 known - 4 sumU)
+        // / (4 rem), truncated.
+        const __m256i s23 = _mm256_add_epi16(w2, w3), s123 = _mm256_add_epi16(w1, s23);
+        const __m256i a = pixel(w0,
+                              divPow2<4>(_mm256_sub_epi16(
+                                  target, _mm256_slli_epi16(_mm256_add_epi16(w0, s123), 2))),
+                              rA0, z0, v0);
+        const __m256i b = pixel(
+            w1,
+            div3(divPow2<2>(
+                _mm256_sub_epi16(target, _mm256_slli_epi16(_mm256_add_epi16(a, s123), 2)))),
+            rA1, z1, v1);
+        pixel(w2,
+            divPow2<3>(_mm256_sub_epi16(
+                target, _mm256_slli_epi16(_mm256_add_epi16(_mm256_add_epi16(a, b), s23), 2))),
+            rA2, z2, v2);
+        store16(errA + bx, eA);
+        store16(errB + bx, eB);
+    }
+#else
+    (void)R;
+    (void)lw;
+    (void)full;
+    (void)c;
+#endif
+    return bx;
+}
+
 // Prediction and reconstruction of the three stored pixels of every full block of a row, for
 // component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
 // is the block-sum predictor (codec.h); B (components >= 1) is clamp(A + r, 0, 255) with r the
@@ -303,8 +420,10 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
         eA += std::abs(v - pA);
         eB += std::abs(v - pB);
     };
+    int start = 0;
+    if constexpr (!kEncode) start = decodeFullRowAvx2(R, lw, full, c);
 PLX_PTM_IVDEP
-    for (int bx = 0; bx < full; ++bx) {
+    for (int bx = start; bx < full; ++bx) {
         const int mm = m[bx], s = sel[bx];
         int eA = 0, eB = 0;
         one(predictBlockPixel(4, mm, 0, u0[bx] + u1[bx] + u2[bx] + u3[bx], 4, u0[bx]), rA0[bx],
@@ -404,6 +523,87 @@ PLX_PTM_IVDEP
     return bad;
 }
 
+// Byte shuffles that interleave three planes of 16 bytes into 48: output byte g = 16 j + k is
+// pixel g / 3 of plane g % 3; mask 3 j + ch picks plane ch's bytes of output vector j.
+struct RgbShuffles {
+    alignas(16) int8_t mask[9][16]{};
+    constexpr RgbShuffles() {
+        for (int j = 0; j < 3; ++j)
+            for (int ch = 0; ch < 3; ++ch)
+                for (int k = 0; k < 16; ++k) {
+                    const int g = 16 * j + k;
+                    mask[3 * j + ch][k] = g % 3 == ch ? int8_t(g / 3) : int8_t(-128);
+                }
+    }
+};
+inline constexpr RgbShuffles kRgbShuffles{};
+
+// One pixel row of the full blocks of a block row, interleaved: pixels 2 bx and 2 bx + 1 of
+// component c are a[c * full + bx] and b[c * full + bx] (planar rows of the walker).
+// Values outside 0..255 (only in a level that fails eq. 3's range check, whose pixels are then
+// discarded) may differ between the vector and the scalar path.
+template <int C>
+void writeFullRow(const int* __restrict a, const int* __restrict b, int full,
+                  uint8_t* __restrict row) {
+    const size_t n = size_t(full);
+    size_t start = 0;
+#if defined(__AVX2__)
+    // Sixteen blocks (32 pixels) per step: each component's 16 + 16 values packed to bytes and
+    // interleaved into one planar 32-pixel row, then the C planes interleaved by byte shuffles.
+    auto bytes16 = [](const int* p) {
+        auto ld = [p](int i) {
+            return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 4 * i));
+        };
+        return _mm_packus_epi16(_mm_packus_epi32(ld(0), ld(1)), _mm_packus_epi32(ld(2), ld(3)));
+    };
+    for (; start + 16 <= n; start += 16) {
+        __m128i lo[C], hi[C];  // pixels 0..15 and 16..31 of the step, per component
+        for (size_t c = 0; c < size_t(C); ++c) {
+            const __m128i va = bytes16(a + c * n + start), vb = bytes16(b + c * n + start);
+            lo[c] = _mm_unpacklo_epi8(va, vb);
+            hi[c] = _mm_unpackhi_epi8(va, vb);
+        }
+        uint8_t* out = row + 2 * start * C;
+        for (int h = 0; h < 2; ++h) {
+            const __m128i* q = h ? hi : lo;
+            __m128i* o = reinterpret_cast<__m128i*>(out + size_t(h) * 16 * C);
+            if constexpr (C == 1) {
+                _mm_storeu_si128(o, q[0]);
+            } else if constexpr (C == 2) {
+                _mm_storeu_si128(o, _mm_unpacklo_epi8(q[0], q[1]));
+                _mm_storeu_si128(o + 1, _mm_unpackhi_epi8(q[0], q[1]));
+            } else if constexpr (C == 4) {
+                const __m128i rg0 = _mm_unpacklo_epi8(q[0], q[1]);
+                const __m128i rg1 = _mm_unpackhi_epi8(q[0], q[1]);
+                const __m128i ba0 = _mm_unpacklo_epi8(q[2], q[3]);
+                const __m128i ba1 = _mm_unpackhi_epi8(q[2], q[3]);
+                _mm_storeu_si128(o, _mm_unpacklo_epi16(rg0, ba0));
+                _mm_storeu_si128(o + 1, _mm_unpackhi_epi16(rg0, ba0));
+                _mm_storeu_si128(o + 2, _mm_unpacklo_epi16(rg1, ba1));
+                _mm_storeu_si128(o + 3, _mm_unpackhi_epi16(rg1, ba1));
+            } else {
+                const auto* sh = reinterpret_cast<const __m128i*>(kRgbShuffles.mask);
+#pragma GCC unroll 3
+                for (int j = 0; j < 3; ++j) {
+                    const __m128i v0 = _mm_shuffle_epi8(q[0], _mm_load_si128(sh + 3 * j));
+                    const __m128i v1 = _mm_shuffle_epi8(q[1], _mm_load_si128(sh + 3 * j + 1));
+                    const __m128i v2 = _mm_shuffle_epi8(q[2], _mm_load_si128(sh + 3 * j + 2));
+                    _mm_storeu_si128(o + j, _mm_or_si128(_mm_or_si128(v0, v1), v2));
+                }
+            }
+        }
+    }
+#endif
+PLX_PTM_IVDEP
+    for (size_t bx = start; bx < n; ++bx) {
+#pragma GCC unroll 4
+        for (size_t c = 0; c < size_t(C); ++c) {
+            row[2 * bx * C + c] = uint8_t(a[c * n + bx]);
+            row[2 * bx * C + C + c] = uint8_t(b[c * n + bx]);
+        }
+    }
+}
+
 // Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
 // outside 0..255.
 template <int C, class IO>
@@ -462,17 +662,8 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
             io.template run<false>(ctx, n, R.ze.data());
             for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
             if constexpr (!IO::kEncode) {
-                for (int bx = 0; bx < full; ++bx) {
-                    uint8_t* q0 = r0 + size_t(2 * bx) * C;
-                    uint8_t* q1 = r1 + size_t(2 * bx) * C;
-                    for (int c = 0; c < C; ++c) {
-                        const size_t i = size_t(c) * size_t(full) + size_t(bx);
-                        q0[c] = uint8_t(R.v0[i]);
-                        q0[C + c] = uint8_t(R.v1[i]);
-                        q1[c] = uint8_t(R.v2[i]);
-                        q1[C + c] = uint8_t(R.v3[i]);
-                    }
-                }
+                writeFullRow<C>(R.v0.data(), R.v1.data(), full, r0);
+                writeFullRow<C>(R.v2.data(), R.v3.data(), full, r1);
             }
         }
         // Blocks with two real pixels: the last column's 1x2 block (odd width) or the last

@@ -82,6 +82,10 @@ struct ByteRange {
 ByteRange levelByteRange(const Header& header, int k);
 
 // CRC-32 (IEEE 802.3 polynomial, reflected, as zlib's crc32); `crc` continues a previous value.
+// Uses carry-less multiplication (PCLMULQDQ) where the build has it.
 uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc = 0);
+// The same CRC-32 by table look-ups only (slicing by 8): the reference that crc32 is tested
+// against.
+uint32_t crc32Portable(std::span<const uint8_t> bytes, uint32_t crc = 0);
 
 }  // namespace plx::ptm

@@ -25,8 +25,10 @@ namespace plx::raster::detail {
 namespace {
 
 inline int64_t floorDiv(int64_t a, int64_t b) {  // b > 0
+    // The remainder from the quotient, not a % b: with b = -x the compiler otherwise divides
+    // twice (by -x for the quotient, by x for the remainder, which C++ makes equal).
     int64_t q = a / b;
-    return (a % b != 0 && a < 0) ? q - 1 : q;
+    return (a - q * b != 0 && a < 0) ? q - 1 : q;
 }
 
 // Narrows [lo, hi] (pixel offsets from the row start) to where e + a * k + bias >= 0.

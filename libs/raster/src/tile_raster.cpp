@@ -37,9 +37,12 @@ inline void narrowSpan(int64_t e, int64_t a, int64_t bias, int64_t* lo, int64_t*
     if (a == 0) {
         if (c < 0) *hi = -1, *lo = 0;  // empty
     } else if (a > 0) {
-        *lo = std::max(*lo, -floorDiv(c, a));  // c + a k >= 0  <=>  k >= ceil(-c / a)
+        // Rising along the row: inside from ceil(-c / a) on. Most rows of a large triangle lie
+        // inside the edge already at lo, and need no division.
+        if (c + a * *lo < 0) *lo = std::max(*lo, -floorDiv(c, a));
     } else {
-        *hi = std::min(*hi, floorDiv(c, -a));  // c + a k >= 0  <=>  k <= floor(c / -a)
+        // Falling: inside up to floor(c / -a); no division when still inside at hi.
+        if (c + a * *hi < 0) *hi = std::min(*hi, floorDiv(c, -a));
     }
 }
 

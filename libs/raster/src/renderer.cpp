@@ -47,6 +47,9 @@ struct Materialised {
     uint32_t mesh;
     uint32_t localTri;
     Vec3 bary[3];
+    // Flat shading's colour, taken once here rather than once per tile the triangle reaches
+    // (large triangles of a subset, such as a second stereo eye's, reach several).
+    Rgba8 flatColor;
 };
 
 // A triangle that covers no sample centre: its centre pixel and nearest 1/w, tested against the
@@ -329,8 +332,12 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
                             &minY, &maxX, &maxY))
             continue;
         uint32_t index = uint32_t(chunk.materialised.size());
-        chunk.materialised.push_back(
-            {uint32_t(mesh), localTri, {tris[i][0].bary, tris[i][1].bary, tris[i][2].bary}});
+        Rgba8 flat = ctx.shading == Shading::kFlat ? flatColorOf(scene, mesh, localTri, ctx)
+                                                   : Rgba8{};
+        chunk.materialised.push_back({uint32_t(mesh),
+                                      localTri,
+                                      {tris[i][0].bary, tris[i][1].bary, tris[i][2].bary},
+                                      flat});
         addToBins(chunk, makeBinned(tris[i], index | kMaterialisedBit), minX, minY, maxX,
                   maxY, tilesX);
     }
@@ -451,15 +458,20 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             }
             size_t mesh = chunk.mesh;
             uint32_t localTri = tri.ref;
+            const Materialised* m = nullptr;
             if (tri.ref & kMaterialisedBit) {
-                const Materialised& m = chunk.materialised[tri.ref & ~kMaterialisedBit];
-                mesh = m.mesh;
-                localTri = m.localTri;
-                for (int k = 0; k < 3; ++k) v[k].bary = m.bary[k];
+                m = &chunk.materialised[tri.ref & ~kMaterialisedBit];
+                mesh = m->mesh;
+                localTri = m->localTri;
+                for (int k = 0; k < 3; ++k) v[k].bary = m->bary[k];
             } else if (ctx.shading != Shading::kFlat) {  // flat shading reads no weights
                 for (int k = 0; k < 3; ++k) v[k].bary = Vec3(k == 0, k == 1, k == 2);
             }
             setupTriangleInBox(scene, mesh, localTri, v, box, ctx, &setup);
+            if (m && ctx.shading == Shading::kFlat) {
+                setup.flatColor = m->flatColor;
+                setup.flatReady = true;
+            }
             rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }

@@ -104,6 +104,20 @@ BENCHMARK(BM_FirstEyeWithVisibleSet)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The visible-set collection alone, as one pass over a finished 640x480 ID target on one
+// thread: what each tile's scan costs, summed.
+void BM_CollectPass(benchmark::State& state) {
+    SecondEyeFixture f(int(state.range(0)));
+    f.firstEye(false);
+    for (auto _ : state) {
+        f.visible.begin(f.scene.triangleCount());
+        f.visible.add(f.first.id);
+        benchmark::DoNotOptimize(f.visible.size());
+    }
+    f.count(state);
+}
+BENCHMARK(BM_CollectPass)->Arg(3)->Arg(280)->Unit(benchmark::kMicrosecond);
+
 // The second eye of the P-buffer method in parts, manually timed: each iteration renders the
 // first eye in full, collecting its visible set tile by tile (untimed, so the caches hold what
 // they hold in a real frame: the whole scene streamed through), then times the set's gathering

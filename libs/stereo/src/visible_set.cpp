@@ -14,30 +14,35 @@ namespace plx::stereo {
 
 namespace {
 
-// Calls mark(id - 1) for every pixel of p[0..n) that starts a run of a non-zero ID, `last`
-// being the ID before p[0]. Runs of one ID are common, so they are skipped without touching
-// the stamps: eight pixels at a time with AVX2, a group that only continues the current run
-// (or holds the background) costing one comparison.
+// Calls mark(id - 1) for every pixel of p[0..n) whose non-zero ID differs from the pixel before
+// it, `last` being the ID before p[0] (updated to the last pixel's). Runs of one ID are long, so
+// with AVX2 eight pixels are compared with their left neighbours at once and only the lanes
+// that start a run are visited. An ID may be passed to mark() more than once (a run broken by
+// background); mark() keeps the set free of repeats.
 template <class Mark>
 void markRunStarts(const uint32_t* p, size_t n, uint32_t* last, const Mark& mark) {
-    uint32_t current = *last;
-    auto visit = [&](uint32_t id) {
-        if (id == current || id == 0) return;
-        current = id;
-        mark(id - 1);
-    };
+    uint32_t previous = *last;
     size_t i = 0;
 #if defined(__AVX2__) && !defined(PLX_NO_SIMD)
+    const __m256i shiftRight = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
     for (; i + 8 <= n; i += 8) {
         __m256i v = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + i));
-        __m256i same = _mm256_or_si256(_mm256_cmpeq_epi32(v, _mm256_set1_epi32(int32_t(current))),
+        // Lane k's left neighbour: lane k - 1, and for lane 0 the previous group's last pixel.
+        __m256i left = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(v, shiftRight),
+                                          _mm256_set1_epi32(int32_t(previous)), 0x01);
+        __m256i same = _mm256_or_si256(_mm256_cmpeq_epi32(v, left),
                                        _mm256_cmpeq_epi32(v, _mm256_setzero_si256()));
-        if (_mm256_movemask_epi8(same) == -1) continue;
-        for (size_t k = i; k < i + 8; ++k) visit(p[k]);
+        for (unsigned starts = ~unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(same))) & 0xFFu;
+             starts; starts &= starts - 1)
+            mark(p[i + size_t(__builtin_ctz(starts))] - 1);
+        previous = p[i + 7];
     }
 #endif
-    for (; i < n; ++i) visit(p[i]);
-    *last = current;
+    for (; i < n; ++i) {
+        if (p[i] != previous && p[i] != 0) mark(p[i] - 1);
+        previous = p[i];
+    }
+    *last = previous;
 }
 
 }  // namespace

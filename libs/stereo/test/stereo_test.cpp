@@ -80,6 +80,10 @@ TEST(Stereo, CollectingPerTileEqualsAPassOverTheIds) {
         const std::vector<uint32_t>& got = perTile.sorted();
         EXPECT_EQ(std::set<uint32_t>(got.begin(), got.end()), expected) << "viewpoint " << view;
         EXPECT_EQ(got.size(), expected.size()) << "duplicates, viewpoint " << view;
+        VisibleSetCollector onePass;
+        onePass.begin(s.triangleCount());
+        onePass.add(fb.id);
+        EXPECT_EQ(onePass.sorted(), got) << "viewpoint " << view;
     }
 }
 

@@ -416,6 +416,11 @@ struct ShadeFor<true> {
     const ShadeConstants* get() const { return &value; }
 };
 
+// Groups with fewer samples to shade than this take shadeSample lane by lane: shadeEight's
+// gathers cost the same for one lane as for eight (measured on the pass-2 benchmark, where the
+// uniform grid's triangles cover about four pixels each).
+constexpr int kMinShadeLanes = 4;
+
 // Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes and
 // `whole` says that all eight pixels lie inside the tile being drawn.
 template <Shading kShading, bool kColor>
@@ -437,15 +442,17 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
             int32_t packed;
             std::memcpy(&packed, &c, 4);
             storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), whole);
-        } else if (!shade->scalar) {
-            storeLanes(rows.color + x, pass, shadeEight(*shade, b1, b2, invW, pass), whole);
         } else {
+            int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass));
+            if (!shade->scalar && __builtin_popcount(unsigned(bits)) >= kMinShadeLanes) {
+                storeLanes(rows.color + x, pass, shadeEight(*shade, b1, b2, invW, pass), whole);
+                return;
+            }
             alignas(32) float lb1[8], lb2[8], lw[8];
             _mm256_store_ps(lb1, b1);
             _mm256_store_ps(lb2, b2);
             _mm256_store_ps(lw, invW);
-            for (int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass)); bits;
-                 bits &= bits - 1) {
+            for (; bits; bits &= bits - 1) {
                 int lane = __builtin_ctz(unsigned(bits));
                 rows.color[x + lane] = shadeSample(t, ctx, lb1[lane], lb2[lane], lw[lane]);
             }

@@ -209,12 +209,13 @@ struct ShadeConstants {
     // Texel offsets are gathered as int32: levels of 2^31 texels or more shade per lane.
     bool scalar = false;
 
-    explicit ShadeConstants(const TriangleSetup& t)
-        : invW1(_mm256_set1_ps(t.invW[1])),
-          invW2(_mm256_set1_ps(t.invW[2])),
-          texture(t.texture),
-          decode(srgbDecodeTable()),
-          encode(encodeTable32()) {
+    void prepare(const TriangleSetup& t) {
+        invW1 = _mm256_set1_ps(t.invW[1]);
+        invW2 = _mm256_set1_ps(t.invW[2]);
+        texture = t.texture;
+        decode = srgbDecodeTable();
+        encode = encodeTable32();
+        scalar = false;
         for (int i = 0; i < 3; ++i) {
             for (int c = 0; c < 3; ++c) color[i][c] = _mm256_set1_ps(t.color[i][c]);
             for (int c = 0; c < 2; ++c) uv[i][c] = _mm256_set1_ps(t.uv[i][c]);
@@ -403,17 +404,25 @@ inline __m256i shadeEight(const ShadeConstants& s, __m256 b1, __m256 b2, __m256 
 }
 
 // The shading constants of a triangle where the loops shade each sample (Gouraud, textured),
-// nothing elsewhere.
+// prepared on the first group that shadeEight shades (most triangles of a dense mesh never get
+// one); nothing elsewhere.
 template <bool kUsed>
 struct ShadeFor {
     explicit ShadeFor(const TriangleSetup&) {}
-    const ShadeConstants* get() const { return nullptr; }
 };
 template <>
 struct ShadeFor<true> {
-    ShadeConstants value;
-    explicit ShadeFor(const TriangleSetup& t) : value(t) {}
-    const ShadeConstants* get() const { return &value; }
+    const TriangleSetup& triangle;
+    mutable ShadeConstants value;
+    mutable bool ready = false;
+    explicit ShadeFor(const TriangleSetup& t) : triangle(t) {}
+    const ShadeConstants& get() const {
+        if (!ready) {
+            value.prepare(triangle);
+            ready = true;
+        }
+        return value;
+    }
 };
 
 // Groups with fewer samples to shade than this take shadeSample lane by lane: shadeEight's
@@ -425,7 +434,8 @@ constexpr int kMinShadeLanes = 4;
 // `whole` says that all eight pixels lie inside the tile being drawn.
 template <Shading kShading, bool kColor>
 inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
-                       const ShadeConstants* shade, const TargetRows& rows, int x,
+                       const ShadeFor<kColor && kShading != Shading::kFlat>& shade,
+                       const TargetRows& rows, int x,
                        __m256i covered, __m256 b1, __m256 b2, bool whole) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
@@ -444,8 +454,9 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
             storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), whole);
         } else {
             int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass));
-            if (!shade->scalar && __builtin_popcount(unsigned(bits)) >= kMinShadeLanes) {
-                storeLanes(rows.color + x, pass, shadeEight(*shade, b1, b2, invW, pass), whole);
+            if (__builtin_popcount(unsigned(bits)) >= kMinShadeLanes && !shade.get().scalar) {
+                storeLanes(rows.color + x, pass, shadeEight(shade.get(), b1, b2, invW, pass),
+                           whole);
                 return;
             }
             alignas(32) float lb1[8], lb2[8], lw[8];
@@ -509,7 +520,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
                 eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-                writeEight<kShading, kColor>(t, ctx, k, shade.get(), rows, x, covered, b1, b2,
+                writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, covered, b1, b2,
                                              x + 7 <= limitX);
             }
             for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], step8[i]);
@@ -548,7 +559,7 @@ void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const 
             weights.get(t, &b1Row, &b2Row);
             __m256 b1 = _mm256_add_ps(_mm256_set1_ps(b1Row), offset1);
             __m256 b2 = _mm256_add_ps(_mm256_set1_ps(b2Row), offset2);
-            writeEight<kShading, kColor>(t, ctx, k, shade.get(), TargetRows(rt, y), x0, covered,
+            writeEight<kShading, kColor>(t, ctx, k, shade, TargetRows(rt, y), x0, covered,
                                          b1, b2, whole);
         }
         for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], stepY[i]);
@@ -576,7 +587,7 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
         for (int x = x0 + int(lo); x <= last; x += 8) {
             __m256 b1, b2;
             eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-            writeEight<kShading, kColor>(t, ctx, k, shade.get(), rows, x, lanesUpTo(x, last), b1, b2,
+            writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, lanesUpTo(x, last), b1, b2,
                                          x + 7 <= limitX);
         }
     }

@@ -35,7 +35,7 @@ struct PredistortBenchArgs {
     int repetitions = 5;
     int threads = 0;
     int errorDirectionLevel = display::ExperimentConfig{}.errorDirectionLevel;
-    std::string container = "obb";
+    std::string container = display::containerKindName(display::ExperimentConfig{}.container);
     bool json = false;
 };
 
@@ -133,7 +133,8 @@ Command addBenchPredistort(CLI::App* bench) {
                     "Error-direction LOD Lambda (section 7.4); above the grid level: off")
         ->check(CLI::Range(0, 99));
     sub->add_option("--container", pd->container,
-                    "Container of the limited grid B: obb (the paper's) or hull");
+                    "Container of the limited grid B: hull (default, the coarse convex hull) or "
+                    "obb (the paper's Table 1)");
     sub->add_flag("--json", pd->json, "Print the result as JSON");
     return {sub, [pd] { return runPredistortBench(*pd); }};
 }

@@ -83,6 +83,7 @@ TEST(PredistortCli, BenchWritesTableAndPlots) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     ASSERT_EQ(doc["rows"].size(), 2u);
+    EXPECT_EQ(doc["container"], "hull");  // the default container of grid B
     for (const auto& row : doc["rows"]) {
         double thr = row["error_mm"].get<double>();
         EXPECT_LE(row["adaptive_container"]["max_measured_error_mm"].get<double>(), thr);

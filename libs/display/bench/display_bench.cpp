@@ -1,5 +1,5 @@
 // Mesh generation speed (Bimber et al. section 8): adaptive at 1 mm on one core, and the uniform
-// grid needed for the same error.
+// grid needed for the same error; pass 2 (the textured render of a warp mesh) on one thread.
 
 #include <benchmark/benchmark.h>
 
@@ -47,6 +47,53 @@ void BM_UniformGenerate(benchmark::State& state) {
     state.counters["triangles"] = double(mesh.triangleCount());
 }
 BENCHMARK(BM_UniformGenerate)->Arg(6)->Arg(8)->Unit(benchmark::kMillisecond);
+
+void BM_PassTwo(benchmark::State& state) {
+    // Args: threshold in 0.1 mm (0: the uniform grid of level 8), container (0 none, 1 OBB,
+    // 2 hull). Pass 2 on one renderer thread, the pass-1 image at 512^2.
+    Display d = coneDisplay();
+    ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
+    auto scene = fitSceneToContent(makeShowcaseScene(), d);
+    auto pass2 = PredistortRenderer::create(1);
+    if (!pass2.isOk()) {
+        state.SkipWithError(pass2.status().toString().c_str());
+        return;
+    }
+    plx::Image<plx::Rgba8> viewer;
+    if (!renderViewerImage((*pass2)->renderer(), scene, plane, 512, &viewer, nullptr).isOk()) {
+        state.SkipWithError("pass 1 failed");
+        return;
+    }
+    const ContainerKind kinds[] = {ContainerKind::kNone, ContainerKind::kObb, ContainerKind::kHull};
+    Container c = makeContainer(kinds[state.range(1)], scenePointsMm(scene));
+    WarpMesh mesh;
+    WarpStats stats;
+    if (state.range(0) == 0) {
+        generateUniform(d, plane, 8, &mesh, &stats);
+    } else {
+        auto warper = QuadtreeWarper::create({9, double(state.range(0)) / 10.0});
+        (*warper)->generate(d, plane, &c, &mesh, &stats);
+    }
+    const plx::Image<plx::Rgba8>* frame = nullptr;
+    for (auto _ : state) {
+        auto out = (*pass2)->render(d, mesh, viewer);
+        if (!out.isOk()) {
+            state.SkipWithError(out.status().toString().c_str());
+            return;
+        }
+        frame = *out;
+        benchmark::DoNotOptimize(frame->data());
+    }
+    size_t lit = 0;
+    for (size_t i = 0; frame && i < frame->pixelCount(); ++i) {
+        plx::Rgba8 p = frame->data()[i];
+        lit += (p.r | p.g | p.b) != 0;
+    }
+    state.counters["triangles"] = double(mesh.triangleCount());
+    state.counters["nonblack_px"] = double(lit);
+}
+BENCHMARK(BM_PassTwo)->Args({20, 1})->Args({5, 1})->Args({1, 1})->Args({20, 2})->Args({1, 2})
+    ->Args({0, 0})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -1,5 +1,6 @@
-// plx_display_experiment DISPLAY.json OUT_PREFIX [threads]: runs the Table 1 experiment for the
-// display's default viewer and the built-in exhibit; writes OUT_PREFIX.json and OUT_PREFIX.csv.
+// plx_display_experiment DISPLAY.json OUT_PREFIX [threads] [container]: runs the Table 1
+// experiment for the display's default viewer and the built-in exhibit (grid B limited by the
+// container: hull by default, obb or none); writes OUT_PREFIX.json and OUT_PREFIX.csv.
 
 #include <cstdio>
 #include <string>
@@ -11,7 +12,8 @@
 int main(int argc, char** argv) {
     using namespace plx::display;
     if (argc < 3) {
-        std::fprintf(stderr, "usage: plx_display_experiment DISPLAY.json OUT_PREFIX [threads]\n");
+        std::fprintf(stderr, "usage: plx_display_experiment DISPLAY.json OUT_PREFIX [threads] "
+                             "[container]\n");
         return 2;
     }
     auto display = loadDisplayFile(argv[1]);
@@ -21,6 +23,14 @@ int main(int argc, char** argv) {
     }
     ExperimentConfig config;
     if (argc > 3) config.threads = std::atoi(argv[3]);
+    if (argc > 4) {
+        auto kind = parseContainerKind(argv[4]);
+        if (!kind) {
+            std::fprintf(stderr, "error: %s\n", kind.status().toString().c_str());
+            return 1;
+        }
+        config.container = *kind;
+    }
     auto scene = fitSceneToContent(makeShowcaseScene(), *display);
     auto result = runPredistortExperiment(*display, display->defaultViewerMm, scene, config);
     if (!result) {

@@ -209,6 +209,16 @@ inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
     return t.flatColor;
 }
 
+// Texel indices floor(f) and floor(f) + 1 wrapped into [0, n) (repeat addressing), given
+// fl = floor(f); non-finite values map to texel 0. Large values are reduced in int64 so the
+// float->int conversion cannot overflow.
+inline void wrapTexels(float fl, int n, int32_t* i0, int32_t* i1) {
+    auto wrap = [n](int64_t i) { return int32_t(((i % n) + n) % n); };
+    int64_t i = std::isfinite(fl) ? int64_t(std::clamp(fl, -1e15f, 1e15f)) : 0;
+    *i0 = wrap(i);
+    *i1 = wrap(i + 1);
+}
+
 // Shades one covered sample. b1, b2: barycentric weights of vertices 1 and 2 (b0 = 1 - b1 - b2)
 // in screen space; invW: interpolated 1/w at the sample.
 Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2, float invW);

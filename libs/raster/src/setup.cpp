@@ -138,19 +138,15 @@ Vec3 sampleBilinear(const Image<Rgba8>& level, float u, float v) {
     float flx = std::floor(fx), fly = std::floor(fy);
     float ax = fx - flx, ay = fy - fly;
     int w = level.width(), h = level.height();
-    int x0, x1, y0, y1;
+    int32_t x0, x1, y0, y1;
     if (flx >= 0.0f && flx < float(w - 1) && fly >= 0.0f && fly < float(h - 1)) {
         // All four texels inside the level (uv away from the border, the common case): the
         // wrap below would return them unchanged, so skip its divisions. NaN fails the tests.
-        x0 = int(flx), y0 = int(fly);
+        x0 = int32_t(flx), y0 = int32_t(fly);
         x1 = x0 + 1, y1 = y0 + 1;
     } else {
-        auto wrap = [](int64_t i, int n) { return int(((i % n) + n) % n); };
-        // Large UVs: reduce in int64 so the float->int conversion cannot overflow.
-        int64_t ix = std::isfinite(flx) ? int64_t(std::clamp(flx, -1e15f, 1e15f)) : 0;
-        int64_t iy = std::isfinite(fly) ? int64_t(std::clamp(fly, -1e15f, 1e15f)) : 0;
-        x0 = wrap(ix, w), x1 = wrap(ix + 1, w);
-        y0 = wrap(iy, h), y1 = wrap(iy + 1, h);
+        wrapTexels(flx, w, &x0, &x1);
+        wrapTexels(fly, h, &y0, &y1);
     }
     const Rgba8* row0 = level.row(y0);
     const Rgba8* row1 = level.row(y1);

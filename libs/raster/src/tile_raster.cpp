@@ -8,11 +8,16 @@
 //    at a time with AVX2, edge values in int32 lanes;
 //  - larger triangles: each row's covered span solved with one integer division per edge, then
 //    filled eight pixels at a time with no coverage test;
+//  - Gouraud and textured samples shaded eight at a time (shadeEight: gathered texels, table
+//    decode and encode), bit-identical to shadeSample;
 //  - scalar versions of both for builds without AVX2 (PLX_NO_SIMD) and for the second depth
 //    layer.
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
+#include <vector>
 
 #if defined(__AVX2__) && !defined(PLX_NO_SIMD)
 #include <immintrin.h>
@@ -189,12 +194,261 @@ inline void storeLanes(void* p, __m256i mask, __m256i value, LaneStore how) {
         _mm256_maskstore_epi32(reinterpret_cast<int*>(p), mask, value);
 }
 
+// Gouraud and textured shading of eight samples at once: shadeSample's arithmetic (setup.cpp),
+// operation for operation in the same order (the build disables FMA contraction), so every lane
+// gets the scalar path's colour to the bit. Texels are fetched with gathers, decoded through the
+// 256-entry sRGB table and re-encoded through srgbEncodeTable(); lanes whose bilinear footprint
+// wraps around the texture's border get their texel indices from the scalar wrap (rare).
+const uint32_t* encodeTable32() {
+    // srgbEncodeTable() widened to 32-bit entries so that gathers never read past its end.
+    static const std::vector<uint32_t> table = [] {
+        const uint8_t* bytes = srgbEncodeTable();
+        return std::vector<uint32_t>(bytes, bytes + kSrgbEncodeEntries + 1);
+    }();
+    return table.data();
+}
+
+// Per-triangle constants of shadeEight.
+struct ShadeConstants {
+    __m256 invW1, invW2;
+    __m256 color[3][3];  // [vertex][channel]
+    __m256 uv[3][2];     // [vertex][u, v]
+    // Texture LOD (mipmapped textures): the per-triangle terms of shadeSample's derivatives.
+    __m256 dInvWdx, dInvWdy, dQdx[2], dQdy[2], baseSize[2];
+    const scene::Texture* texture;
+    const float* decode;
+    const uint32_t* encode;
+    // Texel offsets are gathered as int32: levels of 2^31 texels or more shade per lane.
+    bool scalar = false;
+
+    void prepare(const TriangleSetup& t) {
+        invW1 = _mm256_set1_ps(t.invW[1]);
+        invW2 = _mm256_set1_ps(t.invW[2]);
+        texture = t.texture;
+        decode = srgbDecodeTable();
+        encode = encodeTable32();
+        scalar = false;
+        for (int i = 0; i < 3; ++i) {
+            for (int c = 0; c < 3; ++c) color[i][c] = _mm256_set1_ps(t.color[i][c]);
+            for (int c = 0; c < 2; ++c) uv[i][c] = _mm256_set1_ps(t.uv[i][c]);
+        }
+        if (!texture) return;
+        scalar = texture->mips[0].pixelCount() > size_t(std::numeric_limits<int32_t>::max());
+        if (texture->mips.size() == 1) return;
+        // The same expressions as shadeSample's, evaluated once (scalar, same rounding).
+        float wx = t.b1dx * (t.invW[1] - t.invW[0]) + t.b2dx * (t.invW[2] - t.invW[0]);
+        float wy = t.b1dy * (t.invW[1] - t.invW[0]) + t.b2dy * (t.invW[2] - t.invW[0]);
+        Vec2 q0 = t.uv[0] * t.invW[0], q1 = t.uv[1] * t.invW[1], q2 = t.uv[2] * t.invW[2];
+        Vec2 qx = t.b1dx * (q1 - q0) + t.b2dx * (q2 - q0);
+        Vec2 qy = t.b1dy * (q1 - q0) + t.b2dy * (q2 - q0);
+        dInvWdx = _mm256_set1_ps(wx);
+        dInvWdy = _mm256_set1_ps(wy);
+        for (int c = 0; c < 2; ++c) {
+            dQdx[c] = _mm256_set1_ps(qx[c]);
+            dQdy[c] = _mm256_set1_ps(qy[c]);
+        }
+        baseSize[0] = _mm256_set1_ps(float(texture->mips[0].width()));
+        baseSize[1] = _mm256_set1_ps(float(texture->mips[0].height()));
+    }
+};
+
+// a0 * c0 + a1 * c1 + a2 * c2, left to right (glm's order for the scalar Vec3/Vec2 sums).
+inline __m256 weighted(__m256 p0, __m256 p1, __m256 p2, __m256 c0, __m256 c1, __m256 c2) {
+    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(p0, c0), _mm256_mul_ps(p1, c1)),
+                         _mm256_mul_ps(p2, c2));
+}
+
+// The mip level shadeSample picks in each lane of `active` (0 elsewhere).
+inline void mipLevels(const ShadeConstants& s, __m256 u, __m256 v, __m256 w, __m256i active,
+                      int32_t level[8]) {
+    // rho^2 = max(|dUV/dx * size|^2, |dUV/dy * size|^2), as in shadeSample.
+    auto lengthSq = [&](__m256 dInvW, const __m256 dQ[2]) {
+        __m256 du = _mm256_mul_ps(_mm256_sub_ps(dQ[0], _mm256_mul_ps(u, dInvW)), w);
+        __m256 dv = _mm256_mul_ps(_mm256_sub_ps(dQ[1], _mm256_mul_ps(v, dInvW)), w);
+        __m256 x = _mm256_mul_ps(du, s.baseSize[0]), y = _mm256_mul_ps(dv, s.baseSize[1]);
+        return _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y));
+    };
+    __m256 lx = lengthSq(s.dInvWdx, s.dQdx), ly = lengthSq(s.dInvWdy, s.dQdy);
+    // std::max(lx, ly) is (lx < ly ? ly : lx); max_ps(ly, lx) is (ly > lx ? ly : lx), which
+    // agrees for NaNs too.
+    __m256 rho2 = _mm256_max_ps(ly, lx);
+    __m256 minified = _mm256_and_ps(_mm256_cmp_ps(rho2, _mm256_set1_ps(1.0f), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(rho2, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(level), _mm256_setzero_si256());
+    int bits = _mm256_movemask_ps(_mm256_and_ps(minified, _mm256_castsi256_ps(active)));
+    if (!bits) return;
+    alignas(32) float r[8];
+    _mm256_store_ps(r, rho2);
+    const int top = int(s.texture->mips.size()) - 1;
+    for (; bits; bits &= bits - 1) {
+        int lane = __builtin_ctz(unsigned(bits));
+        level[lane] = std::min(int(std::lround(0.5f * std::log2(r[lane]))), top);
+    }
+}
+
+// Linear RGB of the four texels at element offsets `offset` of `texels`: gather, then decode
+// the three channels through the 256-entry table.
+inline void decodeTexels(const uint32_t* texels, __m256i offset, const float* decode,
+                         __m256 rgb[3]) {
+    __m256i c = _mm256_i32gather_epi32(reinterpret_cast<const int*>(texels), offset, 4);
+    const __m256i byte = _mm256_set1_epi32(0xff);
+    rgb[0] = _mm256_i32gather_ps(decode, _mm256_and_si256(c, byte), 4);
+    rgb[1] = _mm256_i32gather_ps(decode, _mm256_and_si256(_mm256_srli_epi32(c, 8), byte), 4);
+    rgb[2] = _mm256_i32gather_ps(decode, _mm256_and_si256(_mm256_srli_epi32(c, 16), byte), 4);
+}
+
+// sampleBilinear (setup.cpp) of `level` at (u, v) for the lanes of `active`; other lanes are
+// left undefined.
+inline void sampleBilinearEight(const Image<Rgba8>& level, __m256 u, __m256 v, __m256i active,
+                                const float* decode, __m256 out[3]) {
+    const int w = level.width(), h = level.height();
+    const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.0f);
+    __m256 fx = _mm256_sub_ps(_mm256_mul_ps(u, _mm256_set1_ps(float(w))), half);
+    __m256 fy = _mm256_sub_ps(_mm256_mul_ps(v, _mm256_set1_ps(float(h))), half);
+    __m256 flx = _mm256_floor_ps(fx), fly = _mm256_floor_ps(fy);
+    __m256 ax = _mm256_sub_ps(fx, flx), ay = _mm256_sub_ps(fy, fly);
+    // Lanes whose four texels lie inside the level (sampleBilinear's fast case).
+    const __m256 zero = _mm256_setzero_ps();
+    __m256 inside = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(flx, zero, _CMP_GE_OQ),
+                      _mm256_cmp_ps(flx, _mm256_set1_ps(float(w - 1)), _CMP_LT_OQ)),
+        _mm256_and_ps(_mm256_cmp_ps(fly, zero, _CMP_GE_OQ),
+                      _mm256_cmp_ps(fly, _mm256_set1_ps(float(h - 1)), _CMP_LT_OQ)));
+    __m256i x0 = _mm256_and_si256(_mm256_cvttps_epi32(flx), _mm256_castps_si256(inside));
+    __m256i y0 = _mm256_and_si256(_mm256_cvttps_epi32(fly), _mm256_castps_si256(inside));
+    const __m256i oneI = _mm256_set1_epi32(1);
+    __m256i x1 = _mm256_add_epi32(x0, oneI), y1 = _mm256_add_epi32(y0, oneI);
+    int wrapped = _mm256_movemask_ps(_mm256_andnot_ps(inside, _mm256_castsi256_ps(active)));
+    if (wrapped) {
+        alignas(32) int32_t ix0[8], ix1[8], iy0[8], iy1[8];
+        alignas(32) float lx[8], ly[8];
+        _mm256_store_si256(reinterpret_cast<__m256i*>(ix0), x0);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(ix1), x1);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iy0), y0);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iy1), y1);
+        _mm256_store_ps(lx, flx);
+        _mm256_store_ps(ly, fly);
+        for (; wrapped; wrapped &= wrapped - 1) {
+            int lane = __builtin_ctz(unsigned(wrapped));
+            wrapTexels(lx[lane], w, &ix0[lane], &ix1[lane]);
+            wrapTexels(ly[lane], h, &iy0[lane], &iy1[lane]);
+        }
+        x0 = _mm256_load_si256(reinterpret_cast<const __m256i*>(ix0));
+        x1 = _mm256_load_si256(reinterpret_cast<const __m256i*>(ix1));
+        y0 = _mm256_load_si256(reinterpret_cast<const __m256i*>(iy0));
+        y1 = _mm256_load_si256(reinterpret_cast<const __m256i*>(iy1));
+    }
+    // Element offsets of the four texels; lanes outside `active` read texel 0.
+    const __m256i width = _mm256_set1_epi32(w);
+    __m256i row0 = _mm256_and_si256(_mm256_mullo_epi32(y0, width), active);
+    __m256i row1 = _mm256_and_si256(_mm256_mullo_epi32(y1, width), active);
+    x0 = _mm256_and_si256(x0, active);
+    x1 = _mm256_and_si256(x1, active);
+    const auto* texels = reinterpret_cast<const uint32_t*>(level.data());
+    __m256 t00[3], t01[3], t10[3], t11[3];
+    decodeTexels(texels, _mm256_add_epi32(row0, x0), decode, t00);
+    decodeTexels(texels, _mm256_add_epi32(row0, x1), decode, t01);
+    decodeTexels(texels, _mm256_add_epi32(row1, x0), decode, t10);
+    decodeTexels(texels, _mm256_add_epi32(row1, x1), decode, t11);
+    __m256 bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
+    for (int c = 0; c < 3; ++c) {
+        __m256 top = _mm256_add_ps(_mm256_mul_ps(t00[c], bx), _mm256_mul_ps(t01[c], ax));
+        __m256 bottom = _mm256_add_ps(_mm256_mul_ps(t10[c], bx), _mm256_mul_ps(t11[c], ax));
+        out[c] = _mm256_add_ps(_mm256_mul_ps(top, by), _mm256_mul_ps(bottom, ay));
+    }
+}
+
+// encodeSrgb8 of eight values, in the low byte of each lane.
+inline __m256i encodeEight(__m256 linear, const uint32_t* table) {
+    const __m256 one = _mm256_set1_ps(1.0f);
+    __m256 inRange = _mm256_and_ps(_mm256_cmp_ps(linear, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                   _mm256_cmp_ps(linear, one, _CMP_LT_OQ));
+    __m256i index = _mm256_cvttps_epi32(_mm256_add_ps(
+        _mm256_mul_ps(linear, _mm256_set1_ps(float(kSrgbEncodeEntries))), _mm256_set1_ps(0.5f)));
+    index = _mm256_and_si256(index, _mm256_castps_si256(inRange));
+    __m256i code = _mm256_i32gather_epi32(reinterpret_cast<const int*>(table), index, 4);
+    code = _mm256_and_si256(code, _mm256_castps_si256(inRange));
+    // linear >= 1 encodes to 255; NaN and linear <= 0 to 0.
+    __m256i saturated = _mm256_castps_si256(_mm256_cmp_ps(linear, one, _CMP_GE_OQ));
+    return _mm256_or_si256(code, _mm256_and_si256(saturated, _mm256_set1_epi32(0xff)));
+}
+
+// The packed Rgba8 colours shadeSample gives the lanes of `active` (other lanes undefined).
+inline __m256i shadeEight(const ShadeConstants& s, __m256 b1, __m256 b2, __m256 invW,
+                          __m256i active) {
+    const __m256 one = _mm256_set1_ps(1.0f);
+    __m256 w = _mm256_div_ps(one, invW);
+    __m256 p1 = _mm256_mul_ps(_mm256_mul_ps(b1, s.invW1), w);
+    __m256 p2 = _mm256_mul_ps(_mm256_mul_ps(b2, s.invW2), w);
+    __m256 p0 = _mm256_sub_ps(_mm256_sub_ps(one, p1), p2);
+    __m256 color[3];
+    for (int c = 0; c < 3; ++c)
+        color[c] = weighted(p0, p1, p2, s.color[0][c], s.color[1][c], s.color[2][c]);
+    if (s.texture) {
+        __m256 u = weighted(p0, p1, p2, s.uv[0][0], s.uv[1][0], s.uv[2][0]);
+        __m256 v = weighted(p0, p1, p2, s.uv[0][1], s.uv[1][1], s.uv[2][1]);
+        __m256 texel[3];
+        if (s.texture->mips.size() == 1) {
+            sampleBilinearEight(s.texture->mips[0], u, v, active, s.decode, texel);
+            for (int c = 0; c < 3; ++c) color[c] = _mm256_mul_ps(color[c], texel[c]);
+        } else {
+            alignas(32) int32_t level[8];
+            mipLevels(s, u, v, w, active, level);
+            const __m256i levels = _mm256_load_si256(reinterpret_cast<const __m256i*>(level));
+            // One pass per distinct level among the lanes (usually one).
+            for (int left = _mm256_movemask_ps(_mm256_castsi256_ps(active)); left;) {
+                int lod = level[__builtin_ctz(unsigned(left))];
+                __m256i same = _mm256_and_si256(
+                    active, _mm256_cmpeq_epi32(levels, _mm256_set1_epi32(lod)));
+                sampleBilinearEight(s.texture->mips[size_t(lod)], u, v, same, s.decode, texel);
+                for (int c = 0; c < 3; ++c)
+                    color[c] = _mm256_blendv_ps(color[c], _mm256_mul_ps(color[c], texel[c]),
+                                                _mm256_castsi256_ps(same));
+                left &= ~_mm256_movemask_ps(_mm256_castsi256_ps(same));
+            }
+        }
+    }
+    __m256i r = encodeEight(color[0], s.encode), g = encodeEight(color[1], s.encode),
+            b = encodeEight(color[2], s.encode);
+    return _mm256_or_si256(_mm256_or_si256(r, _mm256_slli_epi32(g, 8)),
+                           _mm256_or_si256(_mm256_slli_epi32(b, 16),
+                                           _mm256_set1_epi32(int32_t(0xff000000u))));
+}
+
+// The shading constants of a triangle where the loops shade each sample (Gouraud, textured),
+// prepared on the first group that shadeEight shades (most triangles of a dense mesh never get
+// one); nothing elsewhere.
+template <bool kUsed>
+struct ShadeFor {
+    explicit ShadeFor(const TriangleSetup&) {}
+};
+template <>
+struct ShadeFor<true> {
+    const TriangleSetup& triangle;
+    mutable ShadeConstants value;
+    mutable bool ready = false;
+    explicit ShadeFor(const TriangleSetup& t) : triangle(t) {}
+    const ShadeConstants& get() const {
+        if (!ready) {
+            value.prepare(triangle);
+            ready = true;
+        }
+        return value;
+    }
+};
+
+// Groups with fewer samples to shade than this take shadeSample lane by lane: shadeEight's
+// gathers cost the same for one lane as for eight (measured on the pass-2 benchmark, where the
+// uniform grid's triangles cover about four pixels each).
+constexpr int kMinShadeLanes = 4;
+
 // Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes and
 // `whole` says that all eight pixels lie inside the tile being drawn.
 template <Shading kShading, bool kColor>
 inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
-                       const TargetRows& rows, int x, __m256i covered, __m256 b1, __m256 b2,
-                       bool whole) {
+                       const ShadeFor<kColor && kShading != Shading::kFlat>& shade,
+                       const TargetRows& rows, int x,
+                       __m256i covered, __m256 b1, __m256 b2, bool whole) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
     __m256 depth =
@@ -215,12 +469,17 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
             std::memcpy(&packed, &c, 4);
             storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), how);
         } else {
+            int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass));
+            if (__builtin_popcount(unsigned(bits)) >= kMinShadeLanes && !shade.get().scalar) {
+                storeLanes(rows.color + x, pass, shadeEight(shade.get(), b1, b2, invW, pass),
+                           whole);
+                return;
+            }
             alignas(32) float lb1[8], lb2[8], lw[8];
             _mm256_store_ps(lb1, b1);
             _mm256_store_ps(lb2, b2);
             _mm256_store_ps(lw, invW);
-            for (int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass)); bits;
-                 bits &= bits - 1) {
+            for (; bits; bits &= bits - 1) {
                 int lane = __builtin_ctz(unsigned(bits));
                 rows.color[x + lane] = shadeSample(t, ctx, lb1[lane], lb2[lane], lw[lane]);
             }
@@ -260,6 +519,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
         step8[i] = _mm256_set1_epi32(int32_t(8 * edges.ax[i]));
     }
     const EightConstants k(t);
+    const ShadeFor<kColor && kShading != Shading::kFlat> shade(t);
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
     RowWeights weights(t, y0);
@@ -276,7 +536,8 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
                 eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-                writeEight<kShading, kColor>(t, ctx, k, rows, x, covered, b1, b2, x + 7 <= limitX);
+                writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, covered, b1, b2,
+                                             x + 7 <= limitX);
             }
             for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], step8[i]);
         }
@@ -301,6 +562,7 @@ void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const 
     }
     const __m256i inRect = lanesUpTo(x0, x1);
     const EightConstants k(t);
+    const ShadeFor<kColor && kShading != Shading::kFlat> shade(t);
     const __m256 dk = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0 - t.minX), lane));
     const __m256 offset1 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB1));
     const __m256 offset2 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB2));
@@ -313,7 +575,8 @@ void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const 
             weights.get(t, &b1Row, &b2Row);
             __m256 b1 = _mm256_add_ps(_mm256_set1_ps(b1Row), offset1);
             __m256 b2 = _mm256_add_ps(_mm256_set1_ps(b2Row), offset2);
-            writeEight<kShading, kColor>(t, ctx, k, TargetRows(rt, y), x0, covered, b1, b2, whole);
+            writeEight<kShading, kColor>(t, ctx, k, shade, TargetRows(rt, y), x0, covered,
+                                         b1, b2, whole);
         }
         for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], stepY[i]);
     }
@@ -324,6 +587,7 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
                         int x0, int y0, int x1, int y1, int limitX) {
     EdgeSteps edges(t, x0, y0, true);
     const EightConstants k(t);
+    const ShadeFor<kColor && kShading != Shading::kFlat> shade(t);
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
     RowWeights weights(t, y0);
@@ -339,7 +603,7 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
         for (int x = x0 + int(lo); x <= last; x += 8) {
             __m256 b1, b2;
             eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-            writeEight<kShading, kColor>(t, ctx, k, rows, x, lanesUpTo(x, last), b1, b2,
+            writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, lanesUpTo(x, last), b1, b2,
                                          x + 7 <= limitX);
         }
     }

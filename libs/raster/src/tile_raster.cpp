@@ -472,7 +472,7 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
             int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass));
             if (__builtin_popcount(unsigned(bits)) >= kMinShadeLanes && !shade.get().scalar) {
                 storeLanes(rows.color + x, pass, shadeEight(shade.get(), b1, b2, invW, pass),
-                           whole);
+                           how);
                 return;
             }
             alignas(32) float lb1[8], lb2[8], lw[8];

@@ -92,15 +92,20 @@ BENCHMARK(BM_SecondEyeSubset)
 
 // The first eye with its visible set: Arg(1) == 1 collects it during the render, tile by tile
 // on the renderer's threads; 0 renders and then passes over the whole ID target on one thread
-// (the last loop of Fig. 6 as a separate pass). The difference is what the P-buffer method's
-// collection costs.
+// (the last loop of Fig. 6 as a separate pass); 2 renders without collecting (the full method's
+// eye). The differences are what the P-buffer method's collection costs.
 void BM_FirstEyeWithVisibleSet(benchmark::State& state) {
     SecondEyeFixture f(int(state.range(0)));
-    for (auto _ : state) benchmark::DoNotOptimize(f.firstEye(state.range(1) != 0).data());
+    for (auto _ : state) {
+        if (state.range(1) == 2)
+            f.renderer->render(f.scene, f.rig.first(), {}, f.first.targets());
+        else
+            benchmark::DoNotOptimize(f.firstEye(state.range(1) != 0).data());
+    }
     f.count(state);
 }
 BENCHMARK(BM_FirstEyeWithVisibleSet)
-    ->ArgsProduct({{3, 280}, {0, 1}})
+    ->ArgsProduct({{3, 280}, {0, 1, 2}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

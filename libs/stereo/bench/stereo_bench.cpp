@@ -29,19 +29,21 @@ void BM_PairPBuffer(benchmark::State& state) { BM_Pair(state, stereo::Method::kP
 BENCHMARK(BM_PairFull)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PairPBuffer)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// office:N at the default viewpoint with a renderer of `threads` threads and the two eyes'
-// targets.
+// office:N at the default viewpoint with the stereo renderer's raster::Renderer (same tile
+// size as renderPair) of `threads` threads and the two eyes' targets.
 struct SecondEyeFixture {
     scene::Scene scene;
     StereoRig rig;
-    std::unique_ptr<raster::Renderer> renderer;
+    std::unique_ptr<stereo::StereoRenderer> pairs;  // owns `renderer`, configured as for pairs
+    raster::Renderer* renderer;
     raster::FrameBuffers first, second;
     stereo::VisibleSetCollector visible;
 
     explicit SecondEyeFixture(int rooms, int threads = 2)
         : scene(*scene::generateOffice(rooms)),
           rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 640, 480), {})),
-          renderer(std::move(raster::Renderer::create({threads})).value()) {
+          pairs(std::move(stereo::StereoRenderer::create({threads})).value()),
+          renderer(&pairs->renderer()) {
         first.resize(640, 480);
         second.resize(640, 480);
     }

@@ -32,8 +32,12 @@ struct StereoOptions {
 };
 
 struct StereoFrameStats {
-    double firstEyeMs = 0.0;    // first eye, including the P-buffer (same pass)
-    double collectMs = 0.0;     // visible-set collection from the P-buffer (pbuffer method)
+    // First eye, including the P-buffer (same pass) and, for the pbuffer method, the marking of
+    // the visible polygons, done per tile inside the render.
+    double firstEyeMs = 0.0;
+    // The rest of the visible-set collection (pbuffer method): gathering the threads' finds and
+    // sorting them; with --conservative, the pass over the cropped P-buffer and the extra sets.
+    double collectMs = 0.0;
     double secondEyeMs = 0.0;   // second eye (full render, or the visible subset)
     double pairMs = 0.0;        // first + collect + second
     size_t triangles = 0;               // scene triangles

@@ -45,6 +45,26 @@ void addSphere(scene::Mesh* m, Vec3 c, float r, int rings, int segments) {
         }
 }
 
+// True when every triangle of the pass-2 mesh (positions in the plane z = const) has the same
+// orientation or none (zero area): the warp does not fold over, so no two triangles cover the
+// same framebuffer sample and the colour-only render gives the depth-tested render's colour. A
+// fold (a triangle turned over) would make two layers of the mesh overlap.
+bool meshKeepsOrientation(const scene::Mesh& m) {
+    int sign = 0;
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+        const Vec3& a = m.positions[m.indices[t]];
+        const Vec3& b = m.positions[m.indices[t + 1]];
+        const Vec3& c = m.positions[m.indices[t + 2]];
+        double area2 = (double(b.x) - a.x) * (double(c.y) - a.y) -
+                       (double(b.y) - a.y) * (double(c.x) - a.x);
+        int s = (area2 > 0.0) - (area2 < 0.0);
+        if (s == 0) continue;
+        if (sign == 0) sign = s;
+        if (s != sign) return false;
+    }
+    return true;
+}
+
 }  // namespace
 
 scene::Scene makeShowcaseScene() {
@@ -113,6 +133,7 @@ struct PredistortRenderer::Impl {
     scene::Scene scene;
     raster::FrameBuffers fb;
     Image<Rgba8> blank;
+    bool colorOnly = true;
 };
 
 PredistortRenderer::PredistortRenderer(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
@@ -133,6 +154,8 @@ Result<std::unique_ptr<PredistortRenderer>> PredistortRenderer::create(int threa
 }
 
 raster::Renderer& PredistortRenderer::renderer() { return *mImpl->renderer; }
+
+void PredistortRenderer::setColorOnly(bool enabled) { mImpl->colorOnly = enabled; }
 
 Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
                                                        const WarpMesh& mesh,
@@ -177,12 +200,22 @@ Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
     }
     m.indices.assign(mesh.indices.begin(), mesh.indices.end());
     PLX_RETURN_IF_ERROR(mImpl->scene.finalize());
-    if (mImpl->fb.color.width() != w || mImpl->fb.color.height() != h) mImpl->fb.resize(w, h);
+    bool resized = mImpl->fb.color.width() != w || mImpl->fb.color.height() != h;
+    if (resized) mImpl->fb.resize(w, h);
     raster::RenderOptions options;
     options.shading = raster::Shading::kTextured;
     options.lit = false;
     options.clearColor = {0, 0, 0, 255};
-    mImpl->renderer->render(mImpl->scene, *camera, options, mImpl->fb.targets());
+    // The mesh lies in one plane, drawn in one layer: unless it folds over, no depth test, no
+    // depth or ID target, and only the tiles drawn into last frame or this one are cleared.
+    raster::RenderTargets targets = mImpl->fb.targets();
+    if (mImpl->colorOnly && meshKeepsOrientation(m)) {
+        options.colorOnly = true;
+        targets = {mImpl->fb.color.view(), {}, {}, {}, {}};
+    }
+    // Freshly sized buffers hold no known frame: cleared whole once.
+    options.clearDrawnTilesOnly = mImpl->colorOnly && !resized;
+    mImpl->renderer->render(mImpl->scene, *camera, options, targets);
     if (milliseconds) *milliseconds = sw.elapsedMs();
     return &mImpl->fb.color;
 }

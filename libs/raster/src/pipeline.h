@@ -29,6 +29,10 @@ enum : uint32_t {
     kOutNeedsClip = kOutNear | kOutFar | kOutGuard,
 };
 
+// checkRenderRequest, aborting (PLX_CHECK) with its message when the request is malformed.
+void checkRenderRequestOrDie(const Camera& camera, const RenderOptions& options,
+                             const RenderTargets& targets);
+
 // Per-frame viewport constants derived from the camera.
 struct Viewport {
     int width = 0, height = 0;
@@ -148,6 +152,7 @@ struct ShadeContext {
     float ambient = 0.25f;
     bool cullBackFaces = false;
     bool collectUnsampled = false;
+    bool colorOnly = false;  // RenderOptions::colorOnly: no depth test, no depth or ID writes
 
     ShadeContext(const RenderOptions& options);
 };

@@ -28,6 +28,10 @@ void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const R
             float k = float(x - t.minX);
             float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
             float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
+            if (ctx.colorOnly) {  // no depth test: submission order decides
+                rt.color.at(x, y) = shadeSample(t, ctx, b1, b2, invW);
+                continue;
+            }
             if (!(invW > rt.depth.at(x, y))) {
                 if (rt.id2.data && invW > rt.depth2.at(x, y)) {
                     rt.depth2.at(x, y) = invW;
@@ -77,13 +81,14 @@ void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& c
 
 void renderReference(const scene::Scene& scene, const Camera& camera, const RenderOptions& options,
                      const RenderTargets& rt, std::span<const uint32_t>* subset) {
-    PLX_CHECK(rt.depth.width == camera.width() && rt.depth.height == camera.height());
-    PLX_CHECK(rt.id.width == camera.width() && rt.id.height == camera.height());
+    checkRenderRequestOrDie(camera, options, rt);
     Viewport vp(camera);
     ShadeContext ctx(options);
     if (options.clearTargets) {
-        rt.depth.fill(0.0f);
-        rt.id.fill(0u);
+        if (!options.colorOnly) {
+            rt.depth.fill(0.0f);
+            rt.id.fill(0u);
+        }
         if (rt.color.data) rt.color.fill(options.clearColor);
         if (rt.id2.data) {
             rt.depth2.fill(0.0f);

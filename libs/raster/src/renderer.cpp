@@ -100,6 +100,43 @@ struct Chunk {
     }
 };
 
+// The tiles one frame drew into on one set of targets, which left every other tile of them
+// holding the clear values (RenderOptions::clearDrawnTilesOnly).
+struct DrawnTiles {
+    const void* data[5];  // colour, depth, ID, second depth, second ID (null when absent)
+    ptrdiff_t strides[5];
+    int width, height;
+    uint32_t clearWord;
+    bool colorOnly;
+    std::vector<uint8_t> drawn;  // per tile
+
+    static DrawnTiles keyOf(const RenderTargets& rt, const RenderOptions& options,
+                            uint32_t clearWord) {
+        return {{rt.color.data, rt.depth.data, rt.id.data, rt.depth2.data, rt.id2.data},
+                {rt.color.strideElems, rt.depth.strideElems, rt.id.strideElems,
+                 rt.depth2.strideElems, rt.id2.strideElems},
+                rt.depth.data ? rt.depth.width : rt.color.width,
+                rt.depth.data ? rt.depth.height : rt.color.height,
+                clearWord,
+                options.colorOnly,
+                {}};
+    }
+    bool sameTargets(const DrawnTiles& o) const {
+        return std::equal(data, data + 5, o.data) && std::equal(strides, strides + 5, o.strides) &&
+               width == o.width && height == o.height && clearWord == o.clearWord &&
+               colorOnly == o.colorOnly;
+    }
+    bool sharesTarget(const DrawnTiles& o) const {
+        for (const void* a : data)
+            for (const void* b : o.data)
+                if (a && a == b) return true;
+        return false;
+    }
+};
+
+// Targets whose drawn tiles are remembered at once (a two-pass renderer alternates two sets).
+constexpr size_t kMaxDrawnRecords = 4;
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -113,6 +150,8 @@ struct Renderer::Impl {
     // Coarse occlusion per 8x8 block; each tile touches only its own blocks (see DepthBlocks).
     mutable DepthBlocks blocks;
     mutable std::vector<uint64_t> occludedPerTile;  // this frame's tilePairsOccluded, per tile
+    std::vector<DrawnTiles> drawnRecords;  // most recent last, at most kMaxDrawnRecords
+    std::vector<uint8_t> clearTile;        // this frame: per tile, whether to clear it
 
     explicit Impl(const RendererConfig& c) : config(c), pool(c.threads) {
         while ((1 << tileShift) < c.tileSize) ++tileShift;
@@ -134,6 +173,7 @@ struct Renderer::Impl {
                    int tilesX) const;
     void clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera, size_t mesh,
                     uint32_t localTri, const Viewport& vp, const ShadeContext& ctx, int tilesX);
+    void planClears(const RenderOptions& options, const RenderTargets& rt, size_t tiles);
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
                        const RenderTargets& rt) const;
@@ -171,14 +211,7 @@ RenderStats Renderer::renderSubset(const scene::Scene& scene, const Camera& came
 RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
                                 std::span<const uint32_t>* subset, const RenderOptions& options,
                                 const RenderTargets& rt) {
-    PLX_CHECK(rt.depth.width == camera.width() && rt.depth.height == camera.height());
-    PLX_CHECK(rt.id.width == camera.width() && rt.id.height == camera.height());
-    PLX_CHECK(!rt.color.data ||
-              (rt.color.width == camera.width() && rt.color.height == camera.height()));
-    PLX_CHECK((rt.id2.data == nullptr) == (rt.depth2.data == nullptr));
-    PLX_CHECK(!rt.id2.data || (rt.id2.width == camera.width() && rt.id2.height == camera.height() &&
-                               rt.depth2.width == camera.width() &&
-                               rt.depth2.height == camera.height()));
+    checkRenderRequestOrDie(camera, options, rt);
     Stopwatch clock;
     Viewport vp(camera);
     ShadeContext ctx(options);
@@ -194,6 +227,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     pool.parallelFor(chunkCount, 1, [&](size_t b, size_t e) {
         for (size_t c = b; c < e; ++c) binChunk(chunks[c], scene, camera, subset, vp, ctx, tilesX);
     });
+    planClears(options, rt, tiles);
     pool.parallelFor(tiles, 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) rasterizeTile(int(t), tilesX, scene, vp, ctx, options, rt);
     });
@@ -207,6 +241,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
         stats.trianglesBinned += chunks[c].binned;
     }
     for (uint64_t n : occludedPerTile) stats.tilePairsOccluded += n;
+    for (uint8_t c : clearTile) stats.tilesCleared += c;
     stats.milliseconds = clock.elapsedMs();
     return stats;
 }
@@ -399,6 +434,30 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
     }
 }
 
+// Decides which tiles this frame clears (all, unless clearDrawnTilesOnly finds the targets' last
+// frame) and remembers the tiles it draws into for the next frame on the same targets.
+void Renderer::Impl::planClears(const RenderOptions& options, const RenderTargets& rt,
+                                size_t tiles) {
+    clearTile.assign(tiles, options.clearTargets ? 1 : 0);
+    uint32_t clearWord;
+    std::memcpy(&clearWord, &options.clearColor, sizeof clearWord);
+    DrawnTiles now = DrawnTiles::keyOf(rt, options, clearWord);
+    const DrawnTiles* last = nullptr;
+    for (const DrawnTiles& r : drawnRecords)
+        if (r.sameTargets(now) && r.drawn.size() == tiles) last = &r;
+    now.drawn.assign(tiles, 0);
+    for (size_t t = 0; t < tiles; ++t)
+        for (size_t c = 0; c < chunkCount && !now.drawn[t]; ++c)
+            now.drawn[t] = chunks[c].bins[t].empty() ? 0 : 1;
+    if (options.clearTargets && options.clearDrawnTilesOnly && last)
+        for (size_t t = 0; t < tiles; ++t) clearTile[t] = last->drawn[t] | now.drawn[t];
+    // Whatever this frame leaves in targets shared with a record makes that record stale.
+    std::erase_if(drawnRecords, [&](const DrawnTiles& r) { return r.sharesTarget(now); });
+    if (!options.clearTargets) return;  // what the untouched tiles hold is the caller's
+    if (drawnRecords.size() == kMaxDrawnRecords) drawnRecords.erase(drawnRecords.begin());
+    drawnRecords.push_back(std::move(now));
+}
+
 // True when the triangle's part in the tile [x0,x1]x[y0,y1] lies behind what the tile's blocks
 // already hold (or covers no sample there), so drawing it would change nothing.
 bool Renderer::Impl::hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0,
@@ -416,13 +475,15 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     int tileSize = 1 << tileShift;
     int x0 = (tile % tilesX) * tileSize, y0 = (tile / tilesX) * tileSize;
     int x1 = std::min(x0 + tileSize, vp.width) - 1, y1 = std::min(y0 + tileSize, vp.height) - 1;
-    if (options.clearTargets) {
+    if (clearTile[size_t(tile)]) {
         static_assert(sizeof(Rgba8) == sizeof(uint32_t));
         uint32_t clearWord;
         std::memcpy(&clearWord, &options.clearColor, sizeof clearWord);
         for (int y = y0; y <= y1; ++y) {
-            std::fill(rt.depth.row(y) + x0, rt.depth.row(y) + x1 + 1, 0.0f);
-            std::fill(rt.id.row(y) + x0, rt.id.row(y) + x1 + 1, 0u);
+            if (!options.colorOnly) {
+                std::fill(rt.depth.row(y) + x0, rt.depth.row(y) + x1 + 1, 0.0f);
+                std::fill(rt.id.row(y) + x0, rt.id.row(y) + x1 + 1, 0u);
+            }
             if (rt.color.data)  // as 32-bit words, which the compiler fills eight at a time
                 std::fill_n(reinterpret_cast<uint32_t*>(rt.color.row(y) + x0), x1 - x0 + 1,
                             clearWord);
@@ -432,9 +493,10 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             }
         }
     }
-    blocks.reset(x0, y0, x1, y1, options.clearTargets);
-    // The second depth layer needs the hidden triangles too: no occlusion culling for it.
-    DepthBlocks* occlusion = rt.id2.data ? nullptr : &blocks;
+    // The second depth layer needs the hidden triangles too: no occlusion culling for it, nor
+    // without a depth test.
+    DepthBlocks* occlusion = rt.id2.data || options.colorOnly ? nullptr : &blocks;
+    if (occlusion) blocks.reset(x0, y0, x1, y1, options.clearTargets);
     OcclusionProbe probe;
     TriangleSetup setup;
     for (size_t c = 0; c < chunkCount; ++c) {

@@ -23,7 +23,8 @@ ShadeContext::ShadeContext(const RenderOptions& options)
       lit(options.lit),
       ambient(options.ambient),
       cullBackFaces(options.cullBackFaces),
-      collectUnsampled(options.unsampledVisible != nullptr) {
+      collectUnsampled(options.unsampledVisible != nullptr),
+      colorOnly(options.colorOnly) {
     float len = glm::length(options.lightDir);
     lightDir = len > 0.0f && std::isfinite(len) ? options.lightDir / len : Vec3(0.0f, 1.0f, 0.0f);
 }

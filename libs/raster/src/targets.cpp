@@ -1,10 +1,13 @@
 // Owning frame buffers, ID statistics and visualisations of the depth and ID targets.
 
 #include <algorithm>
+#include <cstdio>
 
 #include <fmt/format.h>
 
 #include <plx/raster/raster.h>
+
+#include "pipeline.h"
 
 namespace plx::raster {
 
@@ -24,6 +27,51 @@ const char* shadingName(Shading shading) {
     }
     return "unknown";
 }
+
+Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
+                          const RenderTargets& rt) {
+    auto fits = [&](int width, int height) {
+        return width == camera.width() && height == camera.height();
+    };
+    auto bad = [](const char* what) { return errorStatus(ErrorCode::kInvalidArgument, what); };
+    if (options.colorOnly) {
+        if (!rt.color.data) return bad("a colour-only render needs a colour target");
+        if (rt.depth2.data || rt.id2.data)
+            return bad("a colour-only render cannot write a second depth layer");
+        if (options.unsampledVisible)
+            return bad("a colour-only render cannot report unsampled triangles (no depth)");
+        if (options.tileIds) return bad("a colour-only render has no ID target to visit");
+        if ((rt.depth.data && !fits(rt.depth.width, rt.depth.height)) ||
+            (rt.id.data && !fits(rt.id.width, rt.id.height)))
+            return bad("depth or ID target size differs from the camera's image");
+    } else {
+        if (!rt.depth.data || !rt.id.data)
+            return bad("depth and ID targets are required unless the render is colour-only");
+        if (!fits(rt.depth.width, rt.depth.height) || !fits(rt.id.width, rt.id.height))
+            return bad("depth or ID target size differs from the camera's image");
+    }
+    if (rt.color.data && !fits(rt.color.width, rt.color.height))
+        return bad("colour target size differs from the camera's image");
+    if ((rt.id2.data == nullptr) != (rt.depth2.data == nullptr))
+        return bad("the second layer needs both its depth and its ID target");
+    if (rt.id2.data && (!fits(rt.id2.width, rt.id2.height) ||
+                        !fits(rt.depth2.width, rt.depth2.height)))
+        return bad("second-layer target size differs from the camera's image");
+    return Status::ok();
+}
+
+namespace detail {
+
+void checkRenderRequestOrDie(const Camera& camera, const RenderOptions& options,
+                             const RenderTargets& targets) {
+    Status s = checkRenderRequest(camera, options, targets);
+    if (s.isOk()) [[likely]]
+        return;
+    fmt::print(stderr, "raster: {}\n", s.message());
+    PLX_CHECK(s.isOk());
+}
+
+}  // namespace detail
 
 void FrameBuffers::resize(int width, int height) {
     color.resize(width, height);

@@ -92,11 +92,18 @@ struct RowWeights {
     }
 };
 
-// One covered sample (scalar): depth test, ID, colour, second layer.
-template <Shading kShading, bool kColor, bool kLayer2>
+// One covered sample (scalar): depth test, ID, colour, second layer; colour alone without kDepth.
+template <Shading kShading, bool kColor, bool kLayer2, bool kDepth = true>
 inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
                         const RenderTargets& rt, int x, int y) {
     float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
+    if constexpr (!kDepth) {
+        if constexpr (kShading == Shading::kFlat)
+            rt.color.row(y)[x] = flatColorFor(t, ctx);
+        else
+            rt.color.row(y)[x] = shadeSample(t, ctx, b1, b2, invW);
+        return;
+    }
     float& depth = rt.depth.row(y)[x];
     if (!(invW > depth)) {
         if constexpr (kLayer2) {
@@ -123,7 +130,7 @@ inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b
 }
 
 // Scalar: small triangles walk the box testing edge signs, larger ones solve each row's span.
-template <Shading kShading, bool kColor, bool kLayer2>
+template <Shading kShading, bool kColor, bool kLayer2, bool kDepth = true>
 void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                      int x0, int y0, int x1, int y1, bool spans) {
     EdgeSteps edges(t, x0, y0, true);
@@ -141,7 +148,7 @@ void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const Rend
             if (!spans && (e0 | e1 | e2) < 0) continue;
             int x = x0 + int(k);
             float dk = float(x - t.minX);
-            writeSample<kShading, kColor, kLayer2>(t, ctx, b1Row + dk * t.stepB1,
+            writeSample<kShading, kColor, kLayer2, kDepth>(t, ctx, b1Row + dk * t.stepB1,
                                                    b2Row + dk * t.stepB2, rt, x, y);
         }
     }
@@ -171,8 +178,8 @@ struct TargetRows {
     uint32_t* id;
     Rgba8* color;
     TargetRows(const RenderTargets& rt, int y)
-        : depth(rt.depth.row(y)),
-          id(rt.id.row(y)),
+        : depth(rt.depth.data ? rt.depth.row(y) : nullptr),
+          id(rt.id.data ? rt.id.row(y) : nullptr),
           color(rt.color.data ? rt.color.row(y) : nullptr) {}
 };
 
@@ -444,24 +451,29 @@ constexpr int kMinShadeLanes = 4;
 
 // Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes and
 // `whole` says that all eight pixels lie inside the tile being drawn.
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kDepth = true>
 inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
                        const ShadeFor<kColor && kShading != Shading::kFlat>& shade,
                        const TargetRows& rows, int x,
                        __m256i covered, __m256 b1, __m256 b2, bool whole) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
-    __m256 depth =
-        whole ? _mm256_loadu_ps(rows.depth + x) : _mm256_maskload_ps(rows.depth + x, covered);
-    __m256i pass =
-        _mm256_and_si256(covered, _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
-    if (_mm256_testz_si256(pass, pass)) return;
+    __m256i pass = covered;  // without kDepth every covered lane is written
+    if constexpr (kDepth) {
+        __m256 depth = whole ? _mm256_loadu_ps(rows.depth + x)
+                             : _mm256_maskload_ps(rows.depth + x, covered);
+        pass = _mm256_and_si256(covered,
+                                _mm256_castps_si256(_mm256_cmp_ps(invW, depth, _CMP_GT_OQ)));
+        if (_mm256_testz_si256(pass, pass)) return;
+    }
     const LaneStore how = !whole ? LaneStore::kMasked
                           : _mm256_movemask_ps(_mm256_castsi256_ps(pass)) == 0xFF
                               ? LaneStore::kAll
                               : LaneStore::kBlend;
-    storeLanes(rows.depth + x, pass, _mm256_castps_si256(invW), how);
-    storeLanes(rows.id + x, pass, k.id, how);
+    if constexpr (kDepth) {
+        storeLanes(rows.depth + x, pass, _mm256_castps_si256(invW), how);
+        storeLanes(rows.id + x, pass, k.id, how);
+    }
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat) {
             Rgba8 c = flatColorFor(t, ctx);
@@ -508,7 +520,7 @@ inline __m256i insideLanes(const __m256i e[3], __m256i allowed) {
     return _mm256_andnot_si256(sign, allowed);
 }
 
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kDepth = true>
 void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                       int x0, int y0, int x1, int y1, int limitX) {
     EdgeSteps edges(t, x0, y0, true);
@@ -536,8 +548,8 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
             if (!_mm256_testz_si256(covered, covered)) {
                 __m256 b1, b2;
                 eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-                writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, covered, b1, b2,
-                                             x + 7 <= limitX);
+                writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x, covered, b1,
+                                                     b2, x + 7 <= limitX);
             }
             for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], step8[i]);
         }
@@ -549,7 +561,7 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
 // the lane offsets are set up once and stepped row by row, with no loop across the row. The
 // barycentric expression is eightBarycentrics' (rowValue + dk * step, dk fixed for the column),
 // so results stay bit-identical to the other paths.
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kDepth = true>
 void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                          int x0, int y0, int x1, int y1, int limitX) {
     const EdgeSteps edges(t, x0, y0, true);
@@ -575,14 +587,14 @@ void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const 
             weights.get(t, &b1Row, &b2Row);
             __m256 b1 = _mm256_add_ps(_mm256_set1_ps(b1Row), offset1);
             __m256 b2 = _mm256_add_ps(_mm256_set1_ps(b2Row), offset2);
-            writeEight<kShading, kColor>(t, ctx, k, shade, TargetRows(rt, y), x0, covered,
-                                         b1, b2, whole);
+            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, TargetRows(rt, y), x0,
+                                                 covered, b1, b2, whole);
         }
         for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], stepY[i]);
     }
 }
 
-template <Shading kShading, bool kColor>
+template <Shading kShading, bool kColor, bool kDepth = true>
 void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                         int x0, int y0, int x1, int y1, int limitX) {
     EdgeSteps edges(t, x0, y0, true);
@@ -603,8 +615,8 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
         for (int x = x0 + int(lo); x <= last; x += 8) {
             __m256 b1, b2;
             eightBarycentrics(x - minX, b1RowV, b2RowV, step1, step2, &b1, &b2);
-            writeEight<kShading, kColor>(t, ctx, k, shade, rows, x, lanesUpTo(x, last), b1, b2,
-                                         x + 7 <= limitX);
+            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x, lanesUpTo(x, last),
+                                                 b1, b2, x + 7 <= limitX);
         }
     }
 }
@@ -703,20 +715,25 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
                  std::max({t.y[0], t.y[1], t.y[2]}) - std::min({t.y[0], t.y[1], t.y[2]}) <
                      kSimdMaxExtent;
 #endif
-    auto run = [&]<Shading kS, bool kC, bool kL2>() {
+    auto run = [&]<Shading kS, bool kC, bool kL2, bool kD = true>() {
 #ifdef PLX_RASTER_AVX2
         if constexpr (!kL2) {
             if (small && x1 - x0 < 8)
-                rasterizeNarrowAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
+                rasterizeNarrowAvx2<kS, kC, kD>(t, ctx, rt, x0, y0, x1, y1, limitX);
             else if (small)
-                rasterizeBoxAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
+                rasterizeBoxAvx2<kS, kC, kD>(t, ctx, rt, x0, y0, x1, y1, limitX);
             else
-                rasterizeSpansAvx2<kS, kC>(t, ctx, rt, x0, y0, x1, y1, limitX);
+                rasterizeSpansAvx2<kS, kC, kD>(t, ctx, rt, x0, y0, x1, y1, limitX);
             return;
         }
 #endif
-        rasterizeScalar<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1, spans);
+        rasterizeScalar<kS, kC, kL2, kD>(t, ctx, rt, x0, y0, x1, y1, spans);
     };
+    if (ctx.colorOnly) {  // checkRenderRequest: a colour target, no second layer
+        if (flat) run.template operator()<Shading::kFlat, true, false, false>();
+        else run.template operator()<Shading::kGouraud, true, false, false>();
+        return;
+    }
     if (rt.id2.data) {
         if (!color) run.template operator()<Shading::kFlat, false, true>();
         else if (flat) run.template operator()<Shading::kFlat, true, true>();

@@ -553,3 +553,152 @@ TEST(Raster, ReportsUnsampledTrianglesInFrontOfTheDepth) {
 
 }  // namespace
 }  // namespace plx::raster
+
+namespace plx::raster {
+namespace {
+
+// A textured tessellated plane (jittered interior vertices: no two triangles overlap) plus,
+// when asked, a random soup in front of it (overlapping triangles).
+Scene colorOnlyScene(bool overlapping, std::mt19937& rng) {
+    Mat4 tilt = glm::rotate(Mat4(1.0f), -0.6f, Vec3(1.0f, 0.0f, 0.0f));
+    Scene s = overlapping ? randomSoup(150, 17, true) : Scene{};
+    Scene plane = tessellatedPlane(12, 2.5f, tilt, rng);
+    for (const Vec3& p : plane.meshes[0].positions)
+        plane.meshes[0].uvs.push_back(Vec2(0.4f * p.x + 0.5f, 0.3f * p.y + 0.2f));
+    plane.meshes[0].materialIndex = int(s.materials.size());
+    s.materials.push_back({"plane", {1.0f, 1.0f, 1.0f, 1.0f}, int(s.textures.size())});
+    Image<Rgba8> noise(37, 29);
+    std::uniform_int_distribution<int> byte(0, 255);
+    for (size_t i = 0; i < noise.pixelCount(); ++i)
+        noise.data()[i] = Rgba8{uint8_t(byte(rng)), uint8_t(byte(rng)), uint8_t(byte(rng)), 255};
+    scene::Texture tex;
+    tex.mips.push_back(noise);
+    s.textures.push_back(std::move(tex));
+    s.meshes.push_back(std::move(plane.meshes[0]));
+    PLX_CHECK(s.finalize().isOk());
+    return s;
+}
+
+// Colour-only rendering: on a mesh whose triangles never overlap, the colour of the
+// depth-tested render; on overlapping ones, the scalar reference's colour-only image (the last
+// triangle drawn wins); the depth and ID targets, when passed, stay untouched.
+TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
+    std::mt19937 rng(5);
+    Camera cam = makeCamera({0.2f, 0.3f, 4.5f}, {0.0f, 0.0f, 0.0f}, 157, 103, 60.0f);
+    for (bool overlapping : {false, true}) {
+        Scene s = colorOnlyScene(overlapping, rng);
+        for (Shading shading : {Shading::kFlat, Shading::kGouraud, Shading::kTextured}) {
+            std::string what = std::string(shadingName(shading)) +
+                               (overlapping ? " overlapping" : " plane");
+            RenderOptions opt;
+            opt.shading = shading;
+            FrameBuffers tested, ref;
+            tested.resize(157, 103);
+            ref.resize(157, 103);
+            auto r = makeRenderer(2, 16);
+            r->render(s, cam, opt, tested.targets());
+            opt.colorOnly = true;
+            renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}, {}});
+            if (!overlapping) EXPECT_TRUE(ref.color == tested.color) << what;
+            for (int tile : {8, 64}) {
+                auto fast = makeRenderer(2, tile);
+                FrameBuffers out;
+                out.resize(157, 103);
+                out.depth.fill(-7.0f);
+                out.id.fill(77u);
+                fast->render(s, cam, opt, {out.color.view(), {}, {}, {}, {}});
+                EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
+                fast->render(s, cam, opt, out.targets());  // views present but ignored
+                EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
+                EXPECT_EQ(out.depth.at(80, 50), -7.0f);
+                EXPECT_EQ(out.id.at(80, 50), 77u);
+                if (!overlapping) EXPECT_TRUE(out.color == tested.color) << what;
+            }
+            if (overlapping) EXPECT_FALSE(ref.color == tested.color) << what;
+        }
+    }
+}
+
+// Clearing only the tiles drawn into (last frame's and this one's) gives, frame after frame, the
+// targets of a whole clear, byte for byte: a small object moving across tiles and out of view,
+// frames on other targets in between, a different clear colour, colour-only and depth-tested.
+TEST(Raster, ClearingDrawnTilesOnlyEqualsWholeClear) {
+    std::mt19937 rng(9);
+    Scene s = colorOnlyScene(false, rng);
+    Scene other = randomSoup(60, 3, false);
+    for (bool colorOnly : {false, true}) {
+        auto tracked = makeRenderer(2, 16);
+        auto whole = makeRenderer(1, 64);
+        FrameBuffers a, b, side;
+        a.resize(140, 96);
+        b.resize(140, 96);
+        side.resize(140, 96);
+        for (int frame = 0; frame < 14; ++frame) {
+            float t = float(frame);
+            // The viewer moves; the plane drifts across the image and, at frames 6-7, out of it.
+            Vec3 eye(-3.0f + 0.9f * t, 0.4f * std::sin(t), 20.0f);
+            Vec3 target = (frame == 6 || frame == 7) ? eye + Vec3(0.0f, 0.0f, 1.0f)
+                                                     : Vec3(eye.x * 0.2f, 0.0f, 0.0f);
+            Camera cam = makeCamera(eye, target, 140, 96, 40.0f);
+            RenderOptions opt;
+            opt.shading = frame % 3 ? Shading::kTextured : Shading::kFlat;
+            opt.colorOnly = colorOnly;
+            if (frame >= 10) opt.clearColor = {1, 2, 3, 255};
+            whole->render(s, cam, opt, b.targets());
+            opt.clearDrawnTilesOnly = true;
+            RenderStats st = tracked->render(s, cam, opt, a.targets());
+            std::string what = std::string(colorOnly ? "colour only" : "depth tested") +
+                               " frame " + std::to_string(frame);
+            EXPECT_TRUE(a.color == b.color) << what;
+            if (!colorOnly) {
+                EXPECT_TRUE(a.depth == b.depth) << what;
+                EXPECT_TRUE(a.id == b.id) << what;
+            }
+            if (frame == 6) EXPECT_EQ(st.trianglesBinned, 0u) << "the plane is out of view";
+            // Frame 0 and the first of a new clear colour clear everything; frame 7 follows an
+            // empty frame and draws nothing, so it clears no tile.
+            if (frame == 0 || frame == 10) EXPECT_EQ(st.tilesCleared, 9u * 6u) << what;
+            if (frame == 7) EXPECT_EQ(st.tilesCleared, 0u) << what;
+            if (frame == 3) EXPECT_LT(st.tilesCleared, 9u * 6u) << what;
+            if (frame % 4 == 2) tracked->render(other, cam, {}, side.targets());
+        }
+    }
+}
+
+TEST(Raster, RejectsMalformedRenderRequests) {
+    Camera cam = makeCamera({0, 0, 3}, {0, 0, 0}, 32, 24);
+    FrameBuffers fb, small;
+    fb.resize(32, 24);
+    small.resize(16, 24);
+    Image<float> depth2(32, 24);
+    Image<uint32_t> id2(32, 24);
+    std::vector<uint32_t> unsampled;
+    RenderOptions colorOnly;
+    colorOnly.colorOnly = true;
+    EXPECT_TRUE(checkRenderRequest(cam, {}, fb.targets()).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, colorOnly, {fb.color.view(), {}, {}, {}, {}}).isOk());
+    auto message = [&](const RenderOptions& o, const RenderTargets& t) {
+        Status st = checkRenderRequest(cam, o, t);
+        EXPECT_EQ(st.code(), ErrorCode::kInvalidArgument);
+        return st.message();
+    };
+    EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}, {}})
+                  .find("needs a colour target"),
+              std::string::npos);
+    EXPECT_NE(message(colorOnly, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(),
+                                  id2.view()})
+                  .find("second depth layer"),
+              std::string::npos);
+    RenderOptions withUnsampled = colorOnly;
+    withUnsampled.unsampledVisible = &unsampled;
+    EXPECT_NE(message(withUnsampled, fb.targets()).find("unsampled"), std::string::npos);
+    EXPECT_NE(message({}, {fb.color.view(), {}, {}, {}, {}}).find("depth and ID targets"),
+              std::string::npos);
+    EXPECT_NE(message({}, small.targets()).find("size differs"), std::string::npos);
+    EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(), {}})
+                  .find("both"),
+              std::string::npos);
+}
+
+}  // namespace
+}  // namespace plx::raster

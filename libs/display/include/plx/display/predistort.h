@@ -56,6 +56,13 @@ public:
 
     raster::Renderer& renderer();
 
+    // true (the default): draw the warp mesh colour-only (no depth test, depth and ID targets
+    // untouched) and clear only the tiles drawn into, whenever its triangles all keep their
+    // orientation (the mesh does not fold over, so none overlap: the same image as the
+    // depth-tested render, which a folded mesh still gets). false: depth-tested, whole clear
+    // every frame, as before.
+    void setColorOnly(bool enabled);
+
 private:
     struct Impl;
     explicit PredistortRenderer(std::unique_ptr<Impl> impl);

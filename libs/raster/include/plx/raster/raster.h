@@ -31,7 +31,8 @@ Result<Shading> parseShading(const std::string& name);
 const char* shadingName(Shading shading);
 
 // Caller-owned targets. All three views must have the same size as the camera's image. The colour
-// view may be empty (data == nullptr) to render depth and IDs only.
+// view may be empty (data == nullptr) to render depth and IDs only; the depth and ID views may be
+// empty in a colour-only render (RenderOptions::colorOnly).
 struct RenderTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;      // 1/w, see Conventions; 0 = cleared
@@ -60,6 +61,20 @@ struct RenderOptions {
     Shading shading = Shading::kFlat;
     bool cullBackFaces = false;  // counter-clockwise triangles (as seen) are front faces
     bool clearTargets = true;    // clear colour, depth and ID before drawing
+    // Colour only: no depth test, and the depth and ID targets are neither cleared nor written
+    // (their views may be empty). Triangles are drawn in submission order, a later one
+    // overwriting an earlier one where both cover a sample, so the colour equals that of the
+    // depth-tested render only when no two triangles cover the same sample (a flat warp mesh
+    // that does not fold, say). Preconditions: a colour target, no second layer, no
+    // unsampledVisible and no tileIds (see checkRenderRequest).
+    bool colorOnly = false;
+    // With clearTargets: clear only the tiles this Renderer drew into in its last frame on the
+    // same targets (same views, size, clear colour and colorOnly) plus the tiles this frame
+    // draws into; every other tile still holds the clear values. Where no such last frame is
+    // known (first frame, other targets, a frame drawn without this option) the whole targets
+    // are cleared. The image is the same as with a whole clear. Precondition: between frames,
+    // nothing but this Renderer writes to the targets.
+    bool clearDrawnTilesOnly = false;
     Rgba8 clearColor{40, 44, 52, 255};
     Vec3 lightDir{0.35f, 0.85f, 0.4f};  // towards the light, world space (normalised internally)
     float ambient = 0.25f;              // linear, added to the Lambert term
@@ -82,6 +97,7 @@ struct RenderStats {
     // Triangle-tile pairs skipped before setup because the depth already in the tile's 8x8
     // blocks hides them (coarse occlusion culling; the images are the same without it).
     uint64_t tilePairsOccluded = 0;
+    uint64_t tilesCleared = 0;  // screen tiles whose targets were cleared
     double milliseconds = 0.0;
 };
 
@@ -114,6 +130,12 @@ private:
     explicit Renderer(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> mImpl;
 };
+
+// Checks that options and targets fit together (sizes against the camera's, the second layer
+// complete, colorOnly's preconditions); the message names the first problem. Renderer::render,
+// renderSubset and renderReference abort with that message on a failed check.
+Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
+                          const RenderTargets& targets);
 
 // Scalar reference renderer: the same arithmetic, one triangle after another, no tiles or threads.
 // subset == nullptr renders every triangle.

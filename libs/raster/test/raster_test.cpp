@@ -599,7 +599,9 @@ TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
             r->render(s, cam, opt, tested.targets());
             opt.colorOnly = true;
             renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}, {}});
-            if (!overlapping) EXPECT_TRUE(ref.color == tested.color) << what;
+            if (!overlapping) {
+                EXPECT_TRUE(ref.color == tested.color) << what;
+            }
             for (int tile : {8, 64}) {
                 auto fast = makeRenderer(2, tile);
                 FrameBuffers out;
@@ -612,9 +614,13 @@ TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
                 EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
                 EXPECT_EQ(out.depth.at(80, 50), -7.0f);
                 EXPECT_EQ(out.id.at(80, 50), 77u);
-                if (!overlapping) EXPECT_TRUE(out.color == tested.color) << what;
+                if (!overlapping) {
+                    EXPECT_TRUE(out.color == tested.color) << what;
+                }
             }
-            if (overlapping) EXPECT_FALSE(ref.color == tested.color) << what;
+            if (overlapping) {
+                EXPECT_FALSE(ref.color == tested.color) << what;
+            }
         }
     }
 }
@@ -654,12 +660,20 @@ TEST(Raster, ClearingDrawnTilesOnlyEqualsWholeClear) {
                 EXPECT_TRUE(a.depth == b.depth) << what;
                 EXPECT_TRUE(a.id == b.id) << what;
             }
-            if (frame == 6) EXPECT_EQ(st.trianglesBinned, 0u) << "the plane is out of view";
+            if (frame == 6) {
+                EXPECT_EQ(st.trianglesBinned, 0u) << "the plane is out of view";
+            }
             // Frame 0 and the first of a new clear colour clear everything; frame 7 follows an
             // empty frame and draws nothing, so it clears no tile.
-            if (frame == 0 || frame == 10) EXPECT_EQ(st.tilesCleared, 9u * 6u) << what;
-            if (frame == 7) EXPECT_EQ(st.tilesCleared, 0u) << what;
-            if (frame == 3) EXPECT_LT(st.tilesCleared, 9u * 6u) << what;
+            if (frame == 0 || frame == 10) {
+                EXPECT_EQ(st.tilesCleared, 9u * 6u) << what;
+            }
+            if (frame == 7) {
+                EXPECT_EQ(st.tilesCleared, 0u) << what;
+            }
+            if (frame == 3) {
+                EXPECT_LT(st.tilesCleared, 9u * 6u) << what;
+            }
             if (frame % 4 == 2) tracked->render(other, cam, {}, side.targets());
         }
     }

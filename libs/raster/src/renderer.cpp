@@ -439,21 +439,25 @@ void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Cam
 void Renderer::Impl::planClears(const RenderOptions& options, const RenderTargets& rt,
                                 size_t tiles) {
     clearTile.assign(tiles, options.clearTargets ? 1 : 0);
+    // Only a frame that clears and asks for it is remembered (what the untouched tiles of a
+    // frame without clearTargets hold is the caller's).
+    const bool remember = options.clearTargets && options.clearDrawnTilesOnly;
+    if (!remember && drawnRecords.empty()) return;
     uint32_t clearWord;
     std::memcpy(&clearWord, &options.clearColor, sizeof clearWord);
     DrawnTiles now = DrawnTiles::keyOf(rt, options, clearWord);
-    const DrawnTiles* last = nullptr;
-    for (const DrawnTiles& r : drawnRecords)
-        if (r.sameTargets(now) && r.drawn.size() == tiles) last = &r;
-    now.drawn.assign(tiles, 0);
-    for (size_t t = 0; t < tiles; ++t)
-        for (size_t c = 0; c < chunkCount && !now.drawn[t]; ++c)
-            now.drawn[t] = chunks[c].bins[t].empty() ? 0 : 1;
-    if (options.clearTargets && options.clearDrawnTilesOnly && last)
-        for (size_t t = 0; t < tiles; ++t) clearTile[t] = last->drawn[t] | now.drawn[t];
+    if (remember) {
+        now.drawn.assign(tiles, 0);
+        for (size_t t = 0; t < tiles; ++t)
+            for (size_t c = 0; c < chunkCount && !now.drawn[t]; ++c)
+                now.drawn[t] = chunks[c].bins[t].empty() ? 0 : 1;
+        for (const DrawnTiles& last : drawnRecords)
+            if (last.sameTargets(now) && last.drawn.size() == tiles)
+                for (size_t t = 0; t < tiles; ++t) clearTile[t] = last.drawn[t] | now.drawn[t];
+    }
     // Whatever this frame leaves in targets shared with a record makes that record stale.
     std::erase_if(drawnRecords, [&](const DrawnTiles& r) { return r.sharesTarget(now); });
-    if (!options.clearTargets) return;  // what the untouched tiles hold is the caller's
+    if (!remember) return;
     if (drawnRecords.size() == kMaxDrawnRecords) drawnRecords.erase(drawnRecords.begin());
     drawnRecords.push_back(std::move(now));
 }

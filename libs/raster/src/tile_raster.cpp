@@ -149,7 +149,7 @@ void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const Rend
             int x = x0 + int(k);
             float dk = float(x - t.minX);
             writeSample<kShading, kColor, kLayer2, kDepth>(t, ctx, b1Row + dk * t.stepB1,
-                                                   b2Row + dk * t.stepB2, rt, x, y);
+                                                           b2Row + dk * t.stepB2, rt, x, y);
         }
     }
 }

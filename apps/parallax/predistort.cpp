@@ -105,10 +105,9 @@ int run(const PredistortArgs& a) {
         display::makeImagePlane(*viewer, d->contentCenterMm, d->contentRadiusMm);
     auto pass2 = display::PredistortRenderer::create(a.threads);
     if (!pass2) return fail(pass2.status());
-    Image<Rgba8> pass1;
-    double pass1Ms = 0.0;
+    double pass1Ms = 0.0;  // pass 1 straight into the image pass 2 samples
     if (Status s = display::renderViewerImage((*pass2)->renderer(), *content, plane, a.pass1Size,
-                                              &pass1, &pass1Ms);
+                                              &(*pass2)->viewerImage(), &pass1Ms);
         !s)
         return fail(s);
 
@@ -149,7 +148,7 @@ int run(const PredistortArgs& a) {
     const Image<Rgba8>* frame = nullptr;
     for (int r = 0; r <= kRepetitions; ++r) {
         double ms = 0.0;
-        auto out = (*pass2)->render(*d, mesh, pass1, &ms);
+        auto out = (*pass2)->render(*d, mesh, &ms);
         if (!out) return fail(out.status());
         frame = *out;
         if (r > 0) renderMs.push_back(ms);

@@ -59,8 +59,9 @@ void BM_PassTwo(benchmark::State& state) {
         state.SkipWithError(pass2.status().toString().c_str());
         return;
     }
-    plx::Image<plx::Rgba8> viewer;
-    if (!renderViewerImage((*pass2)->renderer(), scene, plane, 512, &viewer, nullptr).isOk()) {
+    if (!renderViewerImage((*pass2)->renderer(), scene, plane, 512, &(*pass2)->viewerImage(),
+                           nullptr)
+             .isOk()) {
         state.SkipWithError("pass 1 failed");
         return;
     }
@@ -76,7 +77,7 @@ void BM_PassTwo(benchmark::State& state) {
     }
     const plx::Image<plx::Rgba8>* frame = nullptr;
     for (auto _ : state) {
-        auto out = (*pass2)->render(d, mesh, viewer);
+        auto out = (*pass2)->render(d, mesh);
         if (!out.isOk()) {
             state.SkipWithError(out.status().toString().c_str());
             return;

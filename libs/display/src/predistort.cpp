@@ -130,10 +130,13 @@ Status renderViewerImage(raster::Renderer& renderer, const scene::Scene& sceneMm
 
 struct PredistortRenderer::Impl {
     std::unique_ptr<raster::Renderer> renderer;
-    scene::Scene scene;
+    scene::Scene scene;  // the warp mesh, textured with the pass-1 image (base level only)
     raster::FrameBuffers fb;
     Image<Rgba8> blank;
     bool colorOnly = true;
+
+    Result<const Image<Rgba8>*> renderFrame(const Display& display, const WarpMesh& mesh,
+                                            const Stopwatch& sw, double* milliseconds);
 };
 
 PredistortRenderer::PredistortRenderer(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
@@ -157,16 +160,38 @@ raster::Renderer& PredistortRenderer::renderer() { return *mImpl->renderer; }
 
 void PredistortRenderer::setColorOnly(bool enabled) { mImpl->colorOnly = enabled; }
 
+Image<Rgba8>& PredistortRenderer::viewerImage() { return mImpl->scene.textures[0].mips[0]; }
+
 Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
                                                        const WarpMesh& mesh,
-                                                       const Image<Rgba8>& viewerImage,
+                                                       const Image<Rgba8>& image,
                                                        double* milliseconds) {
     Stopwatch sw;
+    Image<Rgba8>& base = viewerImage();
+    if (&image != &base) {  // the copy reuses the texture's buffer
+        if (base.width() != image.width() || base.height() != image.height())
+            base.resize(image.width(), image.height());
+        std::copy(image.data(), image.data() + image.pixelCount(), base.data());
+    }
+    return mImpl->renderFrame(display, mesh, sw, milliseconds);
+}
+
+Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
+                                                       const WarpMesh& mesh,
+                                                       double* milliseconds) {
+    Stopwatch sw;
+    return mImpl->renderFrame(display, mesh, sw, milliseconds);
+}
+
+Result<const Image<Rgba8>*> PredistortRenderer::Impl::renderFrame(const Display& display,
+                                                                  const WarpMesh& mesh,
+                                                                  const Stopwatch& sw,
+                                                                  double* milliseconds) {
     int w = display.framebufferWidth, h = display.framebufferHeight;
-    if (mesh.triangleCount() == 0 || viewerImage.empty()) {
-        mImpl->blank.resize(w, h, Rgba8{0, 0, 0, 255});
+    if (mesh.triangleCount() == 0 || scene.textures[0].mips[0].empty()) {
+        blank.resize(w, h, Rgba8{0, 0, 0, 255});
         if (milliseconds) *milliseconds = sw.elapsedMs();
-        return &mImpl->blank;
+        return &blank;
     }
     // Camera at the origin looking down -z with a 90 degree vertical field of view: the plane
     // z = -h/2 maps one world unit to one pixel.
@@ -179,14 +204,7 @@ Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
     desc.width = w, desc.height = h;
     auto camera = Camera::create(desc);
     if (!camera) return camera.status();
-    // Base level only (see the class comment); the copy reuses the texture's buffer.
-    Image<Rgba8>& base = mImpl->scene.textures[0].mips[0];
-    if (base.width() != viewerImage.width() || base.height() != viewerImage.height())
-        base.resize(viewerImage.width(), viewerImage.height());
-    std::copy(viewerImage.data(), viewerImage.data() + size_t(viewerImage.width()) *
-                                                           size_t(viewerImage.height()),
-              base.data());
-    scene::Mesh& m = mImpl->scene.meshes[0];
+    scene::Mesh& m = scene.meshes[0];
     DVec2 extent = display.displayMax - display.displayMin;
     size_t n = mesh.vertexCount();
     m.positions.resize(n);
@@ -199,25 +217,25 @@ Result<const Image<Rgba8>*> PredistortRenderer::render(const Display& display,
         m.uvs[v] = Vec2(mesh.uvs[v]);
     }
     m.indices.assign(mesh.indices.begin(), mesh.indices.end());
-    PLX_RETURN_IF_ERROR(mImpl->scene.finalize());
-    bool resized = mImpl->fb.color.width() != w || mImpl->fb.color.height() != h;
-    if (resized) mImpl->fb.resize(w, h);
+    PLX_RETURN_IF_ERROR(scene.finalize());
+    bool resized = fb.color.width() != w || fb.color.height() != h;
+    if (resized) fb.resize(w, h);
     raster::RenderOptions options;
     options.shading = raster::Shading::kTextured;
     options.lit = false;
     options.clearColor = {0, 0, 0, 255};
     // The mesh lies in one plane, drawn in one layer: unless it folds over, no depth test, no
     // depth or ID target, and only the tiles drawn into last frame or this one are cleared.
-    raster::RenderTargets targets = mImpl->fb.targets();
-    if (mImpl->colorOnly && meshKeepsOrientation(m)) {
+    raster::RenderTargets targets = fb.targets();
+    if (colorOnly && meshKeepsOrientation(m)) {
         options.colorOnly = true;
-        targets = {mImpl->fb.color.view(), {}, {}, {}, {}};
+        targets = {fb.color.view(), {}, {}, {}, {}};
     }
     // Freshly sized buffers hold no known frame: cleared whole once.
-    options.clearDrawnTilesOnly = mImpl->colorOnly && !resized;
-    mImpl->renderer->render(mImpl->scene, *camera, options, targets);
+    options.clearDrawnTilesOnly = colorOnly && !resized;
+    renderer->render(scene, *camera, options, targets);
     if (milliseconds) *milliseconds = sw.elapsedMs();
-    return &mImpl->fb.color;
+    return &fb.color;
 }
 
 Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,

@@ -431,6 +431,36 @@ TEST(Predistort, ColorOnlyPassTwoEqualsDepthTestedFrames) {
     }
 }
 
+// Pass 1 rendered straight into viewerImage() gives, without a copy, the frame of the render
+// that copies its image argument; before any pass-1 image the frame is black.
+TEST(Predistort, RenderFromViewerImageEqualsRenderOfACopy) {
+    Display d = loadExample("cone_showcase.json");
+    scene::Scene scene = fitSceneToContent(makeShowcaseScene(), d);
+    ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
+    auto inPlace = PredistortRenderer::create(2);
+    auto copying = PredistortRenderer::create(2);
+    ASSERT_TRUE(inPlace.isOk() && copying.isOk());
+    WarpMesh mesh;
+    WarpStats stats;
+    generateUniform(d, plane, 5, &mesh, &stats);
+    auto black = (*inPlace)->render(d, mesh);
+    ASSERT_TRUE(black.isOk());
+    EXPECT_EQ((*black)->width(), d.framebufferWidth);
+    EXPECT_EQ((*black)->at(d.framebufferWidth / 2, d.framebufferHeight / 2),
+              (Rgba8{0, 0, 0, 255}));
+    ASSERT_TRUE(renderViewerImage((*inPlace)->renderer(), scene, plane, 128,
+                                  &(*inPlace)->viewerImage(), nullptr)
+                    .isOk());
+    Image<Rgba8> pass1 = (*inPlace)->viewerImage();
+    for (int frame = 0; frame < 2; ++frame) {
+        auto a = (*inPlace)->render(d, mesh);
+        auto b = (*copying)->render(d, mesh, pass1);
+        ASSERT_TRUE(a.isOk() && b.isOk());
+        EXPECT_TRUE(**a == **b) << "frame " << frame;
+    }
+    EXPECT_TRUE((*copying)->viewerImage() == pass1);
+}
+
 }  // namespace
 }  // namespace plx::display
 

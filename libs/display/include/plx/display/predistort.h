@@ -49,10 +49,20 @@ public:
     ~PredistortRenderer();
 
     // Renders the mesh textured with viewerImage into the display framebuffer and returns it
-    // (valid until the next call). Precondition: the mesh's vertices are finite.
+    // (valid until the next call). Precondition: the mesh's vertices are finite. Copies
+    // viewerImage into viewerImage() first (timed with the frame).
     Result<const Image<Rgba8>*> render(const Display& display, const WarpMesh& mesh,
                                        const Image<Rgba8>& viewerImage,
                                        double* milliseconds = nullptr);
+
+    // The same with the pass-1 image already in viewerImage(): no copy.
+    Result<const Image<Rgba8>*> render(const Display& display, const WarpMesh& mesh,
+                                       double* milliseconds = nullptr);
+
+    // The pass-1 image the warp samples, kept between frames. Render pass 1 straight into it
+    // (renderViewerImage(..., &viewerImage(), ...)) and a frame copies nothing; an empty image
+    // gives a black frame.
+    Image<Rgba8>& viewerImage();
 
     raster::Renderer& renderer();
 

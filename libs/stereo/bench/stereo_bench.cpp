@@ -50,12 +50,16 @@ struct SecondEyeFixture {
     // Renders the first eye, collecting its visible set tile by tile during the render (as the
     // P-buffer method does), or, with perTile false, in a pass over the finished ID target.
     const std::vector<uint32_t>& firstEye(bool perTile = true) {
+        renderFirstEye(perTile);
+        return visible.sorted();
+    }
+    // The same without the final gathering and sorting (visible.sorted()).
+    void renderFirstEye(bool perTile) {
         visible.begin(scene.triangleCount(), renderer->threadCount());
         raster::RenderOptions options;
         if (perTile) options.tileIds = &visible;
         renderer->render(scene, rig.first(), options, first.targets());
         if (!perTile) visible.add(first.id);
-        return visible.sorted();
     }
     void secondEye(const std::vector<uint32_t>& subset) {
         renderer->renderSubset(scene, rig.second(), subset, {}, second.targets());
@@ -134,10 +138,7 @@ void BM_SecondEyeParts(benchmark::State& state) {
     SecondEyeFixture f(int(state.range(0)));
     double collectMs = 0, subsetMs = 0;
     for (auto _ : state) {
-        f.visible.begin(f.scene.triangleCount(), f.renderer->threadCount());
-        raster::RenderOptions options;
-        options.tileIds = &f.visible;
-        f.renderer->render(f.scene, f.rig.first(), options, f.first.targets());
+        f.renderFirstEye(true);
         Stopwatch clock;
         const std::vector<uint32_t>& subset = f.visible.sorted();
         double collect = clock.elapsedMs();

@@ -65,14 +65,7 @@ void VisibleSetCollector::begin(size_t triangleCount, int slots) {
 
 void VisibleSetCollector::add(const Image<uint32_t>& ids) {
     uint32_t last = 0;
-    markRunStarts(ids.data(), ids.pixelCount(), &last, [&](uint32_t tri) {
-        PLX_DCHECK(tri < mStamp.size());
-        if (mStamp[tri] != mEpoch) {
-            mStamp[tri] = mEpoch;
-            mList.push_back(tri);
-            mSorted = false;
-        }
-    });
+    markRunStarts(ids.data(), ids.pixelCount(), &last, [&](uint32_t tri) { insert(tri); });
 }
 
 void VisibleSetCollector::visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1,
@@ -97,23 +90,14 @@ void VisibleSetCollector::addMasked(const Image<uint32_t>& ids, const Image<uint
     for (size_t i = 0; i < ids.pixelCount(); ++i) {
         uint32_t id = ids.data()[i];
         if (!mask.data()[i] || id == 0) continue;
-        uint32_t tri = id - 1;
-        if (mStamp[tri] != mEpoch) {
-            mStamp[tri] = mEpoch;
-            mList.push_back(tri);
-            mSorted = false;
-        }
+        insert(id - 1);
     }
 }
 
 void VisibleSetCollector::addTriangles(std::span<const uint32_t> triangles) {
     for (uint32_t tri : triangles) {
         PLX_CHECK(tri < mStamp.size());
-        if (mStamp[tri] != mEpoch) {
-            mStamp[tri] = mEpoch;
-            mList.push_back(tri);
-            mSorted = false;
-        }
+        insert(tri);
     }
 }
 

@@ -83,6 +83,15 @@ public:
     }
 
 private:
+    // Lists the triangle unless this frame's set holds it already (one thread at a time).
+    void insert(uint32_t tri) {
+        PLX_DCHECK(tri < mStamp.size());
+        if (mStamp[tri] != mEpoch) {
+            mStamp[tri] = mEpoch;
+            mList.push_back(tri);
+            mSorted = false;
+        }
+    }
     // One thread's finds during visitTile, on a cache line of its own.
     struct alignas(64) SlotList {
         std::vector<uint32_t> triangles;

@@ -92,16 +92,23 @@ struct RowWeights {
     }
 };
 
+// The colour of one covered sample.
+template <Shading kShading>
+inline void writeColor(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
+                       float invW, const RenderTargets& rt, int x, int y) {
+    if constexpr (kShading == Shading::kFlat)
+        rt.color.row(y)[x] = flatColorFor(t, ctx);
+    else
+        rt.color.row(y)[x] = shadeSample(t, ctx, b1, b2, invW);
+}
+
 // One covered sample (scalar): depth test, ID, colour, second layer; colour alone without kDepth.
 template <Shading kShading, bool kColor, bool kLayer2, bool kDepth = true>
 inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
                         const RenderTargets& rt, int x, int y) {
     float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
     if constexpr (!kDepth) {
-        if constexpr (kShading == Shading::kFlat)
-            rt.color.row(y)[x] = flatColorFor(t, ctx);
-        else
-            rt.color.row(y)[x] = shadeSample(t, ctx, b1, b2, invW);
+        writeColor<kShading>(t, ctx, b1, b2, invW, rt, x, y);
         return;
     }
     float& depth = rt.depth.row(y)[x];
@@ -121,12 +128,7 @@ inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b
     }
     depth = invW;
     id = t.id;
-    if constexpr (kColor) {
-        if constexpr (kShading == Shading::kFlat)
-            rt.color.row(y)[x] = flatColorFor(t, ctx);
-        else
-            rt.color.row(y)[x] = shadeSample(t, ctx, b1, b2, invW);
-    }
+    if constexpr (kColor) writeColor<kShading>(t, ctx, b1, b2, invW, rt, x, y);
 }
 
 // Scalar: small triangles walk the box testing edge signs, larger ones solve each row's span.
@@ -699,7 +701,8 @@ namespace {
 // Colour-only triangles (checkRenderRequest: a colour target, no second layer) take their own
 // function: instantiated inside rasterizeTriangle, their walks pushed the depth-tested ones out
 // of the inliner's budget (5% to 10% more tile-stage instructions on office:64 and the x16
-// helmet, callgrind).
+// helmet, callgrind). The walk choice repeats rasterizeTriangle's for the same reason: shared
+// through a function template it still cost 2% to 3%.
 [[gnu::noinline]] void rasterizeColorOnly(const TriangleSetup& t, const ShadeContext& ctx,
                                           const RenderTargets& rt, int x0, int y0, int x1, int y1,
                                           [[maybe_unused]] int limitX, [[maybe_unused]] bool small,

@@ -218,8 +218,7 @@ Result<const Image<Rgba8>*> PredistortRenderer::Impl::renderFrame(const Display&
     }
     m.indices.assign(mesh.indices.begin(), mesh.indices.end());
     PLX_RETURN_IF_ERROR(scene.finalize());
-    bool resized = fb.color.width() != w || fb.color.height() != h;
-    if (resized) fb.resize(w, h);
+    if (fb.color.width() != w || fb.color.height() != h) fb.resize(w, h);
     raster::RenderOptions options;
     options.shading = raster::Shading::kTextured;
     options.lit = false;
@@ -231,8 +230,8 @@ Result<const Image<Rgba8>*> PredistortRenderer::Impl::renderFrame(const Display&
         options.colorOnly = true;
         targets = {fb.color.view(), {}, {}, {}, {}};
     }
-    // Freshly sized buffers hold no known frame: cleared whole once.
-    options.clearDrawnTilesOnly = colorOnly && !resized;
+    // Freshly sized buffers are targets the renderer has no frame of: it clears them whole.
+    options.clearDrawnTilesOnly = colorOnly;
     renderer->render(scene, *camera, options, targets);
     if (milliseconds) *milliseconds = sw.elapsedMs();
     return &fb.color;

@@ -20,8 +20,9 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     double thr = double(state.range(0)) / 10.0;
     ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
     auto scene = fitSceneToContent(makeShowcaseScene(), d);
-    Container c = makeContainer(state.range(1) ? ContainerKind::kObb : ContainerKind::kNone,
-                                scenePointsMm(scene));
+    // Arg 1: container (0 none, 1 OBB, 2 the coarse hull, grid B's default).
+    const ContainerKind kinds[] = {ContainerKind::kNone, ContainerKind::kObb, ContainerKind::kHull};
+    Container c = makeContainer(kinds[state.range(1)], scenePointsMm(scene));
     auto warper = QuadtreeWarper::create({9, thr});
     WarpMesh mesh;
     WarpStats stats;
@@ -31,9 +32,13 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     }
     state.counters["triangles"] = double(mesh.triangleCount());
     state.counters["vertex_transformations"] = double(stats.vertexTransformations);
+    state.counters["error_samples"] = double(stats.errorSamples);
+    state.counters["solver_maps"] = double(stats.solver.forwardEvaluations);
+    state.counters["brent_evals"] = double(stats.solver.evaluations);
+    state.counters["ray_tests"] = double(stats.containerRayTests);
 }
 BENCHMARK(BM_AdaptiveGenerate)->Args({20, 1})->Args({10, 0})->Args({10, 1})->Args({5, 1})->Args({1, 0})->Args({1, 1})
-    ->Unit(benchmark::kMillisecond);
+    ->Args({10, 2})->Args({1, 2})->Unit(benchmark::kMillisecond);
 
 void BM_UniformGenerate(benchmark::State& state) {
     Display d = coneDisplay();

@@ -184,21 +184,31 @@ Container makeContainer(ContainerKind kind, std::span<const DVec3> pointsMm) {
     }
 }
 
-bool intersectTriangle(const DVec3& o, const DVec3& d, const DVec3& a, const DVec3& b,
-                       const DVec3& c, double* t) {
-    DVec3 e1 = b - a, e2 = c - a;
-    DVec3 p = glm::cross(d, e2);
-    double det = glm::dot(e1, p);
+TriangleFromOrigin prepareFromOrigin(const DVec3& o, const DVec3& a, const DVec3& b,
+                                     const DVec3& c) {
+    TriangleFromOrigin tri;
+    tri.e1 = b - a, tri.e2 = c - a;
+    tri.s = o - a;
+    tri.q = glm::cross(tri.s, tri.e1);
+    return tri;
+}
+
+bool intersectFromOrigin(const TriangleFromOrigin& tri, const DVec3& d, double* t) {
+    DVec3 p = glm::cross(d, tri.e2);
+    double det = glm::dot(tri.e1, p);
     if (std::fabs(det) < 1e-14) return false;
     double inv = 1.0 / det;
-    DVec3 s = o - a;
-    double u = glm::dot(s, p) * inv;
+    double u = glm::dot(tri.s, p) * inv;
     if (u < -1e-9 || u > 1.0 + 1e-9) return false;
-    DVec3 q = glm::cross(s, e1);
-    double v = glm::dot(d, q) * inv;
+    double v = glm::dot(d, tri.q) * inv;
     if (v < -1e-9 || u + v > 1.0 + 1e-9) return false;
-    *t = glm::dot(e2, q) * inv;
+    *t = glm::dot(tri.e2, tri.q) * inv;
     return *t > 0.0;
+}
+
+bool intersectTriangle(const DVec3& o, const DVec3& d, const DVec3& a, const DVec3& b,
+                       const DVec3& c, double* t) {
+    return intersectFromOrigin(prepareFromOrigin(o, a, b, c), d, t);
 }
 
 bool containerContains(const Container& container, const DVec3& p, double toleranceMm) {

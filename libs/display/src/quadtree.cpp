@@ -91,10 +91,14 @@ struct QuadtreeWarper::Impl {
     int m = 0;
     int side = 0;  // 2^m + 1
     uint32_t frame = 0;
-    // Per vertex of the matrix, this frame's cached work in one cache line (the sparse vertices
-    // a frame touches then cost one miss each, not one per array). A stamp equal to `frame`
-    // marks the flags and data as this frame's: the marker flags of section 6, cleared for free
-    // by advancing the frame number.
+    // Per vertex of the matrix, this frame's cached work: the marker flags of section 6 and the
+    // results they guard. A frame touches a few thousand of the (2^m + 1)^2 vertices, scattered
+    // over the matrix, so the states live in a compact per-frame array in the order the
+    // recursion first touches them (neighbouring patches' vertices end up near each other), and
+    // the matrix holds only an 8-byte slot per vertex: its stamp and the state's index. A stamp
+    // equal to `frame` marks the slot as this frame's, so advancing the frame number clears
+    // every flag for free. (One 64-byte state per matrix vertex, 17 MB at m = 9, made the first
+    // touch of each vertex a cache and TLB miss: about 40% of the recursion's time.)
     enum VertexFlag : uint8_t {
         kTransformed = 1,  // mapping holds this frame's TransformPatchVertices result
         kSolverOnly = 2,   // mapped by the error solver, not yet counted as a vt
@@ -103,15 +107,20 @@ struct QuadtreeWarper::Impl {
         kInMesh = 16,      // emitted into the mesh at meshIndex
         kErrorDone = 32,   // errorValue holds the side error sampled at this T-vertex
     };
-    struct alignas(64) VertexState {
+    struct VertexState {
         VertexMapping mapping;
         double errorValue = 0.0;
-        uint32_t stamp = 0;
         uint32_t meshIndex = 0;
         uint8_t flags = 0;
         uint8_t tc = 0;  // T-vertex counter (0, 1, 2)
     };
-    std::vector<VertexState> verts;
+    struct VertexSlot {
+        uint32_t stamp = 0;
+        uint32_t index = 0;  // into states, valid when stamp == frame
+    };
+    std::vector<VertexSlot> slots;    // per matrix vertex
+    std::vector<VertexState> states;  // this frame's touched vertices; capacity for all of
+                                      // them, so references stay valid while it grows
     // Node states per LOD 0 .. m-1 (4^n nodes each).
     std::vector<std::vector<uint8_t>> nodes;
     // Per LOD, the nodes this frame made present (py << 16 | px): balancing, triangulation and
@@ -123,7 +132,10 @@ struct QuadtreeWarper::Impl {
     const ImagePlane* plane = nullptr;
     const Container* container = nullptr;
     bool culling = false;
-    std::vector<uint32_t> frontTriangles;  // indices into container->indices / 3
+    // Front-facing container triangles, prepared for rays from the eye.
+    std::vector<TriangleFromOrigin> frontTriangles;
+    size_t lastHitTriangle = 0;            // neighbouring lines of sight hit the same triangle
+    DVec2 silhouetteLo{0.0}, silhouetteHi{0.0};  // bounding box of `projected`, widened a little
     std::vector<DVec2> frontVertexUvs;     // front-facing container vertices on the image plane
     std::vector<DVec2> silhouette;         // convex outline of the projected container
     std::vector<uint8_t> front;            // per container vertex: on a front-facing triangle
@@ -134,11 +146,20 @@ struct QuadtreeWarper::Impl {
     uint32_t vid(int x, int y) const { return uint32_t(y) * uint32_t(side) + uint32_t(x); }
     // The vertex's state for this frame (flags and counter cleared on first touch).
     VertexState& vertex(uint32_t v) {
-        VertexState& s = verts[v];
-        if (s.stamp != frame) s.stamp = frame, s.flags = 0, s.tc = 0;
-        return s;
+        VertexSlot& slot = slots[v];
+        if (slot.stamp != frame) {
+            slot.stamp = frame;
+            slot.index = uint32_t(states.size());
+            states.emplace_back();
+        }
+        return states[slot.index];
     }
-    const VertexMapping& mapping(int x, int y) const { return verts[vid(x, y)].mapping; }
+    // A vertex transformed this frame.
+    const VertexMapping& mapping(int x, int y) const {
+        const VertexSlot& slot = slots[vid(x, y)];
+        PLX_DCHECK(slot.stamp == frame);
+        return states[slot.index].mapping;
+    }
     DVec2 uvOf(int x, int y) const {
         double s = 1.0 / double(side - 1);
         return {x * s, y * s};
@@ -217,8 +238,8 @@ struct QuadtreeWarper::Impl {
         ++vertex(vid(x, y)).tc;
     }
     int counter(int x, int y) const {
-        const VertexState& s = verts[vid(x, y)];
-        return s.stamp == frame ? s.tc : 0;
+        const VertexSlot& slot = slots[vid(x, y)];
+        return slot.stamp == frame ? states[slot.index].tc : 0;
     }
 
     void prepareContainer() {
@@ -244,12 +265,39 @@ struct QuadtreeWarper::Impl {
             DVec3 n = glm::cross(container->verticesMm[idx[1]] - a,
                                  container->verticesMm[idx[2]] - a);
             if (glm::dot(n, a - eye) >= 0.0) continue;  // back-facing
-            frontTriangles.push_back(uint32_t(t));
+            frontTriangles.push_back(prepareFromOrigin(eye, a, container->verticesMm[idx[1]],
+                                                       container->verticesMm[idx[2]]));
             for (int k = 0; k < 3; ++k) front[idx[k]] = 1;
         }
         for (size_t i = 0; i < front.size(); ++i)
             if (front[i]) frontVertexUvs.push_back(projected[i]);
         silhouette = convexHull2d(projected);
+        lastHitTriangle = 0;
+        // A line of sight that meets the container meets it at a point whose projection lies in
+        // the silhouette, so one outside the silhouette's box hits no triangle. The margin (about
+        // 3e-4 mm on the plane) is far wider than the rounding of the projection or the ray
+        // test's 1e-9 barycentric tolerance, so the box only skips tests that would all miss.
+        constexpr double kMarginUv = 1e-6;
+        silhouetteLo = DVec2(1e300), silhouetteHi = DVec2(-1e300);
+        for (const DVec2& p : projected)
+            silhouetteLo = glm::min(silhouetteLo, p), silhouetteHi = glm::max(silhouetteHi, p);
+        silhouetteLo -= kMarginUv, silhouetteHi += kMarginUv;
+    }
+
+    // Moller-Trumbore tests of one line of sight against the front triangles, starting with the
+    // one the previous line of sight hit (any hit decides, so the order changes only the count).
+    bool sightHitsFrontTriangle(const DVec3& dir) {
+        size_t n = frontTriangles.size();
+        for (size_t i = 0; i < n; ++i) {
+            size_t k = lastHitTriangle + i < n ? lastHitTriangle + i : lastHitTriangle + i - n;
+            double tHit;
+            ++stats->containerRayTests;
+            if (intersectFromOrigin(frontTriangles[k], dir, &tHit)) {
+                lastHitTriangle = k;
+                return true;
+            }
+        }
+        return false;
     }
 
     // First test of section 7.1 for one L-vertex: the line of sight from the eye through it
@@ -257,19 +305,10 @@ struct QuadtreeWarper::Impl {
     bool lineOfSightHits(int x, int y) {
         VertexState& s = vertex(vid(x, y));
         if (s.flags & kRayDone) return (s.flags & kRayHit) != 0;
-        DVec3 dir = plane->pointAt(uvOf(x, y)) - plane->eyeMm;
-        bool hit = false;
-        for (uint32_t t : frontTriangles) {
-            const uint32_t* idx = &container->indices[3 * t];
-            double tHit;
-            ++stats->containerRayTests;
-            if (intersectTriangle(plane->eyeMm, dir, container->verticesMm[idx[0]],
-                                  container->verticesMm[idx[1]], container->verticesMm[idx[2]],
-                                  &tHit)) {
-                hit = true;
-                break;
-            }
-        }
+        DVec2 uv = uvOf(x, y);
+        bool inBox = uv.x >= silhouetteLo.x && uv.x <= silhouetteHi.x && uv.y >= silhouetteLo.y &&
+                     uv.y <= silhouetteHi.y;
+        bool hit = inBox && sightHitsFrontTriangle(plane->pointAt(uv) - plane->eyeMm);
         s.flags |= uint8_t(kRayDone | (hit ? kRayHit : 0));
         return hit;
     }
@@ -542,9 +581,10 @@ struct QuadtreeWarper::Impl {
         clearKeepingCapacity(mesh);
         mesh->gridLevel = m;
         if (++frame == 0) {  // stamps wrapped: clear them once every 2^32 frames
-            for (VertexState& s : verts) s.stamp = 0;
+            for (VertexSlot& s : slots) s.stamp = 0;
             frame = 1;
         }
+        states.clear();
         for (int level = 0; level < m; ++level) {
             for (uint32_t packed : touched[level])
                 node(level, int(packed & 0xffffu), int(packed >> 16)) = kAbsent;
@@ -573,7 +613,9 @@ Result<std::unique_ptr<QuadtreeWarper>> QuadtreeWarper::create(const QuadtreeCon
     impl->m = config.gridLevel;
     impl->side = (1 << config.gridLevel) + 1;
     size_t count = size_t(impl->side) * size_t(impl->side);
-    impl->verts.resize(count);
+    impl->slots.resize(count);
+    // Reserved, not touched: only the pages a frame's states use are ever committed.
+    impl->states.reserve(count);
     impl->nodes.resize(size_t(config.gridLevel));
     impl->touched.resize(size_t(config.gridLevel));
     for (int l = 0; l < config.gridLevel; ++l) impl->nodes[l].assign(size_t(1) << (2 * l), 0);

@@ -42,6 +42,20 @@ Container makeContainer(ContainerKind kind, std::span<const DVec3> pointsMm);
 bool intersectTriangle(const DVec3& o, const DVec3& d, const DVec3& a, const DVec3& b,
                        const DVec3& c, double* t);
 
+// The same test for many rays from one origin (GeneratePatch's lines of sight all start at the
+// eye): the terms that do not depend on the direction (the two edges, the origin relative to a
+// and its cross product with the first edge) are computed once per triangle.
+// intersectFromOrigin(prepareFromOrigin(o, a, b, c), d, &t) == intersectTriangle(o, d, a, b, c, &t)
+// bit for bit.
+struct TriangleFromOrigin {
+    DVec3 e1, e2;  // b - a, c - a
+    DVec3 s;       // o - a
+    DVec3 q;       // cross(s, e1)
+};
+TriangleFromOrigin prepareFromOrigin(const DVec3& o, const DVec3& a, const DVec3& b,
+                                     const DVec3& c);
+bool intersectFromOrigin(const TriangleFromOrigin& tri, const DVec3& d, double* t);
+
 // Whether a point lies inside or on the closed container (all face planes).
 bool containerContains(const Container& container, const DVec3& p, double toleranceMm = 1e-6);
 

@@ -540,24 +540,29 @@ struct QuadtreeWarper::Impl {
         return s.meshIndex;
     }
 
-    void emitTriangle(int ax, int ay, int bx, int by, int cx, int cy) {
-        mesh->indices.push_back(emitVertex(ax, ay));
-        mesh->indices.push_back(emitVertex(bx, by));
-        mesh->indices.push_back(emitVertex(cx, cy));
-    }
-
     // Section 6: per side one triangle (counter 0) or two through the T-vertex (counter 1).
+    // A leaf's fan uses at most nine vertices, most of them in several triangles; each is looked
+    // up once (in first-use order, so mesh indices are those of emitting them one by one).
     void triangulateLeaf(int level, int px, int py) {
         int h = patchSize(level), c = h / 2;
         int x0 = px * h, y0 = py * h, x1 = x0 + h, y1 = y0 + h, xc = x0 + c, yc = y0 + c;
-        const int sides[4][6] = {{x0, y0, x1, y0, xc, y0}, {x1, y0, x1, y1, x1, yc},
-                                 {x1, y1, x0, y1, xc, y1}, {x0, y1, x0, y0, x0, yc}};
-        for (const auto& s : sides) {
-            if (counter(s[4], s[5]) == 1) {
-                emitTriangle(s[0], s[1], s[4], s[5], xc, yc);
-                emitTriangle(s[4], s[5], s[2], s[3], xc, yc);
+        // Corners 0-3 (side k runs from corner k to corner k + 1), T-vertex of side k at 4 + k,
+        // the X-vertex at 8.
+        const int at[9][2] = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}, {xc, y0},
+                              {x1, yc}, {xc, y1}, {x0, yc}, {xc, yc}};
+        uint32_t index[9];
+        bool known[9] = {};
+        auto emit = [&](int k) {
+            if (!known[k]) index[k] = emitVertex(at[k][0], at[k][1]), known[k] = true;
+            mesh->indices.push_back(index[k]);
+        };
+        for (int k = 0; k < 4; ++k) {
+            int next = (k + 1) & 3, t = 4 + k;
+            if (counter(at[t][0], at[t][1]) == 1) {
+                emit(k), emit(t), emit(8);
+                emit(t), emit(next), emit(8);
             } else {
-                emitTriangle(s[0], s[1], s[2], s[3], xc, yc);
+                emit(k), emit(next), emit(8);
             }
         }
         ++stats->leafPatches;

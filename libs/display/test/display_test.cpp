@@ -292,6 +292,42 @@ TEST(Container, ContainsItsPoints) {
     EXPECT_LE(makeHullContainer(pts).triangleCount(), 26u * 8u);
 }
 
+// Rays from one origin towards points of random triangles: a point inside (barycentric weights
+// away from the edges) is hit at the distance to it, one outside (a negative weight) is missed,
+// one behind the origin is missed; the prepared and the one-off tests agree on every ray.
+TEST(Container, RaysFromOneOriginMeetTrianglesWhereExpected) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> coord(-100.0, 100.0), weight(0.05, 0.9);
+    const DVec3 origin(3.0, -250.0, 40.0);
+    int hits = 0, misses = 0;
+    for (int trial = 0; trial < 500; ++trial) {
+        DVec3 a(coord(rng), coord(rng), coord(rng)), b(coord(rng), coord(rng), coord(rng)),
+            c(coord(rng), coord(rng), coord(rng));
+        if (glm::length(glm::cross(b - a, c - a)) < 100.0) continue;  // skip slivers
+        TriangleFromOrigin tri = prepareFromOrigin(origin, a, b, c);
+        double u = weight(rng), v = weight(rng) * (1.0 - u);
+        for (double su : {1.0, -1.0}) {  // -1: the point lies outside, beyond edge ac
+            DVec3 target = a + (su * u) * (b - a) + v * (c - a);
+            DVec3 d = target - origin;
+            double t = -1.0, tOnce = -1.0;
+            bool hit = intersectFromOrigin(tri, d, &t);
+            ASSERT_EQ(hit, intersectTriangle(origin, d, a, b, c, &tOnce));
+            ASSERT_EQ(hit, su > 0.0) << "trial " << trial;
+            if (hit) {
+                EXPECT_NEAR(t, 1.0, 1e-9);
+                EXPECT_EQ(t, tOnce);
+                ++hits;
+            } else {
+                ++misses;
+            }
+            double tBehind;
+            EXPECT_FALSE(intersectFromOrigin(tri, -d, &tBehind));
+        }
+    }
+    EXPECT_GT(hits, 100);
+    EXPECT_GT(misses, 100);
+}
+
 bool insideTriangleUv(const WarpMesh& mesh, const DVec2& p) {
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
         DVec2 a = mesh.uvs[mesh.indices[3 * t]], b = mesh.uvs[mesh.indices[3 * t + 1]],

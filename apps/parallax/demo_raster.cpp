@@ -48,7 +48,7 @@ Status demoRasterSection(DemoContext& ctx) {
     const int width = ctx.quick ? 320 : 960, height = ctx.quick ? 180 : 540;
     const int frames = ctx.quick ? 1 : 5;
     const int maxRooms = ctx.quick ? 4 : 16;
-    auto renderer = raster::Renderer::create({ctx.threads, 64});
+    auto renderer = raster::Renderer::create({ctx.threads});
     if (!renderer) return renderer.status();
 
     rep.heading("Foundation: the P-buffer rasterizer");

@@ -29,7 +29,7 @@ int runRender(const RenderArgs& a) {
         return fail(fmt::format("--frames {} outside 1 .. 100000", a.frames), kExitUsage);
     auto shading = raster::parseShading(a.shading);
     if (!shading) return fail(shading.status().message(), kExitUsage);
-    auto renderer = raster::Renderer::create({a.threads, 64});
+    auto renderer = raster::Renderer::create({a.threads});
     if (!renderer) return fail(renderer.status().message(), kExitUsage);
     if (auto size = parseSize(a.view.size); !size) return fail(size.status().message(), kExitUsage);
     auto scene = scene::loadScene(a.scene);

@@ -41,6 +41,7 @@ struct Options {
     bool noDefaults = false;
     std::string size = "1280x720";
     int threads = 2;
+    int tileSize = raster::RendererConfig{}.tileSize;
     int warmup = 3;
     int frames = 15;
     bool json = false;
@@ -143,7 +144,7 @@ struct Peers {
 
 Result<Peers> createPeers(const Options& options) {
     Peers peers;
-    auto parallax = raster::Renderer::create({options.threads, 64});
+    auto parallax = raster::Renderer::create({options.threads, options.tileSize});
     if (!parallax) return parallax.status();
     peers.parallax = std::move(parallax).value();
     gl::GlConfig config;
@@ -318,9 +319,11 @@ Status run(const Options& options) {
     auto peers = createPeers(options);
     if (!peers) return peers.status();
     if (!options.json) {
-        fmt::print("Parallax raster::Renderer ({} threads) vs {} ({}), LP_NUM_THREADS={}, "
-                   "{}x{}, flat shading, {} warm-up + {} timed frames, alternating\n",
-                   peers->parallax->threadCount(), peers->llvmpipe->rendererName(),
+        fmt::print("Parallax raster::Renderer ({} threads, {}-pixel tiles) vs {} ({}), "
+                   "LP_NUM_THREADS={}, {}x{}, flat shading, {} warm-up + {} timed frames, "
+                   "alternating\n",
+                   peers->parallax->threadCount(), options.tileSize,
+                   peers->llvmpipe->rendererName(),
                    peers->llvmpipe->versionString(), peers->llvmpipe->threads(), width, height,
                    options.warmup, options.frames);
     }
@@ -337,6 +340,7 @@ Status run(const Options& options) {
     }
     if (options.json) {
         nlohmann::json out = {{"parallax_threads", peers->parallax->threadCount()},
+                              {"parallax_tile_size", options.tileSize},
                               {"llvmpipe", peers->llvmpipe->rendererName()},
                               {"gl_version", peers->llvmpipe->versionString()},
                               {"lp_num_threads", peers->llvmpipe->threads()},
@@ -371,6 +375,8 @@ int main(int argc, char** argv) {
                  "default and vista viewpoints, DamagedHelmet as is and subdivided x16, x64)");
     app.add_option("--size", options.size, "image size WxH")->capture_default_str();
     app.add_option("--threads", options.threads, "threads of each renderer (LP_NUM_THREADS)")
+        ->capture_default_str();
+    app.add_option("--tile-size", options.tileSize, "Parallax's screen tile side in pixels")
         ->capture_default_str();
     app.add_option("--warmup", options.warmup, "untimed frames of each renderer per scene")
         ->capture_default_str();

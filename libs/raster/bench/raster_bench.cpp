@@ -67,7 +67,7 @@ void renderLoop(benchmark::State& state, const scene::Scene& s, float fovYDegree
     d.targetPos = {0, 0, -1};
     d.fovYDegrees = fovYDegrees;
     Camera cam = *Camera::create(d);
-    auto r = std::move(raster::Renderer::create({int(state.range(1)), 64})).value();
+    auto r = std::move(raster::Renderer::create({int(state.range(1))})).value();
     raster::FrameBuffers fb;
     fb.resize(d.width, d.height);
     for (auto _ : state) r->render(s, cam, {}, fb.targets());

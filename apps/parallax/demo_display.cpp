@@ -39,7 +39,8 @@ Status demoDisplaySection(DemoContext& ctx) {
     auto warper = display::QuadtreeWarper::create({gridLevel, showcaseMm});
     if (!warper) return warper.status();
     display::Container container =
-        display::makeContainer(display::ContainerKind::kHull, display::scenePointsMm(content));
+        display::makeContainer(display::ExperimentConfig{}.container,
+                               display::scenePointsMm(content));
     display::WarpMesh adaptive, uniform;
     display::WarpStats adaptiveStats, uniformStats;
     (*warper)->generate(d, plane, &container, &adaptive, &adaptiveStats);

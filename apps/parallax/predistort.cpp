@@ -35,7 +35,8 @@ struct PredistortArgs {
     double errorMm = 1.0;
     std::string scene;
     std::string method = "adaptive";
-    std::string container = "hull";  // as `bench predistort`: the tighter container
+    // The experiment's (and `bench predistort`'s) default: the coarse hull.
+    std::string container = display::containerKindName(display::ExperimentConfig{}.container);
     std::string out;
     std::string format = "bourke";
     int gridLevel = 9;
@@ -210,7 +211,8 @@ Command registerPredistort(CLI::App& app) {
         ->required();
     sub->add_option("--scene", args->scene, "Scene file or generator spec (default: built-in)");
     sub->add_option("--method", args->method, "adaptive (quadtree) or uniform (baseline)");
-    sub->add_option("--container", args->container, "Convex container: hull (the coarse convex hull, default), obb or none");
+    sub->add_option("--container", args->container,
+                    "Convex container: hull (the coarse convex hull, default), obb or none");
     sub->add_option("--out", args->out, "Output prefix")->required();
     sub->add_option("--format", args->format, "Mesh file format: bourke, obj or pfm");
     sub->add_option("--grid-level", args->gridLevel, "Quadtree grid level m (2..11)");

@@ -15,14 +15,18 @@ Display coneDisplay() {
     return d.isOk() ? *d : Display{};
 }
 
+// The container of a benchmark argument: 0 none, 1 OBB, 2 the coarse hull (grid B's default).
+Container containerOfArg(int64_t arg, const plx::scene::Scene& sceneMm) {
+    const ContainerKind kinds[] = {ContainerKind::kNone, ContainerKind::kObb, ContainerKind::kHull};
+    return makeContainer(kinds[arg], scenePointsMm(sceneMm));
+}
+
 void BM_AdaptiveGenerate(benchmark::State& state) {
     Display d = coneDisplay();
     double thr = double(state.range(0)) / 10.0;
     ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
     auto scene = fitSceneToContent(makeShowcaseScene(), d);
-    // Arg 1: container (0 none, 1 OBB, 2 the coarse hull, grid B's default).
-    const ContainerKind kinds[] = {ContainerKind::kNone, ContainerKind::kObb, ContainerKind::kHull};
-    Container c = makeContainer(kinds[state.range(1)], scenePointsMm(scene));
+    Container c = containerOfArg(state.range(1), scene);  // arg 1: see containerOfArg
     auto warper = QuadtreeWarper::create({9, thr});
     WarpMesh mesh;
     WarpStats stats;
@@ -70,8 +74,7 @@ void BM_PassTwo(benchmark::State& state) {
         state.SkipWithError("pass 1 failed");
         return;
     }
-    const ContainerKind kinds[] = {ContainerKind::kNone, ContainerKind::kObb, ContainerKind::kHull};
-    Container c = makeContainer(kinds[state.range(1)], scenePointsMm(scene));
+    Container c = containerOfArg(state.range(1), scene);
     WarpMesh mesh;
     WarpStats stats;
     if (state.range(0) == 0) {

@@ -41,15 +41,12 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
         if (options.unsampledVisible)
             return bad("a colour-only render cannot report unsampled triangles (no depth)");
         if (options.tileIds) return bad("a colour-only render has no ID target to visit");
-        if ((rt.depth.data && !fits(rt.depth.width, rt.depth.height)) ||
-            (rt.id.data && !fits(rt.id.width, rt.id.height)))
-            return bad("depth or ID target size differs from the camera's image");
-    } else {
-        if (!rt.depth.data || !rt.id.data)
-            return bad("depth and ID targets are required unless the render is colour-only");
-        if (!fits(rt.depth.width, rt.depth.height) || !fits(rt.id.width, rt.id.height))
-            return bad("depth or ID target size differs from the camera's image");
+    } else if (!rt.depth.data || !rt.id.data) {
+        return bad("depth and ID targets are required unless the render is colour-only");
     }
+    if ((rt.depth.data && !fits(rt.depth.width, rt.depth.height)) ||
+        (rt.id.data && !fits(rt.id.width, rt.id.height)))
+        return bad("depth or ID target size differs from the camera's image");
     if (rt.color.data && !fits(rt.color.width, rt.color.height))
         return bad("colour target size differs from the camera's image");
     if ((rt.id2.data == nullptr) != (rt.depth2.data == nullptr))

@@ -43,12 +43,8 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
                   const ShadeContext& ctx) {
     const scene::Mesh& mesh = scene.meshes[meshIndex];
     const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
-    const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];
-    Vec3 faceNormal = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
-                                 mesh.positions[idx[2]] - mesh.positions[idx[0]]);
-    float len = glm::length(faceNormal);
-    faceNormal = len > 0.0f ? faceNormal / len : Vec3(0.0f, 1.0f, 0.0f);
-    float light = ctx.lit ? lambert(faceNormal, ctx) : 1.0f;
+    float light = ctx.lit ? lambert(scene.faceNormal(scene.firstTriangle(meshIndex) + localTri), ctx)
+                          : 1.0f;
     return encodeRgb(Vec3(mat.baseColor) * light);
 }
 

@@ -55,6 +55,17 @@ void computeNormals(Mesh* mesh) {
     }
 }
 
+// Appends the unit face normal of every triangle of the mesh (flat shading's normal).
+void appendFaceNormals(const Mesh& mesh, std::vector<Vec3>* out) {
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+        const uint32_t* idx = &mesh.indices[3 * t];
+        Vec3 n = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
+                            mesh.positions[idx[2]] - mesh.positions[idx[0]]);
+        float len = glm::length(n);
+        out->push_back(len > 0.0f ? n / len : Vec3(0.0f, 1.0f, 0.0f));
+    }
+}
+
 void normaliseNormals(Mesh* mesh) {
     for (Vec3& n : mesh->normals) {
         float len = glm::length(n);
@@ -79,6 +90,7 @@ Status Scene::finalize() {
     mFirstTriangle.assign(meshes.size(), 0);
     mTriangleCount = 0;
     mBounds = Aabb{};
+    mFaceNormals.clear();
     for (size_t m = 0; m < meshes.size(); ++m) {
         PLX_RETURN_IF_ERROR(checkMesh(*this, m));
         Mesh& mesh = meshes[m];
@@ -86,6 +98,7 @@ Status Scene::finalize() {
         normaliseNormals(&mesh);
         mFirstTriangle[m] = mTriangleCount;
         mTriangleCount += mesh.triangleCount();
+        appendFaceNormals(mesh, &mFaceNormals);
         for (uint32_t i : mesh.indices) mBounds.extend(mesh.positions[i]);
     }
     if (mTriangleCount == 0)

@@ -27,6 +27,22 @@ TEST(Scene, FinalizeComputesOffsetsNormalsAndBounds) {
     EXPECT_EQ(s.bounds().hi, Vec3(1, 1, 0));
 }
 
+TEST(Scene, FinalizeComputesFaceNormalsPerGlobalTriangle) {
+    Scene s = oneTriangle();
+    Mesh second = s.meshes[0];
+    second.indices = {0, 2, 1, 0, 1, 1};  // clockwise in the xy plane, then degenerate
+    s.meshes.push_back(second);
+    ASSERT_TRUE(s.finalize().isOk());
+    EXPECT_EQ(s.faceNormal(0), Vec3(0, 0, 1));
+    EXPECT_EQ(s.faceNormal(1), Vec3(0, 0, -1));
+    EXPECT_EQ(s.faceNormal(2), Vec3(0, 1, 0));  // no plane: the documented fallback
+    // Editing the arrays and finalising again recomputes them.
+    s.meshes[0].positions[2] = {0, 0, 2};
+    ASSERT_TRUE(s.finalize().isOk());
+    EXPECT_EQ(s.faceNormal(0), Vec3(0, -1, 0));
+    EXPECT_EQ(s.faceNormal(1), Vec3(0, 0, -1));
+}
+
 TEST(Scene, FinalizeRejectsBadGeometry) {
     Scene s = oneTriangle();
     s.meshes[0].positions[1].x = std::numeric_limits<float>::quiet_NaN();

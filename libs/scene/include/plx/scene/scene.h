@@ -82,7 +82,7 @@ public:
     // Checks the scene (finite positions and normals, indices in range, material and texture
     // indices valid, at least one triangle), normalises normals (computing them from faces where
     // a mesh has none), adds a default material when there is none, and computes the triangle
-    // offsets and bounds. Must be called after building or editing the arrays.
+    // offsets, face normals and bounds. Must be called after building or editing the arrays.
     Status finalize();
 
     size_t triangleCount() const { return mTriangleCount; }
@@ -90,6 +90,14 @@ public:
     // Mesh holding a global triangle index. Precondition: globalTriangle < triangleCount().
     size_t meshOfTriangle(uint32_t globalTriangle) const;
     const Aabb& bounds() const { return mBounds; }
+    // Unit normal of a triangle's plane, cross(p1 - p0, p2 - p0) normalised ((0, 1, 0) for a
+    // degenerate triangle), computed by finalize(): flat shading reads this one vector instead of
+    // the triangle's indices and three corners, scattered reads on large meshes.
+    // Precondition: globalTriangle < triangleCount().
+    const Vec3& faceNormal(size_t globalTriangle) const {
+        PLX_DCHECK(globalTriangle < mFaceNormals.size());
+        return mFaceNormals[globalTriangle];
+    }
     SceneStats stats() const;
 
     // Counted during import for statistics; finalize() does not change them.
@@ -98,6 +106,7 @@ public:
 
 private:
     std::vector<size_t> mFirstTriangle;  // per mesh, prefix sums of triangle counts
+    std::vector<Vec3> mFaceNormals;      // per global triangle
     size_t mTriangleCount = 0;
     Aabb mBounds;
 };

@@ -41,26 +41,26 @@ Status checkMesh(const Scene& scene, size_t m) {
     return Status::ok();
 }
 
+// cross(p1 - p0, p2 - p0) of triangle t: its plane's normal, twice its area long.
+Vec3 faceCross(const Mesh& mesh, size_t t) {
+    const uint32_t* idx = &mesh.indices[3 * t];
+    return glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
+                      mesh.positions[idx[2]] - mesh.positions[idx[0]]);
+}
+
 // Area-weighted face normals accumulated per vertex.
 void computeNormals(Mesh* mesh) {
     mesh->normals.assign(mesh->positions.size(), Vec3(0.0f));
     for (size_t t = 0; t < mesh->triangleCount(); ++t) {
-        uint32_t a = mesh->indices[3 * t], b = mesh->indices[3 * t + 1],
-                 c = mesh->indices[3 * t + 2];
-        Vec3 n = glm::cross(mesh->positions[b] - mesh->positions[a],
-                            mesh->positions[c] - mesh->positions[a]);
-        mesh->normals[a] += n;
-        mesh->normals[b] += n;
-        mesh->normals[c] += n;
+        Vec3 n = faceCross(*mesh, t);
+        for (int k = 0; k < 3; ++k) mesh->normals[mesh->indices[3 * t + k]] += n;
     }
 }
 
 // Appends the unit face normal of every triangle of the mesh (flat shading's normal).
 void appendFaceNormals(const Mesh& mesh, std::vector<Vec3>* out) {
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const uint32_t* idx = &mesh.indices[3 * t];
-        Vec3 n = glm::cross(mesh.positions[idx[1]] - mesh.positions[idx[0]],
-                            mesh.positions[idx[2]] - mesh.positions[idx[0]]);
+        Vec3 n = faceCross(mesh, t);
         float len = glm::length(n);
         out->push_back(len > 0.0f ? n / len : Vec3(0.0f, 1.0f, 0.0f));
     }

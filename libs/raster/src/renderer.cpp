@@ -100,6 +100,14 @@ struct Chunk {
     }
 };
 
+// The clear colour as the 32-bit word the colour target holds.
+uint32_t clearWordOf(const RenderOptions& options) {
+    static_assert(sizeof(Rgba8) == sizeof(uint32_t));
+    uint32_t word;
+    std::memcpy(&word, &options.clearColor, sizeof word);
+    return word;
+}
+
 // The tiles one frame drew into on one set of targets, which left every other tile of them
 // holding the clear values (RenderOptions::clearDrawnTilesOnly).
 struct DrawnTiles {
@@ -443,9 +451,7 @@ void Renderer::Impl::planClears(const RenderOptions& options, const RenderTarget
     // frame without clearTargets hold is the caller's).
     const bool remember = options.clearTargets && options.clearDrawnTilesOnly;
     if (!remember && drawnRecords.empty()) return;
-    uint32_t clearWord;
-    std::memcpy(&clearWord, &options.clearColor, sizeof clearWord);
-    DrawnTiles now = DrawnTiles::keyOf(rt, options, clearWord);
+    DrawnTiles now = DrawnTiles::keyOf(rt, options, clearWordOf(options));
     if (remember) {
         now.drawn.assign(tiles, 0);
         for (size_t t = 0; t < tiles; ++t)
@@ -480,9 +486,7 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     int x0 = (tile % tilesX) * tileSize, y0 = (tile / tilesX) * tileSize;
     int x1 = std::min(x0 + tileSize, vp.width) - 1, y1 = std::min(y0 + tileSize, vp.height) - 1;
     if (clearTile[size_t(tile)]) {
-        static_assert(sizeof(Rgba8) == sizeof(uint32_t));
-        uint32_t clearWord;
-        std::memcpy(&clearWord, &options.clearColor, sizeof clearWord);
+        const uint32_t clearWord = clearWordOf(options);
         for (int y = y0; y <= y1; ++y) {
             if (!options.colorOnly) {
                 std::fill(rt.depth.row(y) + x0, rt.depth.row(y) + x1 + 1, 0.0f);

@@ -43,8 +43,8 @@ Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri
                   const ShadeContext& ctx) {
     const scene::Mesh& mesh = scene.meshes[meshIndex];
     const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
-    float light = ctx.lit ? lambert(scene.faceNormal(scene.firstTriangle(meshIndex) + localTri), ctx)
-                          : 1.0f;
+    const Vec3& normal = scene.faceNormal(scene.firstTriangle(meshIndex) + localTri);
+    float light = ctx.lit ? lambert(normal, ctx) : 1.0f;
     return encodeRgb(Vec3(mat.baseColor) * light);
 }
 

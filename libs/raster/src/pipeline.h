@@ -172,11 +172,12 @@ void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t lo
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                   const ShadeContext& ctx);
 
-// Pixel bounds (inclusive, clamped to the viewport) and doubled signed area of a snapped
-// triangle.
+// Pixel bounds (inclusive, clamped to the viewport), doubled signed area and fixed-point extents
+// of a snapped triangle.
 struct TriangleBox {
     int minX = 0, minY = 0, maxX = -1, maxY = -1;
     int64_t area2 = 0;
+    int32_t extentX = 0, extentY = 0;  // max - min of the vertices' x and y, in 1/256 pixel
 };
 
 // Cheap pre-test for binning and tiles: the box of a snapped triangle, false when it covers no
@@ -187,10 +188,14 @@ inline bool triangleBox(const RasterVertex& a, const RasterVertex& b, const Rast
     // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
     // counter-clockwise front faces.
     if (box->area2 == 0 || (cullBackFaces && box->area2 > 0)) return false;
-    box->minX = std::max(firstPixelAtOrAfter(std::min({a.x, b.x, c.x})), 0);
-    box->minY = std::max(firstPixelAtOrAfter(std::min({a.y, b.y, c.y})), 0);
-    box->maxX = std::min(lastPixelAtOrBefore(std::max({a.x, b.x, c.x})), vp.width - 1);
-    box->maxY = std::min(lastPixelAtOrBefore(std::max({a.y, b.y, c.y})), vp.height - 1);
+    const int32_t loX = std::min({a.x, b.x, c.x}), hiX = std::max({a.x, b.x, c.x});
+    const int32_t loY = std::min({a.y, b.y, c.y}), hiY = std::max({a.y, b.y, c.y});
+    box->extentX = hiX - loX;
+    box->extentY = hiY - loY;
+    box->minX = std::max(firstPixelAtOrAfter(loX), 0);
+    box->minY = std::max(firstPixelAtOrAfter(loY), 0);
+    box->maxX = std::min(lastPixelAtOrBefore(hiX), vp.width - 1);
+    box->maxY = std::min(lastPixelAtOrBefore(hiY), vp.height - 1);
     return box->minX <= box->maxX && box->minY <= box->maxY;
 }
 
@@ -248,26 +253,42 @@ struct DepthBlocks {
     void reset(int x0, int y0, int x1, int y1, bool cleared);
     // Marks the blocks of the pixel rectangle [x0,x1]x[y0,y1] as possibly written.
     void markDirty(int x0, int y0, int x1, int y1);
+    // The same, for a rectangle at most eight pixels wide (x1 - x0 < 8).
+    void markDirtyNarrow(int x0, int y0, int x1, int y1);
     // True when a triangle whose samples all have 1/w <= `nearest` is hidden at every pixel of
     // [x0,x1]x[y0,y1] (refreshes the dirty blocks it reads from `depth`).
     bool hides(int x0, int y0, int x1, int y1, float nearest, const ImageView<float>& depth);
 };
 
 // The largest 1/w any covered sample of the snapped triangle (a, b, c) can be given by
-// rowBarycentrics' float interpolation, or +infinity when no safe bound is known. Interpolated
-// 1/w is a convex combination of the vertices' values up to rounding; the rounding grows with
-// the barycentric weights at the bounding box corners, which stay below 2 * box / area, so
-// slivers (area under 1/64 of their box) get no bound and the rest a 1/64 relative margin, far
-// above the rounding (< 1e-4 relative with weights below 128).
+// rowBarycentrics' float interpolation (box from triangleBox), or +infinity when no safe bound
+// is known. Interpolated 1/w is a convex combination of the vertices' values up to rounding;
+// the rounding grows with the barycentric weights at the bounding box corners, which stay below
+// 2 * box / area, so slivers (area under 1/64 of their box) get no bound and the rest a 1/64
+// relative margin, far above the rounding (< 1e-4 relative with weights below 128).
 inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                              int64_t area2) {
-    if (area2 < 0) area2 = -area2;
-    int64_t boxW = std::max({a.x, b.x, c.x}) - std::min({a.x, b.x, c.x});
-    int64_t boxH = std::max({a.y, b.y, c.y}) - std::min({a.y, b.y, c.y});
-    if (area2 * 32 < boxW * boxH) return std::numeric_limits<float>::infinity();
+                              const TriangleBox& box) {
+    const int64_t area2 = box.area2 < 0 ? -box.area2 : box.area2;
+    if (area2 * 32 < int64_t(box.extentX) * box.extentY)
+        return std::numeric_limits<float>::infinity();
     float nearest = std::max({a.invW, b.invW, c.invW});
     return nearest + nearest * (1.0f / 64.0f);
 }
+
+// The narrow flat path below applies to every triangle of this render: AVX2, flat shading, a
+// depth test, no second depth layer.
+bool narrowFlatApplies(const ShadeContext& ctx, const RenderTargets& rt);
+
+// When the part of the snapped triangle `v` (box from triangleBox) in the inclusive rectangle
+// [x0,x1]x[y0,y1] is at most eight pixels wide and the triangle spans under 64 pixels in x and
+// y, rasterises it there as setupTriangleInBox + rasterizeTriangle would (bit-identical
+// results) without building the full setup, and returns true; returns false, having done
+// nothing, otherwise. `t` carries the triangle's identity only (id, flat colour or its source:
+// scene, meshIndex, localTri, flatReady); its vertex fields are overwritten. Only when
+// narrowFlatApplies.
+bool rasterizeNarrowFlat(const RasterVertex v[3], const TriangleBox& box, TriangleSetup& t,
+                         const ShadeContext& ctx, const RenderTargets& rt, int x0, int y0, int x1,
+                         int y1, DepthBlocks* blocks);
 
 // Rasterises t into targets restricted to the inclusive pixel rectangle [x0,x1]x[y0,y1], with
 // incremental edge functions (the fast path). The rectangle must belong to the calling thread:

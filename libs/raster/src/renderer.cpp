@@ -475,7 +475,7 @@ bool Renderer::Impl::hidden(const RasterVertex v[3], const TriangleBox& box, int
     int minX = std::max(box.minX, x0), minY = std::max(box.minY, y0);
     int maxX = std::min(box.maxX, x1), maxY = std::min(box.maxY, y1);
     if (minX > maxX || minY > maxY) return true;
-    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2], box.area2),
+    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2], box),
                         depth);
 }
 
@@ -507,6 +507,7 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     if (occlusion) blocks.reset(x0, y0, x1, y1, options.clearTargets);
     OcclusionProbe probe;
     TriangleSetup setup;
+    const bool narrowFlat = narrowFlatApplies(ctx, rt);
     for (size_t c = 0; c < chunkCount; ++c) {
         const Chunk& chunk = chunks[c];
         for (const BinnedTri& tri : chunk.bins[size_t(tile)]) {
@@ -536,6 +537,16 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
                 for (int k = 0; k < 3; ++k) v[k].bary = m->bary[k];
             } else if (ctx.shading != Shading::kFlat) {  // flat shading reads no weights
                 for (int k = 0; k < 3; ++k) v[k].bary = Vec3(k == 0, k == 1, k == 2);
+            }
+            if (narrowFlat) {
+                setup.id = uint32_t(scene.firstTriangle(mesh) + localTri + 1);
+                setup.scene = &scene;
+                setup.meshIndex = uint32_t(mesh);
+                setup.localTri = localTri;
+                setup.flatReady = m != nullptr;
+                if (m) setup.flatColor = m->flatColor;
+                if (rasterizeNarrowFlat(v, box, setup, ctx, rt, x0, y0, x1, y1, occlusion))
+                    continue;
             }
             setupTriangleInBox(scene, mesh, localTri, v, box, ctx, &setup);
             if (m && ctx.shading == Shading::kFlat) {

@@ -560,42 +560,99 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
     }
 }
 
-// Triangles whose part in the tile is at most eight pixels wide (most triangles of dense
-// meshes): one group of eight per row, so the int32 edge values, the barycentric numerators and
-// the lane offsets are set up once and stepped row by row, with no loop across the row. The
-// barycentric expression is eightBarycentrics' (rowValue + dk * step, dk fixed for the column),
-// so results stay bit-identical to the other paths.
-template <Shading kShading, bool kColor, bool kDepth = true>
-void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                         int x0, int y0, int x1, int y1, int limitX) {
-    const EdgeSteps edges(t, x0, y0, true);
-    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+// The int32 edge setup of the narrow walks. Under kSimdMaxExtentPx pixels of extent, with the
+// samples inside the triangle's box (or at most seven pixels past it), every edge value is
+// below 2^30, so these are the general path's exact int64 values in int32: lane k of e[i] is
+// edge i (vertex i to i+1, top-left bias included) at pixel (x0 + k, y0), and w1, w2 the
+// unbiased numerators of rowBarycentrics' b1 and b2 at (minX, y0).
+struct NarrowEdges {
     __m256i e[3], stepY[3];
-    for (int i = 0; i < 3; ++i) {
-        e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])),
-                                _mm256_mullo_epi32(lane, _mm256_set1_epi32(int32_t(edges.ax[i]))));
-        stepY[i] = _mm256_set1_epi32(int32_t(edges.by[i]));
+    int32_t w1, w2, stepW1, stepW2;  // stepped by a row
+    int32_t ax1, ax2;                // numerator steps of b1 and b2 along a row
+
+    NarrowEdges(const int32_t X[3], const int32_t Y[3], int x0, int y0, int minX) {
+        const int32_t sx = x0 * kSubPixelScale + kSubPixelScale / 2;
+        const int32_t sy = y0 * kSubPixelScale + kSubPixelScale / 2;
+        const int32_t sxMin = minX * kSubPixelScale + kSubPixelScale / 2;
+        const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        int32_t rowE[3], ax[3], by[3];
+        for (int i = 0; i < 3; ++i) {
+            const int j = i == 2 ? 0 : i + 1;
+            const int32_t dx = X[j] - X[i], dy = Y[j] - Y[i];
+            // Top-left rule, as setupTriangleInBox's edgeBias.
+            const int32_t bias = dy < 0 || (dy == 0 && dx > 0) ? 0 : -1;
+            ax[i] = -dy * kSubPixelScale;
+            by[i] = dx * kSubPixelScale;
+            rowE[i] = dx * (sy - Y[i]) - dy * (sxMin - X[i]);
+            const int32_t atSample = dx * (sy - Y[i]) - dy * (sx - X[i]) + bias;
+            e[i] = _mm256_add_epi32(_mm256_set1_epi32(atSample),
+                                    _mm256_mullo_epi32(lane, _mm256_set1_epi32(ax[i])));
+            stepY[i] = _mm256_set1_epi32(by[i]);
+        }
+        // b1 from edge 2 -> 0, b2 from edge 0 -> 1 (rowBarycentrics).
+        w1 = rowE[2], w2 = rowE[0];
+        stepW1 = by[2], stepW2 = by[0];
+        ax1 = ax[2], ax2 = ax[0];
     }
+};
+
+// Triangles whose part in the tile is at most eight pixels wide (most triangles of dense
+// meshes): one group of eight per row, so the edge values, the barycentric numerators and the
+// lane offsets are set up once and stepped row by row, with no loop across the row. The
+// barycentric expression is eightBarycentrics' (rowValue + dk * step, dk fixed for the column),
+// so results stay bit-identical to the other paths. invArea, stepB1, stepB2: TriangleSetup's.
+template <Shading kShading, bool kColor, bool kDepth = true>
+[[gnu::always_inline]] inline void walkNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx,
+                                                 const RenderTargets& rt, NarrowEdges& edges,
+                                                 float invArea, float stepB1, float stepB2,
+                                                 int minX, int x0, int y0, int x1, int y1,
+                                                 int limitX) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     const __m256i inRect = lanesUpTo(x0, x1);
     const EightConstants k(t);
     const ShadeFor<kColor && kShading != Shading::kFlat> shade(t);
-    const __m256 dk = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0 - t.minX), lane));
-    const __m256 offset1 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB1));
-    const __m256 offset2 = _mm256_mul_ps(dk, _mm256_set1_ps(t.stepB2));
+    const __m256 dk = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0 - minX), lane));
+    const __m256 offset1 = _mm256_mul_ps(dk, _mm256_set1_ps(stepB1));
+    const __m256 offset2 = _mm256_mul_ps(dk, _mm256_set1_ps(stepB2));
     const bool whole = x0 + 7 <= limitX;
-    RowWeights weights(t, y0);
-    for (int y = y0; y <= y1; ++y, weights.nextRow()) {
-        __m256i covered = insideLanes(e, inRect);
+    for (int y = y0; y <= y1; ++y, edges.w1 += edges.stepW1, edges.w2 += edges.stepW2) {
+        __m256i covered = insideLanes(edges.e, inRect);
         if (!_mm256_testz_si256(covered, covered)) {
-            float b1Row, b2Row;
-            weights.get(t, &b1Row, &b2Row);
-            __m256 b1 = _mm256_add_ps(_mm256_set1_ps(b1Row), offset1);
-            __m256 b2 = _mm256_add_ps(_mm256_set1_ps(b2Row), offset2);
+            __m256 b1 = _mm256_add_ps(_mm256_set1_ps(float(edges.w1) * invArea), offset1);
+            __m256 b2 = _mm256_add_ps(_mm256_set1_ps(float(edges.w2) * invArea), offset2);
             writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, TargetRows(rt, y, kDepth), x0,
                                                  covered, b1, b2, whole);
         }
-        for (int i = 0; i < 3; ++i) e[i] = _mm256_add_epi32(e[i], stepY[i]);
+        for (int i = 0; i < 3; ++i) edges.e[i] = _mm256_add_epi32(edges.e[i], edges.stepY[i]);
     }
+}
+
+template <Shading kShading, bool kColor, bool kDepth = true>
+void rasterizeNarrowAvx2(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                         int x0, int y0, int x1, int y1, int limitX) {
+    NarrowEdges edges(t.x, t.y, x0, y0, t.minX);
+    walkNarrowAvx2<kShading, kColor, kDepth>(t, ctx, rt, edges, t.invArea, t.stepB1, t.stepB2,
+                                             t.minX, x0, y0, x1, y1, limitX);
+}
+
+// rasterizeNarrowAvx2 for a flat-shaded triangle straight from the bins, oriented (positive
+// area2) but with no TriangleSetup geometry: most triangles of dense meshes cover a few pixels,
+// and for them the general setup cost more than their pixels (callgrind, x16 helmet: about 900
+// instructions per triangle from the bins to its last pixel). The values are setupTriangleInBox's.
+template <bool kColor>
+void rasterizeNarrowFlatAvx2(const RasterVertex* v[3], int64_t area2, int minX, TriangleSetup& t,
+                             const ShadeContext& ctx, const RenderTargets& rt, int x0, int y0,
+                             int x1, int y1, int limitX) {
+    for (int i = 0; i < 3; ++i) {
+        t.x[i] = v[i]->x;
+        t.y[i] = v[i]->y;
+        t.invW[i] = v[i]->invW;
+    }
+    NarrowEdges edges(t.x, t.y, x0, y0, minX);
+    const float invArea = 1.0f / float(area2);
+    walkNarrowAvx2<Shading::kFlat, kColor>(t, ctx, rt, edges, invArea,
+                                           float(edges.ax1) * invArea, float(edges.ax2) * invArea,
+                                           minX, x0, y0, x1, y1, limitX);
 }
 
 template <Shading kShading, bool kColor, bool kDepth = true>
@@ -680,6 +737,15 @@ void DepthBlocks::markDirty(int x0, int y0, int x1, int y1) {
                     (x1 >> kShift) - (x0 >> kShift) + 1, uint8_t(1));
 }
 
+void DepthBlocks::markDirtyNarrow(int x0, int y0, int x1, int y1) {
+    // At most two blocks a row; two plain stores (fill_n becomes a call to memset).
+    for (int by = y0 >> kShift; by <= y1 >> kShift; ++by) {
+        uint8_t* row = dirty.data() + size_t(by) * size_t(blocksX);
+        row[x0 >> kShift] = 1;
+        row[x1 >> kShift] = 1;
+    }
+}
+
 bool DepthBlocks::hides(int x0, int y0, int x1, int y1, float nearest,
                         const ImageView<float>& depth) {
     for (int by = y0 >> kShift; by <= y1 >> kShift; ++by) {
@@ -726,6 +792,48 @@ namespace {
 }
 
 }  // namespace
+
+bool narrowFlatApplies(const ShadeContext& ctx, const RenderTargets& rt) {
+#ifdef PLX_RASTER_AVX2
+    return ctx.shading == Shading::kFlat && !ctx.colorOnly && !rt.id2.data;
+#else
+    (void)ctx, (void)rt;
+    return false;
+#endif
+}
+
+bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, TriangleSetup& t,
+                         const ShadeContext& ctx, const RenderTargets& rt, int x0, int y0, int x1,
+                         int y1, DepthBlocks* blocks) {
+#ifdef PLX_RASTER_AVX2
+    const int limitX = x1;
+    x0 = std::max(x0, box.minX);
+    x1 = std::min(x1, box.maxX);
+    if (x1 - x0 >= 8) return false;
+    constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;
+    if (box.extentX >= kSimdMaxExtent || box.extentY >= kSimdMaxExtent) return false;
+    y0 = std::max(y0, box.minY);
+    y1 = std::min(y1, box.maxY);
+    if (x0 > x1 || y0 > y1) return true;
+    if (blocks) blocks->markDirtyNarrow(x0, y0, x1, y1);
+    // Orient so the signed area is positive, as setupTriangleInBox does.
+    const RasterVertex* v[3] = {&vin[0], &vin[1], &vin[2]};
+    int64_t area2 = box.area2;
+    if (area2 < 0) {
+        std::swap(v[1], v[2]);
+        area2 = -area2;
+    }
+    if (rt.color.data)
+        rasterizeNarrowFlatAvx2<true>(v, area2, box.minX, t, ctx, rt, x0, y0, x1, y1, limitX);
+    else
+        rasterizeNarrowFlatAvx2<false>(v, area2, box.minX, t, ctx, rt, x0, y0, x1, y1, limitX);
+    return true;
+#else
+    (void)vin, (void)box, (void)t, (void)ctx, (void)rt, (void)x0, (void)y0, (void)x1, (void)y1,
+        (void)blocks;
+    return false;
+#endif
+}
 
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                        int x0, int y0, int x1, int y1, DepthBlocks* blocks) {

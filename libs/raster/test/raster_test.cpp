@@ -283,6 +283,40 @@ TEST(Raster, FastPathEqualsScalarReference) {
     }
 }
 
+// Dense meshes, whose triangles cover a few pixels each (most of them take the narrow flat path,
+// which skips the general setup): flat shading, with and without a colour target, against the
+// scalar reference, to the bit. Spheres at several distances give triangles from under a pixel
+// to about 20 pixels across, both windings and every edge slope; tiles of 8 cut many of them.
+TEST(Raster, DenseMeshFastPathEqualsScalarReference) {
+    Scene s;
+    addSphere(&s, {0.0f, 0.0f, -3.0f}, 1.2f, 40, 80, 0);
+    addSphere(&s, {-1.0f, 0.4f, -6.0f}, 1.5f, 90, 180, 1);
+    addSphere(&s, {1.3f, -0.5f, -2.0f}, 0.5f, 12, 24, 0);
+    s.materials.push_back({"warm", {0.9f, 0.6f, 0.3f, 1.0f}, -1});
+    s.materials.push_back({"cool", {0.2f, 0.5f, 0.9f, 1.0f}, -1});
+    PLX_CHECK(s.finalize().isOk());
+    Camera cam = makeCamera({0.3f, 0.2f, 1.0f}, {0.0f, 0.0f, -4.0f}, 211, 133, 60.0f);
+    for (bool withColor : {true, false}) {
+        for (bool cull : {false, true}) {
+            RenderOptions opt;
+            opt.cullBackFaces = cull;
+            FrameBuffers ref, fast;
+            ref.resize(211, 133);
+            fast.resize(211, 133);
+            RenderTargets refTargets = ref.targets(), fastTargets = fast.targets();
+            if (!withColor) refTargets.color = fastTargets.color = {};
+            renderReference(s, cam, opt, refTargets);
+            for (int tile : {8, 64}) {
+                auto r = makeRenderer(2, tile);
+                r->render(s, cam, opt, fastTargets);
+                expectSameTargets(fast, ref,
+                                  std::string(withColor ? "colour" : "no colour") + " tile " +
+                                      std::to_string(tile) + (cull ? " cull" : ""));
+            }
+        }
+    }
+}
+
 // Textured shading on the fast path (eight samples at a time) against the scalar reference, to
 // the bit: a receding plane whose UVs run past [0, 1] (wrapped texels, and several mip levels
 // across it), a sphere, noise textures (every texel differs, so a wrong texel index shows) with

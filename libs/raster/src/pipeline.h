@@ -93,15 +93,13 @@ inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px
     return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);
 }
 
-// First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v.
+// First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v, for v
+// inside the guard band (|v| < 2^24, so nothing overflows). The arithmetic shift is floor
+// division: first = ceil((v - 128) / 256) = floor((v + 127) / 256), last = floor((v - 128) / 256).
 inline int firstPixelAtOrAfter(int32_t v) {
-    int64_t t = int64_t(v) - kSubPixelScale / 2;
-    return int(t >= 0 ? (t + kSubPixelScale - 1) >> kSubPixelBits : -((-t) >> kSubPixelBits));
+    return (v + kSubPixelScale / 2 - 1) >> kSubPixelBits;
 }
-inline int lastPixelAtOrBefore(int32_t v) {
-    int64_t t = int64_t(v) - kSubPixelScale / 2;
-    return int(t >> kSubPixelBits);  // arithmetic shift = floor division
-}
+inline int lastPixelAtOrBefore(int32_t v) { return (v - kSubPixelScale / 2) >> kSubPixelBits; }
 
 // Clips a triangle (clip-space positions) against the near and far planes and the guard band.
 // Writes up to kMaxClippedTriangles triangles as RasterVertex triples; returns how many.

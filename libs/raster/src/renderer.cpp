@@ -299,9 +299,13 @@ void Renderer::Impl::addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int
                                int maxY, int tilesX) const {
     int tx0 = minX >> tileShift, tx1 = maxX >> tileShift;
     int ty0 = minY >> tileShift, ty1 = maxY >> tileShift;
+    ++chunk.binned;
+    if (tx0 == tx1 && ty0 == ty1) {  // most triangles of dense meshes
+        chunk.bins[size_t(ty0) * tilesX + tx0].push_back(tri);
+        return;
+    }
     for (int ty = ty0; ty <= ty1; ++ty)
         for (int tx = tx0; tx <= tx1; ++tx) chunk.bins[size_t(ty) * tilesX + tx].push_back(tri);
-    ++chunk.binned;
 }
 
 void Renderer::Impl::noteUnsampled(Chunk& chunk, const scene::Scene& scene,

@@ -3,7 +3,8 @@
 // are bit-identical to reference.cpp.
 //
 //  - small triangles (both extents under kSimdMaxExtentPx) at most eight pixels wide in the tile:
-//    one group of eight per row, everything stepped row by row;
+//    one group of eight per row, everything stepped row by row in int32; flat-shaded ones come
+//    straight from the bins (rasterizeNarrowFlat), without the general TriangleSetup;
 //  - other small triangles: the bounding box walked eight pixels
 //    at a time with AVX2, edge values in int32 lanes;
 //  - larger triangles: each row's covered span solved with one integer division per edge, then

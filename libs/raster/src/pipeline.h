@@ -101,6 +101,22 @@ inline int firstPixelAtOrAfter(int32_t v) {
 }
 inline int lastPixelAtOrBefore(int32_t v) { return (v - kSubPixelScale / 2) >> kSubPixelBits; }
 
+// Top-left fill rule for edge (dx, dy) of a triangle with positive area: the interior lies where
+// the edge function is positive, its gradient (-dy, dx) points inwards. Left edge: dy < 0; top
+// edge: dy == 0 and dx > 0. Samples exactly on other edges are excluded by a bias of -1.
+inline int32_t topLeftBias(int32_t dx, int32_t dy) {
+    return dy < 0 || (dy == 0 && dx > 0) ? 0 : -1;
+}
+
+// The vertices of a snapped triangle with doubled signed area `area2`, ordered so that the area
+// is positive (vertices 1 and 2 swapped for front faces); returns the positive area.
+inline int64_t orientPositive(const RasterVertex vin[3], int64_t area2, const RasterVertex* v[3]) {
+    v[0] = &vin[0], v[1] = &vin[1], v[2] = &vin[2];
+    if (area2 >= 0) return area2;
+    std::swap(v[1], v[2]);
+    return -area2;
+}
+
 // Clips a triangle (clip-space positions) against the near and far planes and the guard band.
 // Writes up to kMaxClippedTriangles triangles as RasterVertex triples; returns how many.
 constexpr int kMaxClippedTriangles = 8;

@@ -64,27 +64,18 @@ void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t lo
     t->minY = box.minY;
     t->maxX = box.maxX;
     t->maxY = box.maxY;
-    // Orient so the signed area is positive: swap vertices 1 and 2 of front faces.
-    int64_t area2 = box.area2;
-    const RasterVertex* v[3] = {&vin[0], &vin[1], &vin[2]};
-    if (area2 < 0) {
-        std::swap(v[1], v[2]);
-        area2 = -area2;
-    }
+    const RasterVertex* v[3];
+    const int64_t area2 = orientPositive(vin, box.area2, v);
     t->area2 = area2;
     for (int i = 0; i < 3; ++i) {
         t->x[i] = v[i]->x;
         t->y[i] = v[i]->y;
         t->invW[i] = v[i]->invW;
     }
-    // Top-left rule: edge i runs from vertex i to vertex i+1; the interior lies where the edge
-    // function is positive, its gradient (-dy, dx) points inwards. Left edge: dy < 0; top edge:
-    // dy == 0 and dx > 0. Samples exactly on other edges are excluded by a bias of -1.
+    // Top-left rule; edge i runs from vertex i to vertex i+1.
     for (int i = 0; i < 3; ++i) {
         int j = (i + 1) % 3;
-        int32_t dx = t->x[j] - t->x[i], dy = t->y[j] - t->y[i];
-        bool topLeft = dy < 0 || (dy == 0 && dx > 0);
-        t->edgeBias[i] = topLeft ? 0 : -1;
+        t->edgeBias[i] = topLeftBias(t->x[j] - t->x[i], t->y[j] - t->y[i]);
     }
     t->invArea = 1.0f / float(area2);
     t->stepB1 = float(-int64_t(t->y[0] - t->y[2]) * kSubPixelScale) * t->invArea;

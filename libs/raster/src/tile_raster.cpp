@@ -162,6 +162,7 @@ void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const Rend
 // values inside the bounding box stay below 2^31 (differences < 2^14 sub-pixels times steps
 // over < 2^14 sub-pixels, twice), so int32 lanes hold them exactly.
 constexpr int kSimdMaxExtentPx = 64;
+constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;  // in 1/256 pixel
 
 // Per-triangle constants of the 8-wide loops, loaded once (stores through the target rows could
 // alias the setup, so the compiler would otherwise reload them for every eight pixels).
@@ -580,8 +581,7 @@ struct NarrowEdges {
         for (int i = 0; i < 3; ++i) {
             const int j = i == 2 ? 0 : i + 1;
             const int32_t dx = X[j] - X[i], dy = Y[j] - Y[i];
-            // Top-left rule, as setupTriangleInBox's edgeBias.
-            const int32_t bias = dy < 0 || (dy == 0 && dx > 0) ? 0 : -1;
+            const int32_t bias = topLeftBias(dx, dy);
             ax[i] = -dy * kSubPixelScale;
             by[i] = dx * kSubPixelScale;
             rowE[i] = dx * (sy - Y[i]) - dy * (sxMin - X[i]);
@@ -811,19 +811,13 @@ bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, Tria
     x0 = std::max(x0, box.minX);
     x1 = std::min(x1, box.maxX);
     if (x1 - x0 >= 8) return false;
-    constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;
     if (box.extentX >= kSimdMaxExtent || box.extentY >= kSimdMaxExtent) return false;
     y0 = std::max(y0, box.minY);
     y1 = std::min(y1, box.maxY);
     if (x0 > x1 || y0 > y1) return true;
     if (blocks) blocks->markDirtyNarrow(x0, y0, x1, y1);
-    // Orient so the signed area is positive, as setupTriangleInBox does.
-    const RasterVertex* v[3] = {&vin[0], &vin[1], &vin[2]};
-    int64_t area2 = box.area2;
-    if (area2 < 0) {
-        std::swap(v[1], v[2]);
-        area2 = -area2;
-    }
+    const RasterVertex* v[3];
+    const int64_t area2 = orientPositive(vin, box.area2, v);
     if (rt.color.data)
         rasterizeNarrowFlatAvx2<true>(v, area2, box.minX, t, ctx, rt, x0, y0, x1, y1, limitX);
     else
@@ -854,7 +848,6 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     bool flat = ctx.shading == Shading::kFlat;
     bool small = false;
 #ifdef PLX_RASTER_AVX2
-    constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;
     small = std::max({t.x[0], t.x[1], t.x[2]}) - std::min({t.x[0], t.x[1], t.x[2]}) <
                 kSimdMaxExtent &&
             std::max({t.y[0], t.y[1], t.y[2]}) - std::min({t.y[0], t.y[1], t.y[2]}) <

@@ -267,8 +267,6 @@ struct DepthBlocks {
     void reset(int x0, int y0, int x1, int y1, bool cleared);
     // Marks the blocks of the pixel rectangle [x0,x1]x[y0,y1] as possibly written.
     void markDirty(int x0, int y0, int x1, int y1);
-    // The same, for a rectangle at most eight pixels wide (x1 - x0 < 8).
-    void markDirtyNarrow(int x0, int y0, int x1, int y1);
     // True when a triangle whose samples all have 1/w <= `nearest` is hidden at every pixel of
     // [x0,x1]x[y0,y1] (refreshes the dirty blocks it reads from `depth`).
     bool hides(int x0, int y0, int x1, int y1, float nearest, const ImageView<float>& depth);

@@ -733,17 +733,17 @@ void DepthBlocks::reset(int x0, int y0, int x1, int y1, bool cleared) {
 }
 
 void DepthBlocks::markDirty(int x0, int y0, int x1, int y1) {
-    for (int by = y0 >> kShift; by <= y1 >> kShift; ++by)
-        std::fill_n(dirty.data() + size_t(by) * size_t(blocksX) + size_t(x0 >> kShift),
-                    (x1 >> kShift) - (x0 >> kShift) + 1, uint8_t(1));
-}
-
-void DepthBlocks::markDirtyNarrow(int x0, int y0, int x1, int y1) {
-    // At most two blocks a row; two plain stores (fill_n becomes a call to memset).
+    const int bx0 = x0 >> kShift, bx1 = x1 >> kShift;
     for (int by = y0 >> kShift; by <= y1 >> kShift; ++by) {
         uint8_t* row = dirty.data() + size_t(by) * size_t(blocksX);
-        row[x0 >> kShift] = 1;
-        row[x1 >> kShift] = 1;
+        if (bx1 - bx0 <= 1) {
+            // One or two blocks, most triangles of dense meshes: two plain stores (the fill below
+            // becomes a call to memset).
+            row[bx0] = 1;
+            row[bx1] = 1;
+        } else {
+            std::fill(row + bx0, row + bx1 + 1, uint8_t(1));
+        }
     }
 }
 
@@ -815,7 +815,7 @@ bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, Tria
     y0 = std::max(y0, box.minY);
     y1 = std::min(y1, box.maxY);
     if (x0 > x1 || y0 > y1) return true;
-    if (blocks) blocks->markDirtyNarrow(x0, y0, x1, y1);
+    if (blocks) blocks->markDirty(x0, y0, x1, y1);
     const RasterVertex* v[3];
     const int64_t area2 = orientPositive(vin, box.area2, v);
     if (rt.color.data)

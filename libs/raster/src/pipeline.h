@@ -171,6 +171,17 @@ struct ShadeContext {
     ShadeContext(const RenderOptions& options);
 };
 
+// The identity part of a setup: the triangle's ID and where flat shading takes its colour from
+// (computed on the first sample that needs it, flatColorFor).
+inline void setTriangleIdentity(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                                TriangleSetup* t) {
+    t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
+    t->scene = &scene;
+    t->meshIndex = uint32_t(meshIndex);
+    t->localTri = localTri;
+    t->flatReady = false;
+}
+
 // Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
 // `localTri`. Returns false when it covers no sample, is degenerate or is culled as back-facing.
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
@@ -295,9 +306,8 @@ bool narrowFlatApplies(const ShadeContext& ctx, const RenderTargets& rt);
 // [x0,x1]x[y0,y1] is at most eight pixels wide and the triangle spans under 64 pixels in x and
 // y, rasterises it there as setupTriangleInBox + rasterizeTriangle would (bit-identical
 // results) without building the full setup, and returns true; returns false, having done
-// nothing, otherwise. `t` carries the triangle's identity only (id, flat colour or its source:
-// scene, meshIndex, localTri, flatReady); its vertex fields are overwritten. Only when
-// narrowFlatApplies.
+// nothing, otherwise. `t` carries the triangle's identity only (setTriangleIdentity, and a flat
+// colour already known); its vertex fields are overwritten. Only when narrowFlatApplies.
 bool rasterizeNarrowFlat(const RasterVertex v[3], const TriangleBox& box, TriangleSetup& t,
                          const ShadeContext& ctx, const RenderTargets& rt, int x0, int y0, int x1,
                          int y1, DepthBlocks* blocks);

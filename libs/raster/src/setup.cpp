@@ -81,15 +81,9 @@ void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t lo
     t->stepB1 = float(-int64_t(t->y[0] - t->y[2]) * kSubPixelScale) * t->invArea;
     t->stepB2 = float(-int64_t(t->y[1] - t->y[0]) * kSubPixelScale) * t->invArea;
 
-    t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
+    setTriangleIdentity(scene, meshIndex, localTri, t);
     t->texture = nullptr;
-    if (ctx.shading == Shading::kFlat) {
-        t->flatReady = false;
-        t->scene = &scene;
-        t->meshIndex = uint32_t(meshIndex);
-        t->localTri = localTri;
-        return;
-    }
+    if (ctx.shading == Shading::kFlat) return;
     const scene::Mesh& mesh = scene.meshes[meshIndex];
     const scene::Material& mat = scene.materials[size_t(mesh.materialIndex)];
     const uint32_t* idx = &mesh.indices[size_t(localTri) * 3];

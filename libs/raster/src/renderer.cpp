@@ -6,12 +6,19 @@
 //  2. binning: triangles in chunks of consecutive indices; each chunk culls, clips what needs it,
 //     and appends surviving triangles to its own per-tile lists, so submission order survives;
 //  3. tiles: each screen tile clears its rectangle, then walks the chunks in order and rasterises
-//     their entries for that tile. Tiles own disjoint pixels, so no locks are needed.
+//     their entries for that tile. Tiles own disjoint pixels, so no locks are needed. A tile
+//     that starts from the clear values is drawn in its thread's own tile memory, which stays in
+//     the core's cache, and streamed to the targets once finished (TileMemory).
 // Subset rendering skips stage 1 and transforms the listed triangles' vertices in stage 2, so its
 // cost follows the list length, not the scene size.
 
 #include <algorithm>
 #include <cstring>
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <immintrin.h>
+#define PLX_STREAM_STORES 1
+#endif
 
 #include <fmt/format.h>
 
@@ -145,6 +152,80 @@ struct DrawnTiles {
 // Targets whose drawn tiles are remembered at once (a two-pass renderer alternates two sets).
 constexpr size_t kMaxDrawnRecords = 4;
 
+// Largest tile drawn in tile memory: its three planes (depth, ID, colour; 192 KiB at 128) must
+// stay in a core's own cache next to the tile's bins.
+constexpr int kMaxTileMemorySize = 128;
+
+// Copies n 32-bit words to a target row with non-temporal stores where the row allows: the
+// finished tile is not read again by this thread, so its lines go out without first being read
+// in (a normal store reads each line of the cold target before writing it).
+void streamRow(uint32_t* dst, const uint32_t* src, int n) {
+    int i = 0;
+#ifdef PLX_STREAM_STORES
+    for (; i < n && (reinterpret_cast<uintptr_t>(dst + i) & 15); ++i) dst[i] = src[i];
+    for (; i + 4 <= n; i += 4)
+        _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i)));
+#endif
+    for (; i < n; ++i) dst[i] = src[i];
+}
+
+// One thread's tile memory: depth, ID and colour planes of one tile. A tile is drawn here
+// through views that address it in frame coordinates, then streamed to the frame's targets.
+//
+// Why: a large scene's first pass leaves the caches full of its own data, and clearing a tile
+// of a 640x480 frame's targets then waits for each of its lines to arrive from memory before
+// rasterising can start (a quarter of a P-buffer stereo pair's second eye, docs/stereo-results.md).
+// Here the clear and every depth test stay in this core's cache, and each target line is
+// written once, by a streaming store that does not read it first.
+class TileMemory {
+public:
+    // Views of this memory standing in for `frame`'s depth, ID and (when present) colour over the
+    // tile whose top-left pixel is (x0, y0): row(y)[x] for x0 <= x < x0 + size, y0 <= y < y0 +
+    // size lands in the tile's planes. The views' base pointers point before the planes; only
+    // the tile's own pixels are ever addressed through them.
+    RenderTargets bind(const RenderTargets& frame, int size, int x0, int y0) {
+        const size_t plane = size_t(size) * size_t(size);
+        if (mWords.size() < 3 * plane) mWords.assign(3 * plane, 0);
+        RenderTargets tile = frame;
+        const ptrdiff_t origin = ptrdiff_t(y0) * size + x0;
+        tile.depth = view(reinterpret_cast<float*>(mWords.data()), origin, size, frame.depth);
+        tile.id = view(mWords.data() + plane, origin, size, frame.id);
+        if (frame.color.data)
+            tile.color = view(reinterpret_cast<Rgba8*>(mWords.data() + 2 * plane), origin, size,
+                              frame.color);
+        return tile;
+    }
+
+    // Streams the rectangle [x0, x1] x [y0, y1] of `tile` (from bind) to `frame`.
+    static void resolve(const RenderTargets& tile, const RenderTargets& frame, int x0, int y0,
+                        int x1, int y1) {
+        const int n = x1 - x0 + 1;
+        for (int y = y0; y <= y1; ++y) {
+            streamRow(reinterpret_cast<uint32_t*>(frame.depth.row(y) + x0),
+                      reinterpret_cast<const uint32_t*>(tile.depth.row(y) + x0), n);
+            streamRow(frame.id.row(y) + x0, tile.id.row(y) + x0, n);
+            if (frame.color.data)
+                streamRow(reinterpret_cast<uint32_t*>(frame.color.row(y) + x0),
+                          reinterpret_cast<const uint32_t*>(tile.color.row(y) + x0), n);
+        }
+#ifdef PLX_STREAM_STORES
+        _mm_sfence();  // streaming stores are weakly ordered: complete them before the join
+#endif
+    }
+
+private:
+    template <class T>
+    static ImageView<T> view(T* plane, ptrdiff_t origin, int size, const ImageView<T>& frame) {
+        // The base is formed as an integer: it lies before the plane, outside any object.
+        auto base = reinterpret_cast<T*>(reinterpret_cast<uintptr_t>(plane) -
+                                         uintptr_t(origin) * sizeof(T));
+        return {base, frame.width, frame.height, size};
+    }
+
+    std::vector<uint32_t> mWords;  // depth, ID, colour planes, size x size each
+};
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -160,6 +241,7 @@ struct Renderer::Impl {
     mutable std::vector<uint64_t> occludedPerTile;  // this frame's tilePairsOccluded, per tile
     std::vector<DrawnTiles> drawnRecords;  // most recent last, at most kMaxDrawnRecords
     std::vector<uint8_t> clearTile;        // this frame: per tile, whether to clear it
+    mutable std::vector<TileMemory> tileMemory;  // per thread slot
 
     explicit Impl(const RendererConfig& c) : config(c), pool(c.threads) {
         while ((1 << tileShift) < c.tileSize) ++tileShift;
@@ -236,6 +318,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
         for (size_t c = b; c < e; ++c) binChunk(chunks[c], scene, camera, subset, vp, ctx, tilesX);
     });
     planClears(options, rt, tiles);
+    if (tileMemory.size() != size_t(pool.threadCount())) tileMemory.resize(size_t(pool.threadCount()));
     pool.parallelFor(tiles, 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) rasterizeTile(int(t), tilesX, scene, vp, ctx, options, rt);
     });
@@ -485,10 +568,19 @@ bool Renderer::Impl::hidden(const RasterVertex v[3], const TriangleBox& box, int
 
 void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& scene,
                                    const Viewport& vp, const ShadeContext& ctx,
-                                   const RenderOptions& options, const RenderTargets& rt) const {
+                                   const RenderOptions& options,
+                                   const RenderTargets& frame) const {
     int tileSize = 1 << tileShift;
     int x0 = (tile % tilesX) * tileSize, y0 = (tile / tilesX) * tileSize;
     int x1 = std::min(x0 + tileSize, vp.width) - 1, y1 = std::min(y0 + tileSize, vp.height) - 1;
+    // Threads outside the pool's arena only run tiles when the loop runs inline, alone.
+    const int slot = std::clamp(currentThreadSlot(), 0, pool.threadCount() - 1);
+    // Tile memory holds no earlier contents, so only tiles that start from the clear values use
+    // it; a second depth layer keeps its four planes in the targets.
+    const bool inTileMemory = clearTile[size_t(tile)] && !options.colorOnly && !frame.id2.data &&
+                              tileSize <= kMaxTileMemorySize;
+    const RenderTargets rt =
+        inTileMemory ? tileMemory[size_t(slot)].bind(frame, tileSize, x0, y0) : frame;
     if (clearTile[size_t(tile)]) {
         const uint32_t clearWord = clearWordOf(options);
         for (int y = y0; y <= y1; ++y) {
@@ -560,11 +652,8 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }
-    if (options.tileIds) {
-        // Threads outside the pool's arena only run tiles when the loop runs inline, alone.
-        int slot = std::clamp(currentThreadSlot(), 0, pool.threadCount() - 1);
-        options.tileIds->visitTile(rt.id, x0, y0, x1, y1, slot);
-    }
+    if (options.tileIds) options.tileIds->visitTile(rt.id, x0, y0, x1, y1, slot);
+    if (inTileMemory) TileMemory::resolve(rt, frame, x0, y0, x1, y1);
 }
 
 }  // namespace plx::raster

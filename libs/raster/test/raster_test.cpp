@@ -268,7 +268,9 @@ TEST(Raster, FastPathEqualsScalarReference) {
                 fast.resize(123, 77);
                 renderReference(s, cam, opt, ref.targets());
                 for (int threads : {1, 2}) {
-                    for (int tile : {8, 64}) {
+                    // Tiles of 8 and 64 are drawn in tile memory and streamed to the targets
+                    // (rows of 123 pixels: unaligned row starts); 256 draws in the targets.
+                    for (int tile : {8, 64, 256}) {
                         auto r = makeRenderer(threads, tile);
                         RenderStats st = r->render(s, cam, opt, fast.targets());
                         EXPECT_GT(st.trianglesClipped, 0u);

@@ -1,5 +1,8 @@
+#include <array>
+#include <random>
 #include <set>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <plx/scene/generators.h>
@@ -84,6 +87,36 @@ TEST(Stereo, CollectingPerTileEqualsAPassOverTheIds) {
         onePass.begin(s.triangleCount());
         onePass.add(fb.id);
         EXPECT_EQ(onePass.sorted(), got) << "viewpoint " << view;
+    }
+}
+
+// Pixels are skipped when they repeat their left or upper neighbour's ID: images of overlapping
+// rectangles (runs and columns of one ID, as polygons give) sprinkled with single pixels, some as
+// wide as the eight-pixel groups and some not, must still give every ID, whole and per tile.
+TEST(Stereo, CollectorFindsEveryIdAmongRepeatingNeighbours) {
+    std::mt19937 rng(7);
+    auto below = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(rng); };
+    for (int trial = 0; trial < 300; ++trial) {
+        const int width = std::array{1, 8, 19, 40}[trial % 4], ids = std::array{2, 5, 40}[trial % 3];
+        Image<uint32_t> image(width, 9);
+        for (int id = 1; id <= ids; ++id) {
+            int x = below(width), y = below(9);
+            int w = 1 + below(width - x), h = 1 + below(9 - y);
+            for (int v = y; v < y + h; ++v)
+                for (int u = x; u < x + w; ++u) image.at(u, v) = uint32_t(id);
+        }
+        for (int k = 0; k < 3; ++k) image.at(below(width), below(9)) = uint32_t(ids + 1 + k);
+        std::set<uint32_t> expected = distinctTriangles(image);
+        const std::string what = fmt::format("trial {}: {} wide, {} IDs", trial, width, ids);
+        VisibleSetCollector whole, tiles;
+        whole.begin(64);
+        whole.add(image);
+        EXPECT_EQ(std::set<uint32_t>(whole.sorted().begin(), whole.sorted().end()), expected)
+            << what;
+        tiles.begin(64);
+        for (int y0 = 0; y0 < 9; y0 += 4)
+            tiles.visitTile(image.view(), 0, y0, width - 1, std::min(y0 + 3, 8), 0);
+        EXPECT_EQ(tiles.sorted(), whole.sorted()) << what;
     }
 }
 

@@ -266,7 +266,7 @@ struct Renderer::Impl {
     void planClears(const RenderOptions& options, const RenderTargets& rt, size_t tiles);
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
-                       const RenderTargets& rt) const;
+                       const RenderTargets& frame) const;
     bool hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0, int x1, int y1,
                 const ImageView<float>& depth) const;
 };
@@ -318,7 +318,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
         for (size_t c = b; c < e; ++c) binChunk(chunks[c], scene, camera, subset, vp, ctx, tilesX);
     });
     planClears(options, rt, tiles);
-    if (tileMemory.size() != size_t(pool.threadCount())) tileMemory.resize(size_t(pool.threadCount()));
+    tileMemory.resize(size_t(pool.threadCount()));  // a no-op after the first frame
     pool.parallelFor(tiles, 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) rasterizeTile(int(t), tilesX, scene, vp, ctx, options, rt);
     });

@@ -14,14 +14,14 @@ namespace plx::stereo {
 
 namespace {
 
-// Calls mark(id - 1) for every pixel of p[0..n) whose non-zero ID differs from both the pixel
-// before it and the pixel above it (above[0..n), the row before; null for none), p[0..n) being
-// one row of an ID target. A polygon's pixels form runs, and a run mostly
-// continues one in the row above: of the 18.3k run starts of office:280's 640x480 first eye,
-// 6.0k also differ from the pixel above (BM_CollectPass: 15% less CPU time). With AVX2 eight
-// pixels are compared with their neighbours at once and only the lanes that remain are visited.
-// No ID is missed: in scan order, the first pixel of an ID has neither neighbour of that ID. An
-// ID may still be passed to mark() more than once; mark() keeps the set free of repeats.
+// Calls mark(id - 1) for every pixel of one ID-target row p[0..n) whose non-zero ID differs from
+// both the pixel before it and the pixel above it (above[0..n), the row before; null for none).
+// A polygon's pixels form runs, and a run mostly continues one in the row above: of the 18.3k
+// run starts of office:280's 640x480 first eye, 6.0k also differ from the pixel above
+// (BM_CollectPass: 15% less CPU time). With AVX2 eight pixels are compared with their
+// neighbours at once and only the lanes that remain are visited. No ID is missed: in scan order,
+// the first pixel of an ID has neither neighbour of that ID. An ID may still be passed to mark()
+// more than once; mark() keeps the set free of repeats.
 template <class Mark>
 void markRunStarts(const uint32_t* p, const uint32_t* above, size_t n, const Mark& mark) {
     uint32_t previous = 0;

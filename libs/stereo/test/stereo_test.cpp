@@ -97,7 +97,8 @@ TEST(Stereo, CollectorFindsEveryIdAmongRepeatingNeighbours) {
     std::mt19937 rng(7);
     auto below = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(rng); };
     for (int trial = 0; trial < 300; ++trial) {
-        const int width = std::array{1, 8, 19, 40}[trial % 4], ids = std::array{2, 5, 40}[trial % 3];
+        const int width = std::array{1, 8, 19, 40}[trial % 4];
+        const int ids = std::array{2, 5, 40}[trial % 3];
         Image<uint32_t> image(width, 9);
         for (int id = 1; id <= ids; ++id) {
             int x = below(width), y = below(9);

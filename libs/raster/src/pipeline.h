@@ -129,6 +129,7 @@ struct TriangleSetup {
     int64_t area2 = 0;   // twice the area in (1/256 px)^2, > 0
     int64_t edgeBias[3];  // 0 for top-left edges, -1 otherwise (top-left fill rule)
     int minX = 0, minY = 0, maxX = -1, maxY = -1;  // inclusive pixel bounds, clamped to viewport
+    int32_t extentX = 0, extentY = 0;  // TriangleBox's: max - min of x and y, in 1/256 pixel
     float invW[3];
     Vec3 color[3];   // linear lit colour at the vertices (Gouraud, textured)
     Vec2 uv[3];

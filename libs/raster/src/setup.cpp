@@ -64,6 +64,8 @@ void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t lo
     t->minY = box.minY;
     t->maxX = box.maxX;
     t->maxY = box.maxY;
+    t->extentX = box.extentX;
+    t->extentY = box.extentY;
     const RasterVertex* v[3];
     const int64_t area2 = orientPositive(vin, box.area2, v);
     t->area2 = area2;

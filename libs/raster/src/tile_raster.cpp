@@ -164,6 +164,11 @@ void rasterizeScalar(const TriangleSetup& t, const ShadeContext& ctx, const Rend
 constexpr int kSimdMaxExtentPx = 64;
 constexpr int32_t kSimdMaxExtent = kSimdMaxExtentPx * kSubPixelScale;  // in 1/256 pixel
 
+// Whether a triangle of these fixed-point extents (TriangleBox's) takes the int32 AVX2 loops.
+inline bool withinSimdExtent(int32_t extentX, int32_t extentY) {
+    return extentX < kSimdMaxExtent && extentY < kSimdMaxExtent;
+}
+
 // Per-triangle constants of the 8-wide loops, loaded once (stores through the target rows could
 // alias the setup, so the compiler would otherwise reload them for every eight pixels).
 struct EightConstants {
@@ -811,7 +816,7 @@ bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, Tria
     x0 = std::max(x0, box.minX);
     x1 = std::min(x1, box.maxX);
     if (x1 - x0 >= 8) return false;
-    if (box.extentX >= kSimdMaxExtent || box.extentY >= kSimdMaxExtent) return false;
+    if (!withinSimdExtent(box.extentX, box.extentY)) return false;
     y0 = std::max(y0, box.minY);
     y1 = std::min(y1, box.maxY);
     if (x0 > x1 || y0 > y1) return true;
@@ -848,10 +853,7 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     bool flat = ctx.shading == Shading::kFlat;
     bool small = false;
 #ifdef PLX_RASTER_AVX2
-    small = std::max({t.x[0], t.x[1], t.x[2]}) - std::min({t.x[0], t.x[1], t.x[2]}) <
-                kSimdMaxExtent &&
-            std::max({t.y[0], t.y[1], t.y[2]}) - std::min({t.y[0], t.y[1], t.y[2]}) <
-                kSimdMaxExtent;
+    small = withinSimdExtent(t.extentX, t.extentY);
 #endif
     if (ctx.colorOnly) return rasterizeColorOnly(t, ctx, rt, x0, y0, x1, y1, limitX, small, spans);
     auto run = [&]<Shading kS, bool kC, bool kL2>() {

@@ -71,6 +71,26 @@ struct EdgeSteps {
     }
 };
 
+// Narrows the rows [y0, y1] of the rectangle [x0, x1] x [y0, y1] to those where each edge
+// reaches >= 0 (bias included) somewhere in [x0, x1]; the rows cut hold no covered sample. A
+// large triangle is binned by its box, so its tiles include corners and whole tiles its edges
+// never enter: in a P-buffer second eye of office:280, half the rows its span walks visited were
+// empty. Each edge's largest value on a row lies at x1 when it rises along x, else at x0, and
+// moves by a fixed step per row, so the rows it allows are narrowed as narrowSpan narrows a row's
+// pixels. Returns false when no row is left.
+inline bool trimEmptyRows(const TriangleSetup& t, int x0, int x1, int* y0, int* y1) {
+    const EdgeSteps edges(t, x0, *y0, true);
+    int64_t lo = 0, hi = *y1 - *y0;
+    for (int i = 0; i < 3; ++i) {
+        const int64_t rowMax = edges.e[i] + (edges.ax[i] > 0 ? edges.ax[i] * (x1 - x0) : 0);
+        narrowSpan(rowMax, edges.by[i], 0, &lo, &hi);
+    }
+    if (lo > hi) return false;
+    *y1 = *y0 + int(hi);
+    *y0 += int(lo);
+    return true;
+}
+
 // rowBarycentrics' integer numerators (edge 2->0 for b1, 0->1 for b2, at column minX), stepped
 // row by row instead of recomputed: the same exact integers, so the same floats.
 struct RowWeights {
@@ -835,6 +855,10 @@ bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, Tria
 #endif
 }
 
+// Rectangles of fewer rows than this are walked whole: trimming costs about as much as the
+// empty rows it could save.
+constexpr int kMinTrimmedRows = 4;
+
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
                        int x0, int y0, int x1, int y1, DepthBlocks* blocks) {
     // The caller's rectangle is ours to write, past the triangle too.
@@ -844,6 +868,7 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     x1 = std::min(x1, t.maxX);
     y1 = std::min(y1, t.maxY);
     if (x0 > x1 || y0 > y1) return;
+    if (y1 - y0 >= kMinTrimmedRows && !trimEmptyRows(t, x0, x1, &y0, &y1)) return;
     if (blocks) blocks->markDirty(x0, y0, x1, y1);
     // Rows of up to kBoxWidth pixels are tested pixel by pixel; longer rows solve their span
     // (three integer divisions a row) so large triangles touch only covered samples.

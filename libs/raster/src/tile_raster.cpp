@@ -201,17 +201,26 @@ struct EightConstants {
           id(_mm256_set1_epi32(int32_t(t.id))) {}
 };
 
-// The three target rows of one row of pixels.
+// The three target rows of one row of pixels, stepped row by row (an absent target stays null).
 struct TargetRows {
     float* depth;
     uint32_t* id;
     Rgba8* color;
+    ptrdiff_t depthStride, idStride, colorStride;
     // depthTargets: false in a colour-only render, whose depth and ID views may be empty (a
     // constant at every call, so the test folds away).
     TargetRows(const RenderTargets& rt, int y, bool depthTargets)
         : depth(depthTargets ? rt.depth.row(y) : nullptr),
           id(depthTargets ? rt.id.row(y) : nullptr),
-          color(rt.color.data ? rt.color.row(y) : nullptr) {}
+          color(rt.color.data ? rt.color.row(y) : nullptr),
+          depthStride(depthTargets ? rt.depth.strideElems : 0),
+          idStride(depthTargets ? rt.id.strideElems : 0),
+          colorStride(rt.color.data ? rt.color.strideElems : 0) {}
+    void nextRow() {
+        depth += depthStride;
+        id += idStride;
+        color += colorStride;
+    }
 };
 
 // How storeLanes may write: only the masked lanes (vpmaskmov), by reading, blending and writing
@@ -566,11 +575,11 @@ void rasterizeBoxAvx2(const TriangleSetup& t, const ShadeContext& ctx, const Ren
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
     RowWeights weights(t, y0);
-    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow()) {
+    TargetRows rows(rt, y0, kDepth);
+    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow(), rows.nextRow()) {
         float b1Row, b2Row;
         weights.get(t, &b1Row, &b2Row);
         const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
-        const TargetRows rows(rt, y, kDepth);
         __m256i e[3];
         for (int i = 0; i < 3; ++i)
             e[i] = _mm256_add_epi32(_mm256_set1_epi32(int32_t(edges.e[i])), laneOffset[i]);
@@ -641,13 +650,15 @@ template <Shading kShading, bool kColor, bool kDepth = true>
     const __m256 offset1 = _mm256_mul_ps(dk, _mm256_set1_ps(stepB1));
     const __m256 offset2 = _mm256_mul_ps(dk, _mm256_set1_ps(stepB2));
     const bool whole = x0 + 7 <= limitX;
-    for (int y = y0; y <= y1; ++y, edges.w1 += edges.stepW1, edges.w2 += edges.stepW2) {
+    TargetRows rows(rt, y0, kDepth);
+    for (int y = y0; y <= y1;
+         ++y, edges.w1 += edges.stepW1, edges.w2 += edges.stepW2, rows.nextRow()) {
         __m256i covered = insideLanes(edges.e, inRect);
         if (!_mm256_testz_si256(covered, covered)) {
             __m256 b1 = _mm256_add_ps(_mm256_set1_ps(float(edges.w1) * invArea), offset1);
             __m256 b2 = _mm256_add_ps(_mm256_set1_ps(float(edges.w2) * invArea), offset2);
-            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, TargetRows(rt, y, kDepth), x0,
-                                                 covered, b1, b2, whole);
+            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x0, covered, b1, b2,
+                                                 whole);
         }
         for (int i = 0; i < 3; ++i) edges.e[i] = _mm256_add_epi32(edges.e[i], edges.stepY[i]);
     }
@@ -690,14 +701,14 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const int minX = t.minX;
     RowWeights weights(t, y0);
-    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow()) {
+    TargetRows rows(rt, y0, kDepth);
+    for (int y = y0; y <= y1; ++y, edges.nextRow(), weights.nextRow(), rows.nextRow()) {
         int64_t lo = 0, hi = x1 - x0;
         for (int i = 0; i < 3; ++i) narrowSpan(edges.e[i], edges.ax[i], 0, &lo, &hi);
         if (lo > hi) continue;
         float b1Row, b2Row;
         weights.get(t, &b1Row, &b2Row);
         const __m256 b1RowV = _mm256_set1_ps(b1Row), b2RowV = _mm256_set1_ps(b2Row);
-        const TargetRows rows(rt, y, kDepth);
         int last = x0 + int(hi);
         for (int x = x0 + int(lo); x <= last; x += 8) {
             __m256 b1, b2;

@@ -13,7 +13,9 @@
 // cost follows the list length, not the scene size.
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
+#include <numeric>
 
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
 #include <immintrin.h>
@@ -166,6 +168,12 @@ void streamRow(uint32_t* dst, const uint32_t* src, int n) {
     int i = 0;
 #ifdef PLX_STREAM_STORES
     for (; i < n && (reinterpret_cast<uintptr_t>(dst + i) & 15); ++i) dst[i] = src[i];
+    for (; i + 8 <= n; i += 8) {  // two stores a step: half the loop's instructions
+        _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i)));
+        _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i + 4),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i + 4)));
+    }
     for (; i + 4 <= n; i += 4)
         _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i),
                          _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i)));
@@ -245,6 +253,8 @@ struct Renderer::Impl {
     std::vector<DrawnTiles> drawnRecords;  // most recent last, at most kMaxDrawnRecords
     std::vector<uint8_t> clearTile;        // this frame: per tile, whether to clear it
     mutable std::vector<TileMemory> tileMemory;  // per thread slot
+    std::vector<uint32_t> tileOrder;             // this frame: the tiles, most binned pairs first
+    std::vector<uint32_t> tilePairs;             // this frame: binned triangle-tile pairs per tile
 
     explicit Impl(const RendererConfig& c) : config(c), pool(c.threads) {
         while ((1 << tileShift) < c.tileSize) ++tileShift;
@@ -267,6 +277,7 @@ struct Renderer::Impl {
     void clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera, size_t mesh,
                     uint32_t localTri, const Viewport& vp, const ShadeContext& ctx, int tilesX);
     void planClears(const RenderOptions& options, const RenderTargets& rt, size_t tiles);
+    void orderTiles(size_t tiles);
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
                        const RenderTargets& frame) const;
@@ -322,8 +333,11 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     });
     planClears(options, rt, tiles);
     tileMemory.resize(size_t(pool.threadCount()));  // a no-op after the first frame
-    pool.parallelFor(tiles, 1, [&](size_t b, size_t e) {
-        for (size_t t = b; t < e; ++t) rasterizeTile(int(t), tilesX, scene, vp, ctx, options, rt);
+    orderTiles(tiles);
+    std::atomic<size_t> nextTile{0};
+    pool.parallelFor(size_t(pool.threadCount()), 1, [&](size_t, size_t) {
+        for (size_t i; (i = nextTile.fetch_add(1, std::memory_order_relaxed)) < tiles;)
+            rasterizeTile(int(tileOrder[i]), tilesX, scene, vp, ctx, options, rt);
     });
 
     if (options.unsampledVisible && !subset) collectUnsampled(rt, options.unsampledVisible);
@@ -379,6 +393,26 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
         size_t n = scene.meshes[m].triangleCount();
         for (size_t b = 0; b < n; b += kChunkTriangles) add(m, b, std::min(n, b + kChunkTriangles));
     }
+}
+
+// Threads take tiles from one shared counter, the tiles with the most binned triangle-tile pairs
+// first (longest processing time first), so that the last tiles drawn are short ones and no
+// thread waits long at the end for another's large tile: the far furniture of an office at the
+// top of the image holds several times the pairs of the bare floor at the bottom. Time the two
+// threads stood idle in the tile stage (wall time minus their mean busy time), mean over 40
+// frames of office:280 at 640x480, two runs each:
+//   order                                    full render        P-buffer second eye
+//   TBB's range splitting, image order       0.28, 0.23 ms      0.07, 0.06 ms
+//   shared counter, image order              0.19, 0.02 ms      0.08, 0.01 ms
+//   shared counter, most pairs first (this)  0.07, 0.03 ms      0.02, 0.01 ms
+void Renderer::Impl::orderTiles(size_t tiles) {
+    tilePairs.assign(tiles, 0);
+    for (size_t c = 0; c < chunkCount; ++c)
+        for (size_t t = 0; t < tiles; ++t) tilePairs[t] += uint32_t(chunks[c].bins[t].size());
+    tileOrder.resize(tiles);
+    std::iota(tileOrder.begin(), tileOrder.end(), 0u);
+    std::stable_sort(tileOrder.begin(), tileOrder.end(),
+                     [&](uint32_t a, uint32_t b) { return tilePairs[a] > tilePairs[b]; });
 }
 
 void Renderer::Impl::addToBins(Chunk& chunk, const BinnedTri& tri, int minX, int minY, int maxX,

@@ -37,7 +37,7 @@ namespace {
 constexpr size_t kChunkTriangles = 8192;
 // Subsets are short (a P-buffer's visible set is a few thousand triangles) and each of their
 // triangles costs more (vertices transformed per triangle, scattered memory), so they are cut
-// finer to keep every thread binning.
+// finer to keep every thread binning (chunks of at most this many, planChunks).
 constexpr size_t kSubsetChunkTriangles = 512;
 // Bin entries with this bit refer to a chunk's materialised triangles (clipped or subset).
 constexpr uint32_t kMaterialisedBit = 0x80000000u;
@@ -385,8 +385,13 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
         c.reset(tiles);
     };
     if (subset) {
-        for (size_t b = 0; b < subset->size(); b += kSubsetChunkTriangles)
-            add(0, b, std::min(subset->size(), b + kSubsetChunkTriangles));
+        // Equal chunks, a whole number of them per thread: 1,123 triangles in chunks of 512 left
+        // one thread a chunk and a half to bin while the other had one.
+        const size_t n = subset->size(), threads = size_t(pool.threadCount());
+        const size_t perThread = std::max<size_t>(
+            1, (n + threads * kSubsetChunkTriangles - 1) / (threads * kSubsetChunkTriangles));
+        const size_t count = threads * perThread, size = std::max<size_t>(1, (n + count - 1) / count);
+        for (size_t b = 0; b < n; b += size) add(0, b, std::min(n, b + size));
         return;
     }
     for (size_t m = 0; m < scene.meshes.size(); ++m) {

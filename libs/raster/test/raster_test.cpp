@@ -1,5 +1,7 @@
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -449,6 +451,33 @@ TEST(Raster, SubsetOfAllTrianglesReproducesFullRender) {
     expectSameTargets(subset, ref, "partial subset");
     std::set<uint32_t> ids(subset.id.data(), subset.id.data() + subset.id.pixelCount());
     for (uint32_t id : ids) EXPECT_TRUE(id == 0 || (id - 1) % 3 == 0) << id;
+}
+
+// Subsets are binned in equal chunks, a whole number per thread: sizes around the chunk
+// boundaries, for thread counts that do and do not divide them, all match the reference.
+TEST(Raster, SubsetsOfEverySizeMatchTheReference) {
+    Scene s = randomSoup(1100, 4, false);  // 3,300 triangles in three meshes
+    Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 80, 56);
+    FrameBuffers subset, ref;
+    subset.resize(80, 56);
+    ref.resize(80, 56);
+    std::vector<uint32_t> order(s.triangleCount());
+    std::iota(order.begin(), order.end(), 0u);
+    std::shuffle(order.begin(), order.end(), std::mt19937(7));
+    for (int threads : {1, 2, 3}) {
+        auto r = makeRenderer(threads, 16);
+        for (size_t n : {size_t(1), size_t(2), size_t(3), size_t(1023), size_t(1024), size_t(1025),
+                         size_t(1537), size_t(3300)}) {
+            std::vector<uint32_t> list(order.begin(), order.begin() + ptrdiff_t(n));
+            std::sort(list.begin(), list.end());
+            std::span<const uint32_t> listSpan(list);
+            RenderStats st = r->renderSubset(s, cam, list, {}, subset.targets());
+            EXPECT_EQ(st.trianglesSubmitted, n);
+            renderReference(s, cam, {}, ref.targets(), &listSpan);
+            expectSameTargets(subset, ref,
+                              std::to_string(n) + " triangles, threads " + std::to_string(threads));
+        }
+    }
 }
 
 TEST(Raster, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {

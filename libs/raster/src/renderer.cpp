@@ -390,7 +390,8 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
         const size_t n = subset->size(), threads = size_t(pool.threadCount());
         const size_t perThread = std::max<size_t>(
             1, (n + threads * kSubsetChunkTriangles - 1) / (threads * kSubsetChunkTriangles));
-        const size_t count = threads * perThread, size = std::max<size_t>(1, (n + count - 1) / count);
+        const size_t count = threads * perThread;
+        const size_t size = std::max<size_t>(1, (n + count - 1) / count);
         for (size_t b = 0; b < n; b += size) add(0, b, std::min(n, b + size));
         return;
     }

@@ -866,8 +866,10 @@ bool rasterizeNarrowFlat(const RasterVertex vin[3], const TriangleBox& box, Tria
 #endif
 }
 
-// Rectangles of fewer rows than this are walked whole: trimming costs about as much as the
-// empty rows it could save.
+// Rectangles of fewer rows than this are walked whole, since few rows leave little to trim.
+// Trimming every rectangle instead changed the instruction counts by under 0.2% (callgrind,
+// office:280 stereo pair at 640x480: the full pair 0.15% more, the P-buffer second eye 0.16%
+// fewer).
 constexpr int kMinTrimmedRows = 4;
 
 void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,

@@ -884,7 +884,7 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
     if (y1 - y0 >= kMinTrimmedRows && !trimEmptyRows(t, x0, x1, &y0, &y1)) return;
     if (blocks) blocks->markDirty(x0, y0, x1, y1);
     // Rows of up to kBoxWidth pixels are tested pixel by pixel; longer rows solve their span
-    // (three integer divisions a row) so large triangles touch only covered samples.
+    // (a division per edge that crosses the row) so large triangles touch only covered samples.
     constexpr int kBoxWidth = 24;
     bool spans = x1 - x0 >= kBoxWidth;
     bool color = rt.color.data != nullptr;

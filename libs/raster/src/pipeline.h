@@ -188,7 +188,8 @@ inline void setTriangleIdentity(const scene::Scene& scene, size_t meshIndex, uin
 bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                    const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
                    TriangleSetup* out);
-// The same, for a triangle whose box (triangleBox returned true) is already known.
+// The same, for a triangle whose box (triangleBox returned true) is already known and whose
+// identity the caller has set (setTriangleIdentity; a flat colour already set is kept).
 struct TriangleBox;
 void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                         const RasterVertex v[3], const TriangleBox& box,

@@ -677,21 +677,16 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
             } else if (ctx.shading != Shading::kFlat) {  // flat shading reads no weights
                 for (int k = 0; k < 3; ++k) v[k].bary = Vec3(k == 0, k == 1, k == 2);
             }
+            setTriangleIdentity(scene, mesh, localTri, &setup);
             // A materialised triangle's flat colour was taken at binning.
-            auto useBinnedFlatColor = [&] {
-                if (m && ctx.shading == Shading::kFlat) {
-                    setup.flatColor = m->flatColor;
-                    setup.flatReady = true;
-                }
-            };
-            if (narrowFlat) {
-                setTriangleIdentity(scene, mesh, localTri, &setup);
-                useBinnedFlatColor();
-                if (rasterizeNarrowFlat(v, box, setup, ctx, rt, x0, y0, x1, y1, occlusion))
-                    continue;
+            if (m && ctx.shading == Shading::kFlat) {
+                setup.flatColor = m->flatColor;
+                setup.flatReady = true;
             }
+            if (narrowFlat &&
+                rasterizeNarrowFlat(v, box, setup, ctx, rt, x0, y0, x1, y1, occlusion))
+                continue;
             setupTriangleInBox(scene, mesh, localTri, v, box, ctx, &setup);
-            useBinnedFlatColor();
             rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
         }
     }

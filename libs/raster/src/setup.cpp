@@ -53,6 +53,7 @@ bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTr
                    TriangleSetup* t) {
     TriangleBox box;
     if (!triangleBox(vin[0], vin[1], vin[2], vp, ctx.cullBackFaces, &box)) return false;
+    setTriangleIdentity(scene, meshIndex, localTri, t);
     setupTriangleInBox(scene, meshIndex, localTri, vin, box, ctx, t);
     return true;
 }
@@ -83,7 +84,6 @@ void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t lo
     t->stepB1 = float(-int64_t(t->y[0] - t->y[2]) * kSubPixelScale) * t->invArea;
     t->stepB2 = float(-int64_t(t->y[1] - t->y[0]) * kSubPixelScale) * t->invArea;
 
-    setTriangleIdentity(scene, meshIndex, localTri, t);
     t->texture = nullptr;
     if (ctx.shading == Shading::kFlat) return;
     const scene::Mesh& mesh = scene.meshes[meshIndex];

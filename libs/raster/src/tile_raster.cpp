@@ -7,8 +7,10 @@
 //    straight from the bins (rasterizeNarrowFlat), without the general TriangleSetup;
 //  - other small triangles: the bounding box walked eight pixels
 //    at a time with AVX2, edge values in int32 lanes;
-//  - larger triangles: each row's covered span solved with one integer division per edge, then
-//    filled eight pixels at a time with no coverage test;
+//  - larger triangles: each row's covered span solved with at most one integer division per
+//    edge, then filled eight pixels at a time with no coverage test;
+//  - before the box and span walks, the rows of the tile that no edge lets in are cut
+//    (trimEmptyRows: a triangle binned by its box may cover only a corner of a tile);
 //  - Gouraud and textured samples shaded eight at a time (shadeEight: gathered texels, table
 //    decode and encode), bit-identical to shadeSample;
 //  - scalar versions of both for builds without AVX2 (PLX_NO_SIMD) and for the second depth

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <utility>
 
 #if defined(__AVX2__) && !defined(PLX_NO_SIMD)
 #include <immintrin.h>
@@ -48,6 +50,36 @@ void markRunStarts(const uint32_t* p, const uint32_t* above, size_t n, const Mar
     for (; i < n; ++i) {
         if (p[i] != previous && p[i] != 0 && !(above && p[i] == above[i])) mark(p[i] - 1);
         previous = p[i];
+    }
+}
+
+// Sorts `keys`, all below `bound`, ascending: least significant digit first, in as few passes
+// of at most 11 bits as cover the bound (two of 10 bits for office:280's 1,016,960
+// triangles). std::sort took about 30 us for its 1,123 visible IDs, mostly in mispredicted
+// comparisons, a third of the P-buffer's work between the eyes; two counting passes take a
+// few. Short lists, for which the digit counts would cost more than the comparisons, use
+// std::sort.
+void radixSort(std::vector<uint32_t>* keys, std::vector<uint32_t>* scratch,
+               std::vector<uint32_t>* counts, size_t bound) {
+    constexpr size_t kMinRadixKeys = 256;
+    constexpr int kMaxDigitBits = 11;
+    if (keys->size() < kMinRadixKeys) {
+        std::sort(keys->begin(), keys->end());
+        return;
+    }
+    const int keyBits = std::max(1, int(std::bit_width(std::max<size_t>(bound, 2) - 1)));
+    const int passes = (keyBits + kMaxDigitBits - 1) / kMaxDigitBits;
+    const int digitBits = (keyBits + passes - 1) / passes;
+    const uint32_t digitMask = (1u << digitBits) - 1;
+    scratch->resize(keys->size());
+    for (int pass = 0; pass < passes; ++pass) {
+        const int shift = pass * digitBits;
+        counts->assign(size_t(1) << digitBits, 0);
+        for (uint32_t k : *keys) ++(*counts)[(k >> shift) & digitMask];
+        uint32_t start = 0;
+        for (uint32_t& c : *counts) start += std::exchange(c, start);
+        for (uint32_t k : *keys) (*scratch)[(*counts)[(k >> shift) & digitMask]++] = k;
+        keys->swap(*scratch);
     }
 }
 
@@ -124,7 +156,7 @@ const std::vector<uint32_t>& VisibleSetCollector::sorted() {
         mSorted = false;
     }
     if (!mSorted) {
-        std::sort(mList.begin(), mList.end());
+        radixSort(&mList, &mSortScratch, &mDigitCounts, mStamp.size());
         mSorted = true;
     }
     return mList;

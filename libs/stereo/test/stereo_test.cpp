@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <array>
 #include <random>
 #include <set>
@@ -135,6 +136,28 @@ TEST(Stereo, CollectorForgetsEarlierFrames) {
     EXPECT_EQ(c.sorted(), (std::vector<uint32_t>{1}));
     EXPECT_FALSE(c.contains(2));
     EXPECT_TRUE(c.contains(1));
+}
+
+// sorted() switches from std::sort to a radix sort at 256 IDs, with as many digit passes as the
+// triangle count needs: lists on both sides of the switch, scene sizes of one to three passes.
+TEST(Stereo, CollectorSortsSetsOfEverySizeAscending) {
+    std::mt19937 rng(7);
+    for (size_t triangles : {size_t(300), size_t(5000), size_t(1) << 20, (size_t(1) << 22) + 1}) {
+        VisibleSetCollector c;
+        for (size_t n : {0, 1, 255, 256, 257, 1000, 4000}) {
+            // Distinct IDs in random order, the first and last triangles among them.
+            std::set<uint32_t> ids;
+            for (uint32_t t : {uint32_t(0), uint32_t(triangles - 1)})
+                if (ids.size() < n) ids.insert(t);
+            while (ids.size() < std::min(n, triangles)) ids.insert(uint32_t(rng() % triangles));
+            std::vector<uint32_t> all(ids.begin(), ids.end());
+            std::shuffle(all.begin(), all.end(), rng);
+            c.begin(triangles);
+            c.addTriangles(all);
+            EXPECT_EQ(c.sorted(), std::vector<uint32_t>(ids.begin(), ids.end()))
+                << triangles << " triangles, " << n << " IDs";
+        }
+    }
 }
 
 TEST(Stereo, SubsetOfAllIdsReproducesTheFullRender) {

@@ -99,6 +99,7 @@ private:
     std::vector<uint32_t> mStamp;  // per triangle: the epoch in which it was last seen
     uint32_t mEpoch = 0;
     std::vector<uint32_t> mList;
+    std::vector<uint32_t> mSortScratch, mDigitCounts;  // sorted()'s radix sort
     std::vector<SlotList> mSlots;
     bool mSorted = true;
 };

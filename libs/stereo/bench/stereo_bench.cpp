@@ -129,6 +129,24 @@ void BM_CollectPass(benchmark::State& state) {
 }
 BENCHMARK(BM_CollectPass)->Arg(3)->Arg(280)->Unit(benchmark::kMicrosecond);
 
+// The same pass as the render makes it: visitTile over each 128-pixel tile of the finished ID
+// target in turn, on one thread (slot 0).
+void BM_CollectPassByTiles(benchmark::State& state) {
+    SecondEyeFixture f(int(state.range(0)));
+    f.firstEye(false);
+    const int w = f.first.id.width(), h = f.first.id.height(), tile = 128;
+    for (auto _ : state) {
+        f.visible.begin(f.scene.triangleCount());
+        for (int y0 = 0; y0 < h; y0 += tile)
+            for (int x0 = 0; x0 < w; x0 += tile)
+                f.visible.visitTile(f.first.id.view(), x0, y0, std::min(x0 + tile, w) - 1,
+                                    std::min(y0 + tile, h) - 1, 0);
+        benchmark::DoNotOptimize(f.visible.size());
+    }
+    f.count(state);
+}
+BENCHMARK(BM_CollectPassByTiles)->Arg(3)->Arg(280)->Unit(benchmark::kMicrosecond);
+
 // The second eye of the P-buffer method in parts, manually timed: each iteration renders the
 // first eye in full, collecting its visible set tile by tile (untimed, so the caches hold what
 // they hold in a real frame: the whole scene streamed through), then times the set's gathering

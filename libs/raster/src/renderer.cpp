@@ -362,6 +362,12 @@ struct Renderer::Impl {
                    int tilesX) const;
     void clipAndBin(Chunk& chunk, const scene::Scene& scene, const Camera& camera, size_t mesh,
                     uint32_t localTri, const Viewport& vp, const ShadeContext& ctx, int tilesX);
+    void binMaterialised(Chunk& chunk, const scene::Scene& scene, size_t mesh, uint32_t localTri,
+                         const RasterVertex tri[3], const Viewport& vp, const ShadeContext& ctx,
+                         int tilesX) const;
+    void binSubsetChunk(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
+                        std::span<const uint32_t> subset, const Viewport& vp,
+                        const ShadeContext& ctx, int tilesX);
     void binAndDraw(const scene::Scene& scene, const Camera& camera,
                     std::span<const uint32_t>* subset, const Viewport& vp, const ShadeContext& ctx,
                     const RenderOptions& options, const RenderTargets& rt, int tilesX,
@@ -613,55 +619,93 @@ void Renderer::Impl::clipAndBin(Chunk& chunk, const scene::Scene& scene, const C
         codes[k] = outcode(clip[k], vp);
     }
     if (codes[0] & codes[1] & codes[2] & kOutFrustum) return;
-    auto bin = [&](const RasterVertex tri[3]) {
-        int minX, minY, maxX, maxY;
-        if (!triangleBounds(tri[0], tri[1], tri[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX,
-                            &maxY))
-            return;
-        uint32_t index = uint32_t(chunk.materialised.size());
-        Rgba8 flat = ctx.shading == Shading::kFlat ? flatColorOf(scene, mesh, localTri, ctx)
-                                                   : Rgba8{};
-        chunk.materialised.push_back(
-            {uint32_t(mesh), localTri, {tri[0].bary, tri[1].bary, tri[2].bary}, flat});
-        addToBins(chunk, makeBinned(tri, index | kMaterialisedBit), minX, minY, maxX, maxY, tilesX);
-    };
     if ((codes[0] | codes[1] | codes[2]) & kOutNeedsClip) {
         // Only here the room for clipTriangle's output, whose vertices are zeroed on declaration.
         RasterVertex tris[kMaxClippedTriangles][3];
         const int count = clipTriangle(clip, vp, tris);
         ++chunk.clipped;
-        for (int i = 0; i < count; ++i) bin(tris[i]);
+        for (int i = 0; i < count; ++i)
+            binMaterialised(chunk, scene, mesh, localTri, tris[i], vp, ctx, tilesX);
         return;
     }
     RasterVertex tri[3];
     for (int k = 0; k < 3; ++k) tri[k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
-    bin(tri);
+    binMaterialised(chunk, scene, mesh, localTri, tri, vp, ctx, tilesX);
+}
+
+void Renderer::Impl::binMaterialised(Chunk& chunk, const scene::Scene& scene, size_t mesh,
+                                     uint32_t localTri, const RasterVertex tri[3],
+                                     const Viewport& vp, const ShadeContext& ctx,
+                                     int tilesX) const {
+    int minX, minY, maxX, maxY;
+    if (!triangleBounds(tri[0], tri[1], tri[2], vp, ctx.cullBackFaces, &minX, &minY, &maxX, &maxY))
+        return;
+    uint32_t index = uint32_t(chunk.materialised.size());
+    Rgba8 flat = ctx.shading == Shading::kFlat ? flatColorOf(scene, mesh, localTri, ctx) : Rgba8{};
+    chunk.materialised.push_back(
+        {uint32_t(mesh), localTri, {tri[0].bary, tri[1].bary, tri[2].bary}, flat});
+    addToBins(chunk, makeBinned(tri, index | kMaterialisedBit), minX, minY, maxX, maxY, tilesX);
+}
+
+// A subset's triangles in batches of kSubsetBatch: their corners gathered and transformed
+// together by transformPositions (eight at a time with AVX2, the same bits as one at a time),
+// each triangle then binned as a materialised entry, or clipped by clipAndBin when a corner
+// needs it. One at a time through clipAndBin's three matrix products, outcodes and snaps, the
+// binning of office:280's 1,123 visible triangles took 0.89M instructions; it takes 0.72M.
+void Renderer::Impl::binSubsetChunk(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
+                                    std::span<const uint32_t> subset, const Viewport& vp,
+                                    const ShadeContext& ctx, int tilesX) {
+    // A subset is scattered over a scene that may be far larger than the caches, so each
+    // triangle's indices and positions are cache misses. Prefetch indices kIndexAhead
+    // triangles ahead and, once those have arrived, positions kPositionAhead ahead.
+    constexpr size_t kIndexAhead = 16, kPositionAhead = 8, kSubsetBatch = 8;
+    MeshCursor indexAhead(scene), positionAhead(scene), current(scene);
+    for (size_t b = chunk.begin; b < chunk.end; b += kSubsetBatch) {
+        const size_t n = std::min(kSubsetBatch, chunk.end - b);
+        Vec3 corners[3 * kSubsetBatch];
+        uint32_t locals[kSubsetBatch];
+        size_t meshes[kSubsetBatch];
+        for (size_t j = 0; j < n; ++j) {
+            const size_t i = b + j;
+            uint32_t local;
+            if (i + kIndexAhead < chunk.end) {
+                const scene::Mesh& ahead = indexAhead.locate(subset[i + kIndexAhead], &local);
+                __builtin_prefetch(&ahead.indices[3 * size_t(local)]);
+            }
+            if (i + kPositionAhead < chunk.end) {
+                const scene::Mesh& ahead = positionAhead.locate(subset[i + kPositionAhead], &local);
+                for (int k = 0; k < 3; ++k)
+                    __builtin_prefetch(&ahead.positions[ahead.indices[3 * size_t(local) + k]]);
+            }
+            const scene::Mesh& m = current.locate(subset[i], &locals[j]);
+            meshes[j] = current.mesh();
+            for (int k = 0; k < 3; ++k)
+                corners[3 * j + size_t(k)] = m.positions[m.indices[3 * size_t(locals[j]) + k]];
+        }
+        VertexOut out[3 * kSubsetBatch];
+        transformPositions(corners, 3 * n, camera.clipFromWorld(), vp, out);
+        for (size_t j = 0; j < n; ++j) {
+            const VertexOut& a = out[3 * j];
+            const VertexOut& c1 = out[3 * j + 1];
+            const VertexOut& c2 = out[3 * j + 2];
+            if (a.code & c1.code & c2.code & kOutFrustum) continue;
+            if ((a.code | c1.code | c2.code) & kOutNeedsClip) {
+                clipAndBin(chunk, scene, camera, meshes[j], locals[j], vp, ctx, tilesX);
+                continue;
+            }
+            const RasterVertex v[3] = {{a.x, a.y, a.invW, Vec3(1.0f, 0.0f, 0.0f)},
+                                       {c1.x, c1.y, c1.invW, Vec3(0.0f, 1.0f, 0.0f)},
+                                       {c2.x, c2.y, c2.invW, Vec3(0.0f, 0.0f, 1.0f)}};
+            binMaterialised(chunk, scene, meshes[j], locals[j], v, vp, ctx, tilesX);
+        }
+    }
 }
 
 void Renderer::Impl::binChunk(Chunk& chunk, const scene::Scene& scene, const Camera& camera,
                               std::span<const uint32_t>* subset, const Viewport& vp,
                               const ShadeContext& ctx, int tilesX) {
     if (subset) {
-        // A subset is scattered over a scene that may be far larger than the caches, so each
-        // triangle's indices and positions are cache misses. Prefetch indices kIndexAhead
-        // triangles ahead and, once those have arrived, positions kPositionAhead ahead.
-        constexpr size_t kIndexAhead = 16, kPositionAhead = 8;
-        MeshCursor indexAhead(scene), positionAhead(scene), current(scene);
-        for (size_t i = chunk.begin; i < chunk.end; ++i) {
-            uint32_t local;
-            if (i + kIndexAhead < chunk.end) {
-                const scene::Mesh& ahead = indexAhead.locate((*subset)[i + kIndexAhead], &local);
-                __builtin_prefetch(&ahead.indices[3 * size_t(local)]);
-            }
-            if (i + kPositionAhead < chunk.end) {
-                const scene::Mesh& ahead =
-                    positionAhead.locate((*subset)[i + kPositionAhead], &local);
-                for (int k = 0; k < 3; ++k)
-                    __builtin_prefetch(&ahead.positions[ahead.indices[3 * size_t(local) + k]]);
-            }
-            current.locate((*subset)[i], &local);
-            clipAndBin(chunk, scene, camera, current.mesh(), local, vp, ctx, tilesX);
-        }
+        binSubsetChunk(chunk, scene, camera, *subset, vp, ctx, tilesX);
         return;
     }
     const scene::Mesh& mesh = scene.meshes[chunk.mesh];

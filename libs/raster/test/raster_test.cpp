@@ -501,9 +501,9 @@ TEST(Raster, TileMemoryStartsEveryFrameFromItsClearColour) {
             }
             r->render(s, cam, opt, fast.targets());
             renderReference(s, cam, opt, ref.targets());
-            expectSameTargets(fast, ref,
-                              "frame " + std::to_string(frame) + ", threads " +
-                                  std::to_string(threads));
+            expectSameTargets(
+                fast, ref,
+                "frame " + std::to_string(frame) + ", threads " + std::to_string(threads));
         }
     }
 }

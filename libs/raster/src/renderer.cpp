@@ -685,17 +685,16 @@ void Renderer::Impl::binSubsetChunk(Chunk& chunk, const scene::Scene& scene, con
         VertexOut out[3 * kSubsetBatch];
         transformPositions(corners, 3 * n, camera.clipFromWorld(), vp, out);
         for (size_t j = 0; j < n; ++j) {
-            const VertexOut& a = out[3 * j];
-            const VertexOut& c1 = out[3 * j + 1];
-            const VertexOut& c2 = out[3 * j + 2];
-            if (a.code & c1.code & c2.code & kOutFrustum) continue;
-            if ((a.code | c1.code | c2.code) & kOutNeedsClip) {
+            const VertexOut* c = out + 3 * j;
+            if (c[0].code & c[1].code & c[2].code & kOutFrustum) continue;
+            if ((c[0].code | c[1].code | c[2].code) & kOutNeedsClip) {
+                // Clipping needs the clip-space corners, which clipAndBin computes again.
                 clipAndBin(chunk, scene, camera, meshes[j], locals[j], vp, ctx, tilesX);
                 continue;
             }
-            const RasterVertex v[3] = {{a.x, a.y, a.invW, Vec3(1.0f, 0.0f, 0.0f)},
-                                       {c1.x, c1.y, c1.invW, Vec3(0.0f, 1.0f, 0.0f)},
-                                       {c2.x, c2.y, c2.invW, Vec3(0.0f, 0.0f, 1.0f)}};
+            RasterVertex v[3];
+            for (int k = 0; k < 3; ++k)
+                v[k] = {c[k].x, c[k].y, c[k].invW, Vec3(k == 0, k == 1, k == 2)};
             binMaterialised(chunk, scene, meshes[j], locals[j], v, vp, ctx, tilesX);
         }
     }

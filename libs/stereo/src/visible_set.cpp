@@ -1,5 +1,5 @@
 // The last loop of Fig. 6 (Heo, Jung, Wohn): "for each pixel: set the visible-flag of pid TRUE",
-// made O(pixels + visible) per frame with epoch stamps instead of clearing every polygon's flag.
+// made O(pixels + visible) per frame by clearing only the flags the previous frame set.
 
 #include <algorithm>
 #include <atomic>
@@ -98,17 +98,20 @@ void radixSort(std::vector<uint32_t>* keys, std::vector<uint32_t>* scratch,
 
 void VisibleSetCollector::begin(size_t triangleCount, int slots) {
     PLX_CHECK(slots >= 1);
-    if (mStamp.size() != triangleCount) {
-        mStamp.assign(triangleCount, 0);
-        mEpoch = 0;
+    // Every set flag is in a list: clearing the listed ones clears them all, in O(visible).
+    auto clearFlags = [this](std::vector<uint32_t>& list) {
+        for (uint32_t tri : list) mFlags[tri >> 6] = 0;
+        list.clear();
+    };
+    if (mTriangles != triangleCount) {
+        mTriangles = triangleCount;
+        mFlags.assign((triangleCount + 63) / 64, 0);
+        mList.clear();
+        for (SlotList& slot : mSlots) slot.triangles.clear();
     }
-    if (++mEpoch == 0) {  // wrapped after 2^32 frames: restart the stamps once
-        std::fill(mStamp.begin(), mStamp.end(), 0);
-        mEpoch = 1;
-    }
-    mList.clear();
+    clearFlags(mList);
+    for (SlotList& slot : mSlots) clearFlags(slot.triangles);
     if (mSlots.size() < size_t(slots)) mSlots.resize(size_t(slots));
-    for (SlotList& slot : mSlots) slot.triangles.clear();
     mSorted = true;
 }
 
@@ -123,13 +126,14 @@ void VisibleSetCollector::visitTile(const ImageView<uint32_t>& ids, int x0, int 
                                     int y1, int slot) {
     PLX_CHECK(slot >= 0 && size_t(slot) < mSlots.size());
     std::vector<uint32_t>& found = mSlots[size_t(slot)].triangles;
-    // Another thread may meet the same triangle in its own tile: the exchange lets exactly one
+    // Another thread may meet the same triangle in its own tile: the atomic OR lets exactly one
     // of them list it. Relaxed order suffices, the render's join publishes the lists.
     auto mark = [&](uint32_t tri) {
-        PLX_DCHECK(tri < mStamp.size());
-        std::atomic_ref<uint32_t> stamp(mStamp[tri]);
-        if (stamp.load(std::memory_order_relaxed) != mEpoch &&
-            stamp.exchange(mEpoch, std::memory_order_relaxed) != mEpoch)
+        PLX_DCHECK(tri < mTriangles);
+        const uint64_t bit = uint64_t(1) << (tri & 63);
+        std::atomic_ref<uint64_t> word(mFlags[tri >> 6]);
+        if (!(word.load(std::memory_order_relaxed) & bit) &&
+            !(word.fetch_or(bit, std::memory_order_relaxed) & bit))
             found.push_back(tri);
     };
     for (int y = y0; y <= y1; ++y)
@@ -148,7 +152,7 @@ void VisibleSetCollector::addMasked(const Image<uint32_t>& ids, const Image<uint
 
 void VisibleSetCollector::addTriangles(std::span<const uint32_t> triangles) {
     for (uint32_t tri : triangles) {
-        PLX_CHECK(tri < mStamp.size());
+        PLX_CHECK(tri < mTriangles);
         insert(tri);
     }
 }
@@ -167,7 +171,7 @@ const std::vector<uint32_t>& VisibleSetCollector::sorted() {
         mSorted = false;
     }
     if (!mSorted) {
-        radixSort(&mList, &mSortScratch, &mDigitCounts, mStamp.size());
+        radixSort(&mList, &mSortScratch, &mDigitCounts, mTriangles);
         mSorted = true;
     }
     return mList;

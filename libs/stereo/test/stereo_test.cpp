@@ -136,6 +136,19 @@ TEST(Stereo, CollectorForgetsEarlierFrames) {
     EXPECT_EQ(c.sorted(), (std::vector<uint32_t>{1}));
     EXPECT_FALSE(c.contains(2));
     EXPECT_TRUE(c.contains(1));
+    // Flags set by tile visits on two slots, the frame never sorted: a new frame clears them too,
+    // and so does a change of scene size.
+    c.begin(10, 2);
+    c.visitTile(a.view(), 0, 0, 1, 0, 0);
+    c.visitTile(a.view(), 2, 0, 3, 0, 1);
+    c.visitTile(b.view(), 0, 0, 3, 0, 1);
+    EXPECT_TRUE(c.contains(4) && c.contains(1));
+    c.begin(10, 2);
+    for (uint32_t t = 0; t < 10; ++t) EXPECT_FALSE(c.contains(t)) << t;
+    c.addTriangles(std::vector<uint32_t>{7});
+    c.begin(200);
+    EXPECT_FALSE(c.contains(7));
+    EXPECT_TRUE(c.sorted().empty());
 }
 
 // sorted() switches from std::sort to a radix sort at 256 IDs, with as many digit passes as the

@@ -55,10 +55,11 @@ struct StereoFrame {
 };
 
 // Collects the distinct polygon IDs of a P-buffer as sorted triangle indices, in
-// O(pixels + visible) per frame: each triangle has an epoch stamp, and a new frame only bumps
-// the epoch instead of clearing a flag per polygon (so the scene size never enters the cost
-// after the one-time allocation). As a raster::TileIdVisitor it collects during the render,
-// tile by tile on the renderer's threads (RenderOptions::tileIds).
+// O(pixels + visible) per frame: each triangle has a visible flag, one bit of a bit set, and a
+// new frame clears only the flags of the previous frame's list instead of every polygon's (so
+// the scene size never enters the cost after the one-time allocation). As a
+// raster::TileIdVisitor it collects during the render, tile by tile on the renderer's threads
+// (RenderOptions::tileIds).
 class VisibleSetCollector : public raster::TileIdVisitor {
 public:
     // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
@@ -79,15 +80,16 @@ public:
     const std::vector<uint32_t>& sorted();
     size_t size() const;
     bool contains(uint32_t triangle) const {
-        return triangle < mStamp.size() && mStamp[triangle] == mEpoch;
+        return triangle < mTriangles && (mFlags[triangle >> 6] >> (triangle & 63) & 1);
     }
 
 private:
     // Lists the triangle unless this frame's set holds it already (one thread at a time).
     void insert(uint32_t tri) {
-        PLX_DCHECK(tri < mStamp.size());
-        if (mStamp[tri] != mEpoch) {
-            mStamp[tri] = mEpoch;
+        PLX_DCHECK(tri < mTriangles);
+        const uint64_t bit = uint64_t(1) << (tri & 63);
+        if (!(mFlags[tri >> 6] & bit)) {
+            mFlags[tri >> 6] |= bit;
             mList.push_back(tri);
             mSorted = false;
         }
@@ -96,8 +98,12 @@ private:
     struct alignas(64) SlotList {
         std::vector<uint32_t> triangles;
     };
-    std::vector<uint32_t> mStamp;  // per triangle: the epoch in which it was last seen
-    uint32_t mEpoch = 0;
+    // Visible flags, 64 triangles a word. A bit set rather than a word per triangle: the
+    // visible polygons of a frame cluster by mesh, so their flags share few cache lines, which
+    // the render's own traffic has evicted since the last frame (128 KB for office:280's
+    // 1,016,960 triangles, where epoch stamps took 4 MB).
+    std::vector<uint64_t> mFlags;
+    size_t mTriangles = 0;
     std::vector<uint32_t> mList;
     std::vector<uint32_t> mSortScratch, mDigitCounts;  // sorted()'s radix sort
     std::vector<SlotList> mSlots;

@@ -3,7 +3,7 @@
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
 //   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=1..4) next to libpng decode
-//   plx_ptm_bench coderab FILES...  coder 3 against coder 4: sizes, decode MB/s, libpng
+//   plx_ptm_bench coderab FILES...  two coders (PLX_AB="4,5"): sizes, decode MB/s, libpng
 //   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers); PLX_PTM_REPS=N
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
@@ -295,20 +295,24 @@ double bestCpuMs(int reps, F&& f) {
 int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
-    constexpr int kCodecs = 7;
+    constexpr int kCodecs = 8;
     double enc[kCodecs] = {}, dec[kCodecs] = {};
     const char* names[kCodecs] = {"PTM predict+rans-fast (coder 3)",
                                   "PTM predict+rans (coder 2)",
-                                  "PTM predict+zstd (coder 1, zstd 9)", "PNG (libpng 9)",
-                                  "WebP lossless", "JPEG XL lossless e7",
-                                  "PTM predict+rans-simd (coder 4, default)"};
+                                  "PTM predict+zstd (coder 1, zstd 9)",
+                                  "PNG (libpng 9)",
+                                  "WebP lossless",
+                                  "JPEG XL lossless e7",
+                                  "PTM predict+rans-simd (coder 4)",
+                                  "PTM predict-above+rans-simd (coder 5, default)"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
-        std::vector<uint8_t> p4, p3, p2, p1, png, webp, jxl;
-        plx::ptm::EncodeConfig c4, c3, c2, c1;
+        std::vector<uint8_t> p5, p4, p3, p2, p1, png, webp, jxl;
+        plx::ptm::EncodeConfig c5, c4, c3, c2, c1;
+        c5.coder = plx::ptm::Coder::kPredictAboveRansSimd;
         c4.coder = plx::ptm::Coder::kPredictRansSimd;
         c3.coder = plx::ptm::Coder::kPredictRansFast;
         c2.coder = plx::ptm::Coder::kPredictRans;
@@ -322,6 +326,7 @@ int runSpeed(const std::vector<std::string>& files) {
         enc[4] += bestMs(1, [&] { webp = webpEncode(peer); });
         enc[5] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
         enc[6] += bestMs(3, [&] { p4 = *plx::ptm::encode(*img, c4); });
+        enc[7] += bestMs(3, [&] { p5 = *plx::ptm::encode(*img, c5); });
         dec[0] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p3).isOk()); });
         dec[1] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p2).isOk()); });
         dec[2] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p1).isOk()); });
@@ -330,6 +335,7 @@ int runSpeed(const std::vector<std::string>& files) {
         std::vector<uint8_t> px;
         dec[5] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
         dec[6] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p4).isOk()); });
+        dec[7] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p5).isOk()); });
     }
     std::printf("%.1f MB of base-level pixels, single thread\n", mb);
     std::printf("| codec | encode MB/s | decode MB/s (CPU time) | decode vs libpng |\n"
@@ -364,17 +370,21 @@ int runPtmSpeed(const std::vector<std::string>& files) {
     return 0;
 }
 
-// Coder 3 against coder 4 on the same images: sizes and best-of-N CPU decode times, the two
-// decoders alternated so that load on a shared machine hits both alike; libpng in the same run.
+// Two coders on the same images (PLX_AB="A,B", default "4,5"): sizes and best-of-N CPU decode
+// times, the two decoders alternated so that load on a shared machine hits both alike; libpng
+// in the same run. (The variables say 3 and 4, the pair this mode first compared.)
 int runCoderAB(const std::vector<std::string>& files) {
+    int ids[2] = {4, 5};
+    if (const char* ab = std::getenv("PLX_AB")) std::sscanf(ab, "%d,%d", &ids[0], &ids[1]);
+    for (int& id : ids) id = std::clamp(id, 0, int(plx::ptm::kLastCoder));
     double mb = 0, bytes3 = 0, bytes4 = 0, ms3 = 0, ms4 = 0, pngMs = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         mb += double(img->bytes.size()) / 1e6;
         plx::ptm::EncodeConfig c3, c4;
-        c3.coder = plx::ptm::Coder::kPredictRansFast;
-        c4.coder = plx::ptm::Coder::kPredictRansSimd;
+        c3.coder = plx::ptm::Coder(ids[0]);
+        c4.coder = plx::ptm::Coder(ids[1]);
         const std::vector<uint8_t> f3 = *plx::ptm::encode(*img, c3);
         const std::vector<uint8_t> f4 = *plx::ptm::encode(*img, c4);
         PLX_CHECK(*plx::ptm::decodeImage(f3) == *img && *plx::ptm::decodeImage(f4) == *img);
@@ -393,12 +403,13 @@ int runCoderAB(const std::vector<std::string>& files) {
         ms4 += best4;
         pngMs += bestCpuMs(7, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
     }
-    std::printf("%.1f MB of base pixels; bytes: coder 3 %.0f, coder 4 %.0f (%.4fx)\n", mb, bytes3,
-                bytes4, bytes4 / bytes3);
-    std::printf("decode MB/s (CPU time): coder 3 %.1f, coder 4 %.1f (%.2fx), libpng %.1f; vs "
-                "libpng: %.2f, %.2f\n",
-                mb / (ms3 / 1e3), mb / (ms4 / 1e3), ms3 / ms4, mb / (pngMs / 1e3), pngMs / ms3,
-                pngMs / ms4);
+    std::printf("%.1f MB of base pixels; bytes: coder %d %.0f, coder %d %.0f (%.4fx)\n", mb, ids[0],
+                bytes3, ids[1], bytes4, bytes4 / bytes3);
+    std::printf(
+        "decode MB/s (CPU time): coder %d %.1f, coder %d %.1f (%.2fx), libpng %.1f; vs "
+        "libpng: %.2f, %.2f\n",
+        ids[0], mb / (ms3 / 1e3), ids[1], mb / (ms4 / 1e3), ms3 / ms4, mb / (pngMs / 1e3),
+        pngMs / ms3, pngMs / ms4);
     return 0;
 }
 

@@ -38,7 +38,7 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
-// Coders 3 and 4, group k >= 1: runtime component count to the walker's template argument.
+// Coders 3 to 5, group k >= 1: runtime component count to the walker's template argument.
 template <class IO>
 bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
     uint8_t* px = img.bytes.data();
@@ -50,7 +50,7 @@ bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
     }
 }
 
-// The end of a coder 3 or 4 group: the walker's result, then the streams' ends.
+// The end of a coder 3, 4 or 5 group: the walker's result, then the streams' ends.
 template <class IO>
 Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
     if (!walked)
@@ -63,13 +63,14 @@ Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
     return Status::ok();
 }
 
-// Coder 2, 3 and 4 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra
+// Coder 2 to 5 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra
 // bits.
 Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
                        Coder coder) {
     const bool lowest = k == 0;
-    const bool simd = coder == Coder::kPredictRansSimd && !lowest;
-    // coder 3's and 4's group 0 is coder 2's
+    const bool above = coder == Coder::kPredictAboveRansSimd;
+    const bool simd = (coder == Coder::kPredictRansSimd || above) && !lowest;
+    // group 0 of coders 3 to 5 is coder 2's
     const bool fast = coder == Coder::kPredictRansFast && !lowest;
     const uint8_t* p = in.data();
     const uint8_t* end = in.data() + in.size();
@@ -78,7 +79,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const int families = detail::familyCount(img.channels, lowest);
     if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
     size_t tables = 0;
-    std::array<std::array<int, 2>, 16> familyTables{};  // coder 4: {first table, g} per family
+    std::array<std::array<int, 2>, 16> familyTables{};  // coders 4, 5: {first table, g} per family
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -111,6 +112,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
             detail::buildSimdTable(freqs[t], entries.get() + t * detail::kRansTotal);
         detail::SimdDecodeIO io(entries.get(), familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
+        io.above = above;
         const bool walked = decodeLevelFast(img.channels, *low, img, io);
         return finishFast(walked, io, extraBytes, k);
     }
@@ -169,7 +171,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
     if (mHeader.coder == Coder::kPredictRans || mHeader.coder == Coder::kPredictRansFast ||
-        mHeader.coder == Coder::kPredictRansSimd) {
+        mHeader.coder == Coder::kPredictRansSimd || mHeader.coder == Coder::kPredictAboveRansSimd) {
         ByteImage img{size.width, size.height, comps, {}};
         img.bytes.resize(img.rowBytes() * size_t(size.height));
         PLX_RETURN_IF_ERROR(

@@ -75,10 +75,13 @@ void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level,
 
 template <class IO>
 std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
-                                         int lanes = detail::kFastStates) {
+                                         int lanes = detail::kFastStates, bool above = false) {
     ByteImage level = chain[size_t(k)];
     IO io;
-    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) io.lanes = lanes;
+    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
+        io.lanes = lanes;
+        io.above = above;
+    }
     const bool lowest = k == 0;
     walkForEncode(chain, k, level, io);
     using Hist = std::array<uint32_t, detail::kTokenCount>;
@@ -129,12 +132,15 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     return out;
 }
 
-// Coder 2 everywhere, coders 3 and 4 for groups k >= 1 (4 or kSimdStates rANS states).
+// Coder 2 everywhere, coders 3 to 5 for groups k >= 1 (4 or kSimdStates rANS states; coder 5
+// with the models that look at the block row above).
 std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k, Coder coder) {
     if (k == 0 || coder == Coder::kPredictRans)
         return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
-    const int lanes = coder == Coder::kPredictRansSimd ? detail::kSimdStates : detail::kFastStates;
-    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes);
+    const bool above = coder == Coder::kPredictAboveRansSimd;
+    const int lanes =
+        coder == Coder::kPredictRansSimd || above ? detail::kSimdStates : detail::kFastStates;
+    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes, above);
 }
 
 Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
@@ -172,7 +178,7 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: pixel buffer size mismatch");
     if (config.lowestMaxSide < 1)
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
-    if (uint8_t(config.coder) > uint8_t(Coder::kPredictRansSimd))
+    if (uint8_t(config.coder) > uint8_t(kLastCoder))
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
@@ -191,9 +197,9 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        const bool rans = config.coder == Coder::kPredictRans ||
-                          config.coder == Coder::kPredictRansFast ||
-                          config.coder == Coder::kPredictRansSimd;
+        const bool rans =
+            config.coder == Coder::kPredictRans || config.coder == Coder::kPredictRansFast ||
+            config.coder == Coder::kPredictRansSimd || config.coder == Coder::kPredictAboveRansSimd;
         std::vector<uint8_t> payload =
             rans ? encodeGroupRans(chain, k, config.coder) : buildPayload(chain, k, config.coder);
         if (config.coder == Coder::kPredictZstd) {

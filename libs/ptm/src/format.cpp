@@ -31,6 +31,8 @@ const char* coderName(Coder coder) {
     case Coder::kPredictRans: return "predict+rans";
     case Coder::kPredictRansFast: return "predict+rans-fast";
     case Coder::kPredictRansSimd: return "predict+rans-simd";
+    case Coder::kPredictAboveRansSimd:
+        return "predict-above+rans-simd";
     }
     return "unknown";
 }
@@ -71,8 +73,7 @@ Result<Header> parseHeader(std::span<const uint8_t> prefix) {
     const uint32_t lowW = readU32(p + 24), lowH = readU32(p + 28);
     if (h.components < 1 || h.components > 4)
         return corrupt(fmt::format("component count {} outside 1..4", h.components));
-    if (coder > uint8_t(Coder::kPredictRansSimd))
-        return corrupt(fmt::format("unknown coder {}", coder));
+    if (coder > uint8_t(kLastCoder)) return corrupt(fmt::format("unknown coder {}", coder));
     h.coder = Coder(coder);
     if (width < 1 || height < 1 || width > uint32_t(kMaxSide) || height > uint32_t(kMaxSide) ||
         int64_t(width) * height > kMaxPixels)

@@ -1,5 +1,6 @@
 #pragma once
-// Private: the decoder side of Coder::kPredictRansSimd (docs/ptm-format.md, "Coder 4"). Coder 4
+// Private: the decoder side of coders 4 and 5 (Coder::kPredictRansSimd and
+// kPredictAboveRansSimd, docs/ptm-format.md; coder 5 changes only the walker's models). Coder 4
 // is coder 3 (same runs, contexts, predictions, tables, tokens and extra bits) with kSimdStates
 // interleaved rANS states instead of four: symbol j of a run uses state j mod 32, and the
 // renormalisation words are read in symbol order, so that a round of 32 symbols decodes as four
@@ -70,9 +71,9 @@ struct RenormPermutations {
 };
 inline constexpr RenormPermutations kRenormPerm{};
 
-// Decoder IO of coder 4 for walkLevelFast: kSimdStates rANS states over a bounds-checked word
-// stream, extra bits from a separate bit stream. Past the end of either stream reads give zeros
-// and the overrun is recorded.
+// Decoder IO of coders 4 and 5 for walkLevelFast: kSimdStates rANS states over a bounds-checked
+// word stream, extra bits from a separate bit stream. Past the end of either stream reads give
+// zeros and the overrun is recorded.
 struct SimdDecodeIO : WordStream {
     static constexpr bool kEncode = false;
     const uint32_t* entries;  // all tables, table t at t * kRansTotal
@@ -81,6 +82,7 @@ struct SimdDecodeIO : WordStream {
     std::array<CtxMap, 16> families{};
     BitReader bits;
     alignas(32) uint32_t x[kSimdStates] = {};
+    bool above = false;  // coder 5's models (FastRows::above)
 
     // familyTables[f] = {first table, g} of family f (context map).
     // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.

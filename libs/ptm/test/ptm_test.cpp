@@ -92,8 +92,9 @@ TEST(PtmCodec, RoundTripManySizesAndComponents) {
                                          {3, 127}, {100, 61}, {256, 1}};
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)
-            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
-                                  Coder::kPredictRansFast, Coder::kPredictRansSimd})
+            for (Coder coder :
+                 {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans, Coder::kPredictRansFast,
+                  Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd})
                 for (bool smooth : {false, true}) {
                     ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
                     EncodeConfig cfg;
@@ -184,12 +185,13 @@ TEST(PtmDecoder, WrongGroupIsRejected) {
 }
 
 TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
-    for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
-                        Coder::kPredictRansFast, Coder::kPredictRansSimd}) {
+    for (Coder coder :
+         {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans, Coder::kPredictRansFast,
+          Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd}) {
         EncodeConfig cfg;
         cfg.coder = coder;
-        // Coder 4: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
-        auto file = coder == Coder::kPredictRansSimd
+        // Coders 4 and 5: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
+        auto file = coder >= Coder::kPredictRansSimd
                         ? mustEncode(randomImage(40, 9, 3, 9, true), cfg)
                         : mustEncode(randomImage(23, 11, 4, 9, true), cfg);
         auto header = parseHeader(file);
@@ -228,12 +230,13 @@ std::vector<uint8_t> corruptGroup(std::vector<uint8_t> file, int k, size_t at, u
 class PtmHostileRans : public ::testing::TestWithParam<Coder> {};
 
 TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
-    // Every byte of every group of a coder-2, 3 or 4 file flipped, CRCs fixed up: the entropy
+    // Every byte of every group of a coder-2, 3, 4 or 5 file flipped, CRCs fixed up: the entropy
     // decoder must stay in bounds (ASan/UBSan runs check it) and usually report the damage.
-    // Coder 4's image is wide enough for its vectorised rounds (runs of 3 * 35 symbols).
+    // Coder 4's and 5's image is wide enough for their vectorised rounds (runs of 3 * 35
+    // symbols).
     EncodeConfig cfg;
     cfg.coder = GetParam();
-    const ByteImage img = GetParam() == Coder::kPredictRansSimd ? randomImage(70, 10, 3, 5, true)
+    const ByteImage img = GetParam() >= Coder::kPredictRansSimd ? randomImage(70, 10, 3, 5, true)
                                                                 : randomImage(21, 10, 3, 5, true);
     auto file = mustEncode(img, cfg);
     auto h = parseHeader(file);
@@ -258,7 +261,7 @@ TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
 
 INSTANTIATE_TEST_SUITE_P(Coders, PtmHostileRans,
                          ::testing::Values(Coder::kPredictRans, Coder::kPredictRansFast,
-                                           Coder::kPredictRansSimd));
+                                           Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd));
 
 TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
     auto file = mustEncode(randomImage(19, 9, 3, 4, true));
@@ -395,7 +398,13 @@ TEST(PtmGolden, FrozenBitstream) {
     auto simdFile = mustEncode(goldenImage(), simd);
     // Coder 4 also on an image wide enough for its vectorised rounds.
     auto simdWideFile = mustEncode(goldenWideImage(), simd);
+    EncodeConfig above;
+    above.coder = Coder::kPredictAboveRansSimd;
+    auto aboveFile = mustEncode(goldenImage(), above);
+    auto aboveWideFile = mustEncode(goldenWideImage(), above);
     if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_above_rans_simd.ptm", aboveFile).isOk());
+        ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_above_rans_simd.ptm", aboveWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_simd.ptm", simdFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_rans_simd.ptm", simdWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_fast.ptm", fastFile).isOk());
@@ -417,13 +426,15 @@ TEST(PtmGolden, FrozenBitstream) {
     auto fastDecoded = decodeImage(*goldenFast);
     ASSERT_TRUE(fastDecoded.isOk()) << fastDecoded.status().toString();
     EXPECT_EQ(*fastDecoded, goldenImage());
-    // Coder 4 likewise, on both images.
+    // Coders 4 and 5 likewise, on both images.
     for (const auto& [name, file, image] :
          {std::tuple{"rgba_13x7_rans_simd.ptm", simdFile, goldenImage()},
-          std::tuple{"rgb_70x9_rans_simd.ptm", simdWideFile, goldenWideImage()}}) {
+          std::tuple{"rgb_70x9_rans_simd.ptm", simdWideFile, goldenWideImage()},
+          std::tuple{"rgba_13x7_above_rans_simd.ptm", aboveFile, goldenImage()},
+          std::tuple{"rgb_70x9_above_rans_simd.ptm", aboveWideFile, goldenWideImage()}}) {
         auto golden = readFileBytes(dir + name);
         ASSERT_TRUE(golden.isOk()) << "golden file missing in " << dir;
-        EXPECT_EQ(file, *golden) << "the predict+rans-simd bitstream changed: " << name;
+        EXPECT_EQ(file, *golden) << "the bitstream changed: " << name;
         auto back = decodeImage(*golden);
         ASSERT_TRUE(back.isOk()) << back.status().toString();
         EXPECT_EQ(*back, image) << name;

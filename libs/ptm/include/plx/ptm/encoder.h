@@ -17,7 +17,7 @@ struct EncodeConfig {
     // the chain down to 1x1). Any resolution is allowed (paper 4.3); clients rebuild the levels
     // below it with eq. (1). Must be >= 1.
     int lowestMaxSide = 1;
-    Coder coder = Coder::kPredictRansSimd;
+    Coder coder = Coder::kPredictAboveRansSimd;
     // zstd level 1..22 for Coder::kPredictZstd; the default trades encode speed for size
     // (docs/ptm-results.md).
     int zstdLevel = 9;

@@ -25,15 +25,19 @@ inline constexpr int64_t kMaxPixels = int64_t(1) << 28;
 
 // How a group is stored. kRaw and kPredictZstd share the plane layout; kPredictRans codes the
 // same values symbol by symbol in block order; kPredictRansFast in per-row runs whose contexts
-// never depend on the same run; kPredictRansSimd (the default) as kPredictRansFast with 32
-// interleaved rANS states for a vectorised decoder (docs/ptm-format.md).
+// never depend on the same run; kPredictRansSimd as kPredictRansFast with 32 interleaved rANS
+// states for a vectorised decoder; kPredictAboveRansSimd (the default) as kPredictRansSimd with
+// the block row above in two of its models (docs/ptm-format.md).
 enum class Coder : uint8_t {
     kRaw = 0,              // planes hold the values themselves, uncompressed (the paper's layout)
     kPredictZstd = 1,      // planes hold prediction residuals; the payload is one zstd frame
     kPredictRans = 2,      // context-modelled residuals and eps, interleaved rANS (no planes)
     kPredictRansFast = 3,  // as 2, symbols in runs with precomputed contexts, 4 rANS states
     kPredictRansSimd = 4,  // as 3 with 32 rANS states, decoded eight at a time (AVX2)
+    // as 4; the upper pixels' predictions and the eps contexts also use the block row above
+    kPredictAboveRansSimd = 5,
 };
+inline constexpr Coder kLastCoder = Coder::kPredictAboveRansSimd;
 
 // Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.
 const char* coderName(Coder coder);

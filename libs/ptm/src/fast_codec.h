@@ -349,8 +349,9 @@ inline __m256i clamp255(__m256i x) {
 
 // codeFullRow's decode for blocks 0..16k-1 of component c, sixteen blocks per step in int16
 // lanes (every intermediate of the block-sum predictor lies in -8160..5102, also with coder 5's
-// shapes u0, u1 in -127..382). Bit-exact with the scalar loop, which decodes the rest. Returns
-// the first block not done.
+// shapes u0, u1 in -127..382; in a corrupt level, whose p11 may leave 0..255 and so move the
+// next row's shapes to -510..776, they stay within +-6700). Bit-exact with the scalar loop, which
+// decodes the rest. Returns the first block not done.
 inline int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
     int bx = 0;
 #if defined(__AVX2__)

@@ -214,16 +214,15 @@ struct FastRows {
     // sub-predictor errors.
     std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
     // Coder 5 (`above`): the detail (value - upsample) of p01 and p11 of each full block of the
-    // previous block row, the pixels right above this row's p00 and p10; valid from the second
-    // block row on (`haveAbove`).
-    bool above = false, haveAbove = false;
+    // previous block row, the pixels right above this row's p00 and p10 (zero before the
+    // second block row and beyond the full blocks).
+    bool above = false;
     std::vector<int> detail01, detail11;
     explicit FastRows(int C, int lw, bool aboveModels) : above(aboveModels) {
         const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
         for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &sel, &v0, &v1, &v2, &v3, &errA, &errB})
             v->assign(n, 0);
-        if (above)
-            for (auto* v : {&detail01, &detail11}) v->assign(n, 0);
+        for (auto* v : {&detail01, &detail11}) v->assign(above ? n : 1, 0);
         for (auto* v : {&z0, &z1, &z2, &ze}) v->assign(n, 0);
         for (auto* v : {&rA0, &rA1, &rA2}) v->assign(size_t(lw), 0);
         ctx.assign(n, 0);
@@ -244,7 +243,16 @@ void planarRow(const uint8_t* row, int lw, int c, int* out) {
 // Pass 0 of a block row: parents, upsamples, activity and sub-predictor choice of every block
 // of component c, from the lower level and the previous block row only (no clamping: the
 // padded rows replicate the ends).
-inline void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
+//
+// kShapeAbove (coder 5, blocks two pixels tall): the shapes of p00 and p10 corrected by half the
+// detail (value - upsample) of the pixel right above each, p01 and p11 of the block above; C++
+// division, truncated toward zero. The block-sum predictor spreads the block's sum by these
+// shapes, so the pixels above steer how it splits between the block's upper and lower rows
+// (0.924x -> 0.919x optipng -o2 on the 69 Sponza textures with coder 4's other models; the whole
+// detail gives 0.943x). The details are zero on the first block row and from `full` on (odd
+// widths: keepDetail writes only the full blocks), which keeps those blocks' bilinear shapes.
+template <bool kShapeAbove>
+void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
     const int* __restrict pu = R.pu.data() + o;
     const int* __restrict pm = R.pm.data() + o;
@@ -259,6 +267,8 @@ inline void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     int* __restrict u3 = R.u3.data() + b;
     int* __restrict act0 = R.act0.data() + b;
     int* __restrict sel = R.sel.data() + b;
+    const int* __restrict d01 = R.detail01.data() + (kShapeAbove ? b : 0);
+    const int* __restrict d11 = R.detail11.data() + (kShapeAbove ? b : 0);
     const int inter = c > 0 && !firstRow ? 1 : 0;
     const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
 PLX_PTM_IVDEP
@@ -267,6 +277,10 @@ PLX_PTM_IVDEP
         m[bx] = mm;
         u0[bx] = upsample(mm, l, up, pu[bx - 1]);
         u1[bx] = upsample(mm, r, up, pu[bx + 1]);
+        if constexpr (kShapeAbove) {
+            u0[bx] += d01[bx] / 2;
+            u1[bx] += d11[bx] / 2;
+        }
         u2[bx] = upsample(mm, l, dn, pd[bx - 1]);
         u3[bx] = upsample(mm, r, dn, pd[bx + 1]);
         const int grad = std::abs(l - r) + std::abs(up - dn);
@@ -274,43 +288,6 @@ PLX_PTM_IVDEP
         const int errA = 2 * ea[bx] + ea[bx - 1] + ea[bx + 1];
         const int errB = 2 * eb[bx] + eb[bx - 1] + eb[bx + 1];
         sel[bx] = inter & (errB < errA ? 1 : 0);
-    }
-}
-
-// Coder 5: the shapes of p00 and p10 corrected by half the detail (value - upsample) of the
-// pixel right above each, p01 and p11 of the block above; C++ division, truncated toward zero.
-// The block-sum predictor spreads the block's sum by these shapes, so the pixels above steer
-// how it splits between the block's upper and lower rows (0.924x -> 0.919x optipng -o2 on the
-// 69 Sponza textures with coder 4's other models; the whole detail gives 0.943x). Blocks from
-// `full` on (odd widths) keep the bilinear shapes.
-inline void shapeFromAbove(FastRows& R, int lw, int full, int c) {
-    if (!R.above || !R.haveAbove) return;
-    const size_t pi = size_t(c) * size_t(lw);
-    int* __restrict u0 = R.u0.data() + pi;
-    int* __restrict u1 = R.u1.data() + pi;
-    const int* __restrict d01 = R.detail01.data() + pi;
-    const int* __restrict d11 = R.detail11.data() + pi;
-    PLX_PTM_IVDEP
-    for (int bx = 0; bx < full; ++bx) {
-        u0[bx] += d01[bx] / 2;
-        u1[bx] += d11[bx] / 2;
-    }
-}
-
-// Coder 5: keeps the detail of this row's p01 and p11 (full blocks, component c) for the next
-// block row's shapeFromAbove. u2 and u3 are this row's bilinear upsamples (never corrected).
-inline void keepDetailForBelow(FastRows& R, int lw, int full, int c) {
-    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* __restrict v2 = R.v2.data() + ri;
-    const int* __restrict v3 = R.v3.data() + ri;
-    const int* __restrict u2 = R.u2.data() + pi;
-    const int* __restrict u3 = R.u3.data() + pi;
-    int* __restrict d01 = R.detail01.data() + pi;
-    int* __restrict d11 = R.detail11.data() + pi;
-    PLX_PTM_IVDEP
-    for (int bx = 0; bx < full; ++bx) {
-        d01[bx] = v2[bx] - u2[bx];
-        d11[bx] = v3[bx] - u3[bx];
     }
 }
 
@@ -556,7 +533,10 @@ PLX_PTM_IVDEP
 
 // p11 of the full blocks by eq. (3) and the row's statistics for the next row. Returns a
 // non-zero value on an eps >= 4 or a p11 outside 0..255.
-inline unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
+// kKeepDetail (coder 5): also keeps the detail of p01 and p11 (value - upsample; u2, u3 are
+// never corrected) for the next block row's prepareRow.
+template <bool kKeepDetail>
+unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;
     const int* __restrict m = R.m.data() + pi;
@@ -573,6 +553,10 @@ inline unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     int* __restrict act = R.curAct.data() + si;
     int* __restrict ea = R.curEA.data() + si;
     int* __restrict eb = R.curEB.data() + si;
+    const int* __restrict u2 = R.u2.data() + pi;
+    const int* __restrict u3 = R.u3.data() + pi;
+    int* __restrict d01 = R.detail01.data() + (kKeepDetail ? pi : 0);
+    int* __restrict d11 = R.detail11.data() + (kKeepDetail ? pi : 0);
     unsigned bad = 0;
 PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {
@@ -580,6 +564,10 @@ PLX_PTM_IVDEP
         const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)
         bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
         v3[bx] = last;
+        if constexpr (kKeepDetail) {
+            d01[bx] = v2[bx] - u2[bx];
+            d11[bx] = last - u3[bx];
+        }
         act[bx] = magnitude(z0[bx]) + magnitude(z1[bx]) + magnitude(z2[bx]);
         ea[bx] = errA[bx];
         eb[bx] = errB[bx];
@@ -697,8 +685,10 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         }
         for (int c = 0; c < C; ++c) {
             planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
-            prepareRow(R, lw, c, by == 0);
-            if (tall) shapeFromAbove(R, lw, full, c);
+            if (R.above && tall)
+                prepareRow<true>(R, lw, c, by == 0);
+            else
+                prepareRow<false>(R, lw, c, by == 0);
         }
         uint16_t* ctx = R.ctx.data();
         if (tall && full > 0) {
@@ -725,14 +715,12 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                 for (int c = 0; c < C; ++c) codeFullRow<false>(R, lw, full, c);
             for (int c = 0; c < C; ++c) epsContexts<IO::kEncode>(R, lw, full, c, io.ctxMap(c, 3));
             io.template run<false>(ctx, n, R.ze.data());
-            for (int c = 0; c < C; ++c) bad |= finishFullRow(R, lw, full, c);
+            for (int c = 0; c < C; ++c)
+                bad |= R.above ? finishFullRow<true>(R, lw, full, c)
+                               : finishFullRow<false>(R, lw, full, c);
             if constexpr (!IO::kEncode) {
                 writeFullRow<C>(R.v0.data(), R.v1.data(), full, r0);
                 writeFullRow<C>(R.v2.data(), R.v3.data(), full, r1);
-            }
-            if (R.above) {
-                for (int c = 0; c < C; ++c) keepDetailForBelow(R, lw, full, c);
-                R.haveAbove = true;
             }
         }
         // Blocks with two real pixels: the last column's 1x2 block (odd width) or the last

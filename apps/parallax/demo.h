@@ -26,4 +26,8 @@ Status demoStereoSection(DemoContext& ctx);
 // uniform against adaptive and the speedup plot. ctx.quick: two thresholds, small sizes.
 Status demoDisplaySection(DemoContext& ctx);
 
+// Progressive texture maps (Marvie, Bouatouch): a texture's PTM levels as they arrive, the bytes
+// per level, the size against PNG. Falls back to the office:4 render without the shared data.
+Status demoPtmSection(DemoContext& ctx);
+
 }  // namespace plx::cli

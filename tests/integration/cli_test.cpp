@@ -108,11 +108,14 @@ TEST(Cli, DemoQuickWritesReport) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     EXPECT_TRUE(doc.contains("raster"));
+    ASSERT_TRUE(doc.contains("ptm"));
+    EXPECT_GT(doc["ptm"]["levels"].get<int>(), 1);
     ASSERT_TRUE(fs::exists(dir / "index.html"));
     std::ifstream html(dir / "index.html");
     std::string text((std::istreambuf_iterator<char>(html)), {});
     EXPECT_NE(text.find("<svg"), std::string::npos);
     EXPECT_NE(text.find("office1.id.png"), std::string::npos);
+    EXPECT_NE(text.find("ptm_level"), std::string::npos);
 }
 
 TEST(Cli, UsageErrorsExitWithTwo) {

@@ -372,44 +372,44 @@ int runPtmSpeed(const std::vector<std::string>& files) {
 
 // Two coders on the same images (PLX_AB="A,B", default "4,5"): sizes and best-of-N CPU decode
 // times, the two decoders alternated so that load on a shared machine hits both alike; libpng
-// in the same run. (The variables say 3 and 4, the pair this mode first compared.)
+// in the same run.
 int runCoderAB(const std::vector<std::string>& files) {
     int ids[2] = {4, 5};
     if (const char* ab = std::getenv("PLX_AB")) std::sscanf(ab, "%d,%d", &ids[0], &ids[1]);
     for (int& id : ids) id = std::clamp(id, 0, int(plx::ptm::kLastCoder));
-    double mb = 0, bytes3 = 0, bytes4 = 0, ms3 = 0, ms4 = 0, pngMs = 0;
+    double mb = 0, bytesA = 0, bytesB = 0, msA = 0, msB = 0, pngMs = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         mb += double(img->bytes.size()) / 1e6;
-        plx::ptm::EncodeConfig c3, c4;
-        c3.coder = plx::ptm::Coder(ids[0]);
-        c4.coder = plx::ptm::Coder(ids[1]);
-        const std::vector<uint8_t> f3 = *plx::ptm::encode(*img, c3);
-        const std::vector<uint8_t> f4 = *plx::ptm::encode(*img, c4);
-        PLX_CHECK(*plx::ptm::decodeImage(f3) == *img && *plx::ptm::decodeImage(f4) == *img);
-        bytes3 += double(f3.size());
-        bytes4 += double(f4.size());
+        plx::ptm::EncodeConfig cA, cB;
+        cA.coder = plx::ptm::Coder(ids[0]);
+        cB.coder = plx::ptm::Coder(ids[1]);
+        const std::vector<uint8_t> fA = *plx::ptm::encode(*img, cA);
+        const std::vector<uint8_t> fB = *plx::ptm::encode(*img, cB);
+        PLX_CHECK(*plx::ptm::decodeImage(fA) == *img && *plx::ptm::decodeImage(fB) == *img);
+        bytesA += double(fA.size());
+        bytesB += double(fB.size());
         const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
-        double best3 = 1e30, best4 = 1e30;
+        double bestA = 1e30, bestB = 1e30;
         for (int i = 0; i < 5; ++i) {
             auto decode = [](const std::vector<uint8_t>& file) {
                 return [&file] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); };
             };
-            best3 = std::min(best3, bestCpuMs(2, decode(f3)));
-            best4 = std::min(best4, bestCpuMs(2, decode(f4)));
+            bestA = std::min(bestA, bestCpuMs(2, decode(fA)));
+            bestB = std::min(bestB, bestCpuMs(2, decode(fB)));
         }
-        ms3 += best3;
-        ms4 += best4;
+        msA += bestA;
+        msB += bestB;
         pngMs += bestCpuMs(7, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
     }
     std::printf("%.1f MB of base pixels; bytes: coder %d %.0f, coder %d %.0f (%.4fx)\n", mb, ids[0],
-                bytes3, ids[1], bytes4, bytes4 / bytes3);
+                bytesA, ids[1], bytesB, bytesB / bytesA);
     std::printf(
         "decode MB/s (CPU time): coder %d %.1f, coder %d %.1f (%.2fx), libpng %.1f; vs "
         "libpng: %.2f, %.2f\n",
-        ids[0], mb / (ms3 / 1e3), ids[1], mb / (ms4 / 1e3), ms3 / ms4, mb / (pngMs / 1e3),
-        pngMs / ms3, pngMs / ms4);
+        ids[0], mb / (msA / 1e3), ids[1], mb / (msB / 1e3), msA / msB, mb / (pngMs / 1e3),
+        pngMs / msA, pngMs / msB);
     return 0;
 }
 

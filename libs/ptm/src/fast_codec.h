@@ -222,7 +222,8 @@ struct FastRows {
         const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
         for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &sel, &v0, &v1, &v2, &v3, &errA, &errB})
             v->assign(n, 0);
-        for (auto* v : {&detail01, &detail11}) v->assign(above ? n : 1, 0);
+        if (above)
+            for (auto* v : {&detail01, &detail11}) v->assign(n, 0);
         for (auto* v : {&z0, &z1, &z2, &ze}) v->assign(n, 0);
         for (auto* v : {&rA0, &rA1, &rA2}) v->assign(size_t(lw), 0);
         ctx.assign(n, 0);
@@ -250,7 +251,8 @@ void planarRow(const uint8_t* row, int lw, int c, int* out) {
 // shapes, so the pixels above steer how it splits between the block's upper and lower rows
 // (0.924x -> 0.919x optipng -o2 on the 69 Sponza textures with coder 4's other models; the whole
 // detail gives 0.943x). The details are zero on the first block row and from `full` on (odd
-// widths: keepDetail writes only the full blocks), which keeps those blocks' bilinear shapes.
+// widths: finishFullRow keeps only the full blocks'), which keeps those blocks' bilinear
+// shapes.
 template <bool kShapeAbove>
 void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
@@ -267,8 +269,8 @@ void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     int* __restrict u3 = R.u3.data() + b;
     int* __restrict act0 = R.act0.data() + b;
     int* __restrict sel = R.sel.data() + b;
-    const int* __restrict d01 = R.detail01.data() + (kShapeAbove ? b : 0);
-    const int* __restrict d11 = R.detail11.data() + (kShapeAbove ? b : 0);
+    const int* __restrict d01 = kShapeAbove ? R.detail01.data() + b : nullptr;
+    const int* __restrict d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
     const int inter = c > 0 && !firstRow ? 1 : 0;
     const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
 PLX_PTM_IVDEP
@@ -555,8 +557,8 @@ unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     int* __restrict eb = R.curEB.data() + si;
     const int* __restrict u2 = R.u2.data() + pi;
     const int* __restrict u3 = R.u3.data() + pi;
-    int* __restrict d01 = R.detail01.data() + (kKeepDetail ? pi : 0);
-    int* __restrict d11 = R.detail11.data() + (kKeepDetail ? pi : 0);
+    int* __restrict d01 = kKeepDetail ? R.detail01.data() + pi : nullptr;
+    int* __restrict d11 = kKeepDetail ? R.detail11.data() + pi : nullptr;
     unsigned bad = 0;
 PLX_PTM_IVDEP
     for (int bx = 0; bx < full; ++bx) {

@@ -82,6 +82,16 @@ void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& c
 void renderReference(const scene::Scene& scene, const Camera& camera, const RenderOptions& options,
                      const RenderTargets& rt, std::span<const uint32_t>* subset) {
     checkRenderRequestOrDie(camera, options, rt);
+    if (!options.colorOnly && (!rt.depth.data || !rt.id.data)) {
+        // The planes the caller leaves out (see RenderTargets) live in scratch images here.
+        Image<float> depth(rt.depth.data ? 0 : camera.width(), rt.depth.data ? 0 : camera.height());
+        Image<uint32_t> id(rt.id.data ? 0 : camera.width(), rt.id.data ? 0 : camera.height());
+        RenderTargets complete = rt;
+        if (!rt.depth.data) complete.depth = depth.view();
+        if (!rt.id.data) complete.id = id.view();
+        renderReference(scene, camera, options, complete, subset);
+        return;
+    }
     Viewport vp(camera);
     ShadeContext ctx(options);
     if (options.clearTargets) {

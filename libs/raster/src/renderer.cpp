@@ -268,8 +268,10 @@ public:
     // colour `clearWord`): row(y)[x] for x0 <= x < x0 + size, y0 <= y < y0 + size lands in the
     // tile's planes. The views' base pointers point before the planes; only the tile's own pixels
     // are ever addressed through them.
-    RenderTargets bindCleared(const RenderTargets& frame, int size, int x0, int y0,
-                              uint32_t clearWord) {
+    // The depth and ID views stand in for the frame's also where the frame has none (the render
+    // then drops them after the tile); `width` x `height` is the frame's image size.
+    RenderTargets bindCleared(const RenderTargets& frame, int size, int x0, int y0, int width,
+                              int height, uint32_t clearWord) {
         const size_t plane = size_t(size) * size_t(size);
         if (size != mSize) {
             mWords.assign(3 * plane, 0);
@@ -282,23 +284,29 @@ public:
         }
         RenderTargets tile = frame;
         const ptrdiff_t origin = ptrdiff_t(y0) * size + x0;
-        tile.depth = view(reinterpret_cast<float*>(mWords.data()), origin, size, frame.depth);
-        tile.id = view(mWords.data() + plane, origin, size, frame.id);
+        tile.depth = view(reinterpret_cast<float*>(mWords.data()), origin, size, width, height);
+        tile.id = view(mWords.data() + plane, origin, size, width, height);
         if (frame.color.data)
             tile.color = view(reinterpret_cast<Rgba8*>(mWords.data() + 2 * plane), origin, size,
-                              frame.color);
+                              width, height);
         return tile;
     }
 
     // Streams the rectangle [x0, x1] x [y0, y1] of `tile` (from bindCleared) to `frame` and clears
-    // it again.
+    // it again; a plane the frame lacks is only cleared.
     void resolve(const RenderTargets& tile, const RenderTargets& frame, int x0, int y0, int x1,
                  int y1) const {
         const int n = x1 - x0 + 1;
         for (int y = y0; y <= y1; ++y) {
-            streamRowAndClear(reinterpret_cast<uint32_t*>(frame.depth.row(y) + x0),
-                              reinterpret_cast<uint32_t*>(tile.depth.row(y) + x0), n, 0);
-            streamRowAndClear(frame.id.row(y) + x0, tile.id.row(y) + x0, n, 0);
+            if (frame.depth.data)
+                streamRowAndClear(reinterpret_cast<uint32_t*>(frame.depth.row(y) + x0),
+                                  reinterpret_cast<uint32_t*>(tile.depth.row(y) + x0), n, 0);
+            else
+                std::fill_n(tile.depth.row(y) + x0, n, 0.0f);
+            if (frame.id.data)
+                streamRowAndClear(frame.id.row(y) + x0, tile.id.row(y) + x0, n, 0);
+            else
+                std::fill_n(tile.id.row(y) + x0, n, 0u);
             if (frame.color.data)
                 streamRowAndClear(reinterpret_cast<uint32_t*>(frame.color.row(y) + x0),
                                   reinterpret_cast<uint32_t*>(tile.color.row(y) + x0), n,
@@ -311,11 +319,11 @@ public:
 
 private:
     template <class T>
-    static ImageView<T> view(T* plane, ptrdiff_t origin, int size, const ImageView<T>& frame) {
+    static ImageView<T> view(T* plane, ptrdiff_t origin, int size, int width, int height) {
         // The base is formed as an integer: it lies before the plane, outside any object.
         auto base = reinterpret_cast<T*>(reinterpret_cast<uintptr_t>(plane) -
                                          uintptr_t(origin) * sizeof(T));
-        return {base, frame.width, frame.height, size};
+        return {base, width, height, size};
     }
 
     std::vector<uint32_t> mWords;  // depth, ID, colour planes, size x size each
@@ -777,13 +785,17 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     // Threads outside the pool's arena only run tiles when the loop runs inline, alone.
     const int slot = std::clamp(currentThreadSlot(), 0, pool.threadCount() - 1);
     // Tile memory holds no earlier contents, so only tiles that start from the clear values use
-    // it; a second depth layer keeps its four planes in the targets.
-    const bool inTileMemory = clearTile[size_t(tile)] && !options.colorOnly && !frame.id2.data &&
-                              tileSize <= kMaxTileMemorySize;
+    // it; a second depth layer keeps its four planes in the targets. Without a depth or ID target
+    // it is the only place for them, whatever the tile size (checkRenderRequest: such renders
+    // clear their targets and have no second layer).
+    const bool discards = !options.colorOnly && (!frame.depth.data || !frame.id.data);
+    const bool inTileMemory = discards || (clearTile[size_t(tile)] && !options.colorOnly &&
+                                           !frame.id2.data && tileSize <= kMaxTileMemorySize);
     const uint32_t clearWord = clearWordOf(options);
-    const RenderTargets rt =
-        inTileMemory ? tileMemory[size_t(slot)].bindCleared(frame, tileSize, x0, y0, clearWord)
-                     : frame;
+    const RenderTargets rt = inTileMemory
+                                 ? tileMemory[size_t(slot)].bindCleared(
+                                       frame, tileSize, x0, y0, vp.width, vp.height, clearWord)
+                                 : frame;
     if (clearTile[size_t(tile)] && !inTileMemory) {
         for (int y = y0; y <= y1; ++y) {
             if (!options.colorOnly) {

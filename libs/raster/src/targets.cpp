@@ -42,7 +42,13 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
             return bad("a colour-only render cannot report unsampled triangles (no depth)");
         if (options.tileIds) return bad("a colour-only render has no ID target to visit");
     } else if (!rt.depth.data || !rt.id.data) {
-        return bad("depth and ID targets are required unless the render is colour-only");
+        // Tile memory stands in for the missing planes, which holds only tiles that start clear.
+        if (!options.clearTargets)
+            return bad("a render that keeps its targets' contents needs depth and ID targets");
+        if (rt.id2.data)
+            return bad("a render with a second depth layer needs depth and ID targets");
+        if (options.unsampledVisible && !rt.depth.data)
+            return bad("reporting unsampled triangles needs a depth target");
     }
     if ((rt.depth.data && !fits(rt.depth.width, rt.depth.height)) ||
         (rt.id.data && !fits(rt.id.width, rt.id.height)))

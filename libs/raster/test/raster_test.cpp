@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <mutex>
 #include <numeric>
 #include <random>
 #include <set>
@@ -775,6 +776,81 @@ TEST(Raster, ClearingDrawnTilesOnlyEqualsWholeClear) {
     }
 }
 
+// Records the distinct IDs of every tile it is shown.
+class IdSetVisitor : public TileIdVisitor {
+public:
+    void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1, int) override {
+        std::lock_guard lock(mMutex);
+        for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x)
+                if (ids.row(y)[x]) mIds.insert(ids.row(y)[x]);
+    }
+    std::set<uint32_t> take() { return std::exchange(mIds, {}); }
+
+private:
+    std::mutex mMutex;
+    std::set<uint32_t> mIds;
+};
+
+// A render may leave out its depth or ID target (or both): the depth test runs in tile memory,
+// also for tiles too large to keep there otherwise (256), and the planes written equal those of
+// a complete render; the tile visitor still sees every ID; the reference renderer agrees.
+TEST(Raster, DepthAndIdsLeftOutChangeNothingElse) {
+    Scene s = randomSoup(400, 5, true);
+    Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 150, 90);
+    std::vector<uint32_t> some;
+    for (uint32_t i = 0; i < s.triangleCount(); i += 2) some.push_back(i);
+    std::span<const uint32_t> someSpan(some);
+    FrameBuffers whole, part, ref;
+    whole.resize(150, 90);
+    ref.resize(150, 90);
+    IdSetVisitor visitor;
+    for (int tileSize : {16, 256}) {
+        for (int threads : {1, 2}) {
+            auto r = makeRenderer(threads, tileSize);
+            for (int frame = 0; frame < 6; ++frame) {
+                const bool subset = frame % 2 == 1;
+                const bool keepDepth = frame / 2 == 1, keepIds = frame / 2 == 2;
+                RenderOptions opt;
+                opt.shading = Shading::kTextured;
+                opt.clearDrawnTilesOnly = frame == 5;
+                if (subset)
+                    r->renderSubset(s, cam, some, opt, whole.targets());
+                else
+                    r->render(s, cam, opt, whole.targets());
+                part.resize(150, 90);  // fresh planes: nothing may be left from `whole`
+                RenderTargets t = part.targets();
+                if (!keepDepth) t.depth = {};
+                if (!keepIds) t.id = {};
+                opt.tileIds = &visitor;
+                if (subset)
+                    r->renderSubset(s, cam, some, opt, t);
+                else
+                    r->render(s, cam, opt, t);
+                const std::string what = "tile " + std::to_string(tileSize) + ", threads " +
+                                         std::to_string(threads) + ", frame " +
+                                         std::to_string(frame);
+                EXPECT_TRUE(part.color == whole.color) << what;
+                if (keepDepth) {
+                    EXPECT_TRUE(part.depth == whole.depth) << what;
+                }
+                if (keepIds) {
+                    EXPECT_TRUE(part.id == whole.id) << what;
+                }
+                std::set<uint32_t> drawn(whole.id.data(), whole.id.data() + whole.id.pixelCount());
+                drawn.erase(0u);
+                EXPECT_EQ(visitor.take(), drawn) << what;
+            }
+        }
+    }
+    RenderOptions opt;
+    opt.shading = Shading::kTextured;
+    renderReference(s, cam, opt, ref.targets(), &someSpan);
+    part.resize(150, 90);
+    renderReference(s, cam, opt, {part.color.view(), {}, {}, {}, {}}, &someSpan);
+    EXPECT_TRUE(part.color == ref.color) << "reference renderer";
+}
+
 TEST(Raster, RejectsMalformedRenderRequests) {
     Camera cam = makeCamera({0, 0, 3}, {0, 0, 0}, 32, 24);
     FrameBuffers fb, small;
@@ -802,7 +878,19 @@ TEST(Raster, RejectsMalformedRenderRequests) {
     RenderOptions withUnsampled = colorOnly;
     withUnsampled.unsampledVisible = &unsampled;
     EXPECT_NE(message(withUnsampled, fb.targets()).find("unsampled"), std::string::npos);
-    EXPECT_NE(message({}, {fb.color.view(), {}, {}, {}, {}}).find("depth and ID targets"),
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {fb.color.view(), {}, {}, {}, {}}).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {{}, {}, fb.id.view(), {}, {}}).isOk());
+    RenderOptions keep;
+    keep.clearTargets = false;
+    EXPECT_NE(message(keep, {fb.color.view(), fb.depth.view(), {}, {}, {}}).find("keeps its"),
+              std::string::npos);
+    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), depth2.view(), id2.view()})
+                  .find("second depth layer needs depth and ID"),
+              std::string::npos);
+    RenderOptions unsampledOnly;
+    unsampledOnly.unsampledVisible = &unsampled;
+    EXPECT_NE(message(unsampledOnly, {fb.color.view(), {}, fb.id.view(), {}, {}})
+                  .find("needs a depth target"),
               std::string::npos);
     EXPECT_NE(message({}, small.targets()).find("size differs"), std::string::npos);
     EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(), {}})

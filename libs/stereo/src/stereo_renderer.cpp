@@ -53,12 +53,40 @@ StereoRenderer::~StereoRenderer() = default;
 std::span<const uint32_t> StereoRenderer::lastVisibleSet() const { return mImpl->lastSet; }
 raster::Renderer& StereoRenderer::renderer() { return *mImpl->renderer; }
 
+namespace {
+
+// Sizes an eye's images for the camera: the colour always, depth and IDs when `planes` (else
+// they are released, so that no earlier frame's planes pass for this one's).
+void prepareEye(const Camera& cam, bool planes, raster::FrameBuffers* eye) {
+    auto fits = [&](const auto& image) {
+        return image.width() == cam.width() && image.height() == cam.height();
+    };
+    if (!fits(eye->color)) eye->color.resize(cam.width(), cam.height());
+    if (!planes) {
+        eye->depth = {};
+        eye->id = {};
+    } else if (!fits(eye->depth) || !fits(eye->id)) {
+        eye->depth.resize(cam.width(), cam.height());
+        eye->id.resize(cam.width(), cam.height());
+    }
+}
+
+raster::RenderTargets eyeTargets(raster::FrameBuffers& eye) {
+    raster::RenderTargets t = eye.targets();
+    if (eye.depth.empty()) t.depth = {};
+    if (eye.id.empty()) t.id = {};
+    return t;
+}
+
+}  // namespace
+
 StereoFrameStats StereoRenderer::renderPair(const scene::Scene& scene, const StereoRig& rig,
                                             const StereoOptions& options, StereoFrame* frame) {
     const Camera& cam = rig.first();
+    const bool conservativeFirst = options.method == Method::kPBuffer && options.conservative;
     for (Eye e : {Eye::kLeft, Eye::kRight})
-        if (frame->eye(e).id.width() != cam.width() || frame->eye(e).id.height() != cam.height())
-            frame->eye(e).resize(cam.width(), cam.height());
+        prepareEye(cam, options.writeDepthAndIds || (conservativeFirst && e == rig.desc().firstEye),
+                   &frame->eye(e));
     StereoFrameStats stats;
     stats.triangles = scene.triangleCount();
     if (options.method == Method::kFull)
@@ -75,17 +103,18 @@ void StereoRenderer::Impl::renderFull(const scene::Scene& scene, const StereoRig
     raster::FrameBuffers& first = frame->eye(rig.desc().firstEye);
     raster::FrameBuffers& second = frame->eye(rig.secondEye());
     Stopwatch clock;
-    renderer->render(scene, rig.first(), options.render, first.targets());
+    renderer->render(scene, rig.first(), options.render, eyeTargets(first));
     stats->firstEyeMs = clock.elapsedMs();
     clock.restart();
-    renderer->render(scene, rig.second(), options.render, second.targets());
+    renderer->render(scene, rig.second(), options.render, eyeTargets(second));
     stats->secondEyeMs = clock.elapsedMs();
     stats->secondEyeTriangles = scene.triangleCount();
     // Not part of the method's cost: how many polygons the first eye sees, for the tables.
+    lastSet.clear();
+    if (first.id.empty()) return;
     collector.begin(scene.triangleCount());
     collector.add(first.id);
     stats->visibleTriangles = collector.size();
-    lastSet.clear();
 }
 
 void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const StereoRig& rig,
@@ -104,7 +133,7 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
         collector.begin(scene.triangleCount(), renderer->threadCount());
         raster::RenderOptions firstEye = options.render;
         firstEye.tileIds = &collector;
-        renderer->render(scene, rig.first(), firstEye, first.targets());
+        renderer->render(scene, rig.first(), firstEye, eyeTargets(first));
     }
     stats->firstEyeMs = clock.elapsedMs();
 
@@ -120,7 +149,7 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
     stats->collectMs = clock.elapsedMs();
 
     clock.restart();
-    renderer->renderSubset(scene, rig.second(), set, options.render, second.targets());
+    renderer->renderSubset(scene, rig.second(), set, options.render, eyeTargets(second));
     stats->secondEyeMs = clock.elapsedMs();
     stats->secondEyeTriangles = set.size();
     lastSet.assign(set.begin(), set.end());
@@ -129,6 +158,7 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
 SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
                                   const raster::FrameBuffers& full,
                                   std::span<const uint32_t> drawn) {
+    PLX_CHECK(!approx.id.empty() && !full.id.empty());
     SecondEyeQuality q;
     ImageDiffStats d = compareImages(approx.color, full.color, 0);
     q.psnrDb = d.psnrDb;

@@ -212,6 +212,50 @@ TEST(Stereo, ZeroSeparationGivesIdenticalImagesForBothMethods) {
     EXPECT_EQ(q.missedPolygons, 0u);
 }
 
+// Colour alone (the experiment's timed frames): the same colour and visible set as with depth and
+// IDs written, for every method; the eyes' depth and ID images are left empty, except the
+// conservative method's first eye; a later frame with planes gets them back.
+TEST(Stereo, ColourOnlyEyesMatchTheCompleteRender) {
+    scene::Scene s = *scene::generateOffice(5);
+    auto rig = StereoRig::create(officeCamera(s, 160, 120), {});
+    ASSERT_TRUE(rig.isOk());
+    auto r = makeRenderer();
+    const Eye first = rig->desc().firstEye;
+    for (int variant = 0; variant < 3; ++variant) {
+        StereoOptions options;
+        options.method = variant == 0 ? Method::kFull : Method::kPBuffer;
+        options.conservative = variant == 2;
+        StereoFrame complete, colour;
+        // Twice: the conservative guard band is sized from the previous frame's nearest depth.
+        r->renderPair(s, *rig, options, &complete);
+        StereoFrameStats a = r->renderPair(s, *rig, options, &complete);
+        std::vector<uint32_t> set(r->lastVisibleSet().begin(), r->lastVisibleSet().end());
+        options.writeDepthAndIds = false;
+        colour = complete;  // stale planes that must not survive
+        StereoFrameStats b = r->renderPair(s, *rig, options, &colour);
+        const std::string what = "variant " + std::to_string(variant);
+        EXPECT_TRUE(std::equal(set.begin(), set.end(), r->lastVisibleSet().begin(),
+                               r->lastVisibleSet().end()))
+            << what;
+        EXPECT_EQ(b.secondEyeTriangles, a.secondEyeTriangles) << what;
+        for (Eye e : {Eye::kLeft, Eye::kRight}) {
+            EXPECT_TRUE(colour.eye(e).color == complete.eye(e).color) << what;
+            const bool kept = options.conservative && e == first;
+            EXPECT_EQ(colour.eye(e).id.empty(), !kept) << what;
+            EXPECT_EQ(colour.eye(e).depth.empty(), !kept) << what;
+        }
+        if (variant > 0) {
+            EXPECT_EQ(b.visibleTriangles, a.visibleTriangles) << what;
+        }
+        options.writeDepthAndIds = true;
+        r->renderPair(s, *rig, options, &colour);
+        for (Eye e : {Eye::kLeft, Eye::kRight}) {
+            EXPECT_TRUE(colour.eye(e).id == complete.eye(e).id) << what;
+            EXPECT_TRUE(colour.eye(e).depth == complete.eye(e).depth) << what;
+        }
+    }
+}
+
 TEST(Stereo, SecondEyeIsCloseToFullAndConservativeRecoversMissedPolygons) {
     scene::Scene s = *scene::generateOffice(6);
     StereoRigDesc desc;

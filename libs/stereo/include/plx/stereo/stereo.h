@@ -28,6 +28,12 @@ const char* methodName(Method method);
 struct StereoOptions {
     Method method = Method::kPBuffer;
     bool conservative = false;
+    // false: each eye's depth and ID images are left empty and only its colour is written; the
+    // depth test and the P-buffer's IDs stay in the renderer's tile memory (raster::
+    // RenderTargets), as a GPU discards buffers nobody reads back. A display shows colour alone,
+    // and the stereo experiment times both methods this way. The conservative method's first
+    // eye keeps its planes (it is cropped from a wider render). compareSecondEye needs them.
+    bool writeDepthAndIds = true;
     raster::RenderOptions render;
 };
 
@@ -41,7 +47,8 @@ struct StereoFrameStats {
     double secondEyeMs = 0.0;   // second eye (full render, or the visible subset)
     double pairMs = 0.0;        // first + collect + second
     size_t triangles = 0;               // scene triangles
-    size_t visibleTriangles = 0;        // distinct IDs in the first eye's P-buffer
+    // Distinct IDs in the first eye's P-buffer (full method: 0 when its IDs are not written).
+    size_t visibleTriangles = 0;
     size_t secondEyeTriangles = 0;      // triangles submitted for the second eye
     size_t conservativeExtra = 0;       // triangles the conservative option added
     int guardBandPx = 0;                // extra first-eye columns on each side (conservative)
@@ -142,7 +149,8 @@ struct SecondEyeQuality {
     int64_t missedPixels = 0;         // pixels whose ID differs from the full render
 };
 
-// drawn: the triangle set the approximation was rendered from (sorted ascending).
+// drawn: the triangle set the approximation was rendered from (sorted ascending). Both frames
+// need their ID images (StereoOptions::writeDepthAndIds).
 SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
                                   const raster::FrameBuffers& full,
                                   std::span<const uint32_t> drawn);

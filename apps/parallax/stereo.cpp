@@ -123,7 +123,15 @@ int runStereo(const StereoArgs& a) {
         cameras.push_back(*cam);
     }
 
-    stereo::StereoFrame frame, reference;
+    // The timed pair writes colour only, as `parallax bench stereo` times it: the layouts show
+    // nothing else. An untimed pair with depth and IDs (the same images) gives the visible set
+    // and, against a full pair, the quality. Not with --conservative: its guard band follows the
+    // previous frame's depth, so a second pair could differ from the one written; that pair
+    // keeps its planes and is measured itself.
+    const bool colourOnly = !p->options.conservative;
+    stereo::StereoFrame frame, withPlanes, reference;
+    stereo::StereoOptions timedOptions = p->options;
+    timedOptions.writeDepthAndIds = !colourOnly;
     stereo::StereoOptions fullOptions = p->options;
     fullOptions.method = stereo::Method::kFull;
     fullOptions.conservative = false;
@@ -136,16 +144,23 @@ int runStereo(const StereoArgs& a) {
     for (size_t i = 0; i < cameras.size(); ++i) {
         auto rig = StereoRig::create(cameras[i], p->rig);
         if (!rig) return fail(rig.status());
-        last = (*renderer)->renderPair(*scene, *rig, p->options, &frame);
+        last = (*renderer)->renderPair(*scene, *rig, timedOptions, &frame);
+        // Not part of the timings above: the visible set, and the quality against the full
+        // method.
+        const stereo::StereoFrame* measured = &frame;
+        if (colourOnly) {
+            last.visibleTriangles =
+                (*renderer)->renderPair(*scene, *rig, p->options, &withPlanes).visibleTriangles;
+            measured = &withPlanes;
+        }
         std::vector<uint32_t> drawn((*renderer)->lastVisibleSet().begin(),
                                     (*renderer)->lastVisibleSet().end());
-        // Quality against the full method (not part of the timings above).
         Eye second = rig->secondEye();
         if (p->options.method == stereo::Method::kFull) {
             quality = stereo::SecondEyeQuality{INFINITY, 0.0, 0, 0, 0};
         } else {
             (*renderer)->renderPair(*scene, *rig, fullOptions, &reference);
-            quality = stereo::compareSecondEye(frame.eye(second), reference.eye(second), drawn);
+            quality = stereo::compareSecondEye(measured->eye(second), reference.eye(second), drawn);
             if (cameras.size() == 1) {
                 std::string diffPath = a.out + ".diff.png";
                 if (Status s = writePng(diffPath, diffImage(frame.eye(second).color,

@@ -2,7 +2,7 @@
 //   plx_ptm_bench sizes [--cache CSV] FILES...
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
-//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=1..4) next to libpng decode
+//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=0..5) next to libpng decode
 //   plx_ptm_bench coderab FILES...  two coders (PLX_AB="4,5"): sizes, decode MB/s, libpng
 //   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers); PLX_PTM_REPS=N
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
@@ -30,7 +30,7 @@ namespace {
 
 using plx::ByteImage;
 
-// The coder of the "PTM" columns: PLX_PTM_CODER=1..4, else the library default.
+// The coder of the "PTM" columns: PLX_PTM_CODER=0..5, else the library default.
 plx::ptm::EncodeConfig ptmConfig() {
     plx::ptm::EncodeConfig cfg;
     if (const char* c = std::getenv("PLX_PTM_CODER")) cfg.coder = plx::ptm::Coder(std::atoi(c));

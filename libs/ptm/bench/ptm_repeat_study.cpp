@@ -90,7 +90,10 @@ int main(int argc, char** argv) {
             continue;
         }
         auto header = plx::ptm::parseHeader(*file);
-        if (!header) return 1;
+        if (!header) {
+            std::fprintf(stderr, "%s: %s\n", argv[i], header.status().message().c_str());
+            return 1;
+        }
         const int count = header->levelCount;
         const auto chain = plx::ptm::buildMipChain(*img, count);
         double saved = 0;

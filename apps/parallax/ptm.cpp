@@ -158,11 +158,12 @@ Command registerPtm(CLI::App& app) {
         ->check(CLI::Range(1, 22));
     auto* rawFlag =
         enc->add_flag("--raw", args->raw, "Store the planes uncompressed (the paper's layout)");
-    auto* zstdFlag = enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 5)")
+    auto* zstdFlag = enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 6)")
                          ->excludes(rawFlag);
     enc->add_option("--coder", args->coder,
                     "Coder id: 0 raw, 1 predict+zstd, 2 predict+rans, 3 predict+rans-fast, "
-                    "4 predict+rans-simd, 5 predict-above+rans-simd (default 5)")
+                    "4 predict+rans-simd, 5 predict-above+rans-simd, 6 predict-cross+rans-simd "
+                    "(default 6)")
         ->check(CLI::Range(0, int(ptm::kLastCoder)))
         ->excludes(rawFlag)
         ->excludes(zstdFlag);

@@ -2,8 +2,8 @@
 //   plx_ptm_bench sizes [--cache CSV] FILES...
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
-//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=0..5) next to libpng decode
-//   plx_ptm_bench coderab FILES...  two coders (PLX_AB="4,5"): sizes, decode MB/s, libpng
+//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=0..6) next to libpng decode
+//   plx_ptm_bench coderab FILES...  two coders (PLX_AB="5,6"): sizes, decode MB/s, libpng
 //   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers); PLX_PTM_REPS=N
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
@@ -30,7 +30,7 @@ namespace {
 
 using plx::ByteImage;
 
-// The coder of the "PTM" columns: PLX_PTM_CODER=0..5, else the library default.
+// The coder of the "PTM" columns: PLX_PTM_CODER=0..6, else the library default.
 plx::ptm::EncodeConfig ptmConfig() {
     plx::ptm::EncodeConfig cfg;
     if (const char* c = std::getenv("PLX_PTM_CODER")) cfg.coder = plx::ptm::Coder(std::atoi(c));
@@ -295,7 +295,7 @@ double bestCpuMs(int reps, F&& f) {
 int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
-    constexpr int kCodecs = 8;
+    constexpr int kCodecs = 9;
     double enc[kCodecs] = {}, dec[kCodecs] = {};
     const char* names[kCodecs] = {"PTM predict+rans-fast (coder 3)",
                                   "PTM predict+rans (coder 2)",
@@ -304,14 +304,16 @@ int runSpeed(const std::vector<std::string>& files) {
                                   "WebP lossless",
                                   "JPEG XL lossless e7",
                                   "PTM predict+rans-simd (coder 4)",
-                                  "PTM predict-above+rans-simd (coder 5, default)"};
+                                  "PTM predict-above+rans-simd (coder 5)",
+                                  "PTM predict-cross+rans-simd (coder 6, default)"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
-        std::vector<uint8_t> p5, p4, p3, p2, p1, png, webp, jxl;
-        plx::ptm::EncodeConfig c5, c4, c3, c2, c1;
+        std::vector<uint8_t> p6, p5, p4, p3, p2, p1, png, webp, jxl;
+        plx::ptm::EncodeConfig c6, c5, c4, c3, c2, c1;
+        c6.coder = plx::ptm::Coder::kPredictCrossRansSimd;
         c5.coder = plx::ptm::Coder::kPredictAboveRansSimd;
         c4.coder = plx::ptm::Coder::kPredictRansSimd;
         c3.coder = plx::ptm::Coder::kPredictRansFast;
@@ -327,6 +329,7 @@ int runSpeed(const std::vector<std::string>& files) {
         enc[5] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
         enc[6] += bestMs(3, [&] { p4 = *plx::ptm::encode(*img, c4); });
         enc[7] += bestMs(3, [&] { p5 = *plx::ptm::encode(*img, c5); });
+        enc[8] += bestMs(3, [&] { p6 = *plx::ptm::encode(*img, c6); });
         dec[0] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p3).isOk()); });
         dec[1] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p2).isOk()); });
         dec[2] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p1).isOk()); });
@@ -336,6 +339,7 @@ int runSpeed(const std::vector<std::string>& files) {
         dec[5] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
         dec[6] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p4).isOk()); });
         dec[7] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p5).isOk()); });
+        dec[8] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p6).isOk()); });
     }
     std::printf("%.1f MB of base-level pixels, single thread\n", mb);
     std::printf("| codec | encode MB/s | decode MB/s (CPU time) | decode vs libpng |\n"
@@ -370,11 +374,11 @@ int runPtmSpeed(const std::vector<std::string>& files) {
     return 0;
 }
 
-// Two coders on the same images (PLX_AB="A,B", default "4,5"): sizes and best-of-N CPU decode
+// Two coders on the same images (PLX_AB="A,B", default "5,6"): sizes and best-of-N CPU decode
 // times, the two decoders alternated so that load on a shared machine hits both alike; libpng
 // in the same run.
 int runCoderAB(const std::vector<std::string>& files) {
-    int ids[2] = {4, 5};
+    int ids[2] = {5, 6};
     if (const char* ab = std::getenv("PLX_AB")) std::sscanf(ab, "%d,%d", &ids[0], &ids[1]);
     for (int& id : ids) id = std::clamp(id, 0, int(plx::ptm::kLastCoder));
     double mb = 0, bytesA = 0, bytesB = 0, msA = 0, msB = 0, pngMs = 0;

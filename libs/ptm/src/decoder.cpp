@@ -63,23 +63,36 @@ Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
     return Status::ok();
 }
 
-// Coder 2 to 5 groups (docs/ptm-format.md): family table counts, tables, rANS stream, extra
-// bits.
+// Coder 2 to 6 groups (docs/ptm-format.md): (coder 6: the shapes' weight,) family table counts,
+// tables, rANS stream, extra bits.
 Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
                        Coder coder) {
     const bool lowest = k == 0;
-    const bool above = coder == Coder::kPredictAboveRansSimd;
-    const bool simd = (coder == Coder::kPredictRansSimd || above) && !lowest;
-    // group 0 of coders 3 to 5 is coder 2's
+    const bool cross = coder == Coder::kPredictCrossRansSimd;
+    const bool simd =
+        (coder == Coder::kPredictRansSimd || coder == Coder::kPredictAboveRansSimd || cross) &&
+        !lowest;
+    // group 0 of coders 3 to 6 is coder 2's
     const bool fast = coder == Coder::kPredictRansFast && !lowest;
     const uint8_t* p = in.data();
     const uint8_t* end = in.data() + in.size();
+    detail::WalkModels models;
+    if (coder == Coder::kPredictAboveRansSimd) models = detail::kCoder5Models;
+    if (cross && !lowest) {
+        if (p == end) return corrupt(fmt::format("level {}: truncated before the shape weight", k));
+        const int w = *p++;
+        if (w > detail::kMaxShapeEighths)
+            return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, w,
+                                       detail::kMaxShapeEighths));
+        models = {true, true, w};
+    }
     std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
     std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
     const int families = detail::familyCount(img.channels, lowest);
     if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
     size_t tables = 0;
-    std::array<std::array<int, 2>, 16> familyTables{};  // coders 4, 5: {first table, g} per family
+    std::array<std::array<int, 2>, 16>
+        familyTables{};  // coders 4 to 6: {first table, g} per family
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -112,7 +125,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
             detail::buildSimdTable(freqs[t], entries.get() + t * detail::kRansTotal);
         detail::SimdDecodeIO io(entries.get(), familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
-        io.above = above;
+        io.models = models;
         const bool walked = decodeLevelFast(img.channels, *low, img, io);
         return finishFast(walked, io, extraBytes, k);
     }
@@ -170,8 +183,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
-    if (mHeader.coder == Coder::kPredictRans || mHeader.coder == Coder::kPredictRansFast ||
-        mHeader.coder == Coder::kPredictRansSimd || mHeader.coder == Coder::kPredictAboveRansSimd) {
+    if (uint8_t(mHeader.coder) >= uint8_t(Coder::kPredictRans)) {  // coders 2 to 6
         ByteImage img{size.width, size.height, comps, {}};
         img.bytes.resize(img.rowBytes() * size_t(size.height));
         PLX_RETURN_IF_ERROR(

@@ -75,12 +75,13 @@ void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level,
 
 template <class IO>
 std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
-                                         int lanes = detail::kFastStates, bool above = false) {
+                                         int lanes = detail::kFastStates,
+                                         const detail::WalkModels& models = {}) {
     ByteImage level = chain[size_t(k)];
     IO io;
     if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
         io.lanes = lanes;
-        io.above = above;
+        io.models = models;
     }
     const bool lowest = k == 0;
     walkForEncode(chain, k, level, io);
@@ -132,15 +133,42 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     return out;
 }
 
-// Coder 2 everywhere, coders 3 to 5 for groups k >= 1 (4 or kSimdStates rANS states; coder 5
-// with the models that look at the block row above).
-std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k, Coder coder) {
+// Coder 6's group k >= 1: the shapes' weight byte, then the group coded with it. The encoder
+// tries these weights (eighths of the detail above) and keeps the smallest group: 0.8986x
+// optipng -o2 over the 69 Sponza textures, where 4 alone gives 0.9012x and 3 alone 0.9007x
+// (docs/ptm-results.md).
+// shapeEighths >= 0 (EncodeConfig) fixes the weight instead.
+constexpr int kShapeCandidates[] = {4, 3, 2, 0};
+
+std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
+                                      int shapeEighths) {
+    std::vector<uint8_t> best;
+    for (int w : kShapeCandidates) {
+        if (shapeEighths >= 0) w = shapeEighths;
+        std::vector<uint8_t> group{uint8_t(w)};
+        const std::vector<uint8_t> coded = encodeGroupRansWith<detail::FastEncodeIO>(
+            chain, k, detail::kSimdStates, detail::WalkModels{true, true, w});
+        group.insert(group.end(), coded.begin(), coded.end());
+        if (best.empty() || group.size() < best.size()) best = std::move(group);
+        if (shapeEighths >= 0) break;
+    }
+    return best;
+}
+
+// Coder 2 everywhere, coders 3 to 6 for groups k >= 1 (4 or kSimdStates rANS states; coders 5
+// and 6 with the models that look at the block row above, coder 6 with its own).
+std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k,
+                                     const EncodeConfig& config) {
+    const Coder coder = config.coder;
     if (k == 0 || coder == Coder::kPredictRans)
         return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
-    const bool above = coder == Coder::kPredictAboveRansSimd;
-    const int lanes =
-        coder == Coder::kPredictRansSimd || above ? detail::kSimdStates : detail::kFastStates;
-    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes, above);
+    if (coder == Coder::kPredictCrossRansSimd)
+        return encodeGroupCross(chain, k, config.shapeEighths);
+    if (coder == Coder::kPredictAboveRansSimd)
+        return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
+                                                         detail::kCoder5Models);
+    const int lanes = coder == Coder::kPredictRansSimd ? detail::kSimdStates : detail::kFastStates;
+    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes);
 }
 
 Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
@@ -180,6 +208,10 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
     if (uint8_t(config.coder) > uint8_t(kLastCoder))
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
+    if (config.shapeEighths < -1 || config.shapeEighths > detail::kMaxShapeEighths)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("PTM encode: shape weight {} outside -1..{}",
+                                       config.shapeEighths, detail::kMaxShapeEighths));
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
         return errorStatus(ErrorCode::kInvalidArgument,
@@ -197,11 +229,9 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        const bool rans =
-            config.coder == Coder::kPredictRans || config.coder == Coder::kPredictRansFast ||
-            config.coder == Coder::kPredictRansSimd || config.coder == Coder::kPredictAboveRansSimd;
+        const bool rans = uint8_t(config.coder) >= uint8_t(Coder::kPredictRans);  // coders 2-6
         std::vector<uint8_t> payload =
-            rans ? encodeGroupRans(chain, k, config.coder) : buildPayload(chain, k, config.coder);
+            rans ? encodeGroupRans(chain, k, config) : buildPayload(chain, k, config.coder);
         if (config.coder == Coder::kPredictZstd) {
             auto packed = compress(payload, config.zstdLevel);
             if (!packed) return packed.status();

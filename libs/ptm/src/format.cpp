@@ -33,6 +33,8 @@ const char* coderName(Coder coder) {
     case Coder::kPredictRansSimd: return "predict+rans-simd";
     case Coder::kPredictAboveRansSimd:
         return "predict-above+rans-simd";
+    case Coder::kPredictCrossRansSimd:
+        return "predict-cross+rans-simd";
     }
     return "unknown";
 }

@@ -82,7 +82,7 @@ struct SimdDecodeIO : WordStream {
     std::array<CtxMap, 16> families{};
     BitReader bits;
     alignas(32) uint32_t x[kSimdStates] = {};
-    bool above = false;  // coder 5's models (FastRows::above)
+    WalkModels models;  // coders 5, 6 (FastRows)
 
     // familyTables[f] = {first table, g} of family f (context map).
     // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.

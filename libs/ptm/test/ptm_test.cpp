@@ -92,9 +92,9 @@ TEST(PtmCodec, RoundTripManySizesAndComponents) {
                                          {3, 127}, {100, 61}, {256, 1}};
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)
-            for (Coder coder :
-                 {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans, Coder::kPredictRansFast,
-                  Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd})
+            for (Coder coder : {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans,
+                                Coder::kPredictRansFast, Coder::kPredictRansSimd,
+                                Coder::kPredictAboveRansSimd, Coder::kPredictCrossRansSimd})
                 for (bool smooth : {false, true}) {
                     ByteImage img = randomImage(w, h, c, uint32_t(w * 31 + h * 7 + c), smooth);
                     EncodeConfig cfg;
@@ -187,10 +187,10 @@ TEST(PtmDecoder, WrongGroupIsRejected) {
 TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
     for (Coder coder :
          {Coder::kRaw, Coder::kPredictZstd, Coder::kPredictRans, Coder::kPredictRansFast,
-          Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd}) {
+          Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd, Coder::kPredictCrossRansSimd}) {
         EncodeConfig cfg;
         cfg.coder = coder;
-        // Coders 4 and 5: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
+        // Coders 4 to 6: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
         auto file = coder >= Coder::kPredictRansSimd
                         ? mustEncode(randomImage(40, 9, 3, 9, true), cfg)
                         : mustEncode(randomImage(23, 11, 4, 9, true), cfg);
@@ -230,10 +230,10 @@ std::vector<uint8_t> corruptGroup(std::vector<uint8_t> file, int k, size_t at, u
 class PtmHostileRans : public ::testing::TestWithParam<Coder> {};
 
 TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
-    // Every byte of every group of a coder-2, 3, 4 or 5 file flipped, CRCs fixed up: the entropy
+    // Every byte of every group of a coder-2 to 6 file flipped, CRCs fixed up: the entropy
     // decoder must stay in bounds (ASan/UBSan runs check it) and usually report the damage.
-    // Coder 4's and 5's image is wide enough for their vectorised rounds (runs of 3 * 35
-    // symbols).
+    // The image of coders 4 to 6 is wide enough for their vectorised rounds (runs of 3 * 35
+    // symbols; coder 6: 35).
     EncodeConfig cfg;
     cfg.coder = GetParam();
     const ByteImage img = GetParam() >= Coder::kPredictRansSimd ? randomImage(70, 10, 3, 5, true)
@@ -261,7 +261,45 @@ TEST_P(PtmHostileRans, GroupsWithValidChecksumsNeverCrash) {
 
 INSTANTIATE_TEST_SUITE_P(Coders, PtmHostileRans,
                          ::testing::Values(Coder::kPredictRans, Coder::kPredictRansFast,
-                                           Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd));
+                                           Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd,
+                                           Coder::kPredictCrossRansSimd));
+
+TEST(PtmCodec, CrossCoderShapeWeights) {
+    // Coder 6: every shape weight round-trips and is stored in each group's first byte, the
+    // default search is never larger than a fixed weight it tries, and the decoder names a weight
+    // out of range. Smooth and noisy images, 3 and 4 components (the mean of two components'
+    // residuals), wide enough for the vector path.
+    for (int c : {3, 4})
+        for (bool smooth : {false, true}) {
+            const ByteImage img = randomImage(75, 21, c, uint32_t(11 + c), smooth);
+            EncodeConfig cfg;
+            const size_t searched = mustEncode(img, cfg).size();
+            for (int w = 0; w <= 4; ++w) {
+                cfg.shapeEighths = w;
+                auto file = mustEncode(img, cfg);
+                if (w != 1) {  // the weights the default search tries
+                    EXPECT_LE(searched, file.size()) << "weight " << w;
+                }
+                auto h = parseHeader(file);
+                ASSERT_TRUE(h.isOk());
+                for (int k = 1; k < h->levelCount; ++k)
+                    EXPECT_EQ(file[levelByteRange(*h, k).offset], w) << "level " << k;
+                auto back = decodeImage(file);
+                ASSERT_TRUE(back.isOk()) << back.status().toString();
+                EXPECT_EQ(*back, img) << "weight " << w << " c" << c;
+                if (w != 4) continue;
+                const int k = h->levelCount - 1;
+                auto bad = decodeImage(corruptGroup(file, k, 0, 0x01));  // weight 5
+                ASSERT_FALSE(bad.isOk());
+                EXPECT_NE(bad.status().message().find("shape weight 5 outside 0..4"),
+                          std::string::npos)
+                    << bad.status().message();
+            }
+        }
+    EncodeConfig bad;
+    bad.shapeEighths = 5;
+    EXPECT_FALSE(encode(randomImage(4, 4, 3, 1, false), bad).isOk());
+}
 
 TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
     auto file = mustEncode(randomImage(19, 9, 3, 4, true));
@@ -402,7 +440,13 @@ TEST(PtmGolden, FrozenBitstream) {
     above.coder = Coder::kPredictAboveRansSimd;
     auto aboveFile = mustEncode(goldenImage(), above);
     auto aboveWideFile = mustEncode(goldenWideImage(), above);
+    EncodeConfig cross;
+    cross.coder = Coder::kPredictCrossRansSimd;
+    auto crossFile = mustEncode(goldenImage(), cross);
+    auto crossWideFile = mustEncode(goldenWideImage(), cross);
     if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_cross_rans_simd.ptm", crossFile).isOk());
+        ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_cross_rans_simd.ptm", crossWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_above_rans_simd.ptm", aboveFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_above_rans_simd.ptm", aboveWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_simd.ptm", simdFile).isOk());
@@ -426,12 +470,14 @@ TEST(PtmGolden, FrozenBitstream) {
     auto fastDecoded = decodeImage(*goldenFast);
     ASSERT_TRUE(fastDecoded.isOk()) << fastDecoded.status().toString();
     EXPECT_EQ(*fastDecoded, goldenImage());
-    // Coders 4 and 5 likewise, on both images.
+    // Coders 4 to 6 likewise, on both images.
     for (const auto& [name, file, image] :
          {std::tuple{"rgba_13x7_rans_simd.ptm", simdFile, goldenImage()},
           std::tuple{"rgb_70x9_rans_simd.ptm", simdWideFile, goldenWideImage()},
           std::tuple{"rgba_13x7_above_rans_simd.ptm", aboveFile, goldenImage()},
-          std::tuple{"rgb_70x9_above_rans_simd.ptm", aboveWideFile, goldenWideImage()}}) {
+          std::tuple{"rgb_70x9_above_rans_simd.ptm", aboveWideFile, goldenWideImage()},
+          std::tuple{"rgba_13x7_cross_rans_simd.ptm", crossFile, goldenImage()},
+          std::tuple{"rgb_70x9_cross_rans_simd.ptm", crossWideFile, goldenWideImage()}}) {
         auto golden = readFileBytes(dir + name);
         ASSERT_TRUE(golden.isOk()) << "golden file missing in " << dir;
         EXPECT_EQ(file, *golden) << "the bitstream changed: " << name;

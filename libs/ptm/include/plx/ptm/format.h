@@ -26,8 +26,9 @@ inline constexpr int64_t kMaxPixels = int64_t(1) << 28;
 // How a group is stored. kRaw and kPredictZstd share the plane layout; kPredictRans codes the
 // same values symbol by symbol in block order; kPredictRansFast in per-row runs whose contexts
 // never depend on the same run; kPredictRansSimd as kPredictRansFast with 32 interleaved rANS
-// states for a vectorised decoder; kPredictAboveRansSimd (the default) as kPredictRansSimd with
-// the block row above in two of its models (docs/ptm-format.md).
+// states for a vectorised decoder; kPredictAboveRansSimd as kPredictRansSimd with the block row
+// above in two of its models; kPredictCrossRansSimd (the default) as kPredictAboveRansSimd with
+// component-major rows and more inter-component models (docs/ptm-format.md).
 enum class Coder : uint8_t {
     kRaw = 0,              // planes hold the values themselves, uncompressed (the paper's layout)
     kPredictZstd = 1,      // planes hold prediction residuals; the payload is one zstd frame
@@ -36,8 +37,11 @@ enum class Coder : uint8_t {
     kPredictRansSimd = 4,  // as 3 with 32 rANS states, decoded eight at a time (AVX2)
     // as 4; the upper pixels' predictions and the eps contexts also use the block row above
     kPredictAboveRansSimd = 5,
+    // as 5, block rows component by component: each component's predictions and contexts also
+    // use the components before it in the same block; the encoder picks the shapes' weight
+    kPredictCrossRansSimd = 6,
 };
-inline constexpr Coder kLastCoder = Coder::kPredictAboveRansSimd;
+inline constexpr Coder kLastCoder = Coder::kPredictCrossRansSimd;
 
 // Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.
 const char* coderName(Coder coder);

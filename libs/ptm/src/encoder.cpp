@@ -73,12 +73,27 @@ void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level,
     }
 }
 
+// A group up to its rANS stream: the walker's symbols and extra bits, the context map and
+// tables (`head`), and the group's estimated size in bits (tables, symbols at their table's
+// cost, extra bits), which lets the encoder compare candidates without coding them.
 template <class IO>
-std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
-                                         int lanes = detail::kFastStates,
-                                         const detail::WalkModels& models = {}) {
-    ByteImage level = chain[size_t(k)];
+struct ModelledGroup {
     IO io;
+    std::vector<uint8_t> head;
+    std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
+    std::vector<uint16_t> ctxToTable;
+    double bits = 0;
+    int channels = 0, width = 0;
+};
+
+template <class IO>
+ModelledGroup<IO> modelGroup(const std::vector<ByteImage>& chain, int k, int lanes,
+                             const detail::WalkModels& models) {
+    ByteImage level = chain[size_t(k)];
+    ModelledGroup<IO> g;
+    g.channels = level.channels;
+    g.width = level.width;
+    IO& io = g.io;
     if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
         io.lanes = lanes;
         io.models = models;
@@ -88,53 +103,69 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     using Hist = std::array<uint32_t, detail::kTokenCount>;
     std::vector<Hist> hist(detail::kMaxRawContexts, Hist{});
     for (const auto& s : io.symbols) ++hist[s.ctx][s.token];
-    std::vector<uint8_t> out;
-    std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
-    std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
+    std::vector<uint8_t>& out = g.head;
+    g.ctxToTable.assign(detail::kMaxRawContexts, 0);
     const int families = detail::familyCount(level.channels, lowest);
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
-        auto merged = [&](int g) {
-            std::vector<Hist> m(size_t(g), Hist{});
+        auto merged = [&](int groups) {
+            std::vector<Hist> m(size_t(groups), Hist{});
             for (int q = 0; q < raw; ++q)
                 for (int t = 0; t < detail::kTokenCount; ++t)
-                    m[size_t(q * g / raw)][size_t(t)] +=
+                    m[size_t(q * groups / raw)][size_t(t)] +=
                         hist[size_t(f * detail::kFamilyContexts + q)][size_t(t)];
             return m;
         };
         int bestG = 1;
         double bestBits = 0;
-        for (int g = 1; g <= raw; ++g) {
-            if (raw % g != 0) continue;
+        for (int groups = 1; groups <= raw; ++groups) {
+            if (raw % groups != 0) continue;
             double bits = 8;
-            for (const Hist& h : merged(g)) bits += tableCost(h);
-            if (g == 1 || bits < bestBits) bestBits = bits, bestG = g;
+            for (const Hist& h : merged(groups)) bits += tableCost(h);
+            if (groups == 1 || bits < bestBits) bestBits = bits, bestG = groups;
         }
+        g.bits += bestBits;
         out.push_back(uint8_t(bestG));
         for (int q = 0; q < raw; ++q)
-            ctxToTable[size_t(f * detail::kFamilyContexts + q)] =
-                uint16_t(freqs.size() + size_t(q * bestG / raw));
-        for (const Hist& h : merged(bestG)) freqs.push_back(detail::normalizeCounts(h));
+            g.ctxToTable[size_t(f * detail::kFamilyContexts + q)] =
+                uint16_t(g.freqs.size() + size_t(q * bestG / raw));
+        for (const Hist& h : merged(bestG)) g.freqs.push_back(detail::normalizeCounts(h));
     }
-    for (const auto& f : freqs) detail::writeTable(out, f);
+    for (const auto& f : g.freqs) detail::writeTable(out, f);
+    g.bits += double(io.bits.bitCount());
+    return g;
+}
+
+// The whole group: head, rANS length and stream, extra bits.
+template <class IO>
+std::vector<uint8_t> emitGroup(ModelledGroup<IO>& g, int lanes) {
     std::vector<uint8_t> rans;
     if constexpr (std::is_same_v<IO, detail::FastEncodeIO>)
         rans = detail::ransEncodeLanes(
-            io.symbols, freqs, ctxToTable, lanes,
-            lanes == detail::kSimdStates ? detail::simdStoredStates(level.channels, level.width)
-                                         : lanes);
+            g.io.symbols, g.freqs, g.ctxToTable, lanes,
+            lanes == detail::kSimdStates ? detail::simdStoredStates(g.channels, g.width) : lanes);
     else
-        rans = detail::ransEncode(io.symbols, freqs, ctxToTable);
+        rans = detail::ransEncode(g.io.symbols, g.freqs, g.ctxToTable);
+    std::vector<uint8_t> out = std::move(g.head);
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));
     out.insert(out.end(), rans.begin(), rans.end());
-    const std::vector<uint8_t> bits = io.bits.finish();
+    const std::vector<uint8_t> bits = g.io.bits.finish();
     out.insert(out.end(), bits.begin(), bits.end());
     return out;
 }
 
+template <class IO>
+std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
+                                         int lanes = detail::kFastStates,
+                                         const detail::WalkModels& models = {}) {
+    ModelledGroup<IO> g = modelGroup<IO>(chain, k, lanes, models);
+    return emitGroup(g, lanes);
+}
+
 // Coder 6's group k >= 1: the shapes' weight byte, then the group coded with it. The encoder
-// tries these weights (eighths of the detail above) and keeps the smallest group: 0.8986x
+// tries these weights (eighths of the detail above) and keeps the group whose estimated size
+// (ModelledGroup::bits) is the smallest, coding only that one: 0.8986x
 // optipng -o2 over the 69 Sponza textures, where 4 alone gives 0.9012x and 3 alone 0.9007x
 // (docs/ptm-results.md).
 // shapeEighths >= 0 (EncodeConfig) fixes the weight instead.
@@ -142,17 +173,17 @@ constexpr int kShapeCandidates[] = {4, 3, 2, 0};
 
 std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
                                       int shapeEighths) {
-    std::vector<uint8_t> best;
+    using Group = ModelledGroup<detail::FastEncodeIO>;
+    Group best;
     for (int w : kShapeCandidates) {
         if (shapeEighths >= 0) w = shapeEighths;
-        std::vector<uint8_t> group{uint8_t(w)};
-        const std::vector<uint8_t> coded = encodeGroupRansWith<detail::FastEncodeIO>(
-            chain, k, detail::kSimdStates, detail::WalkModels{true, true, w});
-        group.insert(group.end(), coded.begin(), coded.end());
-        if (best.empty() || group.size() < best.size()) best = std::move(group);
+        Group g = modelGroup<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
+                                                   detail::WalkModels{true, true, w});
+        g.head.insert(g.head.begin(), uint8_t(w));
+        if (best.head.empty() || g.bits < best.bits) best = std::move(g);
         if (shapeEighths >= 0) break;
     }
-    return best;
+    return emitGroup(best, detail::kSimdStates);
 }
 
 // Coder 2 everywhere, coders 3 to 6 for groups k >= 1 (4 or kSimdStates rANS states; coders 5

@@ -85,6 +85,7 @@ public:
             mCount -= 8;
         }
     }
+    size_t bitCount() const { return mBytes.size() * 8 + size_t(mCount); }
     std::vector<uint8_t> finish() {
         if (mCount > 0) mBytes.push_back(uint8_t(mAcc));
         mAcc = 0;

@@ -1,0 +1,126 @@
+// parallax ptm encode, info, decode and verify run as a user would, bad input included.
+
+#include <nlohmann/json.hpp>
+
+#include <plx/core/image_io.h>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+fs::path scratchDir() {
+    return plx::testing::scratchDir("ptm_cli");
+}
+
+// An RGB texture with odd sides (37x23: seven levels down to 1x1) and some structure.
+fs::path writeTexture(const std::string& name, uint32_t seed) {
+    plx::ByteImage img{37, 23, 3, std::vector<uint8_t>(37 * 23 * 3)};
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            for (int k = 0; k < 3; ++k)
+                img.pixel(x, y)[k] = uint8_t((x * 5 + y * 3 + k * 50 + (x * y + seed) % 11) & 255);
+    const fs::path path = scratchDir() / name;
+    EXPECT_TRUE(plx::writePng(path.string(), img).isOk());
+    return path;
+}
+
+std::string readAll(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+TEST(PtmCli, EncodeInfoDecodeVerify) {
+    const fs::path png = writeTexture("tex.png", 1), ptm = scratchDir() / "tex.ptm";
+    RunResult enc = runParallax("ptm encode " + png.string() + " -o " + ptm.string() + " --json");
+    ASSERT_EQ(enc.exitCode, 0) << enc.err;
+    const auto e = nlohmann::json::parse(enc.out);
+    EXPECT_EQ(e["bytes"].get<uint64_t>(), fs::file_size(ptm));
+
+    RunResult info = runParallax("ptm info " + ptm.string() + " --json");
+    ASSERT_EQ(info.exitCode, 0) << info.err;
+    const auto doc = nlohmann::json::parse(info.out);
+    EXPECT_EQ(doc["coder"], "predict-cross+rans-simd");
+    EXPECT_EQ(doc["levels"].get<int>(), 7);
+    EXPECT_TRUE(doc["file_complete"].get<bool>());
+    // Level groups smallest first, contiguous, ending at the end of the file.
+    uint64_t next = doc["level_groups"][0]["offset"].get<uint64_t>();
+    for (const auto& g : doc["level_groups"]) {
+        EXPECT_EQ(g["offset"].get<uint64_t>(), next);
+        next += g["bytes"].get<uint64_t>();
+    }
+    EXPECT_EQ(next, fs::file_size(ptm));
+    EXPECT_EQ(doc["level_groups"][6]["width"].get<int>(), 37);
+
+    const fs::path top = scratchDir() / "top.png", low = scratchDir() / "low.png";
+    ASSERT_EQ(runParallax("ptm decode " + ptm.string() + " -o " + top.string()).exitCode, 0);
+    EXPECT_EQ(*plx::readImage(top.string()), *plx::readImage(png.string()));
+    ASSERT_EQ(runParallax("ptm decode " + ptm.string() + " --level 1 -o " + low.string()).exitCode,
+              0);
+    auto lowImage = plx::readImage(low.string());
+    ASSERT_TRUE(lowImage.isOk());
+    EXPECT_EQ(lowImage->width, 2);
+    EXPECT_EQ(lowImage->height, 1);
+
+    RunResult verify =
+        runParallax("ptm verify " + ptm.string() + " --against " + png.string() + " --json");
+    ASSERT_EQ(verify.exitCode, 0) << verify.err;
+    EXPECT_EQ(nlohmann::json::parse(verify.out)["against"], "bit-exact, every level");
+}
+
+TEST(PtmCli, EveryCoderAndShapeWeightRoundTrips) {
+    const fs::path png = writeTexture("coders.png", 2), ptm = scratchDir() / "coders.ptm";
+    auto roundTrips = [&](const std::string& option) {
+        RunResult enc =
+            runParallax("ptm encode " + png.string() + " -o " + ptm.string() + " " + option);
+        ASSERT_EQ(enc.exitCode, 0) << option << ": " << enc.err;
+        RunResult v = runParallax("ptm verify " + ptm.string() + " --against " + png.string());
+        EXPECT_EQ(v.exitCode, 0) << option << ": " << v.err;
+    };
+    for (int coder = 0; coder <= 6; ++coder) roundTrips("--coder " + std::to_string(coder));
+    for (int w = 0; w <= 4; ++w) roundTrips("--shape-eighths " + std::to_string(w));
+}
+
+TEST(PtmCli, PrefixesAndDamagedFiles) {
+    const fs::path png = writeTexture("bad.png", 3), ptm = scratchDir() / "bad.ptm";
+    ASSERT_EQ(runParallax("ptm encode " + png.string() + " -o " + ptm.string()).exitCode, 0);
+    const std::string bytes = readAll(ptm);
+    auto doc = nlohmann::json::parse(runParallax("ptm info " + ptm.string() + " --json").out);
+    const uint64_t level2End = doc["level_groups"][2]["offset"].get<uint64_t>() +
+                               doc["level_groups"][2]["bytes"].get<uint64_t>();
+
+    // A prefix that holds levels 0-2: info says so, level 2 decodes, level 3 does not.
+    const fs::path prefix = scratchDir() / "prefix.ptm";
+    writeFile(prefix, bytes.substr(0, level2End));
+    auto part = nlohmann::json::parse(runParallax("ptm info " + prefix.string() + " --json").out);
+    EXPECT_FALSE(part["file_complete"].get<bool>());
+    const fs::path out = scratchDir() / "prefix.png";
+    EXPECT_EQ(
+        runParallax("ptm decode " + prefix.string() + " --level 2 -o " + out.string()).exitCode, 0);
+    expectOneLineError(
+        runParallax("ptm decode " + prefix.string() + " --level 3 -o " + out.string()), "level 3");
+
+    // Damage in the last group: its checksum names it.
+    std::string damaged = bytes;
+    damaged[damaged.size() - 5] = char(damaged[damaged.size() - 5] ^ 0x40);
+    const fs::path bad = scratchDir() / "damaged.ptm";
+    writeFile(bad, damaged);
+    expectOneLineError(runParallax("ptm verify " + bad.string()), "level 6 checksum mismatch");
+
+    const fs::path shortFile = scratchDir() / "short.ptm";
+    writeFile(shortFile, bytes.substr(0, 20));
+    expectOneLineError(runParallax("ptm info " + shortFile.string()), "PTM");
+    expectOneLineError(runParallax("ptm info " + (scratchDir() / "none.ptm").string()), "none.ptm");
+    expectOneLineError(runParallax("ptm encode " + ptm.string() + " -o x.ptm"), "bad.ptm");
+    expectOneLineError(runParallax("ptm verify " + ptm.string() + " --against " +
+                                   writeTexture("other.png", 4).string()),
+                       "does not decode to");
+    expectOneLineError(runParallax("ptm decode " + ptm.string() + " --level 7 -o " + out.string()),
+                       "--level 7 outside 0..6", 2);
+    EXPECT_EQ(runParallax("ptm encode " + png.string() + " -o x.ptm --coder 7").exitCode, 2);
+    EXPECT_EQ(runParallax("ptm encode " + png.string() + " -o x.ptm --shape-eighths 5").exitCode,
+              2);
+}
+
+}  // namespace

@@ -63,8 +63,8 @@ Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
     return Status::ok();
 }
 
-// Coder 2 to 6 groups (docs/ptm-format.md): (coder 6: the shapes' weight,) family table counts,
-// tables, rANS stream, extra bits.
+// Coder 2 to 6 groups (docs/ptm-format.md): (coder 6: the mode byte, here 0..4,) family table
+// counts, tables, rANS stream, extra bits.
 Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
                        Coder coder) {
     const bool lowest = k == 0;
@@ -78,12 +78,12 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const uint8_t* end = in.data() + in.size();
     detail::WalkModels models;
     if (coder == Coder::kPredictAboveRansSimd) models = detail::kCoder5Models;
-    if (cross && !lowest) {
-        if (p == end) return corrupt(fmt::format("level {}: truncated before the shape weight", k));
+    if (cross) {  // the mode byte (a stored group's never reaches here)
+        if (p == end) return corrupt(fmt::format("level {}: truncated before the mode byte", k));
         const int w = *p++;
-        if (w > detail::kMaxShapeEighths)
-            return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, w,
-                                       detail::kMaxShapeEighths));
+        const int most = lowest ? 0 : detail::kMaxShapeEighths;
+        if (w > most)
+            return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, w, most));
         models = {true, true, w};
     }
     std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
@@ -91,8 +91,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const int families = detail::familyCount(img.channels, lowest);
     if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
     size_t tables = 0;
-    std::array<std::array<int, 2>, 16>
-        familyTables{};  // coders 4 to 6: {first table, g} per family
+    // Coders 4 to 6: {first table, g} per family.
+    std::array<std::array<int, 2>, 16> familyTables{};
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -183,18 +183,24 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     const LevelSize size = mHeader.levelSize(k);
     const int comps = mHeader.components;
-    if (uint8_t(mHeader.coder) >= uint8_t(Coder::kPredictRans)) {  // coders 2 to 6
+    Coder coder = mHeader.coder;
+    if (coder == Coder::kPredictCrossRansSimd && !groupBytes.empty() &&
+        groupBytes[0] == detail::kStoredGroup) {  // coder 6: a stored group is coder 0's
+        coder = Coder::kRaw;
+        groupBytes = groupBytes.subspan(1);
+    }
+    if (uint8_t(coder) >= uint8_t(Coder::kPredictRans)) {  // coders 2 to 6
         ByteImage img{size.width, size.height, comps, {}};
         img.bytes.resize(img.rowBytes() * size_t(size.height));
         PLX_RETURN_IF_ERROR(
-            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k, mHeader.coder));
+            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k, coder));
         mLevels.push_back(std::move(img));
         return Status::ok();
     }
     const detail::GroupLayout layout = detail::groupLayout(size, comps, k == 0);
     const size_t payloadBytes = layout.payloadBytes();
     std::span<uint8_t> payload;
-    if (mHeader.coder == Coder::kRaw) {
+    if (coder == Coder::kRaw) {
         if (groupBytes.size() != payloadBytes)
             return corrupt(fmt::format("level {} raw group has {} bytes, needs {}", k,
                                        groupBytes.size(), payloadBytes));
@@ -208,7 +214,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     payload = mScratch;
     ByteImage img{size.width, size.height, comps, {}};
     img.bytes.resize(img.rowBytes() * size_t(size.height));
-    const bool predict = mHeader.coder == Coder::kPredictZstd;
+    const bool predict = coder == Coder::kPredictZstd;
     bool ok = true;
     if (k == 0) {
         if (predict)

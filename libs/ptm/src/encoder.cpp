@@ -163,16 +163,15 @@ std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, in
     return emitGroup(g, lanes);
 }
 
-// Coder 6's group k >= 1: the shapes' weight byte, then the group coded with it. The encoder
-// tries these weights (eighths of the detail above) and keeps the group whose estimated size
-// (ModelledGroup::bits) is the smallest, coding only that one: 0.8986x
-// optipng -o2 over the 69 Sponza textures, where 4 alone gives 0.9012x and 3 alone 0.9007x
-// (docs/ptm-results.md).
-// shapeEighths >= 0 (EncodeConfig) fixes the weight instead.
+// Coder 6's group k >= 1, modelled: the shapes' weight byte, then the group coded with it. The
+// encoder tries these weights (eighths of the detail above) and keeps the group whose estimated
+// size (ModelledGroup::bits) is the smallest, coding only that one: 0.8986x optipng -o2 over
+// the 69 Sponza textures, where 4 alone gives 0.9012x and 3 alone 0.9007x
+// (docs/ptm-results.md). shapeEighths >= 0 (EncodeConfig) fixes the weight instead.
 constexpr int kShapeCandidates[] = {4, 3, 2, 0};
 
-std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
-                                      int shapeEighths) {
+std::vector<uint8_t> modelledCrossGroup(const std::vector<ByteImage>& chain, int k,
+                                        int shapeEighths) {
     using Group = ModelledGroup<detail::FastEncodeIO>;
     Group best;
     for (int w : kShapeCandidates) {
@@ -186,15 +185,33 @@ std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k
     return emitGroup(best, detail::kSimdStates);
 }
 
+// Coder 6's group k: modelled (k = 0: mode byte 0, then coder 2's group 0), or stored (mode
+// byte kStoredGroup, then coder 0's payload) where that is smaller, as on the smallest levels,
+// whose tables and rANS states outweigh their pixels.
+std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
+                                      int shapeEighths) {
+    std::vector<uint8_t> modelled;
+    if (k == 0) {
+        modelled = encodeGroupRansWith<detail::RansEncodeIO>(chain, 0);
+        modelled.insert(modelled.begin(), uint8_t(0));
+    } else {
+        modelled = modelledCrossGroup(chain, k, shapeEighths);
+    }
+    std::vector<uint8_t> stored = buildPayload(chain, k, Coder::kRaw);
+    if (stored.size() + 1 >= modelled.size()) return modelled;
+    stored.insert(stored.begin(), detail::kStoredGroup);
+    return stored;
+}
+
 // Coder 2 everywhere, coders 3 to 6 for groups k >= 1 (4 or kSimdStates rANS states; coders 5
 // and 6 with the models that look at the block row above, coder 6 with its own).
 std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k,
                                      const EncodeConfig& config) {
     const Coder coder = config.coder;
-    if (k == 0 || coder == Coder::kPredictRans)
-        return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
     if (coder == Coder::kPredictCrossRansSimd)
         return encodeGroupCross(chain, k, config.shapeEighths);
+    if (k == 0 || coder == Coder::kPredictRans)
+        return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
     if (coder == Coder::kPredictAboveRansSimd)
         return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
                                                          detail::kCoder5Models);

@@ -190,10 +190,12 @@ TEST(PtmDecoder, EveryTruncatedPrefixFailsCleanly) {
           Coder::kPredictRansSimd, Coder::kPredictAboveRansSimd, Coder::kPredictCrossRansSimd}) {
         EncodeConfig cfg;
         cfg.coder = coder;
-        // Coders 4 to 6: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20).
-        auto file = coder >= Coder::kPredictRansSimd
-                        ? mustEncode(randomImage(40, 9, 3, 9, true), cfg)
-                        : mustEncode(randomImage(23, 11, 4, 9, true), cfg);
+        // Coders 4 to 6: wide enough for the vectorised rounds of 32 symbols (runs of 3 * 20;
+        // coder 6: 35, on an image whose top level it models rather than stores).
+        auto file =
+            coder == Coder::kPredictCrossRansSimd ? mustEncode(randomImage(70, 10, 3, 5, true), cfg)
+            : coder >= Coder::kPredictRansSimd    ? mustEncode(randomImage(40, 9, 3, 9, true), cfg)
+                                               : mustEncode(randomImage(23, 11, 4, 9, true), cfg);
         auto header = parseHeader(file);
         ASSERT_TRUE(header.isOk());
         for (size_t n = 0; n < file.size(); ++n) {
@@ -265,8 +267,8 @@ INSTANTIATE_TEST_SUITE_P(Coders, PtmHostileRans,
                                            Coder::kPredictCrossRansSimd));
 
 TEST(PtmCodec, CrossCoderShapeWeights) {
-    // Coder 6: every shape weight round-trips and is stored in each group's first byte, the
-    // default search is not larger than a fixed weight it tries, and the decoder names a weight
+    // Coder 6: every shape weight round-trips and is stored in each modelled group's first byte,
+    // the default search is not larger than a fixed weight it tries, and the decoder names a weight
     // out of range. Smooth and noisy images, 3 and 4 components (the mean of two components'
     // residuals), wide enough for the vector path.
     for (int c : {3, 4})
@@ -284,12 +286,16 @@ TEST(PtmCodec, CrossCoderShapeWeights) {
                 if (w != 1) {
                     EXPECT_LE(searched, file.size() + 4 * size_t(h->levelCount)) << "weight " << w;
                 }
-                for (int k = 1; k < h->levelCount; ++k)
-                    EXPECT_EQ(file[levelByteRange(*h, k).offset], w) << "level " << k;
+                for (int k = 1; k < h->levelCount; ++k) {  // modelled with w, or stored
+                    const uint8_t mode = file[levelByteRange(*h, k).offset];
+                    EXPECT_TRUE(mode == w || mode == 0xFF) << "level " << k << ": " << int(mode);
+                }
+                const uint8_t topMode = file[levelByteRange(*h, h->levelCount - 1).offset];
+                EXPECT_EQ(topMode, smooth ? w : 0xFF);  // noise is stored
                 auto back = decodeImage(file);
                 ASSERT_TRUE(back.isOk()) << back.status().toString();
                 EXPECT_EQ(*back, img) << "weight " << w << " c" << c;
-                if (w != 4) continue;
+                if (w != 4 || !smooth) continue;
                 const int k = h->levelCount - 1;
                 auto bad = decodeImage(corruptGroup(file, k, 0, 0x01));  // weight 5
                 ASSERT_FALSE(bad.isOk());
@@ -301,6 +307,47 @@ TEST(PtmCodec, CrossCoderShapeWeights) {
     EncodeConfig bad;
     bad.shapeEighths = 5;
     EXPECT_FALSE(encode(randomImage(4, 4, 3, 1, false), bad).isOk());
+}
+
+TEST(PtmCodec, CrossCoderStoresGroupsThatModellingWouldEnlarge) {
+    // Coder 6 stores a group as coder 0's payload (mode byte 0xFF) where that is smaller: the
+    // smallest levels, and every level of noise. Each group is then at most one byte over coder
+    // 0's, and the decoder checks a stored group's length.
+    for (bool smooth : {false, true}) {
+        const ByteImage img = randomImage(48, 40, 3, 21, smooth);
+        EncodeConfig raw;
+        raw.coder = Coder::kRaw;
+        const auto rawFile = mustEncode(img, raw);
+        const auto file = mustEncode(img);
+        auto h = parseHeader(file), rh = parseHeader(rawFile);
+        ASSERT_TRUE(h.isOk() && rh.isOk());
+        int stored = 0;
+        for (int k = 0; k < h->levelCount; ++k) {
+            const ByteRange r = levelByteRange(*h, k);
+            EXPECT_LE(r.size, levelByteRange(*rh, k).size + 1) << "level " << k;
+            stored += file[r.offset] == 0xFF ? 1 : 0;
+        }
+        EXPECT_GE(stored, smooth ? 1 : h->levelCount) << "smooth " << smooth;
+        auto back = decodeImage(file);
+        ASSERT_TRUE(back.isOk()) << back.status().toString();
+        EXPECT_EQ(*back, img);
+        if (smooth) continue;
+        // Level 0 stored (mode byte, 3 pixel bytes): its last byte dropped, CRC and index fixed.
+        auto cut = file;
+        const ByteRange r0 = levelByteRange(*h, 0);
+        cut.erase(cut.begin() + std::ptrdiff_t(r0.offset + r0.size - 1));
+        auto hc = *h;
+        hc.groups[0].size -= 1;
+        for (size_t k = 1; k < hc.groups.size(); ++k) hc.groups[k].offset -= 1;
+        hc.groups[0].crc32 = crc32(std::span(cut).subspan(r0.offset, r0.size - 1));
+        const auto header = writeHeader(hc);
+        std::copy(header.begin(), header.end(), cut.begin());
+        auto bad = decodeImage(cut);
+        ASSERT_FALSE(bad.isOk());
+        EXPECT_NE(bad.status().message().find("level 0 raw group has 2 bytes, needs 3"),
+                  std::string::npos)
+            << bad.status().message();
+    }
 }
 
 TEST(PtmDecoder, EverySingleByteCorruptionIsDetected) {
@@ -446,9 +493,14 @@ TEST(PtmGolden, FrozenBitstream) {
     cross.coder = Coder::kPredictCrossRansSimd;
     auto crossFile = mustEncode(goldenImage(), cross);
     auto crossWideFile = mustEncode(goldenWideImage(), cross);
+    // Coder 6 stores most small groups as coder 0's payload (both 13x7 files' groups and all
+    // but the top level of the 70x9 one); with a 35x5 lowest level, level 0 is modelled too.
+    cross.lowestMaxSide = 35;
+    auto crossLowestFile = mustEncode(goldenWideImage(), cross);
     if (std::getenv("PLX_UPDATE_GOLDEN")) {
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_cross_rans_simd.ptm", crossFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_cross_rans_simd.ptm", crossWideFile).isOk());
+        ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_cross_lowest35.ptm", crossLowestFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_above_rans_simd.ptm", aboveFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgb_70x9_above_rans_simd.ptm", aboveWideFile).isOk());
         ASSERT_TRUE(writeFileBytes(dir + "rgba_13x7_rans_simd.ptm", simdFile).isOk());
@@ -479,7 +531,8 @@ TEST(PtmGolden, FrozenBitstream) {
           std::tuple{"rgba_13x7_above_rans_simd.ptm", aboveFile, goldenImage()},
           std::tuple{"rgb_70x9_above_rans_simd.ptm", aboveWideFile, goldenWideImage()},
           std::tuple{"rgba_13x7_cross_rans_simd.ptm", crossFile, goldenImage()},
-          std::tuple{"rgb_70x9_cross_rans_simd.ptm", crossWideFile, goldenWideImage()}}) {
+          std::tuple{"rgb_70x9_cross_rans_simd.ptm", crossWideFile, goldenWideImage()},
+          std::tuple{"rgb_70x9_cross_lowest35.ptm", crossLowestFile, goldenWideImage()}}) {
         auto golden = readFileBytes(dir + name);
         ASSERT_TRUE(golden.isOk()) << "golden file missing in " << dir;
         EXPECT_EQ(file, *golden) << "the bitstream changed: " << name;

@@ -825,7 +825,7 @@ unsigned walkFullRowByComponent(FastRows& R, int lw, int full, IO& io) {
     return bad;
 }
 
-// Group k >= 1 of coder 3. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
+// Group k >= 1 of coders 3 to 6. Returns false (decode only) on an eps >= n or a pixel of eq. (3)
 // outside 0..255.
 template <int C, class IO>
 bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO& ioRef) {

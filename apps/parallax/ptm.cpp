@@ -88,9 +88,16 @@ int runInfo(const PtmArgs& a) {
         const ptm::ByteRange r = ptm::levelByteRange(*h, k);
         const uint64_t levelRaw = uint64_t(s.width) * s.height * h->components;
         rawChain += levelRaw;
-        levels.push_back({{"level", k}, {"width", s.width}, {"height", s.height},
-                          {"offset", r.offset}, {"bytes", r.size},
-                          {"ratio", double(levelRaw) / double(r.size)}});
+        nlohmann::json level = {{"level", k},         {"width", s.width},
+                                {"height", s.height}, {"offset", r.offset},
+                                {"bytes", r.size},    {"ratio", double(levelRaw) / double(r.size)}};
+        // Coder 6: how the encoder coded the group (its mode byte), when the file holds it.
+        if (h->coder == ptm::Coder::kPredictCrossRansSimd && r.offset < bytes->size()) {
+            const uint8_t mode = (*bytes)[r.offset];
+            level["stored"] = mode == ptm::kStoredGroupMode;
+            if (mode != ptm::kStoredGroupMode && k > 0) level["shape_eighths"] = int(mode);
+        }
+        levels.push_back(level);
     }
     const uint64_t total = h->fileBytes();
     nlohmann::json doc = {{"file", a.input}, {"width", h->width}, {"height", h->height},
@@ -110,11 +117,17 @@ int runInfo(const PtmArgs& a) {
                ptm::coderName(h->coder), total);
     fmt::print("compression: {:.2f}:1 vs the base level, {:.2f}:1 vs the raw mip chain\n",
                raw / double(total), double(rawChain) / double(total));
-    for (const auto& l : levels)
-        fmt::print("  level {:2}: {:5}x{:<5} bytes [{}, {}) {:8} ({:.2f}:1)\n", int(l["level"]),
+    for (const auto& l : levels) {
+        const std::string how = !l.contains("stored")     ? ""
+                                : l["stored"].get<bool>() ? ", stored"
+                                : l.contains("shape_eighths")
+                                    ? fmt::format(", shape {}/8", int(l["shape_eighths"]))
+                                    : ", modelled";
+        fmt::print("  level {:2}: {:5}x{:<5} bytes [{}, {}) {:8} ({:.2f}:1{})\n", int(l["level"]),
                    int(l["width"]), int(l["height"]), uint64_t(l["offset"]),
                    uint64_t(l["offset"]) + uint64_t(l["bytes"]), uint64_t(l["bytes"]),
-                   double(l["ratio"]));
+                   double(l["ratio"]), how);
+    }
     return kExitOk;
 }
 

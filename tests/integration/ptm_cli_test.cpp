@@ -52,6 +52,17 @@ TEST(PtmCli, EncodeInfoDecodeVerify) {
     }
     EXPECT_EQ(next, fs::file_size(ptm));
     EXPECT_EQ(doc["level_groups"][6]["width"].get<int>(), 37);
+    // Coder 6 says how each group was coded: the 1x1 level is always stored (3 bytes against
+    // a modelled group's tables), a modelled level k >= 1 names its shape weight.
+    EXPECT_TRUE(doc["level_groups"][0]["stored"].get<bool>());
+    for (const auto& g : doc["level_groups"]) {
+        ASSERT_TRUE(g.contains("stored"));
+        if (g["stored"].get<bool>() || g["level"].get<int>() == 0) continue;
+        const int w = g["shape_eighths"].get<int>();
+        EXPECT_TRUE(w >= 0 && w <= 4) << w;
+    }
+    RunResult text = runParallax("ptm info " + ptm.string());
+    EXPECT_NE(text.out.find(":1, stored)"), std::string::npos) << text.out;
 
     const fs::path top = scratchDir() / "top.png", low = scratchDir() / "low.png";
     ASSERT_EQ(runParallax("ptm decode " + ptm.string() + " -o " + top.string()).exitCode, 0);

@@ -30,6 +30,7 @@
 #endif
 
 #include <plx/core/image.h>
+#include <plx/ptm/format.h>
 
 #include "codec.h"
 #include "ctx_codec.h"
@@ -62,7 +63,7 @@ struct WalkModels {
 };
 inline constexpr int kMaxShapeEighths = 4;
 // Coder 6: the mode byte of a group stored as coder 0's payload (docs/ptm-format.md).
-inline constexpr uint8_t kStoredGroup = 0xFF;
+inline constexpr uint8_t kStoredGroup = kStoredGroupMode;
 inline constexpr WalkModels kCoder5Models{true, false, 4};
 
 // Raw context id (family 4c + kind, raw context q), as coder 2.

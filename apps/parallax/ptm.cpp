@@ -184,8 +184,8 @@ Command registerPtm(CLI::App& app) {
         ->excludes(zstdFlag);
     enc->add_option("--shape-eighths", args->shapeEighths,
                     "Coder 6: weight of the detail above in the upper pixels' shapes, 0..4 "
-                    "eighths, for every level (default: tried per level, about 2.5x slower)")
-        ->check(CLI::Range(0, 4));
+                    "eighths, for every level (default: tried per level, about 3x slower)")
+        ->check(CLI::Range(0, ptm::kMaxShapeEighths));
     enc->add_flag("--json", args->json, "Machine-readable output on stdout");
     enc->footer("Example: parallax ptm encode wall.jpg -o wall.ptm --lowest 4");
     CLI::App* dec = sub->add_subcommand("decode", "Decode one level of a PTM to PNG");

@@ -81,7 +81,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     if (cross) {  // the mode byte (a stored group's never reaches here)
         if (p == end) return corrupt(fmt::format("level {}: truncated before the mode byte", k));
         const int w = *p++;
-        const int most = lowest ? 0 : detail::kMaxShapeEighths;
+        const int most = lowest ? 0 : kMaxShapeEighths;
         if (w > most)
             return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, w, most));
         models = {true, true, w};
@@ -185,7 +185,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     const int comps = mHeader.components;
     Coder coder = mHeader.coder;
     if (coder == Coder::kPredictCrossRansSimd && !groupBytes.empty() &&
-        groupBytes[0] == detail::kStoredGroup) {  // coder 6: a stored group is coder 0's
+        groupBytes[0] == kStoredGroupMode) {  // coder 6: a stored group is coder 0's
         coder = Coder::kRaw;
         groupBytes = groupBytes.subspan(1);
     }

@@ -186,7 +186,7 @@ std::vector<uint8_t> modelledCrossGroup(const std::vector<ByteImage>& chain, int
 }
 
 // Coder 6's group k: modelled (k = 0: mode byte 0, then coder 2's group 0), or stored (mode
-// byte kStoredGroup, then coder 0's payload) where that is smaller, as on the smallest levels,
+// byte kStoredGroupMode, then coder 0's payload) where that is smaller, as on the smallest levels,
 // whose tables and rANS states outweigh their pixels.
 std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
                                       int shapeEighths) {
@@ -199,7 +199,7 @@ std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k
     }
     std::vector<uint8_t> stored = buildPayload(chain, k, Coder::kRaw);
     if (stored.size() + 1 >= modelled.size()) return modelled;
-    stored.insert(stored.begin(), detail::kStoredGroup);
+    stored.insert(stored.begin(), kStoredGroupMode);
     return stored;
 }
 
@@ -256,10 +256,10 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: lowestMaxSide must be >= 1");
     if (uint8_t(config.coder) > uint8_t(kLastCoder))
         return errorStatus(ErrorCode::kInvalidArgument, "PTM encode: unknown coder");
-    if (config.shapeEighths < -1 || config.shapeEighths > detail::kMaxShapeEighths)
+    if (config.shapeEighths < -1 || config.shapeEighths > kMaxShapeEighths)
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("PTM encode: shape weight {} outside -1..{}",
-                                       config.shapeEighths, detail::kMaxShapeEighths));
+                                       config.shapeEighths, kMaxShapeEighths));
     if (config.coder == Coder::kPredictZstd &&
         (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
         return errorStatus(ErrorCode::kInvalidArgument,

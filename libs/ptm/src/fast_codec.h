@@ -61,9 +61,6 @@ struct WalkModels {
     // 0..kMaxShapeEighths, chosen per group by the encoder).
     int shapeEighths = 4;
 };
-inline constexpr int kMaxShapeEighths = 4;
-// Coder 6: the mode byte of a group stored as coder 0's payload (docs/ptm-format.md).
-inline constexpr uint8_t kStoredGroup = kStoredGroupMode;
 inline constexpr WalkModels kCoder5Models{true, false, 4};
 
 // Raw context id (family 4c + kind, raw context q), as coder 2.

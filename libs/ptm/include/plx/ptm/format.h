@@ -42,8 +42,10 @@ enum class Coder : uint8_t {
     kPredictCrossRansSimd = 6,
 };
 inline constexpr Coder kLastCoder = Coder::kPredictCrossRansSimd;
-// Coder 6: every group's first byte, the mode (docs/ptm-format.md): 0..4 the group is modelled
-// (k >= 1: with that shape weight in eighths), kStoredGroupMode it holds coder 0's payload.
+// Coder 6: every group's first byte, the mode (docs/ptm-format.md): 0..kMaxShapeEighths the
+// group is modelled (k >= 1: with that shape weight in eighths; k = 0: 0 only),
+// kStoredGroupMode it holds coder 0's payload.
+inline constexpr int kMaxShapeEighths = 4;
 inline constexpr uint8_t kStoredGroupMode = 0xFF;
 
 // Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.

@@ -38,7 +38,7 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
-// Coders 3 to 5, group k >= 1: runtime component count to the walker's template argument.
+// Coders 3 to 6, group k >= 1: runtime component count to the walker's template argument.
 template <class IO>
 bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
     uint8_t* px = img.bytes.data();
@@ -50,7 +50,7 @@ bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
     }
 }
 
-// The end of a coder 3, 4 or 5 group: the walker's result, then the streams' ends.
+// The end of a coder 3 to 6 group: the walker's result, then the streams' ends.
 template <class IO>
 Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
     if (!walked)

@@ -4,6 +4,7 @@
 #include <plx/ptm/encoder.h>
 
 #include <cmath>
+#include <span>
 #include <type_traits>
 
 #include "codec.h"
@@ -173,14 +174,15 @@ constexpr int kShapeCandidates[] = {4, 3, 2, 0};
 std::vector<uint8_t> modelledCrossGroup(const std::vector<ByteImage>& chain, int k,
                                         int shapeEighths) {
     using Group = ModelledGroup<detail::FastEncodeIO>;
+    const int fixed[] = {shapeEighths};
+    const std::span<const int> weights =
+        shapeEighths >= 0 ? std::span<const int>(fixed) : std::span<const int>(kShapeCandidates);
     Group best;
-    for (int w : kShapeCandidates) {
-        if (shapeEighths >= 0) w = shapeEighths;
+    for (int w : weights) {
         Group g = modelGroup<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
                                                    detail::WalkModels{true, true, w});
         g.head.insert(g.head.begin(), uint8_t(w));
         if (best.head.empty() || g.bits < best.bits) best = std::move(g);
-        if (shapeEighths >= 0) break;
     }
     return emitGroup(best, detail::kSimdStates);
 }

@@ -234,12 +234,10 @@ struct FastRows {
     // Statistics of the previous and the current block row: activity (sum of |residual|) and
     // sub-predictor errors.
     std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
-    // Coders 5, 6 (`above`): the detail (value - upsample) of p01 and p11 of each full block of
-    // the previous block row, the pixels right above this row's p00 and p10 (zero before the
+    WalkModels models;  // the group's (coders 5, 6)
+    // Coders 5, 6 (models.above): the detail (value - upsample) of p01 and p11 of each full block
+    // of the previous block row, the pixels right above this row's p00 and p10 (zero before the
     // second block row and beyond the full blocks).
-    bool above = false;
-    bool cross = false;    // coder 6 (WalkModels::cross)
-    int shapeEighths = 4;  // WalkModels::shapeEighths
     std::vector<int> detail01, detail11;
     // Coder 6: p11's half-step residual 2 p11 - (planar + u3), per component as rA0..rA2.
     std::vector<int> r3;
@@ -248,16 +246,12 @@ struct FastRows {
     int* compRow(std::vector<int>& v, int c) {
         return v.data() + size_t(c < 0 ? comps : c) * size_t(lw);
     }
-    FastRows(int C, int levelWidth, const WalkModels& models)
-        : above(models.above),
-          cross(models.cross),
-          shapeEighths(models.shapeEighths),
-          comps(C),
-          lw(levelWidth) {
+    FastRows(int C, int levelWidth, const WalkModels& groupModels)
+        : models(groupModels), comps(C), lw(levelWidth) {
         const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
         for (auto* v : {&m, &u0, &u1, &u2, &u3, &act0, &sel, &v0, &v1, &v2, &v3, &errA, &errB})
             v->assign(n, 0);
-        if (above)
+        if (models.above)
             for (auto* v : {&detail01, &detail11}) v->assign(n, 0);
         for (auto* v : {&z0, &z1, &z2, &ze}) v->assign(n, 0);
         for (auto* v : {&rA0, &rA1, &rA2, &r3}) v->assign(n + size_t(lw), 0);
@@ -282,8 +276,8 @@ void planarRow(const uint8_t* row, int lw, int c, int* out) {
 //
 // kShapeAbove (coders 5 and 6, blocks two pixels tall): the shapes of p00 and p10 corrected by
 // w / 8 of the detail (value - upsample) of the pixel right above each, p01 and p11 of the block
-// above (w = R.shapeEighths: 4, half the detail, in coder 5; chosen per group in coder 6); C++
-// division, truncated toward zero. The block-sum predictor spreads the block's sum by these
+// above (w = R.models.shapeEighths: 4, half the detail, in coder 5; chosen per group in coder 6);
+// C++ division, truncated toward zero. The block-sum predictor spreads the block's sum by these
 // shapes, so the pixels above steer how it splits between the block's upper and lower rows
 // (0.924x -> 0.919x optipng -o2 on the 69 Sponza textures with coder 4's other models; the whole
 // detail gives 0.943x). The details are zero on the first block row and from `full` on (odd
@@ -309,7 +303,7 @@ void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     const int* __restrict d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
     const int inter = c > 0 && !firstRow ? 1 : 0;
     const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
-    const int w = R.shapeEighths;
+    const int w = R.models.shapeEighths;
     PLX_PTM_IVDEP
     for (int bx = 0; bx < lw; ++bx) {
         const int mm = pm[bx], l = pm[bx - 1], r = pm[bx + 1], up = pu[bx], dn = pd[bx];
@@ -551,7 +545,7 @@ PLX_PTM_IVDEP
             ctx[bx] = uint16_t(map(bucketOf(a + extra(bx))));
         }
     };
-    if (!R.cross || c == 0) return contexts([](int) { return 0; });
+    if (!R.models.cross || c == 0) return contexts([](int) { return 0; });
     // Coder 6: the previous component's magnitudes in the same block, decoded before this run
     // (component-major rows): the same position weighted 1, each of its three stored pixels
     // 1/2 (0.9075x -> 0.9051x optipng -o2 over the 69 Sponza textures; the same position alone
@@ -582,7 +576,7 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const int* __restrict v3 = R.v3.data() + ri;
     uint8_t* __restrict ze = R.ze.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
-    if (R.cross) {
+    if (R.models.cross) {
         // Coder 6: as coder 5, and p11's prediction has sub-predictor B as the other pixels
         // (where `sel` picks it): the previous component's p11 residual r3, for components
         // >= 2 the mean of the two before (0.9154x -> 0.9113x optipng -o2 over the 69 Sponza
@@ -609,7 +603,7 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
         }
         return;
     }
-    if (R.above) {
+    if (R.models.above) {
         // Coder 5: p11 predicted by the mean of the planar p10 + p01 - p00 and the bilinear
         // upsample u3, in half steps: eHalf = 2 (known sum + p11 - 4 m) is twice the eps that
         // prediction implies (0.924x -> 0.921x optipng -o2 on the Sponza textures).
@@ -795,7 +789,8 @@ unsigned walkFullRowByRun(FastRows& R, int lw, int full, IO& io) {
     io.template run<false>(ctx, n, R.ze.data());
     unsigned bad = 0;
     for (int c = 0; c < C; ++c)
-        bad |= R.above ? finishFullRow<true>(R, lw, full, c) : finishFullRow<false>(R, lw, full, c);
+        bad |= R.models.above ? finishFullRow<true>(R, lw, full, c)
+                              : finishFullRow<false>(R, lw, full, c);
     return bad;
 }
 
@@ -852,7 +847,7 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         }
         for (int c = 0; c < C; ++c) {
             planarRow<C>(ld, lw, c, R.pd.data() + size_t(c) * sw);
-            if (R.above && tall)
+            if (R.models.above && tall)
                 prepareRow<true>(R, lw, c, by == 0);
             else
                 prepareRow<false>(R, lw, c, by == 0);
@@ -870,10 +865,10 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
                         R.v3[i] = r1[px + C];
                     }
                 for (int c = 0; c < C; ++c)
-                    R.cross ? codeFullRow<true, true>(R, lw, full, c)
-                            : codeFullRow<true, false>(R, lw, full, c);
+                    R.models.cross ? codeFullRow<true, true>(R, lw, full, c)
+                                   : codeFullRow<true, false>(R, lw, full, c);
             }
-            if (R.cross)
+            if (R.models.cross)
                 bad |= walkFullRowByComponent<C>(R, lw, full, io);
             else
                 bad |= walkFullRowByRun<C>(R, lw, full, io);

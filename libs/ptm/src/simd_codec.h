@@ -1,6 +1,6 @@
 #pragma once
-// Private: the decoder side of coders 4 and 5 (Coder::kPredictRansSimd and
-// kPredictAboveRansSimd, docs/ptm-format.md; coder 5 changes only the walker's models). Coder 4
+// Private: the decoder side of coders 4 to 6 (Coder::kPredictRansSimd, kPredictAboveRansSimd
+// and kPredictCrossRansSimd, docs/ptm-format.md; coders 5 and 6 change only the walker). Coder 4
 // is coder 3 (same runs, contexts, predictions, tables, tokens and extra bits) with kSimdStates
 // interleaved rANS states instead of four: symbol j of a run uses state j mod 32, and the
 // renormalisation words are read in symbol order, so that a round of 32 symbols decodes as four
@@ -71,7 +71,7 @@ struct RenormPermutations {
 };
 inline constexpr RenormPermutations kRenormPerm{};
 
-// Decoder IO of coders 4 and 5 for walkLevelFast: kSimdStates rANS states over a bounds-checked
+// Decoder IO of coders 4 to 6 for walkLevelFast: kSimdStates rANS states over a bounds-checked
 // word stream, extra bits from a separate bit stream. Past the end of either stream reads give
 // zeros and the overrun is recorded.
 struct SimdDecodeIO : WordStream {

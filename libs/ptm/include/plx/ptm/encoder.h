@@ -19,8 +19,8 @@ struct EncodeConfig {
     int lowestMaxSide = 1;
     Coder coder = Coder::kPredictCrossRansSimd;
     // Coder 6: the weight of the detail above in the upper pixels' shapes, in eighths (0..4), for
-    // every level; -1 (the default) tries 4, 3, 2 and 0 per level and keeps the smallest group,
-    // which encodes about four times slower.
+    // every level; -1 (the default) tries 4, 3, 2 and 0 per level and keeps the group with the
+    // smallest estimated size, which encodes about three times slower.
     int shapeEighths = -1;
     // zstd level 1..22 for Coder::kPredictZstd; the default trades encode speed for size
     // (docs/ptm-results.md).

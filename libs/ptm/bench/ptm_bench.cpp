@@ -292,6 +292,19 @@ double bestCpuMs(int reps, F&& f) {
     return best;
 }
 
+// The PTM rows of the speed table: row, coder, best-of-N repetitions for encode and decode.
+struct PtmColumn {
+    int row;
+    plx::ptm::Coder coder;
+    int encodeReps, decodeReps;
+};
+constexpr PtmColumn kPtmColumns[] = {{0, plx::ptm::Coder::kPredictRansFast, 3, 9},
+                                     {1, plx::ptm::Coder::kPredictRans, 1, 5},
+                                     {2, plx::ptm::Coder::kPredictZstd, 1, 5},
+                                     {6, plx::ptm::Coder::kPredictRansSimd, 3, 9},
+                                     {7, plx::ptm::Coder::kPredictAboveRansSimd, 3, 9},
+                                     {8, plx::ptm::Coder::kPredictCrossRansSimd, 3, 9}};
+
 int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
@@ -311,35 +324,23 @@ int runSpeed(const std::vector<std::string>& files) {
         if (!img) continue;
         ByteImage peer = toRgbOrRgba(*img);
         mb += double(img->bytes.size()) / 1e6;
-        std::vector<uint8_t> p6, p5, p4, p3, p2, p1, png, webp, jxl;
-        plx::ptm::EncodeConfig c6, c5, c4, c3, c2, c1;
-        c6.coder = plx::ptm::Coder::kPredictCrossRansSimd;
-        c5.coder = plx::ptm::Coder::kPredictAboveRansSimd;
-        c4.coder = plx::ptm::Coder::kPredictRansSimd;
-        c3.coder = plx::ptm::Coder::kPredictRansFast;
-        c2.coder = plx::ptm::Coder::kPredictRans;
-        c1.coder = plx::ptm::Coder::kPredictZstd;
         // Decode times are process CPU time (best of N), so that other work on a shared
         // machine counts less; all codecs are measured in the same run.
-        enc[0] += bestMs(3, [&] { p3 = *plx::ptm::encode(*img, c3); });
-        enc[1] += bestMs(1, [&] { p2 = *plx::ptm::encode(*img, c2); });
-        enc[2] += bestMs(1, [&] { p1 = *plx::ptm::encode(*img, c1); });
+        for (const PtmColumn& col : kPtmColumns) {
+            plx::ptm::EncodeConfig cfg;
+            cfg.coder = col.coder;
+            std::vector<uint8_t> file;
+            enc[col.row] += bestMs(col.encodeReps, [&] { file = *plx::ptm::encode(*img, cfg); });
+            dec[col.row] +=
+                bestCpuMs(col.decodeReps, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+        }
+        std::vector<uint8_t> png, webp, jxl, px;
         enc[3] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
         enc[4] += bestMs(1, [&] { webp = webpEncode(peer); });
         enc[5] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
-        enc[6] += bestMs(3, [&] { p4 = *plx::ptm::encode(*img, c4); });
-        enc[7] += bestMs(3, [&] { p5 = *plx::ptm::encode(*img, c5); });
-        enc[8] += bestMs(3, [&] { p6 = *plx::ptm::encode(*img, c6); });
-        dec[0] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p3).isOk()); });
-        dec[1] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p2).isOk()); });
-        dec[2] += bestCpuMs(5, [&] { PLX_CHECK(plx::ptm::decodeImage(p1).isOk()); });
         dec[3] += bestCpuMs(9, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
         dec[4] += bestCpuMs(5, [&] { PLX_CHECK(webpDecode(webp, peer.channels)); });
-        std::vector<uint8_t> px;
         dec[5] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
-        dec[6] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p4).isOk()); });
-        dec[7] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p5).isOk()); });
-        dec[8] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(p6).isOk()); });
     }
     std::printf("%.1f MB of base-level pixels, single thread\n", mb);
     std::printf("| codec | encode MB/s | decode MB/s (CPU time) | decode vs libpng |\n"

@@ -69,9 +69,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
                        Coder coder) {
     const bool lowest = k == 0;
     const bool cross = coder == Coder::kPredictCrossRansSimd;
-    const bool simd =
-        (coder == Coder::kPredictRansSimd || coder == Coder::kPredictAboveRansSimd || cross) &&
-        !lowest;
+    // coders 4 to 6
+    const bool simd = uint8_t(coder) >= uint8_t(Coder::kPredictRansSimd) && !lowest;
     // group 0 of coders 3 to 6 is coder 2's
     const bool fast = coder == Coder::kPredictRansFast && !lowest;
     const uint8_t* p = in.data();

@@ -246,6 +246,10 @@ struct FastRows {
     int* compRow(std::vector<int>& v, int c) {
         return v.data() + size_t(c < 0 ? comps : c) * size_t(lw);
     }
+    // Coder 6's second component before c, whose residuals it averages with the previous
+    // one's: c - 2, or for c < 2 the previous one again (its mean with itself is itself; for
+    // c == 0 both are the row of zeros).
+    static int secondBefore(int c) { return c >= 2 ? c - 2 : c - 1; }
     FastRows(int C, int levelWidth, const WalkModels& groupModels)
         : models(groupModels), comps(C), lw(levelWidth) {
         const size_t n = size_t(C) * size_t(lw), s = size_t(C) * size_t(lw + 2);
@@ -386,7 +390,7 @@ int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
     int* const own[3] = {R.compRow(R.rA0, c), R.compRow(R.rA1, c), R.compRow(R.rA2, c)};
     const int* const prev[3] = {R.compRow(R.rA0, c - 1), R.compRow(R.rA1, c - 1),
                                 R.compRow(R.rA2, c - 1)};
-    const int before = kCross && c >= 2 ? c - 2 : c - 1;  // as codeFullRow's
+    const int before = kCross ? FastRows::secondBefore(c) : c - 1;  // as codeFullRow's
     const int* const prev2[3] = {R.compRow(R.rA0, before), R.compRow(R.rA1, before),
                                  R.compRow(R.rA2, before)};
     const bool inter = c > 0;
@@ -480,8 +484,8 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
     const int* __restrict pr0 = R.compRow(R.rA0, c - 1);  // the previous component's
     const int* __restrict pr1 = R.compRow(R.rA1, c - 1);
     const int* __restrict pr2 = R.compRow(R.rA2, c - 1);
-    // Coder 6: the one before that (c < 2: the previous one, whose mean with itself is itself).
-    const int before = kCross && c >= 2 ? c - 2 : c - 1;
+    // Coder 6: the one before that (FastRows::secondBefore).
+    const int before = kCross ? FastRows::secondBefore(c) : c - 1;
     const int* __restrict pq0 = R.compRow(R.rA0, before);
     const int* __restrict pq1 = R.compRow(R.rA1, before);
     const int* __restrict pq2 = R.compRow(R.rA2, before);
@@ -585,10 +589,9 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
         // count the previous component's |r3| (0.9077x -> 0.9075x).
         const int* __restrict u3 = R.u3.data() + pi;
         const int* __restrict sel = R.sel.data() + pi;
-        // The two components before (c == 1: the previous one twice, (p + p) >> 1 = p; c == 0:
-        // the row of zeros).
+        // The two components before (FastRows::secondBefore).
         const int* __restrict r3 = R.compRow(R.r3, c - 1);
-        const int* __restrict q3 = R.compRow(R.r3, c >= 2 ? c - 2 : c - 1);
+        const int* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
         const int inter = c > 0 ? 1 : 0;
         PLX_PTM_IVDEP
         for (int bx = 0; bx < full; ++bx) {
@@ -680,7 +683,7 @@ PLX_PTM_IVDEP
         if (c == 0) return bad;
         // B's p11 correction as epsContexts' (c == 1: (p + p) >> 1 = p).
         const int* __restrict p3 = R.compRow(R.r3, c - 1);
-        const int* __restrict q3 = R.compRow(R.r3, c >= 2 ? c - 2 : c - 1);
+        const int* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
         PLX_PTM_IVDEP
         for (int bx = 0; bx < full; ++bx) {
             ea[bx] += std::abs(r3[bx]) / 2;

@@ -230,7 +230,8 @@ struct FastRows {
     // a row C of zeros that stands for the component before component 0.
     std::vector<int> rA0, rA1, rA2;
     std::vector<uint16_t> ctx;
-    std::vector<int> mag;  // scratch: magnitudes of a run, padded
+    std::vector<int> mag;           // scratch: magnitudes of a run, padded
+    std::vector<uint8_t> magBytes;  // the same as bytes (fullRunContextsAvx2)
     // Statistics of the previous and the current block row: activity (sum of |residual|) and
     // sub-predictor errors.
     std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
@@ -261,6 +262,7 @@ struct FastRows {
         for (auto* v : {&rA0, &rA1, &rA2, &r3}) v->assign(n + size_t(lw), 0);
         ctx.assign(n, 0);
         mag.assign(size_t(lw) + 2, 0);
+        magBytes.assign(size_t(lw) + 2, 0);
         for (auto* v : {&pu, &pm, &pd, &prevAct, &prevEA, &prevEB, &curAct, &curEA, &curEB})
             v->assign(s, 0);
     }
@@ -521,10 +523,97 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
     }
 }
 
+#if defined(__AVX2__)
+// fullRunContexts for rows of at least 16 blocks, sixteen blocks per step in int16 lanes (every
+// intermediate is below 2^12: act0 <= 4 * 510, magnitudes <= 128, also in a corrupt level); the
+// last step overlaps the one before when 16 does not divide the row. Bit-exact with the scalar
+// loop. Returns false, having done nothing, when a table offset of `map` does not fit a byte.
+template <int kKind>
+bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool cross) {
+    using namespace avx2;
+    // map(q) - map(0) for the twelve buckets, as a byte lookup table in both 128-bit halves.
+    alignas(16) uint8_t offsets[16] = {};
+    for (int q = 0; q < kActivityBuckets; ++q) {
+        const int off = map(q) - map(0);
+        if (off < 0 || off > 255) return false;
+        offsets[q] = uint8_t(off);
+    }
+    const __m256i lut =
+        _mm256_broadcastsi128_si256(_mm_load_si128(reinterpret_cast<const __m128i*>(offsets)));
+    const __m256i base = _mm256_set1_epi16(int16_t(map(0)));
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const int* act0 = R.act0.data() + pi;
+    const uint8_t* z0 = R.z0.data() + ri;
+    const uint8_t* z1 = R.z1.data() + ri;
+    const uint8_t* z2 = R.z2.data() + ri;
+    uint16_t* ctx = R.ctx.data() + ri;
+    // magnitude() of 16 run values: (z + 1) >> 1 is the rounding byte average with 0.
+    auto mag8 = [](const uint8_t* z) {
+        return _mm_avg_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z)),
+                            _mm_setzero_si128());
+    };
+    auto mag16 = [&](const uint8_t* z) { return _mm256_cvtepu8_epi16(mag8(z)); };
+    auto widen = [](const uint8_t* b) {
+        return _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b)));
+    };
+    // Kinds 1, 2: the magnitudes of the previous run, ends replicated: e[bx] at pad[bx + 1].
+    uint8_t* pad = R.magBytes.data();
+    if constexpr (kKind > 0) {
+        const uint8_t* zp = kKind == 1 ? z0 : z1;
+        for (int i = 0; i + 16 <= full; i += 16)
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(pad + 1 + i), mag8(zp + i));
+        for (int i = full & ~15; i < full; ++i) pad[i + 1] = uint8_t(magnitude(zp[i]));
+        pad[0] = pad[1];
+        pad[full + 1] = pad[full];
+    }
+    // bucketOf: the number of thresholds reached (each comparison gives -1).
+    constexpr std::array<int16_t, 11> kBelow = {1, 3, 5, 8, 11, 15, 20, 27, 37, 51, 71};
+    for (int step = 0; step < full; step += 16) {
+        const int bx = std::min(step, full - 16);
+        __m256i a = load16(act0 + bx);
+        if constexpr (kKind == 1) {  // (a + 3 e + e left + e right) >> 1
+            const __m256i e = widen(pad + bx + 1);
+            a = _mm256_add_epi16(a, _mm256_add_epi16(e, _mm256_slli_epi16(e, 1)));
+            a = _mm256_add_epi16(a, _mm256_add_epi16(widen(pad + bx), widen(pad + bx + 2)));
+            a = _mm256_srli_epi16(a, 1);
+        } else if constexpr (kKind == 2) {  // (a + 3 |z0| + 2 e + e left) >> 1
+            const __m256i m0 = mag16(z0 + bx);
+            a = _mm256_add_epi16(a, _mm256_add_epi16(m0, _mm256_slli_epi16(m0, 1)));
+            a = _mm256_add_epi16(
+                a, _mm256_add_epi16(_mm256_slli_epi16(widen(pad + bx + 1), 1), widen(pad + bx)));
+            a = _mm256_srli_epi16(a, 1);
+        }
+        if (cross) {  // the previous component's magnitudes, as the scalar loop's `extra`
+            const __m256i y0 = mag16(z0 + bx - full), y1 = mag16(z1 + bx - full);
+            const __m256i y2 = mag16(z2 + bx - full);
+            const __m256i same = kKind == 0 ? y0 : kKind == 1 ? y1 : y2;
+            const __m256i block = _mm256_add_epi16(_mm256_add_epi16(y0, y1), y2);
+            const __m256i sum =
+                _mm256_add_epi16(_mm256_slli_epi16(same, 2), _mm256_slli_epi16(block, 1));
+            a = _mm256_add_epi16(a, _mm256_srli_epi16(sum, 2));
+        }
+        __m256i q = _mm256_setzero_si256();
+        for (const int16_t t : kBelow)
+            q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(a, _mm256_set1_epi16(t)));
+        const __m256i off = _mm256_and_si256(_mm256_shuffle_epi8(lut, q), _mm256_set1_epi16(0xFF));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + bx), _mm256_add_epi16(base, off));
+    }
+    return true;
+}
+#endif
+
 // Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
 // from the row's activity act0 and the magnitudes of the runs already decoded).
-template <int kKind>
+// kFast (the decoder): rows of at least 16 blocks by fullRunContextsAvx2; the encoder runs the
+// scalar loop below, so that the round trips test the one against the other.
+template <int kKind, bool kFast = false>
 void fullRunContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
+#if defined(__AVX2__)
+    if constexpr (kFast) {
+        const bool cross = R.models.cross && c > 0;
+        if (full >= 16 && fullRunContextsAvx2<kKind>(R, lw, full, c, map, cross)) return;
+    }
+#endif
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const int* __restrict act0 = R.act0.data() + pi;
     const uint8_t* __restrict z0 = R.z0.data() + ri;
@@ -780,11 +869,12 @@ template <int C, class IO>
 unsigned walkFullRowByRun(FastRows& R, int lw, int full, IO& io) {
     uint16_t* ctx = R.ctx.data();
     const int n = C * full;
-    for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c, io.ctxMap(c, 0));
+    constexpr bool kFast = !IO::kEncode;  // as walkFullRowByComponent's
+    for (int c = 0; c < C; ++c) fullRunContexts<0, kFast>(R, lw, full, c, io.ctxMap(c, 0));
     io.template run<true>(ctx, n, R.z0.data());
-    for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c, io.ctxMap(c, 1));
+    for (int c = 0; c < C; ++c) fullRunContexts<1, kFast>(R, lw, full, c, io.ctxMap(c, 1));
     io.template run<true>(ctx, n, R.z1.data());
-    for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c, io.ctxMap(c, 2));
+    for (int c = 0; c < C; ++c) fullRunContexts<2, kFast>(R, lw, full, c, io.ctxMap(c, 2));
     io.template run<true>(ctx, n, R.z2.data());
     if constexpr (!IO::kEncode)
         for (int c = 0; c < C; ++c) codeFullRow<false, false>(R, lw, full, c);
@@ -807,11 +897,12 @@ unsigned walkFullRowByComponent(FastRows& R, int lw, int full, IO& io) {
     for (int c = 0; c < C; ++c) {
         const size_t ri = size_t(c) * size_t(full);
         uint16_t* ctx = R.ctx.data() + ri;
-        fullRunContexts<0>(R, lw, full, c, io.ctxMap(c, 0));
+        constexpr bool kFast = !IO::kEncode;  // the encoder runs the scalar reference
+        fullRunContexts<0, kFast>(R, lw, full, c, io.ctxMap(c, 0));
         io.template run<true>(ctx, full, R.z0.data() + ri);
-        fullRunContexts<1>(R, lw, full, c, io.ctxMap(c, 1));
+        fullRunContexts<1, kFast>(R, lw, full, c, io.ctxMap(c, 1));
         io.template run<true>(ctx, full, R.z1.data() + ri);
-        fullRunContexts<2>(R, lw, full, c, io.ctxMap(c, 2));
+        fullRunContexts<2, kFast>(R, lw, full, c, io.ctxMap(c, 2));
         io.template run<true>(ctx, full, R.z2.data() + ri);
         if constexpr (!IO::kEncode) codeFullRow<false, true>(R, lw, full, c);
         epsContexts<IO::kEncode>(R, lw, full, c, io.ctxMap(c, 3));

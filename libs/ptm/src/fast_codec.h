@@ -217,34 +217,41 @@ inline int bucketOf(int a) {
            (a >= 28) + (a >= 38) + (a >= 52) + (a >= 72);
 }
 
+// The walker's per-block values (pixels, predictions, residuals, activities, statistics) as
+// int16: every stored value lies within +-3500, also in a corrupt level (p11 within -765..1275,
+// its half-step residual r3 within +-3400), so the AVX2 passes load sixteen per vector and the
+// rows take half the cache of int (with the passes written for int16 lanes, decode 1.08x to
+// 1.46x as fast as with int rows, median 1.37x; docs/ptm-results.md).
+using Lane = int16_t;
+
 // Per-level working rows of walkLevelFast, planar. Parent rows and statistics are padded by
 // one replicated entry at each end: index c * (lw + 2) + bx + 1. Block rows: c * lw + bx.
 // Runs: c * n + bx for the n blocks of the run.
 struct FastRows {
-    std::vector<int> pu, pm, pd;                   // lower level rows by - 1, by, by + 1
-    std::vector<int> m, u0, u1, u2, u3, act0, sel;  // per block of the row
+    std::vector<Lane> pu, pm, pd;                    // lower level rows by - 1, by, by + 1
+    std::vector<Lane> m, u0, u1, u2, u3, act0, sel;  // per block of the row
     std::vector<uint8_t> z0, z1, z2, ze;            // run values
-    std::vector<int> v0, v1, v2, v3;                // pixel values of the full blocks
-    std::vector<int> errA, errB;
+    std::vector<Lane> v0, v1, v2, v3;               // pixel values of the full blocks
+    std::vector<Lane> errA, errB;
     // A-residuals (value - A prediction) of p00, p10, p01, per component: row c * lw + bx, and
     // a row C of zeros that stands for the component before component 0.
-    std::vector<int> rA0, rA1, rA2;
+    std::vector<Lane> rA0, rA1, rA2;
     std::vector<uint16_t> ctx;
-    std::vector<int> mag;           // scratch: magnitudes of a run, padded
+    std::vector<Lane> mag;          // scratch: magnitudes of a run, padded
     std::vector<uint8_t> magBytes;  // the same as bytes (fullRunContextsAvx2)
     // Statistics of the previous and the current block row: activity (sum of |residual|) and
     // sub-predictor errors.
-    std::vector<int> prevAct, prevEA, prevEB, curAct, curEA, curEB;
+    std::vector<Lane> prevAct, prevEA, prevEB, curAct, curEA, curEB;
     WalkModels models;  // the group's (coders 5, 6)
     // Coders 5, 6 (models.above): the detail (value - upsample) of p01 and p11 of each full block
     // of the previous block row, the pixels right above this row's p00 and p10 (zero before the
     // second block row and beyond the full blocks).
-    std::vector<int> detail01, detail11;
+    std::vector<Lane> detail01, detail11;
     // Coder 6: p11's half-step residual 2 p11 - (planar + u3), per component as rA0..rA2.
-    std::vector<int> r3;
+    std::vector<Lane> r3;
     int comps = 0, lw = 0;
     // Component c's row of a per-component array (c < 0: the row of zeros).
-    int* compRow(std::vector<int>& v, int c) {
+    Lane* compRow(std::vector<Lane>& v, int c) {
         return v.data() + size_t(c < 0 ? comps : c) * size_t(lw);
     }
     // Coder 6's second component before c, whose residuals it averages with the previous
@@ -270,11 +277,128 @@ struct FastRows {
 
 // Deinterleaves component c of a lower-level row into a padded planar row.
 template <int C>
-void planarRow(const uint8_t* row, int lw, int c, int* out) {
+void planarRow(const uint8_t* row, int lw, int c, Lane* out) {
     for (int bx = 0; bx < lw; ++bx) out[bx + 1] = row[size_t(bx) * C + size_t(c)];
     out[0] = out[1];
     out[lw + 1] = out[lw];
 }
+
+#if defined(__AVX2__)
+namespace avx2 {
+// Sixteen entries of a walker row.
+inline __m256i load16(const Lane* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
+inline void store16(Lane* p, __m256i v) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
+}
+// x / 2^k truncated toward zero (C++ division), int16 lanes.
+template <int kShift>
+inline __m256i divPow2(__m256i x) {
+    const __m256i bias =
+        _mm256_and_si256(_mm256_srai_epi16(x, 15), _mm256_set1_epi16(int16_t((1 << kShift) - 1)));
+    return _mm256_srai_epi16(_mm256_add_epi16(x, bias), kShift);
+}
+// x / 3 truncated toward zero for every int16 x: high half of x * 0x5556, plus 1 if x < 0.
+inline __m256i div3(__m256i x) {
+    return _mm256_sub_epi16(_mm256_mulhi_epi16(x, _mm256_set1_epi16(0x5556)),
+                            _mm256_srai_epi16(x, 15));
+}
+inline __m256i clamp255(__m256i x) {
+    return _mm256_min_epi16(_mm256_max_epi16(x, _mm256_setzero_si256()), _mm256_set1_epi16(255));
+}
+// A context map over q < n <= 16 as a byte lookup: ctx(q) = base + lut[q]. False when an
+// offset map(q) - map(0) does not fit a byte (then the caller takes its scalar loop).
+struct CtxLut {
+    __m256i lut, base;
+    bool make(CtxMap map, int n) {
+        alignas(16) uint8_t offsets[16] = {};
+        for (int q = 0; q < n; ++q) {
+            const int off = map(q) - map(0);
+            if (off < 0 || off > 255) return false;
+            offsets[q] = uint8_t(off);
+        }
+        lut =
+            _mm256_broadcastsi128_si256(_mm_load_si128(reinterpret_cast<const __m128i*>(offsets)));
+        base = _mm256_set1_epi16(int16_t(map(0)));
+        return true;
+    }
+    // The contexts of sixteen int16 q in 0..15.
+    __m256i operator()(__m256i q) const {
+        return _mm256_add_epi16(
+            base, _mm256_and_si256(_mm256_shuffle_epi8(lut, q), _mm256_set1_epi16(0xFF)));
+    }
+};
+}  // namespace avx2
+#endif
+
+#if defined(__AVX2__)
+// prepareRow for blocks 0..16k-1, sixteen blocks per step in int16 lanes (upsamples of bytes stay
+// below 2^12; the shapes' w * detail / 8 within +-10400 also in a corrupt level, whose p11 may
+// leave 0..255). Bit-exact with the scalar loop, which does the rest. Returns the first block
+// not done.
+template <bool kShapeAbove>
+int prepareRowAvx2(FastRows& R, int lw, int c, bool firstRow) {
+    using namespace avx2;
+    const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
+    const Lane* pu = R.pu.data() + o;
+    const Lane* pm = R.pm.data() + o;
+    const Lane* pd = R.pd.data() + o;
+    const Lane* act = R.prevAct.data() + o;
+    const Lane* ea = R.prevEA.data() + o;
+    const Lane* eb = R.prevEB.data() + o;
+    const Lane* d01 = kShapeAbove ? R.detail01.data() + b : nullptr;
+    const Lane* d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
+    const __m256i eight = _mm256_set1_epi16(8),
+                  w = _mm256_set1_epi16(int16_t(R.models.shapeEighths));
+    const __m256i interOne = _mm256_set1_epi16(c > 0 && !firstRow ? 1 : 0);
+    // upsample(m, side, vert, diag) = (9 m + 3 (side + vert) + diag + 8) >> 4, all terms >= 0.
+    auto up = [](__m256i m9, __m256i side, __m256i vert, __m256i diag) {
+        const __m256i sv = _mm256_add_epi16(side, vert);
+        return _mm256_srli_epi16(
+            _mm256_add_epi16(_mm256_add_epi16(m9, _mm256_add_epi16(sv, _mm256_slli_epi16(sv, 1))),
+                             diag),
+            4);
+    };
+    // 2 x + left + right of a padded statistics row.
+    auto spread = [](const Lane* v, __m256i mid) {
+        return _mm256_add_epi16(_mm256_slli_epi16(mid, 1),
+                                _mm256_add_epi16(load16(v - 1), load16(v + 1)));
+    };
+    int bx = 0;
+    for (; bx + 16 <= lw; bx += 16) {
+        const __m256i mm = load16(pm + bx), l = load16(pm + bx - 1), r = load16(pm + bx + 1);
+        const __m256i u = load16(pu + bx), d = load16(pd + bx);
+        const __m256i m9 = _mm256_add_epi16(_mm256_add_epi16(_mm256_slli_epi16(mm, 3), mm), eight);
+        __m256i u0 = up(m9, l, u, load16(pu + bx - 1)), u1 = up(m9, r, u, load16(pu + bx + 1));
+        if constexpr (kShapeAbove) {  // + w * detail / 8, truncated
+            u0 = _mm256_add_epi16(u0, divPow2<3>(_mm256_mullo_epi16(w, load16(d01 + bx))));
+            u1 = _mm256_add_epi16(u1, divPow2<3>(_mm256_mullo_epi16(w, load16(d11 + bx))));
+        }
+        store16(R.m.data() + b + size_t(bx), mm);
+        store16(R.u0.data() + b + size_t(bx), u0);
+        store16(R.u1.data() + b + size_t(bx), u1);
+        store16(R.u2.data() + b + size_t(bx), up(m9, l, d, load16(pd + bx - 1)));
+        store16(R.u3.data() + b + size_t(bx), up(m9, r, d, load16(pd + bx + 1)));
+        const __m256i grad = _mm256_add_epi16(_mm256_abs_epi16(_mm256_sub_epi16(l, r)),
+                                              _mm256_abs_epi16(_mm256_sub_epi16(u, d)));
+        __m256i act0;
+        if (firstRow) {
+            act0 = _mm256_slli_epi16(grad, 2);
+        } else {  // ((3 a + left + right) >> 1) + grad
+            const __m256i a = load16(act + bx);
+            act0 = _mm256_add_epi16(_mm256_srli_epi16(_mm256_add_epi16(spread(act + bx, a), a), 1),
+                                    grad);
+        }
+        store16(R.act0.data() + b + size_t(bx), act0);
+        const __m256i errA = spread(ea + bx, load16(ea + bx));
+        const __m256i errB = spread(eb + bx, load16(eb + bx));
+        store16(R.sel.data() + b + size_t(bx),
+                _mm256_and_si256(_mm256_cmpgt_epi16(errA, errB), interOne));
+    }
+    return bx;
+}
+#endif
 
 // Pass 0 of a block row: parents, upsamples, activity and sub-predictor choice of every block
 // of component c, from the lower level and the previous block row only (no clamping: the
@@ -289,29 +413,35 @@ void planarRow(const uint8_t* row, int lw, int c, int* out) {
 // detail gives 0.943x). The details are zero on the first block row and from `full` on (odd
 // widths: finishFullRow keeps only the full blocks'), which keeps those blocks' bilinear
 // shapes.
-template <bool kShapeAbove>
+// With AVX2, blocks 0..16k-1 by prepareRowAvx2; kFast = false runs the scalar loop for every
+// block (the reference that fast_paths_test compares the vector path with).
+template <bool kShapeAbove, bool kFast = true>
 void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
+    int start = 0;
+#if defined(__AVX2__)
+    if constexpr (kFast) start = prepareRowAvx2<kShapeAbove>(R, lw, c, firstRow);
+#endif
     const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
-    const int* __restrict pu = R.pu.data() + o;
-    const int* __restrict pm = R.pm.data() + o;
-    const int* __restrict pd = R.pd.data() + o;
-    const int* __restrict act = R.prevAct.data() + o;
-    const int* __restrict ea = R.prevEA.data() + o;
-    const int* __restrict eb = R.prevEB.data() + o;
-    int* __restrict m = R.m.data() + b;
-    int* __restrict u0 = R.u0.data() + b;
-    int* __restrict u1 = R.u1.data() + b;
-    int* __restrict u2 = R.u2.data() + b;
-    int* __restrict u3 = R.u3.data() + b;
-    int* __restrict act0 = R.act0.data() + b;
-    int* __restrict sel = R.sel.data() + b;
-    const int* __restrict d01 = kShapeAbove ? R.detail01.data() + b : nullptr;
-    const int* __restrict d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
+    const Lane* __restrict pu = R.pu.data() + o;
+    const Lane* __restrict pm = R.pm.data() + o;
+    const Lane* __restrict pd = R.pd.data() + o;
+    const Lane* __restrict act = R.prevAct.data() + o;
+    const Lane* __restrict ea = R.prevEA.data() + o;
+    const Lane* __restrict eb = R.prevEB.data() + o;
+    Lane* __restrict m = R.m.data() + b;
+    Lane* __restrict u0 = R.u0.data() + b;
+    Lane* __restrict u1 = R.u1.data() + b;
+    Lane* __restrict u2 = R.u2.data() + b;
+    Lane* __restrict u3 = R.u3.data() + b;
+    Lane* __restrict act0 = R.act0.data() + b;
+    Lane* __restrict sel = R.sel.data() + b;
+    const Lane* __restrict d01 = kShapeAbove ? R.detail01.data() + b : nullptr;
+    const Lane* __restrict d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
     const int inter = c > 0 && !firstRow ? 1 : 0;
     const int upWeight = firstRow ? 0 : 1, gradWeight = firstRow ? 4 : 1;
     const int w = R.models.shapeEighths;
     PLX_PTM_IVDEP
-    for (int bx = 0; bx < lw; ++bx) {
+    for (int bx = start; bx < lw; ++bx) {
         const int mm = pm[bx], l = pm[bx - 1], r = pm[bx + 1], up = pu[bx], dn = pd[bx];
         m[bx] = mm;
         u0[bx] = upsample(mm, l, up, pu[bx - 1]);
@@ -330,71 +460,38 @@ void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     }
 }
 
-#if defined(__AVX2__)
-namespace avx2 {
-// Sixteen int rows entries as int16 lanes, in order, and back.
-inline __m256i load16(const int* p) {
-    const __m256i a = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
-    const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + 8));
-    return _mm256_permute4x64_epi64(_mm256_packs_epi32(a, b), 0xD8);
-}
-inline void store16(int* p, __m256i v) {
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p),
-                        _mm256_cvtepi16_epi32(_mm256_castsi256_si128(v)));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p + 8),
-                        _mm256_cvtepi16_epi32(_mm256_extracti128_si256(v, 1)));
-}
-// x / 2^k truncated toward zero (C++ division), int16 lanes.
-template <int kShift>
-inline __m256i divPow2(__m256i x) {
-    const __m256i bias = _mm256_and_si256(_mm256_srai_epi16(x, 15),
-                                          _mm256_set1_epi16(int16_t((1 << kShift) - 1)));
-    return _mm256_srai_epi16(_mm256_add_epi16(x, bias), kShift);
-}
-// x / 3 truncated toward zero for every int16 x: high half of x * 0x5556, plus 1 if x < 0.
-inline __m256i div3(__m256i x) {
-    return _mm256_sub_epi16(_mm256_mulhi_epi16(x, _mm256_set1_epi16(0x5556)),
-                            _mm256_srai_epi16(x, 15));
-}
-inline __m256i clamp255(__m256i x) {
-    return _mm256_min_epi16(_mm256_max_epi16(x, _mm256_setzero_si256()),
-                            _mm256_set1_epi16(255));
-}
-}  // namespace avx2
-#endif
-
-// codeFullRow's decode for blocks 0..16k-1 of component c, sixteen blocks per step in int16
-// lanes (every intermediate of the block-sum predictor lies in -8160..5102, also with coder 5's
-// shapes u0, u1 in -127..382; in a corrupt level, whose p11 may leave 0..255 and so move the
-// next row's shapes to -510..776, they stay within +-6700). Bit-exact with the scalar loop, which
-// decodes the rest. Returns the first block not done. kCross: as codeFullRow's.
-template <bool kCross>
-int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
+// codeFullRow for blocks 0..16k-1 of component c, sixteen blocks per step in int16 lanes (every
+// intermediate of the block-sum predictor lies in -8160..5102, also with coder 5's shapes u0, u1
+// in -127..382; in a corrupt level, whose p11 may leave 0..255 and so move the next row's shapes
+// to -510..893, they stay within +-15000). Bit-exact with the scalar loop, which does the rest.
+// Returns the first block not done. kEncode, kCross: as codeFullRow's.
+template <bool kEncode, bool kCross>
+int codeFullRowAvx2(FastRows& R, int lw, int full, int c) {
     int bx = 0;
 #if defined(__AVX2__)
     using namespace avx2;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* m = R.m.data() + pi;
-    const int* u0 = R.u0.data() + pi;
-    const int* u1 = R.u1.data() + pi;
-    const int* u2 = R.u2.data() + pi;
-    const int* u3 = R.u3.data() + pi;
-    const int* sel = R.sel.data() + pi;
-    int* v0 = R.v0.data() + ri;
-    int* v1 = R.v1.data() + ri;
-    int* v2 = R.v2.data() + ri;
-    const uint8_t* z0 = R.z0.data() + ri;
-    const uint8_t* z1 = R.z1.data() + ri;
-    const uint8_t* z2 = R.z2.data() + ri;
-    int* errA = R.errA.data() + ri;
-    int* errB = R.errB.data() + ri;
+    const Lane* m = R.m.data() + pi;
+    const Lane* u0 = R.u0.data() + pi;
+    const Lane* u1 = R.u1.data() + pi;
+    const Lane* u2 = R.u2.data() + pi;
+    const Lane* u3 = R.u3.data() + pi;
+    const Lane* sel = R.sel.data() + pi;
+    Lane* v0 = R.v0.data() + ri;
+    Lane* v1 = R.v1.data() + ri;
+    Lane* v2 = R.v2.data() + ri;
+    uint8_t* z0 = R.z0.data() + ri;
+    uint8_t* z1 = R.z1.data() + ri;
+    uint8_t* z2 = R.z2.data() + ri;
+    Lane* errA = R.errA.data() + ri;
+    Lane* errB = R.errB.data() + ri;
     // Rows of this component (written), the previous one and the one before that (read).
-    int* const own[3] = {R.compRow(R.rA0, c), R.compRow(R.rA1, c), R.compRow(R.rA2, c)};
-    const int* const prev[3] = {R.compRow(R.rA0, c - 1), R.compRow(R.rA1, c - 1),
-                                R.compRow(R.rA2, c - 1)};
+    Lane* const own[3] = {R.compRow(R.rA0, c), R.compRow(R.rA1, c), R.compRow(R.rA2, c)};
+    const Lane* const prev[3] = {R.compRow(R.rA0, c - 1), R.compRow(R.rA1, c - 1),
+                                 R.compRow(R.rA2, c - 1)};
     const int before = kCross ? FastRows::secondBefore(c) : c - 1;  // as codeFullRow's
-    const int* const prev2[3] = {R.compRow(R.rA0, before), R.compRow(R.rA1, before),
-                                 R.compRow(R.rA2, before)};
+    const Lane* const prev2[3] = {R.compRow(R.rA0, before), R.compRow(R.rA1, before),
+                                  R.compRow(R.rA2, before)};
     const bool inter = c > 0;
     const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi16(1);
     const __m256i mask255 = _mm256_set1_epi16(255);
@@ -406,8 +503,8 @@ int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
         __m256i eA = zero, eB = zero;
         // One stored pixel (codeFullRow's `one`): prediction pA from the block-sum predictor's
         // correction corr, B from the previous component's A-residual, value from the run value.
-        auto pixel = [&](__m256i u, __m256i corr, int* rOwn, const int* rPrev, const int* rBefore,
-                         const uint8_t* z, int* v) {
+        auto pixel = [&](__m256i u, __m256i corr, Lane* rOwn, const Lane* rPrev,
+                         const Lane* rBefore, uint8_t* z, Lane* v) {
             const __m256i pA = clamp255(_mm256_add_epi16(u, corr));
             __m256i pB = pA;
             if (inter) {
@@ -416,12 +513,23 @@ int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
                 pB = clamp255(_mm256_add_epi16(pA, r));
             }
             const __m256i pred = _mm256_blendv_epi8(pA, pB, pickB);
-            const __m256i zz = _mm256_cvtepu8_epi16(
-                _mm_loadu_si128(reinterpret_cast<const __m128i*>(z + bx)));
-            const __m256i unz = _mm256_xor_si256(_mm256_srli_epi16(zz, 1),
-                                                 _mm256_sub_epi16(zero, _mm256_and_si256(zz, one)));
-            const __m256i val = _mm256_and_si256(_mm256_add_epi16(pred, unz), mask255);
-            store16(v + bx, val);
+            __m256i val;
+            if constexpr (kEncode) {  // z = zigzag(int8_t(v - pred))
+                val = load16(v + bx);
+                const __m256i d =
+                    _mm256_srai_epi16(_mm256_slli_epi16(_mm256_sub_epi16(val, pred), 8), 8);
+                const __m256i zz =
+                    _mm256_xor_si256(_mm256_slli_epi16(d, 1), _mm256_srai_epi16(d, 15));
+                const __m256i bytes = _mm256_permute4x64_epi64(_mm256_packus_epi16(zz, zz), 0xD8);
+                _mm_storeu_si128(reinterpret_cast<__m128i*>(z + bx), _mm256_castsi256_si128(bytes));
+            } else {  // v = (pred + unzigzag(z)) & 255
+                const __m256i zz =
+                    _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z + bx)));
+                const __m256i unz = _mm256_xor_si256(
+                    _mm256_srli_epi16(zz, 1), _mm256_sub_epi16(zero, _mm256_and_si256(zz, one)));
+                val = _mm256_and_si256(_mm256_add_epi16(pred, unz), mask255);
+                store16(v + bx, val);
+            }
             store16(rOwn + bx, _mm256_sub_epi16(val, pA));
             eA = _mm256_add_epi16(eA, _mm256_abs_epi16(_mm256_sub_epi16(val, pA)));
             eB = _mm256_add_epi16(eB, _mm256_abs_epi16(_mm256_sub_epi16(val, pB)));
@@ -458,43 +566,44 @@ int decodeFullRowAvx2(FastRows& R, int lw, int full, int c) {
 // component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
 // is the block-sum predictor (codec.h); B (components >= 1) is clamp(A + r, 0, 255) with r the
 // previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No dependency
-// between blocks, so the loop vectorises.
+// between blocks: with AVX2, blocks 0..16k-1 by codeFullRowAvx2; kFast = false runs the scalar
+// loop for every block (the reference of fast_paths_test).
 // kCross (coder 6): for components >= 2, r is the mean (truncated) of the A-residuals of the two
 // components before: each carries the rounding noise of its own JPEG decode, which the mean
 // halves (0.9051x -> 0.9015x optipng -o2 over the 69 Sponza textures; rounding the mean half up
 // instead gives 0.9031x, toward minus infinity 0.9018x).
-template <bool kEncode, bool kCross>
+template <bool kEncode, bool kCross, bool kFast = true>
 void codeFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* __restrict m = R.m.data() + pi;
-    const int* __restrict u0 = R.u0.data() + pi;
-    const int* __restrict u1 = R.u1.data() + pi;
-    const int* __restrict u2 = R.u2.data() + pi;
-    const int* __restrict u3 = R.u3.data() + pi;
-    const int* __restrict sel = R.sel.data() + pi;
-    int* __restrict v0 = R.v0.data() + ri;
-    int* __restrict v1 = R.v1.data() + ri;
-    int* __restrict v2 = R.v2.data() + ri;
+    const Lane* __restrict m = R.m.data() + pi;
+    const Lane* __restrict u0 = R.u0.data() + pi;
+    const Lane* __restrict u1 = R.u1.data() + pi;
+    const Lane* __restrict u2 = R.u2.data() + pi;
+    const Lane* __restrict u3 = R.u3.data() + pi;
+    const Lane* __restrict sel = R.sel.data() + pi;
+    Lane* __restrict v0 = R.v0.data() + ri;
+    Lane* __restrict v1 = R.v1.data() + ri;
+    Lane* __restrict v2 = R.v2.data() + ri;
     uint8_t* __restrict z0 = R.z0.data() + ri;
     uint8_t* __restrict z1 = R.z1.data() + ri;
     uint8_t* __restrict z2 = R.z2.data() + ri;
-    int* __restrict errA = R.errA.data() + ri;
-    int* __restrict errB = R.errB.data() + ri;
-    int* __restrict rA0 = R.compRow(R.rA0, c);  // this component's, written
-    int* __restrict rA1 = R.compRow(R.rA1, c);
-    int* __restrict rA2 = R.compRow(R.rA2, c);
-    const int* __restrict pr0 = R.compRow(R.rA0, c - 1);  // the previous component's
-    const int* __restrict pr1 = R.compRow(R.rA1, c - 1);
-    const int* __restrict pr2 = R.compRow(R.rA2, c - 1);
+    Lane* __restrict errA = R.errA.data() + ri;
+    Lane* __restrict errB = R.errB.data() + ri;
+    Lane* __restrict rA0 = R.compRow(R.rA0, c);  // this component's, written
+    Lane* __restrict rA1 = R.compRow(R.rA1, c);
+    Lane* __restrict rA2 = R.compRow(R.rA2, c);
+    const Lane* __restrict pr0 = R.compRow(R.rA0, c - 1);  // the previous component's
+    const Lane* __restrict pr1 = R.compRow(R.rA1, c - 1);
+    const Lane* __restrict pr2 = R.compRow(R.rA2, c - 1);
     // Coder 6: the one before that (FastRows::secondBefore).
     const int before = kCross ? FastRows::secondBefore(c) : c - 1;
-    const int* __restrict pq0 = R.compRow(R.rA0, before);
-    const int* __restrict pq1 = R.compRow(R.rA1, before);
-    const int* __restrict pq2 = R.compRow(R.rA2, before);
+    const Lane* __restrict pq0 = R.compRow(R.rA0, before);
+    const Lane* __restrict pq1 = R.compRow(R.rA1, before);
+    const Lane* __restrict pq2 = R.compRow(R.rA2, before);
     const int inter = c > 0 ? 1 : 0;
     // One stored pixel: prediction from A (and B, from the earlier components' A-residuals p and
     // q), value <-> run value, this component's A-residual kept for the next ones.
-    auto one = [&](int pA, int p, int q, int& rA, int& v, uint8_t& z, int s, int& eA, int& eB) {
+    auto one = [&](int pA, int p, int q, Lane& rA, Lane& v, uint8_t& z, int s, int& eA, int& eB) {
         const int r = kCross ? (p + q) / 2 : p;
         const int pB = inter ? std::clamp(pA + r, 0, 255) : pA;
         const int pred = s ? pB : pA;
@@ -507,7 +616,9 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
         eB += std::abs(v - pB);
     };
     int start = 0;
-    if constexpr (!kEncode) start = decodeFullRowAvx2<kCross>(R, lw, full, c);
+#if defined(__AVX2__)
+    if constexpr (kFast) start = codeFullRowAvx2<kEncode, kCross>(R, lw, full, c);
+#endif
     PLX_PTM_IVDEP
     for (int bx = start; bx < full; ++bx) {
         const int mm = m[bx], s = sel[bx];
@@ -531,18 +642,10 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
 template <int kKind>
 bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool cross) {
     using namespace avx2;
-    // map(q) - map(0) for the twelve buckets, as a byte lookup table in both 128-bit halves.
-    alignas(16) uint8_t offsets[16] = {};
-    for (int q = 0; q < kActivityBuckets; ++q) {
-        const int off = map(q) - map(0);
-        if (off < 0 || off > 255) return false;
-        offsets[q] = uint8_t(off);
-    }
-    const __m256i lut =
-        _mm256_broadcastsi128_si256(_mm_load_si128(reinterpret_cast<const __m128i*>(offsets)));
-    const __m256i base = _mm256_set1_epi16(int16_t(map(0)));
+    CtxLut ctxOf;
+    if (!ctxOf.make(map, kActivityBuckets)) return false;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* act0 = R.act0.data() + pi;
+    const Lane* act0 = R.act0.data() + pi;
     const uint8_t* z0 = R.z0.data() + ri;
     const uint8_t* z1 = R.z1.data() + ri;
     const uint8_t* z2 = R.z2.data() + ri;
@@ -595,8 +698,7 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
         __m256i q = _mm256_setzero_si256();
         for (const int16_t t : kBelow)
             q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(a, _mm256_set1_epi16(t)));
-        const __m256i off = _mm256_and_si256(_mm256_shuffle_epi8(lut, q), _mm256_set1_epi16(0xFF));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + bx), _mm256_add_epi16(base, off));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + bx), ctxOf(q));
     }
     return true;
 }
@@ -604,9 +706,9 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
 
 // Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
 // from the row's activity act0 and the magnitudes of the runs already decoded).
-// kFast (the decoder): rows of at least 16 blocks by fullRunContextsAvx2; the encoder runs the
-// scalar loop below, so that the round trips test the one against the other.
-template <int kKind, bool kFast = false>
+// With AVX2, rows of at least 16 blocks by fullRunContextsAvx2; kFast = false runs the scalar
+// loop below (the reference that fast_paths_test compares the vector path with).
+template <int kKind, bool kFast = true>
 void fullRunContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
 #if defined(__AVX2__)
     if constexpr (kFast) {
@@ -615,11 +717,11 @@ void fullRunContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     }
 #endif
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* __restrict act0 = R.act0.data() + pi;
+    const Lane* __restrict act0 = R.act0.data() + pi;
     const uint8_t* __restrict z0 = R.z0.data() + ri;
     const uint8_t* __restrict z1 = R.z1.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
-    int* __restrict e = R.mag.data() + 1;  // magnitudes of the previous run, ends replicated
+    Lane* __restrict e = R.mag.data() + 1;  // magnitudes of the previous run, ends replicated
     if constexpr (kKind > 0) {
         const uint8_t* __restrict zp = kKind == 1 ? z0 : z1;
 PLX_PTM_IVDEP
@@ -653,20 +755,79 @@ PLX_PTM_IVDEP
     });
 }
 
+#if defined(__AVX2__)
+// epsContexts' coder 6 contexts (decode) for blocks 0..16k-1, sixteen blocks per step in int16
+// lanes (every term within +-11000, also in a corrupt level). Bit-exact with the scalar loop,
+// which does the rest. Returns the first block not done (0 when `map` does not fit a byte
+// lookup).
+inline int crossEpsContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map) {
+    using namespace avx2;
+    CtxLut ctxOf;
+    if (!ctxOf.make(map, kEpsContexts)) return 0;
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const Lane* r3 = R.compRow(R.r3, c - 1);
+    const Lane* q3 = R.compRow(R.r3, FastRows::secondBefore(c));
+    // c == 0: no inter-component terms (r3 and q3 are then the row of zeros).
+    const __m256i inter = _mm256_set1_epi16(c > 0 ? -1 : 0);
+    const __m256i one = _mm256_set1_epi16(1), zero = _mm256_setzero_si256();
+    auto mag16 = [](const uint8_t* z) {  // magnitude() of sixteen run values
+        return _mm256_cvtepu8_epi16(_mm_avg_epu8(
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(z)), _mm_setzero_si128()));
+    };
+    int bx = 0;
+    for (; bx + 16 <= full; bx += 16) {
+        const size_t p = pi + size_t(bx), r = ri + size_t(bx);
+        const __m256i v0 = load16(R.v0.data() + r), v1 = load16(R.v1.data() + r);
+        const __m256i v2 = load16(R.v2.data() + r), m = load16(R.m.data() + p);
+        const __m256i known = _mm256_sub_epi16(_mm256_add_epi16(_mm256_add_epi16(v0, v1), v2),
+                                               _mm256_slli_epi16(m, 2));
+        const __m256i pr3 = load16(r3 + bx);
+        // sel * ((r3 + q3) >> 1): sel is 0 or 1.
+        const __m256i picked = _mm256_cmpgt_epi16(load16(R.sel.data() + p), zero);
+        const __m256i corr =
+            _mm256_and_si256(_mm256_and_si256(picked, inter),
+                             _mm256_srai_epi16(_mm256_add_epi16(pr3, load16(q3 + bx)), 1));
+        __m256i eHalf = _mm256_add_epi16(_mm256_slli_epi16(known, 1),
+                                         _mm256_sub_epi16(_mm256_add_epi16(v1, v2), v0));
+        eHalf = _mm256_add_epi16(eHalf, _mm256_add_epi16(load16(R.u3.data() + p), corr));
+        // clamp((eHalf + 1) >> 1, -1, 3) + 1, times 3
+        const __m256i sHat =
+            _mm256_min_epi16(_mm256_max_epi16(_mm256_srai_epi16(_mm256_add_epi16(eHalf, one), 1),
+                                              _mm256_set1_epi16(-1)),
+                             _mm256_set1_epi16(3));
+        const __m256i s1 = _mm256_add_epi16(sHat, one);
+        __m256i act =
+            _mm256_add_epi16(load16(R.act0.data() + p),
+                             _mm256_add_epi16(mag16(R.z0.data() + r), mag16(R.z1.data() + r)));
+        act = _mm256_add_epi16(act, mag16(R.z2.data() + r));
+        act = _mm256_add_epi16(
+            act, _mm256_and_si256(inter, _mm256_slli_epi16(_mm256_abs_epi16(pr3), 1)));
+        // + (act >= 6) + (act >= 18)
+        __m256i q = _mm256_add_epi16(s1, _mm256_slli_epi16(s1, 1));
+        q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(act, _mm256_set1_epi16(5)));
+        q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(act, _mm256_set1_epi16(17)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(R.ctx.data() + r), ctxOf(q));
+    }
+    return bx;
+}
+#endif
+
 // eps of the full blocks of a row, component c: contexts from the block sum that the planar
 // prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
-template <bool kEncode>
+// With AVX2, the decoder's coder 6 contexts of blocks 0..16k-1 by crossEpsContextsAvx2; kFast =
+// false runs the scalar loop for every block (the reference of fast_paths_test).
+template <bool kEncode, bool kFast = true>
 void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const int* __restrict m = R.m.data() + pi;
-    const int* __restrict act0 = R.act0.data() + pi;
+    const Lane* __restrict m = R.m.data() + pi;
+    const Lane* __restrict act0 = R.act0.data() + pi;
     const uint8_t* __restrict z0 = R.z0.data() + ri;
     const uint8_t* __restrict z1 = R.z1.data() + ri;
     const uint8_t* __restrict z2 = R.z2.data() + ri;
-    const int* __restrict v0 = R.v0.data() + ri;
-    const int* __restrict v1 = R.v1.data() + ri;
-    const int* __restrict v2 = R.v2.data() + ri;
-    const int* __restrict v3 = R.v3.data() + ri;
+    const Lane* __restrict v0 = R.v0.data() + ri;
+    const Lane* __restrict v1 = R.v1.data() + ri;
+    const Lane* __restrict v2 = R.v2.data() + ri;
+    const Lane* __restrict v3 = R.v3.data() + ri;
     uint8_t* __restrict ze = R.ze.data() + ri;
     uint16_t* __restrict ctx = R.ctx.data() + ri;
     if (R.models.cross) {
@@ -676,14 +837,18 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
         // textures; 0.9136x with B everywhere instead of where `sel` picks it). Five eps values
         // around the prediction and three activity levels (0.9015x -> 0.9012x), which also
         // count the previous component's |r3| (0.9077x -> 0.9075x).
-        const int* __restrict u3 = R.u3.data() + pi;
-        const int* __restrict sel = R.sel.data() + pi;
+        const Lane* __restrict u3 = R.u3.data() + pi;
+        const Lane* __restrict sel = R.sel.data() + pi;
         // The two components before (FastRows::secondBefore).
-        const int* __restrict r3 = R.compRow(R.r3, c - 1);
-        const int* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
+        const Lane* __restrict r3 = R.compRow(R.r3, c - 1);
+        const Lane* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
         const int inter = c > 0 ? 1 : 0;
+        int start = 0;
+#if defined(__AVX2__)
+        if constexpr (!kEncode && kFast) start = crossEpsContextsAvx2(R, lw, full, c, map);
+#endif
         PLX_PTM_IVDEP
-        for (int bx = 0; bx < full; ++bx) {
+        for (int bx = start; bx < full; ++bx) {
             const int known = v0[bx] + v1[bx] + v2[bx] - 4 * m[bx];
             const int corr = inter * sel[bx] * ((r3[bx] + q3[bx]) >> 1);
             const int eHalf = 2 * known + (v1[bx] + v2[bx] - v0[bx]) + u3[bx] + corr;
@@ -699,7 +864,7 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
         // Coder 5: p11 predicted by the mean of the planar p10 + p01 - p00 and the bilinear
         // upsample u3, in half steps: eHalf = 2 (known sum + p11 - 4 m) is twice the eps that
         // prediction implies (0.924x -> 0.921x optipng -o2 on the Sponza textures).
-        const int* __restrict u3 = R.u3.data() + pi;
+        const Lane* __restrict u3 = R.u3.data() + pi;
         PLX_PTM_IVDEP
         for (int bx = 0; bx < full; ++bx) {
             const int known = v0[bx] + v1[bx] + v2[bx] - 4 * m[bx];
@@ -728,31 +893,97 @@ PLX_PTM_IVDEP
 // p11's errors under A and B to the block's sub-predictor statistics (components >= 1), so that
 // the next row's choice between A and B also weighs p11 (0.9113x -> 0.9077x optipng -o2 over
 // the 69 Sponza textures, with the inter-component p11).
-template <bool kKeepDetail, bool kCross = false>
+#if defined(__AVX2__)
+// finishFullRow for blocks 0..16k-1 (decode), sixteen blocks per step in int16 lanes (p11 within
+// -765..1275 and r3 within +-3900 also in a corrupt level). Bit-exact with the scalar loops,
+// which do the rest. Returns the first block not done; ORs the range check's flags into bad.
+template <bool kKeepDetail, bool kCross>
+int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
+    using namespace avx2;
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const size_t si = size_t(c) * size_t(lw + 2) + 1;
+    const Lane* p3 = R.compRow(R.r3, c - 1);
+    const Lane* q3 = R.compRow(R.r3, FastRows::secondBefore(c));
+    const __m256i zero = _mm256_setzero_si256();
+    auto mag16 = [](const uint8_t* z) {  // magnitude() of sixteen run values
+        return _mm256_cvtepu8_epi16(_mm_avg_epu8(
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(z)), _mm_setzero_si128()));
+    };
+    __m256i flags = zero;
+    int bx = 0;
+    for (; bx + 16 <= full; bx += 16) {
+        const size_t p = pi + size_t(bx), r = ri + size_t(bx), st = si + size_t(bx);
+        const __m256i v0 = load16(R.v0.data() + r), v1 = load16(R.v1.data() + r);
+        const __m256i v2 = load16(R.v2.data() + r), u3 = load16(R.u3.data() + p);
+        const __m256i ep = _mm256_cvtepu8_epi16(
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(R.ze.data() + r)));
+        const __m256i last = _mm256_sub_epi16(  // eq. (3)
+            _mm256_add_epi16(_mm256_slli_epi16(load16(R.m.data() + p), 2), ep),
+            _mm256_add_epi16(_mm256_add_epi16(v0, v1), v2));
+        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(ep, _mm256_set1_epi16(3)));
+        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(zero, last));
+        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(last, _mm256_set1_epi16(255)));
+        store16(R.v3.data() + r, last);
+        if constexpr (kKeepDetail) {
+            store16(R.detail01.data() + p, _mm256_sub_epi16(v2, load16(R.u2.data() + p)));
+            store16(R.detail11.data() + p, _mm256_sub_epi16(last, u3));
+        }
+        store16(R.curAct.data() + st,
+                _mm256_add_epi16(_mm256_add_epi16(mag16(R.z0.data() + r), mag16(R.z1.data() + r)),
+                                 mag16(R.z2.data() + r)));
+        __m256i ea = load16(R.errA.data() + r), eb = load16(R.errB.data() + r);
+        if constexpr (kCross) {
+            const __m256i planar = _mm256_sub_epi16(_mm256_add_epi16(v1, v2), v0);
+            const __m256i r3 =
+                _mm256_sub_epi16(_mm256_sub_epi16(_mm256_slli_epi16(last, 1), planar), u3);
+            store16(R.compRow(R.r3, c) + bx, r3);
+            if (c > 0) {  // |r3| / 2 and |r3 - B's correction| / 2
+                const __m256i corr =
+                    _mm256_srai_epi16(_mm256_add_epi16(load16(p3 + bx), load16(q3 + bx)), 1);
+                ea = _mm256_add_epi16(ea, _mm256_srli_epi16(_mm256_abs_epi16(r3), 1));
+                eb = _mm256_add_epi16(
+                    eb, _mm256_srli_epi16(_mm256_abs_epi16(_mm256_sub_epi16(r3, corr)), 1));
+            }
+        }
+        store16(R.curEA.data() + st, ea);
+        store16(R.curEB.data() + st, eb);
+    }
+    bad |= unsigned(_mm256_movemask_epi8(flags) != 0);
+    return bx;
+}
+#endif
+
+// With AVX2, blocks 0..16k-1 by finishFullRowAvx2; kFast = false runs the scalar loops for every
+// block (the reference that fast_paths_test compares the vector path with).
+template <bool kKeepDetail, bool kCross = false, bool kFast = true>
 unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;
-    const int* __restrict m = R.m.data() + pi;
+    const Lane* __restrict m = R.m.data() + pi;
     const uint8_t* __restrict z0 = R.z0.data() + ri;
     const uint8_t* __restrict z1 = R.z1.data() + ri;
     const uint8_t* __restrict z2 = R.z2.data() + ri;
     const uint8_t* __restrict ze = R.ze.data() + ri;
-    const int* __restrict v0 = R.v0.data() + ri;
-    const int* __restrict v1 = R.v1.data() + ri;
-    const int* __restrict v2 = R.v2.data() + ri;
-    int* __restrict v3 = R.v3.data() + ri;
-    const int* __restrict errA = R.errA.data() + ri;
-    const int* __restrict errB = R.errB.data() + ri;
-    int* __restrict act = R.curAct.data() + si;
-    int* __restrict ea = R.curEA.data() + si;
-    int* __restrict eb = R.curEB.data() + si;
-    const int* __restrict u2 = R.u2.data() + pi;
-    const int* __restrict u3 = R.u3.data() + pi;
-    int* __restrict d01 = kKeepDetail ? R.detail01.data() + pi : nullptr;
-    int* __restrict d11 = kKeepDetail ? R.detail11.data() + pi : nullptr;
+    const Lane* __restrict v0 = R.v0.data() + ri;
+    const Lane* __restrict v1 = R.v1.data() + ri;
+    const Lane* __restrict v2 = R.v2.data() + ri;
+    Lane* __restrict v3 = R.v3.data() + ri;
+    const Lane* __restrict errA = R.errA.data() + ri;
+    const Lane* __restrict errB = R.errB.data() + ri;
+    Lane* __restrict act = R.curAct.data() + si;
+    Lane* __restrict ea = R.curEA.data() + si;
+    Lane* __restrict eb = R.curEB.data() + si;
+    const Lane* __restrict u2 = R.u2.data() + pi;
+    const Lane* __restrict u3 = R.u3.data() + pi;
+    Lane* __restrict d01 = kKeepDetail ? R.detail01.data() + pi : nullptr;
+    Lane* __restrict d11 = kKeepDetail ? R.detail11.data() + pi : nullptr;
     unsigned bad = 0;
-PLX_PTM_IVDEP
-    for (int bx = 0; bx < full; ++bx) {
+    int start = 0;
+#if defined(__AVX2__)
+    if constexpr (kFast) start = finishFullRowAvx2<kKeepDetail, kCross>(R, lw, full, c, bad);
+#endif
+    PLX_PTM_IVDEP
+    for (int bx = start; bx < full; ++bx) {
         const int ep = ze[bx];
         const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)
         bad |= unsigned(ep >= 4) | unsigned(unsigned(last) > 255u);
@@ -766,15 +997,16 @@ PLX_PTM_IVDEP
         eb[bx] = errB[bx];
     }
     if constexpr (kCross) {
-        int* __restrict r3 = R.compRow(R.r3, c);
+        Lane* __restrict r3 = R.compRow(R.r3, c);
         PLX_PTM_IVDEP
-        for (int bx = 0; bx < full; ++bx) r3[bx] = 2 * v3[bx] - (v1[bx] + v2[bx] - v0[bx]) - u3[bx];
+        for (int bx = start; bx < full; ++bx)
+            r3[bx] = 2 * v3[bx] - (v1[bx] + v2[bx] - v0[bx]) - u3[bx];
         if (c == 0) return bad;
         // B's p11 correction as epsContexts' (c == 1: (p + p) >> 1 = p).
-        const int* __restrict p3 = R.compRow(R.r3, c - 1);
-        const int* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
+        const Lane* __restrict p3 = R.compRow(R.r3, c - 1);
+        const Lane* __restrict q3 = R.compRow(R.r3, FastRows::secondBefore(c));
         PLX_PTM_IVDEP
-        for (int bx = 0; bx < full; ++bx) {
+        for (int bx = start; bx < full; ++bx) {
             ea[bx] += std::abs(r3[bx]) / 2;
             eb[bx] += std::abs(r3[bx] - ((p3[bx] + q3[bx]) >> 1)) / 2;
         }
@@ -802,18 +1034,18 @@ inline constexpr RgbShuffles kRgbShuffles{};
 // Values outside 0..255 (only in a level that fails eq. 3's range check, whose pixels are then
 // discarded) may differ between the vector and the scalar path.
 template <int C>
-void writeFullRow(const int* __restrict a, const int* __restrict b, int full,
+void writeFullRow(const Lane* __restrict a, const Lane* __restrict b, int full,
                   uint8_t* __restrict row) {
     const size_t n = size_t(full);
     size_t start = 0;
 #if defined(__AVX2__)
     // Sixteen blocks (32 pixels) per step: each component's 16 + 16 values packed to bytes and
     // interleaved into one planar 32-pixel row, then the C planes interleaved by byte shuffles.
-    auto bytes16 = [](const int* p) {
+    auto bytes16 = [](const Lane* p) {
         auto ld = [p](int i) {
-            return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 4 * i));
+            return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 8 * i));
         };
-        return _mm_packus_epi16(_mm_packus_epi32(ld(0), ld(1)), _mm_packus_epi32(ld(2), ld(3)));
+        return _mm_packus_epi16(ld(0), ld(1));
     };
     for (; start + 16 <= n; start += 16) {
         __m128i lo[C], hi[C];  // pixels 0..15 and 16..31 of the step, per component
@@ -869,12 +1101,11 @@ template <int C, class IO>
 unsigned walkFullRowByRun(FastRows& R, int lw, int full, IO& io) {
     uint16_t* ctx = R.ctx.data();
     const int n = C * full;
-    constexpr bool kFast = !IO::kEncode;  // as walkFullRowByComponent's
-    for (int c = 0; c < C; ++c) fullRunContexts<0, kFast>(R, lw, full, c, io.ctxMap(c, 0));
+    for (int c = 0; c < C; ++c) fullRunContexts<0>(R, lw, full, c, io.ctxMap(c, 0));
     io.template run<true>(ctx, n, R.z0.data());
-    for (int c = 0; c < C; ++c) fullRunContexts<1, kFast>(R, lw, full, c, io.ctxMap(c, 1));
+    for (int c = 0; c < C; ++c) fullRunContexts<1>(R, lw, full, c, io.ctxMap(c, 1));
     io.template run<true>(ctx, n, R.z1.data());
-    for (int c = 0; c < C; ++c) fullRunContexts<2, kFast>(R, lw, full, c, io.ctxMap(c, 2));
+    for (int c = 0; c < C; ++c) fullRunContexts<2>(R, lw, full, c, io.ctxMap(c, 2));
     io.template run<true>(ctx, n, R.z2.data());
     if constexpr (!IO::kEncode)
         for (int c = 0; c < C; ++c) codeFullRow<false, false>(R, lw, full, c);
@@ -882,8 +1113,8 @@ unsigned walkFullRowByRun(FastRows& R, int lw, int full, IO& io) {
     io.template run<false>(ctx, n, R.ze.data());
     unsigned bad = 0;
     for (int c = 0; c < C; ++c)
-        bad |= R.models.above ? finishFullRow<true>(R, lw, full, c)
-                              : finishFullRow<false>(R, lw, full, c);
+        bad |= R.models.above ? finishFullRow<true, false>(R, lw, full, c)
+                              : finishFullRow<false, false>(R, lw, full, c);
     return bad;
 }
 
@@ -897,12 +1128,11 @@ unsigned walkFullRowByComponent(FastRows& R, int lw, int full, IO& io) {
     for (int c = 0; c < C; ++c) {
         const size_t ri = size_t(c) * size_t(full);
         uint16_t* ctx = R.ctx.data() + ri;
-        constexpr bool kFast = !IO::kEncode;  // the encoder runs the scalar reference
-        fullRunContexts<0, kFast>(R, lw, full, c, io.ctxMap(c, 0));
+        fullRunContexts<0>(R, lw, full, c, io.ctxMap(c, 0));
         io.template run<true>(ctx, full, R.z0.data() + ri);
-        fullRunContexts<1, kFast>(R, lw, full, c, io.ctxMap(c, 1));
+        fullRunContexts<1>(R, lw, full, c, io.ctxMap(c, 1));
         io.template run<true>(ctx, full, R.z1.data() + ri);
-        fullRunContexts<2, kFast>(R, lw, full, c, io.ctxMap(c, 2));
+        fullRunContexts<2>(R, lw, full, c, io.ctxMap(c, 2));
         io.template run<true>(ctx, full, R.z2.data() + ri);
         if constexpr (!IO::kEncode) codeFullRow<false, true>(R, lw, full, c);
         epsContexts<IO::kEncode>(R, lw, full, c, io.ctxMap(c, 3));
@@ -1024,7 +1254,7 @@ bool walkLevelFast(const ByteImage& low, uint8_t* cur, int width, int height, IO
         }
         for (int c = 0; c < C; ++c) {  // replicate the row's ends for the next row's diagonals
             for (auto* v : {&R.curAct, &R.curEA, &R.curEB}) {
-                int* s = v->data() + size_t(c) * sw;
+                Lane* s = v->data() + size_t(c) * sw;
                 s[0] = s[1];
                 s[lw + 1] = s[lw];
             }

@@ -1,0 +1,236 @@
+// White-box tests of the walker's AVX2 passes (src/fast_codec.h): each must give exactly what its
+// scalar reference gives, on random rows of every length around the vector width, with values
+// over the ranges a corrupt level can reach (not only those of valid levels). Encoder and decoder
+// run the same passes, so the round trips alone would not see a vector path that both share.
+
+#include <algorithm>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "fast_codec.h"
+
+namespace plx::ptm::detail {
+namespace {
+
+constexpr int kComps = 3;
+// Row lengths below, at and around one and several vector steps (16 blocks).
+constexpr int kLengths[] = {1, 2, 15, 16, 17, 31, 32, 33, 35, 47, 64, 100, 257};
+
+struct Filler {
+    std::mt19937 rng;
+    int between(int lo, int hi) { return lo + int(rng() % uint32_t(hi - lo + 1)); }
+    // Half the values over the whole range, half near zero, where the context thresholds are.
+    void fill(std::vector<Lane>& v, int lo, int hi) {
+        for (Lane& x : v)
+            x = Lane(rng() % 2 ? between(lo, hi) : between(std::max(lo, -8), std::min(hi, 24)));
+    }
+    void fill(std::vector<uint8_t>& v) {
+        for (uint8_t& x : v) x = uint8_t(rng());
+    }
+};
+
+// Rows with every value a corrupt level can produce (fast_codec.h, `Lane`).
+FastRows randomRows(int lw, const WalkModels& models, uint32_t seed) {
+    FastRows R(kComps, lw, models);
+    Filler f{std::mt19937(seed)};
+    for (auto* v : {&R.pu, &R.pm, &R.pd, &R.v0, &R.v1, &R.v2, &R.m}) f.fill(*v, 0, 255);
+    for (auto* v : {&R.u0, &R.u1, &R.u2, &R.u3}) f.fill(*v, -510, 893);
+    f.fill(R.prevAct, 0, 384);
+    for (auto* v : {&R.prevEA, &R.prevEB, &R.errA, &R.errB}) f.fill(*v, 0, 2700);
+    for (auto* v : {&R.detail01, &R.detail11}) f.fill(*v, -1020, 1275);
+    f.fill(R.act0, 0, 2040);
+    f.fill(R.sel, 0, 1);
+    f.fill(R.r3, -3400, 3400);
+    for (auto* v : {&R.z0, &R.z1, &R.z2, &R.ze}) f.fill(*v);
+    for (auto* v : {&R.z0, &R.z1, &R.z2})  // mostly small magnitudes, as real residuals
+        for (uint8_t& z : *v) z = uint8_t(f.between(0, 3) ? z & 15 : z);
+    // eps mostly valid, so that the range flags are not always raised.
+    for (uint8_t& e : R.ze) e = uint8_t(f.between(0, 40) == 0 ? e : e & 3);
+    return R;
+}
+
+void expectSameRows(const FastRows& a, const FastRows& b, const std::string& what) {
+    auto same = [&](const auto& x, const auto& y, const char* name) {
+        EXPECT_EQ(x, y) << what << ": " << name << " differs";
+    };
+    same(a.m, b.m, "m");
+    same(a.u0, b.u0, "u0");
+    same(a.u1, b.u1, "u1");
+    same(a.u2, b.u2, "u2");
+    same(a.u3, b.u3, "u3");
+    same(a.act0, b.act0, "act0");
+    same(a.sel, b.sel, "sel");
+    same(a.v3, b.v3, "v3");
+    same(a.detail01, b.detail01, "detail01");
+    same(a.detail11, b.detail11, "detail11");
+    same(a.curAct, b.curAct, "curAct");
+    same(a.curEA, b.curEA, "curEA");
+    same(a.curEB, b.curEB, "curEB");
+    same(a.r3, b.r3, "r3");
+    same(a.ctx, b.ctx, "ctx");
+}
+
+// The context maps a decoder builds (decoder.cpp): g tables for R raw contexts, g dividing R.
+std::vector<CtxMap> decoderMaps(int raw) {
+    std::vector<CtxMap> maps{rawCtxMap(1, 2)};
+    for (int g = 1; g <= raw; ++g)
+        if (raw % g == 0) maps.push_back({37, raw == 16 ? 512 * g : 683 * g});
+    return maps;
+}
+
+const WalkModels kModels[] = {
+    {false, false, 4}, {true, false, 4}, {true, true, 0}, {true, true, 3}, {true, true, 4}};
+
+std::string label(int lw, int c, int modelIndex) {
+    return "lw " + std::to_string(lw) + ", c " + std::to_string(c) + ", models " +
+           std::to_string(modelIndex);
+}
+
+TEST(PtmFastPaths, PrepareRowMatchesScalar) {
+    uint32_t seed = 1;
+    for (int lw : kLengths)
+        for (int mi = 0; mi < 5; ++mi)
+            for (int c = 0; c < kComps; ++c)
+                for (bool first : {false, true}) {
+                    FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
+                    if (kModels[mi].above) {
+                        prepareRow<true, true>(fast, lw, c, first);
+                        prepareRow<true, false>(ref, lw, c, first);
+                    } else {
+                        prepareRow<false, true>(fast, lw, c, first);
+                        prepareRow<false, false>(ref, lw, c, first);
+                    }
+                    expectSameRows(fast, ref, label(lw, c, mi) + (first ? ", first row" : ""));
+                }
+}
+
+template <bool kEncode, bool kCross>
+void codeRowCase(int lw, int c, int mi, uint32_t seed) {
+    FastRows fast = randomRows(lw, kModels[mi], seed);
+    if (kCross) {  // the earlier components' residuals as a decoded row leaves them (|r| <= 255)
+        Filler f{std::mt19937(seed)};
+        for (auto* v : {&fast.rA0, &fast.rA1, &fast.rA2}) f.fill(*v, -255, 255);
+    }
+    FastRows ref = fast;
+    codeFullRow<kEncode, kCross, true>(fast, lw, lw, c);
+    codeFullRow<kEncode, kCross, false>(ref, lw, lw, c);
+    expectSameRows(fast, ref, label(lw, c, mi) + (kEncode ? ", encode" : ", decode"));
+    EXPECT_EQ(fast.v0, ref.v0);
+    EXPECT_EQ(fast.v1, ref.v1);
+    EXPECT_EQ(fast.v2, ref.v2);
+    EXPECT_EQ(fast.z0, ref.z0);
+    EXPECT_EQ(fast.z1, ref.z1);
+    EXPECT_EQ(fast.z2, ref.z2);
+    EXPECT_EQ(fast.errA, ref.errA);
+    EXPECT_EQ(fast.errB, ref.errB);
+    EXPECT_EQ(fast.rA0, ref.rA0);
+    EXPECT_EQ(fast.rA1, ref.rA1);
+    EXPECT_EQ(fast.rA2, ref.rA2);
+}
+
+// Prediction and reconstruction of the stored pixels, with the shapes a corrupt level can give.
+TEST(PtmFastPaths, CodeRowMatchesScalar) {
+    uint32_t seed = 5000;
+    for (int lw : kLengths)
+        for (int c = 0; c < kComps; ++c) {
+            codeRowCase<true, false>(lw, c, 1, seed++);
+            codeRowCase<false, false>(lw, c, 1, seed++);
+            codeRowCase<true, true>(lw, c, 4, seed++);
+            codeRowCase<false, true>(lw, c, 4, seed++);
+        }
+}
+
+template <int kKind>
+void runContextsCase(int lw, int full, int c, int mi, CtxMap map, uint32_t seed) {
+    FastRows fast = randomRows(lw, kModels[mi], seed), ref = fast;
+    fullRunContexts<kKind, true>(fast, lw, full, c, map);
+    fullRunContexts<kKind, false>(ref, lw, full, c, map);
+    expectSameRows(fast, ref, label(lw, c, mi) + ", kind " + std::to_string(kKind));
+}
+
+TEST(PtmFastPaths, RunContextsMatchScalar) {
+    uint32_t seed = 1000;
+    for (int lw : kLengths)
+        for (int full : {lw, lw - 1})
+            for (int mi = 0; mi < 5; ++mi)
+                for (int c = 0; c < kComps; ++c)
+                    for (const CtxMap& map : decoderMaps(kActivityBuckets)) {
+                        if (full < 1) continue;
+                        runContextsCase<0>(lw, full, c, mi, map, seed++);
+                        runContextsCase<1>(lw, full, c, mi, map, seed++);
+                        runContextsCase<2>(lw, full, c, mi, map, seed++);
+                    }
+}
+
+TEST(PtmFastPaths, EpsContextsMatchScalar) {
+    uint32_t seed = 2000;
+    for (int lw : kLengths)
+        for (int mi = 0; mi < 5; ++mi)
+            for (int c = 0; c < kComps; ++c)
+                for (const CtxMap& map : decoderMaps(kEpsContexts)) {
+                    FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
+                    epsContexts<false, true>(fast, lw, lw, c, map);
+                    epsContexts<false, false>(ref, lw, lw, c, map);
+                    expectSameRows(fast, ref, label(lw, c, mi));
+                }
+}
+
+template <bool kKeepDetail, bool kCross>
+void finishCase(int lw, int c, int mi, uint32_t seed) {
+    FastRows fast = randomRows(lw, kModels[mi], seed), ref = fast;
+    const unsigned badFast = finishFullRow<kKeepDetail, kCross, true>(fast, lw, lw, c);
+    const unsigned badRef = finishFullRow<kKeepDetail, kCross, false>(ref, lw, lw, c);
+    EXPECT_EQ(badFast != 0, badRef != 0) << label(lw, c, mi);
+    expectSameRows(fast, ref, label(lw, c, mi));
+}
+
+TEST(PtmFastPaths, FinishRowMatchesScalar) {
+    uint32_t seed = 3000;
+    int flagged = 0, clean = 0;
+    for (int lw : kLengths)
+        for (int c = 0; c < kComps; ++c)
+            for (int rep = 0; rep < 4; ++rep) {
+                finishCase<false, false>(lw, c, 0, seed++);
+                finishCase<true, false>(lw, c, 1, seed++);
+                finishCase<true, true>(lw, c, 4, seed++);
+                // Both outcomes of the range check occur among these rows.
+                FastRows rows = randomRows(lw, kModels[4], seed++);
+                (finishFullRow<true, true, false>(rows, lw, lw, c) ? flagged : clean)++;
+            }
+    EXPECT_GT(flagged, 0);
+    EXPECT_GT(clean, 0);
+}
+
+// eq. (3)'s range check at its edges: one block of an otherwise valid row gives p11 = -1, 0, 255
+// or 256 (4 m + eps - v0 - v1 - v2), at every position of the row.
+TEST(PtmFastPaths, FinishRowRangeCheckAtItsEdges) {
+    for (int lw : {16, 33, 47})
+        for (int at = 0; at < lw; ++at)
+            for (const int last : {-1, 0, 255, 256}) {
+                FastRows fast = randomRows(lw, kModels[4], uint32_t(4000 + at));
+                const int c = 1;
+                for (int bx = 0; bx < lw; ++bx) {  // p11 = m + eps, valid
+                    const size_t i = size_t(c * lw + bx);
+                    fast.m[i] = fast.v0[i] = fast.v1[i] = fast.v2[i] = Lane(bx % 200);
+                    fast.ze[i] = uint8_t(bx % 4);
+                }
+                const size_t i = size_t(c * lw + at);
+                fast.m[i] = last > 128 ? 64 : 0;  // 4 m - (v0 + v1 + v2) = last, eps = 0
+                fast.v0[i] = Lane(last == 255 || last == -1 ? 1 : 0);
+                fast.v1[i] = fast.v2[i] = 0;
+                fast.ze[i] = 0;
+                FastRows ref = fast;
+                const bool expectBad = last < 0 || last > 255;
+                const bool badFast = finishFullRow<true, true, true>(fast, lw, lw, c) != 0;
+                const bool badRef = finishFullRow<true, true, false>(ref, lw, lw, c) != 0;
+                EXPECT_EQ(badFast, expectBad)
+                    << "lw " << lw << ", block " << at << ", p11 " << last;
+                EXPECT_EQ(badRef, expectBad);
+            }
+}
+
+}  // namespace
+}  // namespace plx::ptm::detail

@@ -120,6 +120,22 @@ public:
         mCount -= n;
         return v;
     }
+    // Bits taken so far, counted from the stream's first byte.
+    uint64_t position() const {
+        return (uint64_t(mPtr - mBegin) + mVirtual) * 8 - uint64_t(mCount);
+    }
+    // The stream, for readers that decode from position() on by themselves and then seek().
+    const uint8_t* streamBegin() const { return mBegin; }
+    size_t streamBytes() const { return size_t(mEnd - mBegin); }
+    // Continues at bit pos (at most the stream's length in bits), as if pos bits had been taken.
+    void seek(uint64_t pos) {
+        mPtr = mBegin + pos / 8;
+        mAcc = 0;
+        mCount = 0;
+        mVirtual = 0;
+        refill();
+        take(int(pos % 8));
+    }
     // True when exactly the stream's bytes were used (the last one possibly in part).
     bool exact(size_t streamBytes) const {
         const uint64_t consumedBits =

@@ -669,10 +669,8 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
         pad[0] = pad[1];
         pad[full + 1] = pad[full];
     }
-    // bucketOf: the number of thresholds reached (each comparison gives -1).
-    constexpr std::array<int16_t, 11> kBelow = {1, 3, 5, 8, 11, 15, 20, 27, 37, 51, 71};
-    for (int step = 0; step < full; step += 16) {
-        const int bx = std::min(step, full - 16);
+    // The activity of blocks bx..bx+15 (before bucketOf).
+    auto activity = [&](int bx) {
         __m256i a = load16(act0 + bx);
         if constexpr (kKind == 1) {  // (a + 3 e + e left + e right) >> 1
             const __m256i e = widen(pad + bx + 1);
@@ -695,10 +693,27 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
                 _mm256_add_epi16(_mm256_slli_epi16(same, 2), _mm256_slli_epi16(block, 1));
             a = _mm256_add_epi16(a, _mm256_srli_epi16(sum, 2));
         }
+        return a;
+    };
+    // bucketOf on 32 blocks at once, in bytes: the activities saturated to 127 (the last
+    // threshold is 72), then the number of thresholds reached (each comparison gives -1).
+    constexpr std::array<int8_t, 11> kBelow = {1, 3, 5, 8, 11, 15, 20, 27, 37, 51, 71};
+    const __m256i cap = _mm256_set1_epi8(127);
+    for (int step = 0; step < full; step += 32) {
+        // Two groups of 16 blocks; near the row's end they overlap (the same values twice).
+        const int b0 = std::min(step, full - 16), b1 = std::min(step + 16, full - 16);
+        const __m256i a = _mm256_min_epu8(
+            _mm256_permute4x64_epi64(_mm256_packus_epi16(activity(b0), activity(b1)), 0xD8), cap);
         __m256i q = _mm256_setzero_si256();
-        for (const int16_t t : kBelow)
-            q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(a, _mm256_set1_epi16(t)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + bx), ctxOf(q));
+        for (const int8_t t : kBelow)
+            q = _mm256_sub_epi8(q, _mm256_cmpgt_epi8(a, _mm256_set1_epi8(t)));
+        const __m256i off = _mm256_shuffle_epi8(ctxOf.lut, q);  // map(q) - map(0), bytes
+        auto store = [&](int bx, __m128i bytes) {
+            _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + bx),
+                                _mm256_add_epi16(ctxOf.base, _mm256_cvtepu8_epi16(bytes)));
+        };
+        store(b0, _mm256_castsi256_si128(off));
+        store(b1, _mm256_extracti128_si256(off, 1));
     }
     return true;
 }

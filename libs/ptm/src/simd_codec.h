@@ -11,8 +11,8 @@
 // - the states that fall below 2^16 take the next words in lane order: a movemask gives the
 //   lanes, a 256-entry table of packed lane-to-word permutations moves the eight words loaded at
 //   the stream pointer into them, and the pointer advances by the popcount;
-// - the extra bits of a run's tokens are read afterwards in a scalar pass (symbol order, as
-//   coder 3's separate bit stream).
+// - the extra bits of a run's tokens are read afterwards (symbol order, as coder 3's separate
+//   bit stream), sixteen tokens per vector step (extraBitsAvx2).
 //
 // A scalar decoder of the same stream handles the tail of a run (fewer than 32 symbols), the last
 // 64 bytes of the stream (bounds-checked reads) and builds without AVX2.

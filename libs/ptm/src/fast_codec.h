@@ -635,10 +635,11 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
 }
 
 #if defined(__AVX2__)
-// fullRunContexts for rows of at least 16 blocks, sixteen blocks per step in int16 lanes (every
-// intermediate is below 2^12: act0 <= 4 * 510, magnitudes <= 128, also in a corrupt level); the
-// last step overlaps the one before when 16 does not divide the row. Bit-exact with the scalar
-// loop. Returns false, having done nothing, when a table offset of `map` does not fit a byte.
+// fullRunContexts for rows of at least 16 blocks: activities sixteen blocks at a time in int16
+// lanes (every intermediate is below 2^12: act0 <= 4 * 510, magnitudes <= 128, also in a corrupt
+// level), bucketed 32 at a time in bytes; near the row's end the groups of 16 overlap. Bit-exact
+// with the scalar loop. Returns false, having done nothing, when a table offset of `map` does not
+// fit a byte.
 template <int kKind>
 bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool cross) {
     using namespace avx2;
@@ -900,16 +901,8 @@ PLX_PTM_IVDEP
     }
 }
 
-// p11 of the full blocks by eq. (3) and the row's statistics for the next row. Returns a
-// non-zero value on an eps >= 4 or a p11 outside 0..255.
-// kKeepDetail (coders 5, 6): also keeps the detail of p01 and p11 (value - upsample; u2, u3 are
-// never corrected) for the next block row's prepareRow.
-// kCross (coder 6): keeps p11's half-step residual for the next components (r3) and adds
-// p11's errors under A and B to the block's sub-predictor statistics (components >= 1), so that
-// the next row's choice between A and B also weighs p11 (0.9113x -> 0.9077x optipng -o2 over
-// the 69 Sponza textures, with the inter-component p11).
 #if defined(__AVX2__)
-// finishFullRow for blocks 0..16k-1 (decode), sixteen blocks per step in int16 lanes (p11 within
+// finishFullRow (below) for blocks 0..16k-1, sixteen blocks per step in int16 lanes (p11 within
 // -765..1275 and r3 within +-3900 also in a corrupt level). Bit-exact with the scalar loops,
 // which do the rest. Returns the first block not done; ORs the range check's flags into bad.
 template <bool kKeepDetail, bool kCross>
@@ -968,6 +961,14 @@ int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
 }
 #endif
 
+// p11 of the full blocks by eq. (3) and the row's statistics for the next row. Returns a
+// non-zero value on an eps >= 4 or a p11 outside 0..255.
+// kKeepDetail (coders 5, 6): also keeps the detail of p01 and p11 (value - upsample; u2, u3 are
+// never corrected) for the next block row's prepareRow.
+// kCross (coder 6): keeps p11's half-step residual for the next components (r3) and adds
+// p11's errors under A and B to the block's sub-predictor statistics (components >= 1), so that
+// the next row's choice between A and B also weighs p11 (0.9113x -> 0.9077x optipng -o2 over
+// the 69 Sponza textures, with the inter-component p11).
 // With AVX2, blocks 0..16k-1 by finishFullRowAvx2; kFast = false runs the scalar loops for every
 // block (the reference that fast_paths_test compares the vector path with).
 template <bool kKeepDetail, bool kCross = false, bool kFast = true>

@@ -307,6 +307,18 @@ inline __m256i div3(__m256i x) {
 inline __m256i clamp255(__m256i x) {
     return _mm256_min_epi16(_mm256_max_epi16(x, _mm256_setzero_si256()), _mm256_set1_epi16(255));
 }
+// Sixteen bytes as int16 lanes.
+inline __m256i widen16(const uint8_t* p) {
+    return _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+// magnitude() of sixteen run values, as bytes: (z + 1) >> 1 is the rounding average with 0.
+inline __m128i magnitudes8(const uint8_t* z) {
+    return _mm_avg_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z)), _mm_setzero_si128());
+}
+// The same as int16 lanes.
+inline __m256i magnitudes16(const uint8_t* z) {
+    return _mm256_cvtepu8_epi16(magnitudes8(z));
+}
 // A context map over q < n <= 16 as a byte lookup: ctx(q) = base + lut[q]. False when an
 // offset map(q) - map(0) does not fit a byte (then the caller takes its scalar loop).
 struct CtxLut {
@@ -523,8 +535,7 @@ int codeFullRowAvx2(FastRows& R, int lw, int full, int c) {
                 const __m256i bytes = _mm256_permute4x64_epi64(_mm256_packus_epi16(zz, zz), 0xD8);
                 _mm_storeu_si128(reinterpret_cast<__m128i*>(z + bx), _mm256_castsi256_si128(bytes));
             } else {  // v = (pred + unzigzag(z)) & 255
-                const __m256i zz =
-                    _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z + bx)));
+                const __m256i zz = widen16(z + bx);
                 const __m256i unz = _mm256_xor_si256(
                     _mm256_srli_epi16(zz, 1), _mm256_sub_epi16(zero, _mm256_and_si256(zz, one)));
                 val = _mm256_and_si256(_mm256_add_epi16(pred, unz), mask255);
@@ -651,21 +662,12 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
     const uint8_t* z1 = R.z1.data() + ri;
     const uint8_t* z2 = R.z2.data() + ri;
     uint16_t* ctx = R.ctx.data() + ri;
-    // magnitude() of 16 run values: (z + 1) >> 1 is the rounding byte average with 0.
-    auto mag8 = [](const uint8_t* z) {
-        return _mm_avg_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z)),
-                            _mm_setzero_si128());
-    };
-    auto mag16 = [&](const uint8_t* z) { return _mm256_cvtepu8_epi16(mag8(z)); };
-    auto widen = [](const uint8_t* b) {
-        return _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b)));
-    };
     // Kinds 1, 2: the magnitudes of the previous run, ends replicated: e[bx] at pad[bx + 1].
     uint8_t* pad = R.magBytes.data();
     if constexpr (kKind > 0) {
         const uint8_t* zp = kKind == 1 ? z0 : z1;
         for (int i = 0; i + 16 <= full; i += 16)
-            _mm_storeu_si128(reinterpret_cast<__m128i*>(pad + 1 + i), mag8(zp + i));
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(pad + 1 + i), magnitudes8(zp + i));
         for (int i = full & ~15; i < full; ++i) pad[i + 1] = uint8_t(magnitude(zp[i]));
         pad[0] = pad[1];
         pad[full + 1] = pad[full];
@@ -674,20 +676,20 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
     auto activity = [&](int bx) {
         __m256i a = load16(act0 + bx);
         if constexpr (kKind == 1) {  // (a + 3 e + e left + e right) >> 1
-            const __m256i e = widen(pad + bx + 1);
+            const __m256i e = widen16(pad + bx + 1);
             a = _mm256_add_epi16(a, _mm256_add_epi16(e, _mm256_slli_epi16(e, 1)));
-            a = _mm256_add_epi16(a, _mm256_add_epi16(widen(pad + bx), widen(pad + bx + 2)));
+            a = _mm256_add_epi16(a, _mm256_add_epi16(widen16(pad + bx), widen16(pad + bx + 2)));
             a = _mm256_srli_epi16(a, 1);
         } else if constexpr (kKind == 2) {  // (a + 3 |z0| + 2 e + e left) >> 1
-            const __m256i m0 = mag16(z0 + bx);
+            const __m256i m0 = magnitudes16(z0 + bx);
             a = _mm256_add_epi16(a, _mm256_add_epi16(m0, _mm256_slli_epi16(m0, 1)));
-            a = _mm256_add_epi16(
-                a, _mm256_add_epi16(_mm256_slli_epi16(widen(pad + bx + 1), 1), widen(pad + bx)));
+            a = _mm256_add_epi16(a, _mm256_add_epi16(_mm256_slli_epi16(widen16(pad + bx + 1), 1),
+                                                     widen16(pad + bx)));
             a = _mm256_srli_epi16(a, 1);
         }
         if (cross) {  // the previous component's magnitudes, as the scalar loop's `extra`
-            const __m256i y0 = mag16(z0 + bx - full), y1 = mag16(z1 + bx - full);
-            const __m256i y2 = mag16(z2 + bx - full);
+            const __m256i y0 = magnitudes16(z0 + bx - full), y1 = magnitudes16(z1 + bx - full);
+            const __m256i y2 = magnitudes16(z2 + bx - full);
             const __m256i same = kKind == 0 ? y0 : kKind == 1 ? y1 : y2;
             const __m256i block = _mm256_add_epi16(_mm256_add_epi16(y0, y1), y2);
             const __m256i sum =
@@ -786,10 +788,6 @@ inline int crossEpsContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map
     // c == 0: no inter-component terms (r3 and q3 are then the row of zeros).
     const __m256i inter = _mm256_set1_epi16(c > 0 ? -1 : 0);
     const __m256i one = _mm256_set1_epi16(1), zero = _mm256_setzero_si256();
-    auto mag16 = [](const uint8_t* z) {  // magnitude() of sixteen run values
-        return _mm256_cvtepu8_epi16(_mm_avg_epu8(
-            _mm_loadu_si128(reinterpret_cast<const __m128i*>(z)), _mm_setzero_si128()));
-    };
     int bx = 0;
     for (; bx + 16 <= full; bx += 16) {
         const size_t p = pi + size_t(bx), r = ri + size_t(bx);
@@ -812,10 +810,10 @@ inline int crossEpsContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map
                                               _mm256_set1_epi16(-1)),
                              _mm256_set1_epi16(3));
         const __m256i s1 = _mm256_add_epi16(sHat, one);
-        __m256i act =
-            _mm256_add_epi16(load16(R.act0.data() + p),
-                             _mm256_add_epi16(mag16(R.z0.data() + r), mag16(R.z1.data() + r)));
-        act = _mm256_add_epi16(act, mag16(R.z2.data() + r));
+        __m256i act = _mm256_add_epi16(
+            load16(R.act0.data() + p),
+            _mm256_add_epi16(magnitudes16(R.z0.data() + r), magnitudes16(R.z1.data() + r)));
+        act = _mm256_add_epi16(act, magnitudes16(R.z2.data() + r));
         act = _mm256_add_epi16(
             act, _mm256_and_si256(inter, _mm256_slli_epi16(_mm256_abs_epi16(pr3), 1)));
         // + (act >= 6) + (act >= 18)
@@ -910,21 +908,17 @@ int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
     using namespace avx2;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;
+    Lane* own3 = R.compRow(R.r3, c);
     const Lane* p3 = R.compRow(R.r3, c - 1);
     const Lane* q3 = R.compRow(R.r3, FastRows::secondBefore(c));
     const __m256i zero = _mm256_setzero_si256();
-    auto mag16 = [](const uint8_t* z) {  // magnitude() of sixteen run values
-        return _mm256_cvtepu8_epi16(_mm_avg_epu8(
-            _mm_loadu_si128(reinterpret_cast<const __m128i*>(z)), _mm_setzero_si128()));
-    };
     __m256i flags = zero;
     int bx = 0;
     for (; bx + 16 <= full; bx += 16) {
         const size_t p = pi + size_t(bx), r = ri + size_t(bx), st = si + size_t(bx);
         const __m256i v0 = load16(R.v0.data() + r), v1 = load16(R.v1.data() + r);
         const __m256i v2 = load16(R.v2.data() + r), u3 = load16(R.u3.data() + p);
-        const __m256i ep = _mm256_cvtepu8_epi16(
-            _mm_loadu_si128(reinterpret_cast<const __m128i*>(R.ze.data() + r)));
+        const __m256i ep = widen16(R.ze.data() + r);
         const __m256i last = _mm256_sub_epi16(  // eq. (3)
             _mm256_add_epi16(_mm256_slli_epi16(load16(R.m.data() + p), 2), ep),
             _mm256_add_epi16(_mm256_add_epi16(v0, v1), v2));
@@ -937,14 +931,15 @@ int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
             store16(R.detail11.data() + p, _mm256_sub_epi16(last, u3));
         }
         store16(R.curAct.data() + st,
-                _mm256_add_epi16(_mm256_add_epi16(mag16(R.z0.data() + r), mag16(R.z1.data() + r)),
-                                 mag16(R.z2.data() + r)));
+                _mm256_add_epi16(
+                    _mm256_add_epi16(magnitudes16(R.z0.data() + r), magnitudes16(R.z1.data() + r)),
+                    magnitudes16(R.z2.data() + r)));
         __m256i ea = load16(R.errA.data() + r), eb = load16(R.errB.data() + r);
         if constexpr (kCross) {
             const __m256i planar = _mm256_sub_epi16(_mm256_add_epi16(v1, v2), v0);
             const __m256i r3 =
                 _mm256_sub_epi16(_mm256_sub_epi16(_mm256_slli_epi16(last, 1), planar), u3);
-            store16(R.compRow(R.r3, c) + bx, r3);
+            store16(own3 + bx, r3);
             if (c > 0) {  // |r3| / 2 and |r3 - B's correction| / 2
                 const __m256i corr =
                     _mm256_srai_epi16(_mm256_add_epi16(load16(p3 + bx), load16(q3 + bx)), 1);

@@ -137,11 +137,7 @@ public:
         take(int(pos % 8));
     }
     // True when exactly the stream's bytes were used (the last one possibly in part).
-    bool exact(size_t streamBytes) const {
-        const uint64_t consumedBits =
-            (uint64_t(mPtr - mBegin) + mVirtual) * 8 - uint64_t(mCount);
-        return (consumedBits + 7) / 8 == streamBytes;
-    }
+    bool exact(size_t streamBytes) const { return (position() + 7) / 8 == streamBytes; }
 
 private:
     void refill() {

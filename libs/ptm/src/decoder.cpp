@@ -20,6 +20,13 @@ Status corrupt(std::string message) {
     return errorStatus(ErrorCode::kCorruptData, "PTM: " + std::move(message));
 }
 
+// The image a group decodes into: the level's size, all bytes allocated.
+ByteImage levelImage(LevelSize size, int comps) {
+    ByteImage img{size.width, size.height, comps, {}};
+    img.bytes.resize(img.rowBytes() * size_t(size.height));
+    return img;
+}
+
 // Decompresses one zstd frame that must fill `out` exactly and use every input byte.
 Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     const unsigned long long declared = ZSTD_getFrameContentSize(in.data(), in.size());
@@ -189,8 +196,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
         groupBytes = groupBytes.subspan(1);
     }
     if (uint8_t(coder) >= uint8_t(Coder::kPredictRans)) {  // coders 2 to 6
-        ByteImage img{size.width, size.height, comps, {}};
-        img.bytes.resize(img.rowBytes() * size_t(size.height));
+        ByteImage img = levelImage(size, comps);
         PLX_RETURN_IF_ERROR(
             decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k, coder));
         mLevels.push_back(std::move(img));
@@ -211,8 +217,7 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
         PLX_RETURN_IF_ERROR(unzstd(groupBytes, mScratch, k));
     }
     payload = mScratch;
-    ByteImage img{size.width, size.height, comps, {}};
-    img.bytes.resize(img.rowBytes() * size_t(size.height));
+    ByteImage img = levelImage(size, comps);
     const bool predict = coder == Coder::kPredictZstd;
     bool ok = true;
     if (k == 0) {

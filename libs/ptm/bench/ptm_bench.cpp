@@ -4,7 +4,8 @@
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
 //   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=0..6) next to libpng decode
 //   plx_ptm_bench coderab FILES...  two coders (PLX_AB="5,6"): sizes, decode MB/s, libpng
-//   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (for profilers); PLX_PTM_REPS=N
+//   plx_ptm_bench ptmdecode FILES.. encode once, decode 20 times (PLX_PTM_REPS=N): best MB/s;
+//                                  for profilers and alternated runs of two builds
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
 

@@ -45,6 +45,23 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
     return Status::ok();
 }
 
+// The decode tables of coders 4 to 6 (one 16 KB table per context table of the group, up to
+// 16 families x 16 tables = 4 MB): a buffer per thread, kept between groups and files and grown
+// to the largest group seen. A fresh 2.5 MB block per group (an RGB level's 156 tables) costs
+// its page faults on every group once the allocator has handed it back to the system: decoding
+// the four speed-table textures from .ptm files in a fresh process ran at 143-155 MB/s with it
+// and at 283-303 MB/s with this buffer (docs/ptm-results.md, "Decode tables kept per thread").
+uint32_t* simdTableBuffer(size_t entries) {
+    thread_local std::unique_ptr<uint32_t[]> buffer;
+    thread_local size_t capacity = 0;
+    if (capacity < entries) {
+        buffer.reset();
+        buffer = std::make_unique_for_overwrite<uint32_t[]>(entries);
+        capacity = entries;
+    }
+    return buffer.get();
+}
+
 // Coders 3 to 6, group k >= 1: runtime component count to the walker's template argument.
 template <class IO>
 bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
@@ -126,10 +143,10 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     if (simd) {
         // One 32-bit entry per slot (16 KB per table); the walker's contexts are table indices.
         // buildSimdTable writes every entry (a valid table's frequencies sum to kRansTotal).
-        auto entries = std::make_unique_for_overwrite<uint32_t[]>(tables * detail::kRansTotal);
+        uint32_t* entries = simdTableBuffer(tables * detail::kRansTotal);
         for (size_t t = 0; t < tables; ++t)
-            detail::buildSimdTable(freqs[t], entries.get() + t * detail::kRansTotal);
-        detail::SimdDecodeIO io(entries.get(), familyTables, simdStates, p, p + ransBytes,
+            detail::buildSimdTable(freqs[t], entries + t * detail::kRansTotal);
+        detail::SimdDecodeIO io(entries, familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
         io.models = models;
         const bool walked = decodeLevelFast(img.channels, *low, img, io);

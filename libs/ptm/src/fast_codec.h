@@ -28,6 +28,13 @@
 #if defined(__AVX2__)
 #include <immintrin.h>
 #endif
+// AVX-512 paths (F, BW and VL, as AMD Zen 4 and later and Intel's server cores have): where the
+// build targets such a CPU (-march=native on one), they replace the AVX2 ones they extend.
+#if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
+#define PLX_PTM_AVX512 1
+#else
+#define PLX_PTM_AVX512 0
+#endif
 
 #include <plx/core/image.h>
 #include <plx/ptm/format.h>

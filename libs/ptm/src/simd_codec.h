@@ -150,7 +150,7 @@ struct SimdDecodeIO : WordStream {
     // contexts are table indices.
     std::array<CtxMap, 16> families{};
     BitReader bits;
-    alignas(32) uint32_t x[kSimdStates] = {};
+    alignas(64) uint32_t x[kSimdStates] = {};
     WalkModels models;  // coders 5, 6 (FastRows)
 
     // familyTables[f] = {first table, g} of family f (context map).
@@ -177,9 +177,63 @@ struct SimdDecodeIO : WordStream {
     bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
 
     // The symbols of a run, from the first, while whole rounds of kSimdStates symbols remain and
-    // 2 kSimdStates bytes are left (a round reads at most one word per state; the last vector's
-    // 16-byte load starts at most 48 bytes in); returns the first symbol not done.
+    // 2 kSimdStates bytes are left (a round reads at most one word per state); returns the first
+    // symbol not done. The widest vector code the build has: runVectorAvx512 or runVectorAvx2.
     int runVector(const uint16_t* ctx, int n, uint8_t* tok) {
+#if PLX_PTM_AVX512
+        return runVectorAvx512(ctx, n, tok);
+#else
+        return runVectorAvx2(ctx, n, tok);
+#endif
+    }
+
+#if PLX_PTM_AVX512
+    // runVector with sixteen states per AVX-512 vector, two vectors per round: the sixteen table
+    // entries by one vpgatherdd, the renormalisation words moved into the lanes below 2^16 by one
+    // vpexpandd (the lanes of the mask in order, as the stream stores them). The second vector's
+    // 32-byte word load starts at most 32 bytes in.
+    int runVectorAvx512(const uint16_t* ctx, int n, uint8_t* tok) {
+        const __m512i mask12 = _mm512_set1_epi32(int(kRansTotal - 1));
+        const __m512i freqMask = _mm512_set1_epi32(int(kEntryFreqMask));
+        const __m512i biasMask = _mm512_set1_epi32(0xFFF);
+        const __m512i low = _mm512_set1_epi32(int(kRansLow));
+        constexpr int kLanes = 16, kVectors = kSimdStates / kLanes;
+        __m512i s[kVectors];
+        for (int v = 0; v < kVectors; ++v) s[v] = _mm512_load_si512(x + kLanes * v);
+        const uint8_t* p = ptr;
+        int j = 0;
+        for (; j + kSimdStates <= n && end - p >= 2 * kSimdStates; j += kSimdStates) {
+#pragma GCC unroll 2
+            for (int v = 0; v < kVectors; ++v) {
+                const __m512i table = _mm512_slli_epi32(
+                    _mm512_cvtepu16_epi32(
+                        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ctx + j + kLanes * v))),
+                    kRansPrecision);
+                const __m512i e = _mm512_i32gather_epi32(
+                    _mm512_add_epi32(table, _mm512_and_si512(s[v], mask12)), entries, 4);
+                const __m512i xs = _mm512_add_epi32(
+                    _mm512_mullo_epi32(_mm512_and_si512(e, freqMask),
+                                       _mm512_srli_epi32(s[v], kRansPrecision)),
+                    _mm512_and_si512(_mm512_srli_epi32(e, kEntryBiasShift), biasMask));
+                _mm_storeu_si128(reinterpret_cast<__m128i*>(tok + j + kLanes * v),
+                                 _mm512_cvtepi32_epi8(_mm512_srli_epi32(e, kEntryTokenShift)));
+                const __mmask16 below = _mm512_cmplt_epu32_mask(xs, low);
+                const __m512i words = _mm512_maskz_expand_epi32(
+                    below,
+                    _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))));
+                s[v] = _mm512_mask_or_epi32(xs, below, _mm512_slli_epi32(xs, 16), words);
+                p += 2 * std::popcount(unsigned(below));
+            }
+        }
+        ptr = p;
+        for (int v = 0; v < kVectors; ++v) _mm512_store_si512(x + kLanes * v, s[v]);
+        return j;
+    }
+#endif
+
+    // runVector with eight states per AVX2 vector, four vectors per round (the last vector's
+    // 16-byte word load starts at most 48 bytes in).
+    int runVectorAvx2(const uint16_t* ctx, int n, uint8_t* tok) {
         int j = 0;
 #if defined(__AVX2__)
         const __m256i mask12 = _mm256_set1_epi32(int(kRansTotal - 1));
@@ -248,22 +302,29 @@ struct SimdDecodeIO : WordStream {
         return j;
     }
 
-    // A run of n symbols with contexts ctx: tokens (kExtra: plus their extra bits) into z.
-    template <bool kExtra>
-    void run(const uint16_t* ctx, int n, uint8_t* z) {
-        int j = runVector(ctx, n, z);
-        for (; j < n; ++j) {  // the tail and the stream's end, checked
+    // Symbols j..n-1 of a run by the scalar decoder: the tail of a run and the stream's end,
+    // with checked word reads.
+    void runScalar(const uint16_t* ctx, int j, int n, uint8_t* tok) {
+        for (; j < n; ++j) {
             uint32_t& st = x[j % kSimdStates];
             const uint32_t slot = st & (kRansTotal - 1);
             const uint32_t e = entries[(uint32_t(ctx[j]) << kRansPrecision) + slot];
             st = (e & kEntryFreqMask) * (st >> kRansPrecision) + ((e >> kEntryBiasShift) & 0xFFF);
             if (st < kRansLow) st = (st << 16) | readWord();
-            z[j] = uint8_t(e >> kEntryTokenShift);
+            tok[j] = uint8_t(e >> kEntryTokenShift);
         }
+    }
+
+    // A run of n symbols with contexts ctx: tokens (kExtra: plus their extra bits) into z.
+    // kFast = false decodes every symbol with the scalar loops (the reference of
+    // fast_paths_test).
+    template <bool kExtra, bool kFast = true>
+    void run(const uint16_t* ctx, int n, uint8_t* z) {
+        runScalar(ctx, kFast ? runVector(ctx, n, z) : 0, n, z);
         if constexpr (kExtra) {
             int i = 0;
 #if defined(__AVX2__)
-            i = extraBitsAvx2(z, n, bits);
+            if constexpr (kFast) i = extraBitsAvx2(z, n, bits);
 #endif
             BitReader br = bits;  // a local: the byte stores to z cannot alias it
             for (; i + 8 <= n; i += 8) {

@@ -277,5 +277,76 @@ TEST(PtmFastPaths, ExtraBitsMatchScalar) {
 #endif
 }
 
+// Random frequency tables as a decoder may meet them: some tokens absent, one dominant token,
+// and empty tables (every slot token 0, the state unchanged).
+std::vector<uint32_t> randomSimdTables(int tables, std::mt19937& rng) {
+    std::vector<uint32_t> entries(size_t(tables) * kRansTotal);
+    for (int t = 0; t < tables; ++t) {
+        std::array<uint16_t, kTokenCount> freq{};
+        if (t % 7 != 6) {
+            std::array<uint32_t, kTokenCount> counts{};
+            const int used = 1 + int(rng() % kTokenCount);
+            for (int k = 0; k < used; ++k)
+                counts[rng() % kTokenCount] += k == 0 ? 1 + rng() % 5000 : 1 + rng() % 300;
+            freq = normalizeCounts(counts);
+        }
+        buildSimdTable(freq, entries.data() + size_t(t) * kRansTotal);
+    }
+    return entries;
+}
+
+// The vector rANS loops (SimdDecodeIO::runVectorAvx2 and, in builds for AVX-512,
+// runVectorAvx512) against the scalar decoder: tokens, states, stream position and overrun
+// after runs of every length around the 32-symbol round, on word streams that end early (the
+// loops must leave the last 64 bytes to the checked reads).
+TEST(PtmFastPaths, RansRunsMatchScalar) {
+#if defined(__AVX2__)
+    std::mt19937 rng(7000);
+    constexpr int kTables = 40;
+    const std::vector<uint32_t> entries = randomSimdTables(kTables, rng);
+    const std::array<std::array<int, 2>, 16> families{};
+    using Loop = int (SimdDecodeIO::*)(const uint16_t*, int, uint8_t*);
+    std::vector<std::pair<const char*, Loop>> loops = {{"avx2", &SimdDecodeIO::runVectorAvx2}};
+#if PLX_PTM_AVX512
+    loops.push_back({"avx512", &SimdDecodeIO::runVectorAvx512});
+#endif
+    int vectorSymbols = 0;
+    for (int n : {1, 31, 32, 33, 64, 95, 512, 700})
+        for (int words : {16, 40, 200, 5000}) {
+            std::vector<uint8_t> stream(static_cast<size_t>(2 * words));
+            for (uint8_t& b : stream) b = uint8_t(rng());
+            std::vector<uint16_t> ctx(static_cast<size_t>(n));
+            for (uint16_t& c : ctx) c = uint16_t(rng() % kTables);
+            auto io = [&] {
+                return SimdDecodeIO(entries.data(), families, kSimdStates, stream.data(),
+                                    stream.data() + stream.size(), BitReader(nullptr, nullptr));
+            };
+            SimdDecodeIO ref = io();
+            std::vector<uint8_t> refTokens(static_cast<size_t>(n));
+            for (int pass = 0; pass < 2; ++pass)
+                ref.run<false, false>(ctx.data(), n, refTokens.data());
+            for (const auto& [name, loop] : loops) {
+                SimdDecodeIO fast = io();
+                std::vector<uint8_t> tokens(static_cast<size_t>(n));
+                for (int pass = 0; pass < 2;
+                     ++pass) {  // the second run starts from the first's states
+                    const int done = (fast.*loop)(ctx.data(), n, tokens.data());
+                    vectorSymbols += done;
+                    fast.runScalar(ctx.data(), done, n, tokens.data());
+                }
+                const std::string where = std::string(name) + ", n " + std::to_string(n) +
+                                          ", words " + std::to_string(words);
+                EXPECT_EQ(tokens, refTokens) << where;
+                EXPECT_TRUE(std::equal(fast.x, fast.x + kSimdStates, ref.x)) << where;
+                EXPECT_EQ(fast.ptr, ref.ptr) << where;
+                EXPECT_EQ(fast.overrun, ref.overrun) << where;
+            }
+        }
+    EXPECT_GT(vectorSymbols, 0);
+#else
+    GTEST_SKIP() << "no AVX2 in this build";
+#endif
+}
+
 }  // namespace
 }  // namespace plx::ptm::detail

@@ -149,6 +149,7 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
         detail::SimdDecodeIO io(entries, familyTables, simdStates, p, p + ransBytes,
                                 detail::BitReader(p + ransBytes, end));
         io.models = models;
+        if (cross) io.buildSmallAlphabets(freqs, familyTables, img.channels);
         const bool walked = decodeLevelFast(img.channels, *low, img, io);
         return finishFast(walked, io, extraBytes, k);
     }

@@ -117,6 +117,8 @@ struct FastEncodeIO {
     int lanes = kFastStates;  // symbol j of a run uses state j mod lanes
     WalkModels models;        // coders 5, 6 (FastRows)
     CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
+    // Coder 6's eps run of a component: as run<false> (the decoder's may take a faster path).
+    void runEps(int, const uint16_t* ctx, int n, uint8_t* z) { run<false>(ctx, n, z); }
     template <bool kExtra>
     void run(const uint16_t* ctx, int n, uint8_t* z) {
         for (int j = 0; j < n; ++j) {
@@ -151,6 +153,7 @@ struct FastDecodeIO : WordStream {
     // True when the stream was used up exactly and all states returned to their initial value.
     bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
     CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
+    void runEps(int, const uint16_t* ctx, int n, uint8_t* z) { run<false>(ctx, n, z); }
 
     // One symbol with state s; the renormalisation word is read unchecked (the caller made sure
     // that 2 bytes remain).
@@ -1154,7 +1157,7 @@ unsigned walkFullRowByComponent(FastRows& R, int lw, int full, IO& io) {
         io.template run<true>(ctx, full, R.z2.data() + ri);
         if constexpr (!IO::kEncode) codeFullRow<false, true>(R, lw, full, c);
         epsContexts<IO::kEncode>(R, lw, full, c, io.ctxMap(c, 3));
-        io.template run<false>(ctx, full, R.ze.data() + ri);
+        io.runEps(c, ctx, full, R.ze.data() + ri);
         bad |= finishFullRow<true, true>(R, lw, full, c);
     }
     return bad;

@@ -140,6 +140,36 @@ inline int extraBitsAvx2(uint8_t* z, int n, BitReader& bits) {
 }
 #endif
 
+// The tables of one family whose tokens are 0..3 (coder 6's eps runs, per component), held as
+// vectors for runSmallAvx512: per table of the family (at most 16, lane = table - first), the
+// cumulative starts of tokens 1..3 and the frequencies of tokens 0..3. An empty table decodes
+// as buildSimdTable's: token 0 with frequency kRansTotal everywhere.
+struct SmallAlphabet {
+    alignas(64) uint32_t cum[3][16] = {};
+    alignas(64) uint32_t freq[4][16] = {};
+    int first = 0;
+    bool usable = false;  // every table of the family holds tokens 0..3 only
+
+    // From the frequencies of tables first..first+count-1; unusable (the family keeps the
+    // table path) if count > 16 or a table has a token above 3.
+    void build(const std::vector<std::array<uint16_t, kTokenCount>>& freqs, int firstTable,
+               int count) {
+        first = firstTable;
+        usable = count <= 16;
+        for (int l = 0; l < count && usable; ++l) {
+            const auto& f = freqs[size_t(firstTable + l)];
+            const bool empty = std::all_of(f.begin(), f.end(), [](uint16_t v) { return v == 0; });
+            usable = std::all_of(f.begin() + 4, f.end(), [](uint16_t v) { return v == 0; });
+            uint32_t start = 0;
+            for (int t = 0; t < 4; ++t) {
+                if (t > 0) cum[t - 1][l] = empty ? kRansTotal : start;
+                freq[t][l] = empty ? (t == 0 ? kRansTotal : 0) : f[size_t(t)];
+                start += f[size_t(t)];
+            }
+        }
+    }
+};
+
 // Decoder IO of coders 4 to 6 for walkLevelFast: kSimdStates rANS states over a bounds-checked
 // word stream, extra bits from a separate bit stream. Past the end of either stream reads give
 // zeros and the overrun is recorded.
@@ -152,6 +182,8 @@ struct SimdDecodeIO : WordStream {
     BitReader bits;
     alignas(64) uint32_t x[kSimdStates] = {};
     WalkModels models;  // coders 5, 6 (FastRows)
+    // Coder 6's eps families (4c + 3) for runEps, when buildSmallAlphabets was called.
+    std::array<SmallAlphabet, 4> eps{};
 
     // familyTables[f] = {first table, g} of family f (context map).
     // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.
@@ -173,6 +205,15 @@ struct SimdDecodeIO : WordStream {
         }
     }
     CtxMap ctxMap(int c, int kind) const { return families[size_t(4 * c + kind)]; }
+    // Prepares runEps for the eps families of components 0..comps-1 (freqs: the group's
+    // tables; familyTables as the constructor's).
+    void buildSmallAlphabets(const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                             const std::array<std::array<int, 2>, 16>& familyTables, int comps) {
+        for (int c = 0; c < comps; ++c) {
+            const auto& [first, g] = familyTables[size_t(4 * c + 3)];
+            eps[size_t(c)].build(freqs, first, g);
+        }
+    }
     // True when the stream was used up exactly and all states returned to their initial value.
     bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
 
@@ -188,15 +229,12 @@ struct SimdDecodeIO : WordStream {
     }
 
 #if PLX_PTM_AVX512
-    // runVector with sixteen states per AVX-512 vector, two vectors per round: the sixteen table
-    // entries by one vpgatherdd, the renormalisation words moved into the lanes below 2^16 by one
-    // vpexpandd (the lanes of the mask in order, as the stream stores them). The second vector's
-    // 32-byte word load starts at most 32 bytes in.
-    int runVectorAvx512(const uint16_t* ctx, int n, uint8_t* tok) {
-        const __m512i mask12 = _mm512_set1_epi32(int(kRansTotal - 1));
-        const __m512i freqMask = _mm512_set1_epi32(int(kEntryFreqMask));
-        const __m512i biasMask = _mm512_set1_epi32(0xFFF);
-        const __m512i low = _mm512_set1_epi32(int(kRansLow));
+    // Whole rounds of kSimdStates symbols, sixteen states per AVX-512 vector, two vectors per
+    // round, while 2 kSimdStates bytes of words are left: step(state, contexts, tokens) decodes
+    // sixteen symbols (their contexts as 32-bit lanes), stores their tokens and returns the
+    // states before renormalisation; refill512 renormalises them. Returns the symbols done.
+    template <class Step>
+    int roundsAvx512(const uint16_t* ctx, int n, uint8_t* tok, Step step) {
         constexpr int kLanes = 16, kVectors = kSimdStates / kLanes;
         __m512i s[kVectors];
         for (int v = 0; v < kVectors; ++v) s[v] = _mm512_load_si512(x + kLanes * v);
@@ -205,29 +243,84 @@ struct SimdDecodeIO : WordStream {
         for (; j + kSimdStates <= n && end - p >= 2 * kSimdStates; j += kSimdStates) {
 #pragma GCC unroll 2
             for (int v = 0; v < kVectors; ++v) {
-                const __m512i table = _mm512_slli_epi32(
-                    _mm512_cvtepu16_epi32(
-                        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ctx + j + kLanes * v))),
-                    kRansPrecision);
-                const __m512i e = _mm512_i32gather_epi32(
-                    _mm512_add_epi32(table, _mm512_and_si512(s[v], mask12)), entries, 4);
-                const __m512i xs = _mm512_add_epi32(
-                    _mm512_mullo_epi32(_mm512_and_si512(e, freqMask),
-                                       _mm512_srli_epi32(s[v], kRansPrecision)),
-                    _mm512_and_si512(_mm512_srli_epi32(e, kEntryBiasShift), biasMask));
-                _mm_storeu_si128(reinterpret_cast<__m128i*>(tok + j + kLanes * v),
-                                 _mm512_cvtepi32_epi8(_mm512_srli_epi32(e, kEntryTokenShift)));
-                const __mmask16 below = _mm512_cmplt_epu32_mask(xs, low);
-                const __m512i words = _mm512_maskz_expand_epi32(
-                    below,
-                    _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))));
-                s[v] = _mm512_mask_or_epi32(xs, below, _mm512_slli_epi32(xs, 16), words);
-                p += 2 * std::popcount(unsigned(below));
+                const int at = j + kLanes * v;
+                const __m512i c = _mm512_cvtepu16_epi32(
+                    _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ctx + at)));
+                s[v] = refill512(step(s[v], c, tok + at), p);
             }
         }
         ptr = p;
         for (int v = 0; v < kVectors; ++v) _mm512_store_si512(x + kLanes * v, s[v]);
         return j;
+    }
+
+    // The renormalisation of sixteen states: those below 2^16 take the next words at p in lane
+    // order (vpexpandd), and p moves past them. Reads 32 bytes at p: the second vector of a
+    // round reads at most 64 bytes past the round's start.
+    static __m512i refill512(__m512i xs, const uint8_t*& p) {
+        const __mmask16 below = _mm512_cmplt_epu32_mask(xs, _mm512_set1_epi32(int(kRansLow)));
+        const __m512i words = _mm512_maskz_expand_epi32(
+            below, _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))));
+        p += 2 * std::popcount(unsigned(below));
+        return _mm512_mask_or_epi32(xs, below, _mm512_slli_epi32(xs, 16), words);
+    }
+
+    // runVector with AVX-512 (roundsAvx512): a vector's sixteen table entries by one vpgatherdd.
+    int runVectorAvx512(const uint16_t* ctx, int n, uint8_t* tok) {
+        const __m512i mask12 = _mm512_set1_epi32(int(kRansTotal - 1));
+        const __m512i freqMask = _mm512_set1_epi32(int(kEntryFreqMask));
+        const __m512i biasMask = _mm512_set1_epi32(0xFFF);
+        const uint32_t* tables = entries;
+        return roundsAvx512(ctx, n, tok, [&](__m512i s, __m512i table, uint8_t* out) {
+            const __m512i slot = _mm512_and_si512(s, mask12);
+            const __m512i e = _mm512_i32gather_epi32(
+                _mm512_add_epi32(_mm512_slli_epi32(table, kRansPrecision), slot), tables, 4);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(out),
+                             _mm512_cvtepi32_epi8(_mm512_srli_epi32(e, kEntryTokenShift)));
+            return _mm512_add_epi32(
+                _mm512_mullo_epi32(_mm512_and_si512(e, freqMask),
+                                   _mm512_srli_epi32(s, kRansPrecision)),
+                _mm512_and_si512(_mm512_srli_epi32(e, kEntryBiasShift), biasMask));
+        });
+    }
+
+    // runVectorAvx512 for a run whose contexts are tables of one SmallAlphabet family (tokens
+    // 0..3): no table load on the chain from one state to the next. The lane's cumulative
+    // starts and frequencies come from registers by its table (vpermd, known before the state),
+    // the token is the number of starts <= slot (the starts do not decrease), then the state
+    // update as the table path's. Bit-exact with the table path for such tables: a slot's
+    // token is the last one whose start is <= slot, and its bias slot - start.
+    int runSmallAvx512(const uint16_t* ctx, int n, uint8_t* tok, const SmallAlphabet& a) {
+        auto row = [](const uint32_t* v) { return _mm512_load_si512(v); };
+        const __m512i c1 = row(a.cum[0]), c2 = row(a.cum[1]), c3 = row(a.cum[2]);
+        const __m512i f0 = row(a.freq[0]), f1 = row(a.freq[1]), f2 = row(a.freq[2]);
+        const __m512i f3 = row(a.freq[3]);
+        const __m512i first = _mm512_set1_epi32(a.first), one = _mm512_set1_epi32(1);
+        const __m512i mask12 = _mm512_set1_epi32(int(kRansTotal - 1));
+        return roundsAvx512(ctx, n, tok, [&](__m512i s, __m512i table, uint8_t* out) {
+            const __m512i lane = _mm512_sub_epi32(table, first);
+            const __m512i s1 = _mm512_permutexvar_epi32(lane, c1);
+            const __m512i s2 = _mm512_permutexvar_epi32(lane, c2);
+            const __m512i s3 = _mm512_permutexvar_epi32(lane, c3);
+            const __m512i slot = _mm512_and_si512(s, mask12);
+            const __mmask16 m1 = _mm512_cmple_epu32_mask(s1, slot);
+            const __mmask16 m2 = _mm512_cmple_epu32_mask(s2, slot);
+            const __mmask16 m3 = _mm512_cmple_epu32_mask(s3, slot);
+            __m512i start = _mm512_maskz_mov_epi32(m1, s1);
+            start = _mm512_mask_mov_epi32(start, m2, s2);
+            start = _mm512_mask_mov_epi32(start, m3, s3);
+            __m512i freq = _mm512_permutexvar_epi32(lane, f0);
+            freq = _mm512_mask_permutexvar_epi32(freq, m1, lane, f1);
+            freq = _mm512_mask_permutexvar_epi32(freq, m2, lane, f2);
+            freq = _mm512_mask_permutexvar_epi32(freq, m3, lane, f3);
+            const __m512i t = _mm512_add_epi32(
+                _mm512_maskz_mov_epi32(m1, one),
+                _mm512_add_epi32(_mm512_maskz_mov_epi32(m2, one),
+                                 _mm512_maskz_mov_epi32(m3, one)));
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(out), _mm512_cvtepi32_epi8(t));
+            return _mm512_add_epi32(_mm512_mullo_epi32(freq, _mm512_srli_epi32(s, kRansPrecision)),
+                                    _mm512_sub_epi32(slot, start));
+        });
     }
 #endif
 
@@ -313,6 +406,19 @@ struct SimdDecodeIO : WordStream {
             if (st < kRansLow) st = (st << 16) | readWord();
             tok[j] = uint8_t(e >> kEntryTokenShift);
         }
+    }
+
+    // Coder 6's eps run of component c (n symbols, contexts ctx, tokens into z): with AVX-512 by
+    // runSmallAvx512 where the family allows it, else as run<false>.
+    template <bool kFast = true>
+    void runEps(int c, const uint16_t* ctx, int n, uint8_t* z) {
+#if PLX_PTM_AVX512
+        if (kFast && eps[size_t(c)].usable) {
+            runScalar(ctx, runSmallAvx512(ctx, n, z, eps[size_t(c)]), n, z);
+            return;
+        }
+#endif
+        run<false, kFast>(ctx, n, z);
     }
 
     // A run of n symbols with contexts ctx: tokens (kExtra: plus their extra bits) into z.

@@ -4,6 +4,7 @@
 // run the same passes, so the round trips alone would not see a vector path that both share.
 
 #include <algorithm>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -278,45 +279,43 @@ TEST(PtmFastPaths, ExtraBitsMatchScalar) {
 }
 
 // Random frequency tables as a decoder may meet them: some tokens absent, one dominant token,
-// and empty tables (every slot token 0, the state unchanged).
-std::vector<uint32_t> randomSimdTables(int tables, std::mt19937& rng) {
-    std::vector<uint32_t> entries(size_t(tables) * kRansTotal);
+// and empty tables (every slot token 0, the state unchanged); tokens below `alphabet`.
+std::vector<std::array<uint16_t, kTokenCount>> randomFrequencies(int tables, int alphabet,
+                                                                 std::mt19937& rng) {
+    std::vector<std::array<uint16_t, kTokenCount>> freqs(static_cast<size_t>(tables));
     for (int t = 0; t < tables; ++t) {
-        std::array<uint16_t, kTokenCount> freq{};
-        if (t % 7 != 6) {
-            std::array<uint32_t, kTokenCount> counts{};
-            const int used = 1 + int(rng() % kTokenCount);
-            for (int k = 0; k < used; ++k)
-                counts[rng() % kTokenCount] += k == 0 ? 1 + rng() % 5000 : 1 + rng() % 300;
-            freq = normalizeCounts(counts);
-        }
-        buildSimdTable(freq, entries.data() + size_t(t) * kRansTotal);
+        if (t % 7 == 6) continue;  // empty
+        std::array<uint32_t, kTokenCount> counts{};
+        const int used = 1 + int(rng() % uint32_t(alphabet));
+        for (int k = 0; k < used; ++k)
+            counts[rng() % uint32_t(alphabet)] += k == 0 ? 1 + rng() % 5000 : 1 + rng() % 300;
+        freqs[size_t(t)] = normalizeCounts(counts);
     }
-    return entries;
+    return freqs;
 }
 
-// The vector rANS loops (SimdDecodeIO::runVectorAvx2 and, in builds for AVX-512,
-// runVectorAvx512) against the scalar decoder: tokens, states, stream position and overrun
-// after runs of every length around the 32-symbol round, on word streams that end early (the
-// loops must leave the last 64 bytes to the checked reads).
-TEST(PtmFastPaths, RansRunsMatchScalar) {
-#if defined(__AVX2__)
-    std::mt19937 rng(7000);
-    constexpr int kTables = 40;
-    const std::vector<uint32_t> entries = randomSimdTables(kTables, rng);
+// A vector loop of SimdDecodeIO: decodes a prefix of a run, returns the symbols done.
+using VectorLoop = std::function<int(SimdDecodeIO&, const uint16_t*, int, uint8_t*)>;
+
+// Runs each loop (then the scalar tail) against the scalar decoder over tables `freqs`, with
+// contexts drawn from tables first..first+count-1: tokens, states, stream position and overrun
+// after two runs of every length around the 32-symbol round, on word streams that end early
+// (the loops must leave the last 64 bytes to the checked reads).
+void expectLoopsMatchScalar(const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                            int first, int count,
+                            const std::vector<std::pair<std::string, VectorLoop>>& loops,
+                            std::mt19937& rng) {
+    std::vector<uint32_t> entries(freqs.size() * kRansTotal);
+    for (size_t t = 0; t < freqs.size(); ++t)
+        buildSimdTable(freqs[t], entries.data() + t * kRansTotal);
     const std::array<std::array<int, 2>, 16> families{};
-    using Loop = int (SimdDecodeIO::*)(const uint16_t*, int, uint8_t*);
-    std::vector<std::pair<const char*, Loop>> loops = {{"avx2", &SimdDecodeIO::runVectorAvx2}};
-#if PLX_PTM_AVX512
-    loops.push_back({"avx512", &SimdDecodeIO::runVectorAvx512});
-#endif
     int vectorSymbols = 0;
     for (int n : {1, 31, 32, 33, 64, 95, 512, 700})
         for (int words : {16, 40, 200, 5000}) {
             std::vector<uint8_t> stream(static_cast<size_t>(2 * words));
             for (uint8_t& b : stream) b = uint8_t(rng());
             std::vector<uint16_t> ctx(static_cast<size_t>(n));
-            for (uint16_t& c : ctx) c = uint16_t(rng() % kTables);
+            for (uint16_t& c : ctx) c = uint16_t(first + int(rng() % uint32_t(count)));
             auto io = [&] {
                 return SimdDecodeIO(entries.data(), families, kSimdStates, stream.data(),
                                     stream.data() + stream.size(), BitReader(nullptr, nullptr));
@@ -328,14 +327,13 @@ TEST(PtmFastPaths, RansRunsMatchScalar) {
             for (const auto& [name, loop] : loops) {
                 SimdDecodeIO fast = io();
                 std::vector<uint8_t> tokens(static_cast<size_t>(n));
-                for (int pass = 0; pass < 2;
-                     ++pass) {  // the second run starts from the first's states
-                    const int done = (fast.*loop)(ctx.data(), n, tokens.data());
+                for (int pass = 0; pass < 2; ++pass) {  // the second starts from the first's states
+                    const int done = loop(fast, ctx.data(), n, tokens.data());
                     vectorSymbols += done;
                     fast.runScalar(ctx.data(), done, n, tokens.data());
                 }
-                const std::string where = std::string(name) + ", n " + std::to_string(n) +
-                                          ", words " + std::to_string(words);
+                const std::string where =
+                    name + ", n " + std::to_string(n) + ", words " + std::to_string(words);
                 EXPECT_EQ(tokens, refTokens) << where;
                 EXPECT_TRUE(std::equal(fast.x, fast.x + kSimdStates, ref.x)) << where;
                 EXPECT_EQ(fast.ptr, ref.ptr) << where;
@@ -343,8 +341,56 @@ TEST(PtmFastPaths, RansRunsMatchScalar) {
             }
         }
     EXPECT_GT(vectorSymbols, 0);
+}
+
+// SimdDecodeIO::runVectorAvx2 and, in builds for AVX-512, runVectorAvx512 against the scalar
+// decoder.
+TEST(PtmFastPaths, RansRunsMatchScalar) {
+#if defined(__AVX2__)
+    std::mt19937 rng(7000);
+    std::vector<std::pair<std::string, VectorLoop>> loops = {
+        {"avx2", [](SimdDecodeIO& io, const uint16_t* c, int n, uint8_t* t) {
+             return io.runVectorAvx2(c, n, t);
+         }}};
+#if PLX_PTM_AVX512
+    loops.push_back({"avx512", [](SimdDecodeIO& io, const uint16_t* c, int n, uint8_t* t) {
+                         return io.runVectorAvx512(c, n, t);
+                     }});
+#endif
+    expectLoopsMatchScalar(randomFrequencies(40, kTokenCount, rng), 0, 40, loops, rng);
 #else
     GTEST_SKIP() << "no AVX2 in this build";
+#endif
+}
+
+// The eps runs' loop over tables of tokens 0..3 (SimdDecodeIO::runSmallAvx512) against the
+// scalar decoder, for families of 1 to 16 tables (some empty, some without token 0 or 3),
+// placed after other tables; and a family with a larger token is left to the table path.
+TEST(PtmFastPaths, SmallAlphabetRunsMatchScalar) {
+    std::mt19937 rng(8000);
+    for (int count : {1, 2, 5, 15, 16}) {
+        auto freqs = randomFrequencies(7 + count, 4, rng);
+        SmallAlphabet family;
+        family.build(freqs, 7, count);
+        EXPECT_TRUE(family.usable) << count;
+#if PLX_PTM_AVX512
+        expectLoopsMatchScalar(
+            freqs, 7, count,
+            {{"small, " + std::to_string(count) + " tables",
+              [&family](SimdDecodeIO& io, const uint16_t* c, int n, uint8_t* t) {
+                  return io.runSmallAvx512(c, n, t, family);
+              }}},
+            rng);
+#endif
+        freqs[size_t(7 + count / 2)][4] = 1;  // a token above 3 (renormalised or not)
+        family.build(freqs, 7, count);
+        EXPECT_FALSE(family.usable) << count;
+    }
+    SmallAlphabet tooMany;
+    tooMany.build(randomFrequencies(17, 4, rng), 0, 17);
+    EXPECT_FALSE(tooMany.usable);
+#if !PLX_PTM_AVX512
+    GTEST_SKIP() << "the loop needs AVX-512; checked only which families may use it";
 #endif
 }
 

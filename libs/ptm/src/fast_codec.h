@@ -355,13 +355,88 @@ struct CtxLut {
 #endif
 
 #if defined(__AVX2__)
-// prepareRow for blocks 0..16k-1, sixteen blocks per step in int16 lanes (upsamples of bytes stay
-// below 2^12; the shapes' w * detail / 8 within +-10400 also in a corrupt level, whose p11 may
-// leave 0..255). Bit-exact with the scalar loop, which does the rest. Returns the first block
-// not done.
-template <bool kShapeAbove>
-int prepareRowAvx2(FastRows& R, int lw, int c, bool firstRow) {
-    using namespace avx2;
+// The int16-lane operations of the walker's vector passes for one vector width, so that one
+// template body (prepareRowVec, codeFullRowVec) serves AVX2 (Lanes16) and AVX-512 (Lanes32).
+// M is a lane mask: a vector of 0 / -1 lanes for AVX2, a mask register for AVX-512.
+struct Lanes16 {
+    using V = __m256i;
+    using M = __m256i;
+    static constexpr int kLanes = 16;
+    static V load(const Lane* p) { return avx2::load16(p); }
+    static void store(Lane* p, V v) { avx2::store16(p, v); }
+    static V widen(const uint8_t* p) { return avx2::widen16(p); }  // kLanes bytes
+    // Lanes within 0..255 to kLanes bytes.
+    static void storeBytes(uint8_t* p, V v) {
+        const __m256i bytes = _mm256_permute4x64_epi64(_mm256_packus_epi16(v, v), 0xD8);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(p), _mm256_castsi256_si128(bytes));
+    }
+    static V set(int x) { return _mm256_set1_epi16(int16_t(x)); }
+    static V add(V a, V b) { return _mm256_add_epi16(a, b); }
+    static V sub(V a, V b) { return _mm256_sub_epi16(a, b); }
+    static V mullo(V a, V b) { return _mm256_mullo_epi16(a, b); }
+    static V bitAnd(V a, V b) { return _mm256_and_si256(a, b); }
+    static V bitXor(V a, V b) { return _mm256_xor_si256(a, b); }
+    static V abs(V a) { return _mm256_abs_epi16(a); }
+    template <int k> static V shl(V a) { return _mm256_slli_epi16(a, k); }
+    template <int k> static V shr(V a) { return _mm256_srli_epi16(a, k); }  // logical
+    template <int k> static V sar(V a) { return _mm256_srai_epi16(a, k); }  // arithmetic
+    template <int k> static V divPow2(V a) { return avx2::divPow2<k>(a); }
+    static V div3(V a) { return avx2::div3(a); }
+    static V clamp255(V a) { return avx2::clamp255(a); }
+    static M greater(V a, V b) { return _mm256_cmpgt_epi16(a, b); }
+    static V select(M m, V a, V b) { return _mm256_blendv_epi8(a, b, m); }  // m ? b : a
+    static V keep(M m, V a) { return _mm256_and_si256(m, a); }             // m ? a : 0
+};
+#endif
+
+#if PLX_PTM_AVX512
+struct Lanes32 {
+    using V = __m512i;
+    using M = __mmask32;
+    static constexpr int kLanes = 32;
+    static V load(const Lane* p) { return _mm512_loadu_si512(p); }
+    static void store(Lane* p, V v) { _mm512_storeu_si512(p, v); }
+    static V widen(const uint8_t* p) {
+        return _mm512_cvtepu8_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)));
+    }
+    static void storeBytes(uint8_t* p, V v) {
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), _mm512_cvtepi16_epi8(v));
+    }
+    static V set(int x) { return _mm512_set1_epi16(int16_t(x)); }
+    static V add(V a, V b) { return _mm512_add_epi16(a, b); }
+    static V sub(V a, V b) { return _mm512_sub_epi16(a, b); }
+    static V mullo(V a, V b) { return _mm512_mullo_epi16(a, b); }
+    static V bitAnd(V a, V b) { return _mm512_and_si512(a, b); }
+    static V bitXor(V a, V b) { return _mm512_xor_si512(a, b); }
+    static V abs(V a) { return _mm512_abs_epi16(a); }
+    template <int k> static V shl(V a) { return _mm512_slli_epi16(a, k); }
+    template <int k> static V shr(V a) { return _mm512_srli_epi16(a, k); }
+    template <int k> static V sar(V a) { return _mm512_srai_epi16(a, k); }
+    // As avx2::divPow2, div3 and clamp255.
+    template <int k> static V divPow2(V a) {
+        return sar<k>(add(a, bitAnd(sar<15>(a), set((1 << k) - 1))));
+    }
+    static V div3(V a) { return sub(_mm512_mulhi_epi16(a, set(0x5556)), sar<15>(a)); }
+    static V clamp255(V a) {
+        return _mm512_min_epi16(_mm512_max_epi16(a, _mm512_setzero_si512()), set(255));
+    }
+    static M greater(V a, V b) { return _mm512_cmpgt_epi16_mask(a, b); }
+    static V select(M m, V a, V b) { return _mm512_mask_blend_epi16(m, a, b); }
+    static V keep(M m, V a) { return _mm512_maskz_mov_epi16(m, a); }
+};
+using WidestLanes = Lanes32;
+#elif defined(__AVX2__)
+using WidestLanes = Lanes16;
+#endif
+
+#if defined(__AVX2__)
+// prepareRow for blocks 0..kLanes k - 1, W::kLanes blocks per step in int16 lanes (upsamples of
+// bytes stay below 2^12; the shapes' w * detail / 8 within +-10400 also in a corrupt level,
+// whose p11 may leave 0..255). Bit-exact with the scalar loop, which does the rest. Returns the
+// first block not done.
+template <class W, bool kShapeAbove>
+int prepareRowVec(FastRows& R, int lw, int c, bool firstRow) {
+    using V = typename W::V;
     const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
     const Lane* pu = R.pu.data() + o;
     const Lane* pm = R.pm.data() + o;
@@ -371,52 +446,44 @@ int prepareRowAvx2(FastRows& R, int lw, int c, bool firstRow) {
     const Lane* eb = R.prevEB.data() + o;
     const Lane* d01 = kShapeAbove ? R.detail01.data() + b : nullptr;
     const Lane* d11 = kShapeAbove ? R.detail11.data() + b : nullptr;
-    const __m256i eight = _mm256_set1_epi16(8),
-                  w = _mm256_set1_epi16(int16_t(R.models.shapeEighths));
-    const __m256i interOne = _mm256_set1_epi16(c > 0 && !firstRow ? 1 : 0);
+    const V eight = W::set(8), w = W::set(R.models.shapeEighths);
+    const V interOne = W::set(c > 0 && !firstRow ? 1 : 0);
     // upsample(m, side, vert, diag) = (9 m + 3 (side + vert) + diag + 8) >> 4, all terms >= 0.
-    auto up = [](__m256i m9, __m256i side, __m256i vert, __m256i diag) {
-        const __m256i sv = _mm256_add_epi16(side, vert);
-        return _mm256_srli_epi16(
-            _mm256_add_epi16(_mm256_add_epi16(m9, _mm256_add_epi16(sv, _mm256_slli_epi16(sv, 1))),
-                             diag),
-            4);
+    auto up = [](V m9, V side, V vert, V diag) {
+        const V sv = W::add(side, vert);
+        return W::template shr<4>(W::add(W::add(m9, W::add(sv, W::template shl<1>(sv))), diag));
     };
     // 2 x + left + right of a padded statistics row.
-    auto spread = [](const Lane* v, __m256i mid) {
-        return _mm256_add_epi16(_mm256_slli_epi16(mid, 1),
-                                _mm256_add_epi16(load16(v - 1), load16(v + 1)));
+    auto spread = [](const Lane* v, V mid) {
+        return W::add(W::template shl<1>(mid), W::add(W::load(v - 1), W::load(v + 1)));
     };
     int bx = 0;
-    for (; bx + 16 <= lw; bx += 16) {
-        const __m256i mm = load16(pm + bx), l = load16(pm + bx - 1), r = load16(pm + bx + 1);
-        const __m256i u = load16(pu + bx), d = load16(pd + bx);
-        const __m256i m9 = _mm256_add_epi16(_mm256_add_epi16(_mm256_slli_epi16(mm, 3), mm), eight);
-        __m256i u0 = up(m9, l, u, load16(pu + bx - 1)), u1 = up(m9, r, u, load16(pu + bx + 1));
+    for (; bx + W::kLanes <= lw; bx += W::kLanes) {
+        const V mm = W::load(pm + bx), l = W::load(pm + bx - 1), r = W::load(pm + bx + 1);
+        const V u = W::load(pu + bx), d = W::load(pd + bx);
+        const V m9 = W::add(W::add(W::template shl<3>(mm), mm), eight);
+        V u0 = up(m9, l, u, W::load(pu + bx - 1)), u1 = up(m9, r, u, W::load(pu + bx + 1));
         if constexpr (kShapeAbove) {  // + w * detail / 8, truncated
-            u0 = _mm256_add_epi16(u0, divPow2<3>(_mm256_mullo_epi16(w, load16(d01 + bx))));
-            u1 = _mm256_add_epi16(u1, divPow2<3>(_mm256_mullo_epi16(w, load16(d11 + bx))));
+            u0 = W::add(u0, W::template divPow2<3>(W::mullo(w, W::load(d01 + bx))));
+            u1 = W::add(u1, W::template divPow2<3>(W::mullo(w, W::load(d11 + bx))));
         }
-        store16(R.m.data() + b + size_t(bx), mm);
-        store16(R.u0.data() + b + size_t(bx), u0);
-        store16(R.u1.data() + b + size_t(bx), u1);
-        store16(R.u2.data() + b + size_t(bx), up(m9, l, d, load16(pd + bx - 1)));
-        store16(R.u3.data() + b + size_t(bx), up(m9, r, d, load16(pd + bx + 1)));
-        const __m256i grad = _mm256_add_epi16(_mm256_abs_epi16(_mm256_sub_epi16(l, r)),
-                                              _mm256_abs_epi16(_mm256_sub_epi16(u, d)));
-        __m256i act0;
+        W::store(R.m.data() + b + size_t(bx), mm);
+        W::store(R.u0.data() + b + size_t(bx), u0);
+        W::store(R.u1.data() + b + size_t(bx), u1);
+        W::store(R.u2.data() + b + size_t(bx), up(m9, l, d, W::load(pd + bx - 1)));
+        W::store(R.u3.data() + b + size_t(bx), up(m9, r, d, W::load(pd + bx + 1)));
+        const V grad = W::add(W::abs(W::sub(l, r)), W::abs(W::sub(u, d)));
+        V act0;
         if (firstRow) {
-            act0 = _mm256_slli_epi16(grad, 2);
+            act0 = W::template shl<2>(grad);
         } else {  // ((3 a + left + right) >> 1) + grad
-            const __m256i a = load16(act + bx);
-            act0 = _mm256_add_epi16(_mm256_srli_epi16(_mm256_add_epi16(spread(act + bx, a), a), 1),
-                                    grad);
+            const V a = W::load(act + bx);
+            act0 = W::add(W::template shr<1>(W::add(spread(act + bx, a), a)), grad);
         }
-        store16(R.act0.data() + b + size_t(bx), act0);
-        const __m256i errA = spread(ea + bx, load16(ea + bx));
-        const __m256i errB = spread(eb + bx, load16(eb + bx));
-        store16(R.sel.data() + b + size_t(bx),
-                _mm256_and_si256(_mm256_cmpgt_epi16(errA, errB), interOne));
+        W::store(R.act0.data() + b + size_t(bx), act0);
+        const V errA = spread(ea + bx, W::load(ea + bx));
+        const V errB = spread(eb + bx, W::load(eb + bx));
+        W::store(R.sel.data() + b + size_t(bx), W::keep(W::greater(errA, errB), interOne));
     }
     return bx;
 }
@@ -435,13 +502,18 @@ int prepareRowAvx2(FastRows& R, int lw, int c, bool firstRow) {
 // detail gives 0.943x). The details are zero on the first block row and from `full` on (odd
 // widths: finishFullRow keeps only the full blocks'), which keeps those blocks' bilinear
 // shapes.
-// With AVX2, blocks 0..16k-1 by prepareRowAvx2; kFast = false runs the scalar loop for every
-// block (the reference that fast_paths_test compares the vector path with).
-template <bool kShapeAbove, bool kFast = true>
+// With AVX2, the first blocks by prepareRowVec in the widest lanes the build has (W: Lanes32
+// with AVX-512, else Lanes16); kFast = false runs the scalar loop for every block (the
+// reference that fast_paths_test compares the vector paths with).
+#if defined(__AVX2__)
+template <bool kShapeAbove, bool kFast = true, class W = WidestLanes>
+#else
+template <bool kShapeAbove, bool kFast = true, class W = void>
+#endif
 void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     int start = 0;
 #if defined(__AVX2__)
-    if constexpr (kFast) start = prepareRowAvx2<kShapeAbove>(R, lw, c, firstRow);
+    if constexpr (kFast) start = prepareRowVec<W, kShapeAbove>(R, lw, c, firstRow);
 #endif
     const size_t sw = size_t(lw + 2), o = size_t(c) * sw + 1, b = size_t(c) * size_t(lw);
     const Lane* __restrict pu = R.pu.data() + o;
@@ -482,16 +554,15 @@ void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     }
 }
 
-// codeFullRow for blocks 0..16k-1 of component c, sixteen blocks per step in int16 lanes (every
-// intermediate of the block-sum predictor lies in -8160..5102, also with coder 5's shapes u0, u1
-// in -127..382; in a corrupt level, whose p11 may leave 0..255 and so move the next row's shapes
-// to -510..893, they stay within +-15000). Bit-exact with the scalar loop, which does the rest.
-// Returns the first block not done. kEncode, kCross: as codeFullRow's.
-template <bool kEncode, bool kCross>
-int codeFullRowAvx2(FastRows& R, int lw, int full, int c) {
-    int bx = 0;
 #if defined(__AVX2__)
-    using namespace avx2;
+// codeFullRow for blocks 0..kLanes k - 1 of component c, W::kLanes blocks per step in int16
+// lanes (every intermediate of the block-sum predictor lies in -8160..5102, also with coder 5's
+// shapes u0, u1 in -127..382; in a corrupt level, whose p11 may leave 0..255 and so move the
+// next row's shapes to -510..893, they stay within +-15000). Bit-exact with the scalar loop,
+// which does the rest. Returns the first block not done. kEncode, kCross: as codeFullRow's.
+template <class W, bool kEncode, bool kCross>
+int codeFullRowVec(FastRows& R, int lw, int full, int c) {
+    using V = typename W::V;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* m = R.m.data() + pi;
     const Lane* u0 = R.u0.data() + pi;
@@ -515,85 +586,76 @@ int codeFullRowAvx2(FastRows& R, int lw, int full, int c) {
     const Lane* const prev2[3] = {R.compRow(R.rA0, before), R.compRow(R.rA1, before),
                                   R.compRow(R.rA2, before)};
     const bool inter = c > 0;
-    const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi16(1);
-    const __m256i mask255 = _mm256_set1_epi16(255);
-    for (; bx + 16 <= full; bx += 16) {
-        const __m256i mm = load16(m + bx), w0 = load16(u0 + bx), w1 = load16(u1 + bx);
-        const __m256i w2 = load16(u2 + bx), w3 = load16(u3 + bx);
-        const __m256i pickB = _mm256_cmpgt_epi16(load16(sel + bx), zero);
-        const __m256i target = _mm256_add_epi16(_mm256_slli_epi16(mm, 4), _mm256_set1_epi16(6));
-        __m256i eA = zero, eB = zero;
+    const V zero = W::set(0), one = W::set(1), mask255 = W::set(255);
+    int bx = 0;
+    for (; bx + W::kLanes <= full; bx += W::kLanes) {
+        const V mm = W::load(m + bx), w0 = W::load(u0 + bx), w1 = W::load(u1 + bx);
+        const V w2 = W::load(u2 + bx), w3 = W::load(u3 + bx);
+        const auto pickB = W::greater(W::load(sel + bx), zero);
+        const V target = W::add(W::template shl<4>(mm), W::set(6));
+        V eA = zero, eB = zero;
         // One stored pixel (codeFullRow's `one`): prediction pA from the block-sum predictor's
         // correction corr, B from the previous component's A-residual, value from the run value.
-        auto pixel = [&](__m256i u, __m256i corr, Lane* rOwn, const Lane* rPrev,
-                         const Lane* rBefore, uint8_t* z, Lane* v) {
-            const __m256i pA = clamp255(_mm256_add_epi16(u, corr));
-            __m256i pB = pA;
+        auto pixel = [&](V u, V corr, Lane* rOwn, const Lane* rPrev, const Lane* rBefore,
+                         uint8_t* z, Lane* v) {
+            const V pA = W::clamp255(W::add(u, corr));
+            V pB = pA;
             if (inter) {
-                __m256i r = load16(rPrev + bx);  // |r| <= 255
-                if constexpr (kCross) r = divPow2<1>(_mm256_add_epi16(r, load16(rBefore + bx)));
-                pB = clamp255(_mm256_add_epi16(pA, r));
+                V r = W::load(rPrev + bx);  // |r| <= 255
+                if constexpr (kCross) r = W::template divPow2<1>(W::add(r, W::load(rBefore + bx)));
+                pB = W::clamp255(W::add(pA, r));
             }
-            const __m256i pred = _mm256_blendv_epi8(pA, pB, pickB);
-            __m256i val;
+            const V pred = W::select(pickB, pA, pB);
+            V val;
             if constexpr (kEncode) {  // z = zigzag(int8_t(v - pred))
-                val = load16(v + bx);
-                const __m256i d =
-                    _mm256_srai_epi16(_mm256_slli_epi16(_mm256_sub_epi16(val, pred), 8), 8);
-                const __m256i zz =
-                    _mm256_xor_si256(_mm256_slli_epi16(d, 1), _mm256_srai_epi16(d, 15));
-                const __m256i bytes = _mm256_permute4x64_epi64(_mm256_packus_epi16(zz, zz), 0xD8);
-                _mm_storeu_si128(reinterpret_cast<__m128i*>(z + bx), _mm256_castsi256_si128(bytes));
+                val = W::load(v + bx);
+                const V d = W::template sar<8>(W::template shl<8>(W::sub(val, pred)));
+                W::storeBytes(z + bx, W::bitXor(W::template shl<1>(d), W::template sar<15>(d)));
             } else {  // v = (pred + unzigzag(z)) & 255
-                const __m256i zz = widen16(z + bx);
-                const __m256i unz = _mm256_xor_si256(
-                    _mm256_srli_epi16(zz, 1), _mm256_sub_epi16(zero, _mm256_and_si256(zz, one)));
-                val = _mm256_and_si256(_mm256_add_epi16(pred, unz), mask255);
-                store16(v + bx, val);
+                const V zz = W::widen(z + bx);
+                const V unz = W::bitXor(W::template shr<1>(zz), W::sub(zero, W::bitAnd(zz, one)));
+                val = W::bitAnd(W::add(pred, unz), mask255);
+                W::store(v + bx, val);
             }
-            store16(rOwn + bx, _mm256_sub_epi16(val, pA));
-            eA = _mm256_add_epi16(eA, _mm256_abs_epi16(_mm256_sub_epi16(val, pA)));
-            eB = _mm256_add_epi16(eB, _mm256_abs_epi16(_mm256_sub_epi16(val, pB)));
+            W::store(rOwn + bx, W::sub(val, pA));
+            eA = W::add(eA, W::abs(W::sub(val, pA)));
+            eB = W::add(eB, W::abs(W::sub(val, pB)));
             return val;
         };
         // predictBlockPixel(4, m, known, sumU, rem, u): corr = (16 m + 6 - 4 known - 4 sumU)
         // / (4 rem), truncated.
-        const __m256i s23 = _mm256_add_epi16(w2, w3), s123 = _mm256_add_epi16(w1, s23);
-        const __m256i a = pixel(
-            w0,
-            divPow2<4>(_mm256_sub_epi16(target, _mm256_slli_epi16(_mm256_add_epi16(w0, s123), 2))),
-            own[0], prev[0], prev2[0], z0, v0);
-        const __m256i b = pixel(w1,
-                                div3(divPow2<2>(_mm256_sub_epi16(
-                                    target, _mm256_slli_epi16(_mm256_add_epi16(a, s123), 2)))),
-                                own[1], prev[1], prev2[1], z1, v1);
-        pixel(w2,
-              divPow2<3>(_mm256_sub_epi16(
-                  target, _mm256_slli_epi16(_mm256_add_epi16(_mm256_add_epi16(a, b), s23), 2))),
+        auto times4 = [](V x) { return W::template shl<2>(x); };
+        const V s23 = W::add(w2, w3), s123 = W::add(w1, s23);
+        const V a = pixel(w0, W::template divPow2<4>(W::sub(target, times4(W::add(w0, s123)))),
+                          own[0], prev[0], prev2[0], z0, v0);
+        const V b =
+            pixel(w1, W::div3(W::template divPow2<2>(W::sub(target, times4(W::add(a, s123))))),
+                  own[1], prev[1], prev2[1], z1, v1);
+        pixel(w2, W::template divPow2<3>(W::sub(target, times4(W::add(W::add(a, b), s23)))),
               own[2], prev[2], prev2[2], z2, v2);
-        store16(errA + bx, eA);
-        store16(errB + bx, eB);
+        W::store(errA + bx, eA);
+        W::store(errB + bx, eB);
     }
-#else
-    (void)R;
-    (void)lw;
-    (void)full;
-    (void)c;
-#endif
     return bx;
 }
+#endif
 
 // Prediction and reconstruction of the three stored pixels of every full block of a row, for
 // component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
 // is the block-sum predictor (codec.h); B (components >= 1) is clamp(A + r, 0, 255) with r the
 // previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No dependency
-// between blocks: with AVX2, blocks 0..16k-1 by codeFullRowAvx2; kFast = false runs the scalar
-// loop for every block (the reference of fast_paths_test).
+// between blocks: with AVX2, the first blocks by codeFullRowVec in the widest lanes the build
+// has (W, as prepareRow's); kFast = false runs the scalar loop for every block (the reference
+// of fast_paths_test).
 // kCross (coder 6): for components >= 2, r is the mean (truncated) of the A-residuals of the two
 // components before: each carries the rounding noise of its own JPEG decode, which the mean
 // halves (0.9051x -> 0.9015x optipng -o2 over the 69 Sponza textures; rounding the mean half up
 // instead gives 0.9031x, toward minus infinity 0.9018x).
-template <bool kEncode, bool kCross, bool kFast = true>
+#if defined(__AVX2__)
+template <bool kEncode, bool kCross, bool kFast = true, class W = WidestLanes>
+#else
+template <bool kEncode, bool kCross, bool kFast = true, class W = void>
+#endif
 void codeFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* __restrict m = R.m.data() + pi;
@@ -638,7 +700,7 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
     };
     int start = 0;
 #if defined(__AVX2__)
-    if constexpr (kFast) start = codeFullRowAvx2<kEncode, kCross>(R, lw, full, c);
+    if constexpr (kFast) start = codeFullRowVec<W, kEncode, kCross>(R, lw, full, c);
 #endif
     PLX_PTM_IVDEP
     for (int bx = start; bx < full; ++bx) {

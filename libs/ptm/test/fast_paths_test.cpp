@@ -7,6 +7,7 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -91,25 +92,50 @@ std::string label(int lw, int c, int modelIndex) {
            std::to_string(modelIndex);
 }
 
-TEST(PtmFastPaths, PrepareRowMatchesScalar) {
-    uint32_t seed = 1;
-    for (int lw : kLengths)
-        for (int mi = 0; mi < 5; ++mi)
-            for (int c = 0; c < kComps; ++c)
-                for (bool first : {false, true}) {
-                    FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
-                    if (kModels[mi].above) {
-                        prepareRow<true, true>(fast, lw, c, first);
-                        prepareRow<true, false>(ref, lw, c, first);
-                    } else {
-                        prepareRow<false, true>(fast, lw, c, first);
-                        prepareRow<false, false>(ref, lw, c, first);
-                    }
-                    expectSameRows(fast, ref, label(lw, c, mi) + (first ? ", first row" : ""));
-                }
+// Calls f.template operator()<W>() for each lane width W of the passes written for several
+// (prepareRowVec, codeFullRowVec): Lanes16 with AVX2, also Lanes32 with AVX-512; without AVX2
+// once with W = void (the scalar loops alone).
+template <class F>
+void forEachWidth(F&& f) {
+#if defined(__AVX2__)
+    f.template operator()<Lanes16>();
+#if PLX_PTM_AVX512
+    f.template operator()<Lanes32>();
+#endif
+#else
+    f.template operator()<void>();
+#endif
 }
 
-template <bool kEncode, bool kCross>
+template <class W>
+std::string widthName() {
+    if constexpr (std::is_void_v<W>) return "scalar";
+    else return std::to_string(W::kLanes) + " lanes";
+}
+
+TEST(PtmFastPaths, PrepareRowMatchesScalar) {
+    forEachWidth([]<class W>() {
+        uint32_t seed = 1;
+        for (int lw : kLengths)
+            for (int mi = 0; mi < 5; ++mi)
+                for (int c = 0; c < kComps; ++c)
+                    for (bool first : {false, true}) {
+                        FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
+                        if (kModels[mi].above) {
+                            prepareRow<true, true, W>(fast, lw, c, first);
+                            prepareRow<true, false>(ref, lw, c, first);
+                        } else {
+                            prepareRow<false, true, W>(fast, lw, c, first);
+                            prepareRow<false, false>(ref, lw, c, first);
+                        }
+                        expectSameRows(fast, ref,
+                                       label(lw, c, mi) + (first ? ", first row, " : ", ") +
+                                           widthName<W>());
+                    }
+    });
+}
+
+template <class W, bool kEncode, bool kCross>
 void codeRowCase(int lw, int c, int mi, uint32_t seed) {
     FastRows fast = randomRows(lw, kModels[mi], seed);
     if (kCross) {  // the earlier components' residuals as a decoded row leaves them (|r| <= 255)
@@ -117,9 +143,10 @@ void codeRowCase(int lw, int c, int mi, uint32_t seed) {
         for (auto* v : {&fast.rA0, &fast.rA1, &fast.rA2}) f.fill(*v, -255, 255);
     }
     FastRows ref = fast;
-    codeFullRow<kEncode, kCross, true>(fast, lw, lw, c);
+    codeFullRow<kEncode, kCross, true, W>(fast, lw, lw, c);
     codeFullRow<kEncode, kCross, false>(ref, lw, lw, c);
-    expectSameRows(fast, ref, label(lw, c, mi) + (kEncode ? ", encode" : ", decode"));
+    expectSameRows(fast, ref,
+                   label(lw, c, mi) + (kEncode ? ", encode, " : ", decode, ") + widthName<W>());
     EXPECT_EQ(fast.v0, ref.v0);
     EXPECT_EQ(fast.v1, ref.v1);
     EXPECT_EQ(fast.v2, ref.v2);
@@ -135,14 +162,16 @@ void codeRowCase(int lw, int c, int mi, uint32_t seed) {
 
 // Prediction and reconstruction of the stored pixels, with the shapes a corrupt level can give.
 TEST(PtmFastPaths, CodeRowMatchesScalar) {
-    uint32_t seed = 5000;
-    for (int lw : kLengths)
-        for (int c = 0; c < kComps; ++c) {
-            codeRowCase<true, false>(lw, c, 1, seed++);
-            codeRowCase<false, false>(lw, c, 1, seed++);
-            codeRowCase<true, true>(lw, c, 4, seed++);
-            codeRowCase<false, true>(lw, c, 4, seed++);
-        }
+    forEachWidth([]<class W>() {
+        uint32_t seed = 5000;
+        for (int lw : kLengths)
+            for (int c = 0; c < kComps; ++c) {
+                codeRowCase<W, true, false>(lw, c, 1, seed++);
+                codeRowCase<W, false, false>(lw, c, 1, seed++);
+                codeRowCase<W, true, true>(lw, c, 4, seed++);
+                codeRowCase<W, false, true>(lw, c, 4, seed++);
+            }
+    });
 }
 
 template <int kKind>

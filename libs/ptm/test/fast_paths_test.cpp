@@ -330,10 +330,9 @@ using VectorLoop = std::function<int(SimdDecodeIO&, const uint16_t*, int, uint8_
 // contexts drawn from tables first..first+count-1: tokens, states, stream position and overrun
 // after two runs of every length around the 32-symbol round, on word streams that end early
 // (the loops must leave the last 64 bytes to the checked reads).
-void expectLoopsMatchScalar(const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                            int first, int count,
-                            const std::vector<std::pair<std::string, VectorLoop>>& loops,
-                            std::mt19937& rng) {
+[[maybe_unused]] void expectLoopsMatchScalar(
+    const std::vector<std::array<uint16_t, kTokenCount>>& freqs, int first, int count,
+    const std::vector<std::pair<std::string, VectorLoop>>& loops, std::mt19937& rng) {
     std::vector<uint32_t> entries(freqs.size() * kRansTotal);
     for (size_t t = 0; t < freqs.size(); ++t)
         buildSimdTable(freqs[t], entries.data() + t * kRansTotal);

@@ -2,6 +2,9 @@
 // Progressive PTM decoding: parse the header, then feed level groups smallest first; each group
 // yields its level as soon as its bytes arrive. Builds without the encoder (plx_ptm_decode).
 // Every input byte is untrusted: failures come back as Status naming the problem.
+// Memory: each thread that decodes coder 4 to 6 groups keeps one buffer for their decode tables
+// (16 KB per table, up to 4 MB; 2.5 MB for an RGB texture), reused by every later group on that
+// thread instead of being allocated and faulted in again per group.
 
 #include <span>
 #include <vector>

@@ -333,8 +333,9 @@ inline __m256i magnitudes16(const uint8_t* z) {
 // offset map(q) - map(0) does not fit a byte (then the caller takes its scalar loop).
 struct CtxLut {
     __m256i lut, base;
+    alignas(16) uint8_t offsets[16] = {};
+    int first = 0;  // map(0)
     bool make(CtxMap map, int n) {
-        alignas(16) uint8_t offsets[16] = {};
         for (int q = 0; q < n; ++q) {
             const int off = map(q) - map(0);
             if (off < 0 || off > 255) return false;
@@ -342,7 +343,8 @@ struct CtxLut {
         }
         lut =
             _mm256_broadcastsi128_si256(_mm_load_si128(reinterpret_cast<const __m128i*>(offsets)));
-        base = _mm256_set1_epi16(int16_t(map(0)));
+        first = map(0);
+        base = _mm256_set1_epi16(int16_t(first));
         return true;
     }
     // The contexts of sixteen int16 q in 0..15.
@@ -383,9 +385,16 @@ struct Lanes16 {
     template <int k> static V divPow2(V a) { return avx2::divPow2<k>(a); }
     static V div3(V a) { return avx2::div3(a); }
     static V clamp255(V a) { return avx2::clamp255(a); }
+    static V min(V a, V b) { return _mm256_min_epi16(a, b); }
+    static V max(V a, V b) { return _mm256_max_epi16(a, b); }
+    static V magnitudes(const uint8_t* z) { return avx2::magnitudes16(z); }  // kLanes bytes
     static M greater(V a, V b) { return _mm256_cmpgt_epi16(a, b); }
+    static M either(M a, M b) { return _mm256_or_si256(a, b); }
+    static M none() { return _mm256_setzero_si256(); }
+    static bool any(M m) { return _mm256_movemask_epi8(m) != 0; }
     static V select(M m, V a, V b) { return _mm256_blendv_epi8(a, b, m); }  // m ? b : a
     static V keep(M m, V a) { return _mm256_and_si256(m, a); }             // m ? a : 0
+    static V contexts(const avx2::CtxLut& map, V q) { return map(q); }   // q in 0..15
 };
 #endif
 
@@ -420,9 +429,23 @@ struct Lanes32 {
     static V clamp255(V a) {
         return _mm512_min_epi16(_mm512_max_epi16(a, _mm512_setzero_si512()), set(255));
     }
+    static V min(V a, V b) { return _mm512_min_epi16(a, b); }
+    static V max(V a, V b) { return _mm512_max_epi16(a, b); }
+    static V magnitudes(const uint8_t* z) {
+        const __m256i bytes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(z));
+        return _mm512_cvtepu8_epi16(_mm256_avg_epu8(bytes, _mm256_setzero_si256()));
+    }
     static M greater(V a, V b) { return _mm512_cmpgt_epi16_mask(a, b); }
+    static M either(M a, M b) { return a | b; }
+    static M none() { return 0; }
+    static bool any(M m) { return m != 0; }
     static V select(M m, V a, V b) { return _mm512_mask_blend_epi16(m, a, b); }
     static V keep(M m, V a) { return _mm512_maskz_mov_epi16(m, a); }
+    static V contexts(const avx2::CtxLut& map, V q) {
+        const __m512i lut =
+            _mm512_broadcast_i32x4(_mm_load_si128(reinterpret_cast<const __m128i*>(map.offsets)));
+        return add(set(map.first), bitAnd(_mm512_shuffle_epi8(lut, q), set(0xFF)));
+    }
 };
 using WidestLanes = Lanes32;
 #elif defined(__AVX2__)
@@ -846,53 +869,46 @@ PLX_PTM_IVDEP
 }
 
 #if defined(__AVX2__)
-// epsContexts' coder 6 contexts (decode) for blocks 0..16k-1, sixteen blocks per step in int16
-// lanes (every term within +-11000, also in a corrupt level). Bit-exact with the scalar loop,
-// which does the rest. Returns the first block not done (0 when `map` does not fit a byte
+// epsContexts' coder 6 contexts (decode) for blocks 0..kLanes k - 1, W::kLanes blocks per step
+// in int16 lanes (every term within +-11000, also in a corrupt level). Bit-exact with the scalar
+// loop, which does the rest. Returns the first block not done (0 when `map` does not fit a byte
 // lookup).
-inline int crossEpsContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map) {
-    using namespace avx2;
-    CtxLut ctxOf;
+template <class W>
+int crossEpsContextsVec(FastRows& R, int lw, int full, int c, CtxMap map) {
+    using V = typename W::V;
+    avx2::CtxLut ctxOf;
     if (!ctxOf.make(map, kEpsContexts)) return 0;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* r3 = R.compRow(R.r3, c - 1);
     const Lane* q3 = R.compRow(R.r3, FastRows::secondBefore(c));
     // c == 0: no inter-component terms (r3 and q3 are then the row of zeros).
-    const __m256i inter = _mm256_set1_epi16(c > 0 ? -1 : 0);
-    const __m256i one = _mm256_set1_epi16(1), zero = _mm256_setzero_si256();
+    const V inter = W::set(c > 0 ? -1 : 0);
+    const V one = W::set(1), zero = W::set(0);
     int bx = 0;
-    for (; bx + 16 <= full; bx += 16) {
+    for (; bx + W::kLanes <= full; bx += W::kLanes) {
         const size_t p = pi + size_t(bx), r = ri + size_t(bx);
-        const __m256i v0 = load16(R.v0.data() + r), v1 = load16(R.v1.data() + r);
-        const __m256i v2 = load16(R.v2.data() + r), m = load16(R.m.data() + p);
-        const __m256i known = _mm256_sub_epi16(_mm256_add_epi16(_mm256_add_epi16(v0, v1), v2),
-                                               _mm256_slli_epi16(m, 2));
-        const __m256i pr3 = load16(r3 + bx);
+        const V v0 = W::load(R.v0.data() + r), v1 = W::load(R.v1.data() + r);
+        const V v2 = W::load(R.v2.data() + r), m = W::load(R.m.data() + p);
+        const V known = W::sub(W::add(W::add(v0, v1), v2), W::template shl<2>(m));
+        const V pr3 = W::load(r3 + bx);
         // sel * ((r3 + q3) >> 1): sel is 0 or 1.
-        const __m256i picked = _mm256_cmpgt_epi16(load16(R.sel.data() + p), zero);
-        const __m256i corr =
-            _mm256_and_si256(_mm256_and_si256(picked, inter),
-                             _mm256_srai_epi16(_mm256_add_epi16(pr3, load16(q3 + bx)), 1));
-        __m256i eHalf = _mm256_add_epi16(_mm256_slli_epi16(known, 1),
-                                         _mm256_sub_epi16(_mm256_add_epi16(v1, v2), v0));
-        eHalf = _mm256_add_epi16(eHalf, _mm256_add_epi16(load16(R.u3.data() + p), corr));
+        const V half = W::template sar<1>(W::add(pr3, W::load(q3 + bx)));
+        const V corr = W::keep(W::greater(W::load(R.sel.data() + p), zero), W::bitAnd(inter, half));
+        V eHalf = W::add(W::template shl<1>(known), W::sub(W::add(v1, v2), v0));
+        eHalf = W::add(eHalf, W::add(W::load(R.u3.data() + p), corr));
         // clamp((eHalf + 1) >> 1, -1, 3) + 1, times 3
-        const __m256i sHat =
-            _mm256_min_epi16(_mm256_max_epi16(_mm256_srai_epi16(_mm256_add_epi16(eHalf, one), 1),
-                                              _mm256_set1_epi16(-1)),
-                             _mm256_set1_epi16(3));
-        const __m256i s1 = _mm256_add_epi16(sHat, one);
-        __m256i act = _mm256_add_epi16(
-            load16(R.act0.data() + p),
-            _mm256_add_epi16(magnitudes16(R.z0.data() + r), magnitudes16(R.z1.data() + r)));
-        act = _mm256_add_epi16(act, magnitudes16(R.z2.data() + r));
-        act = _mm256_add_epi16(
-            act, _mm256_and_si256(inter, _mm256_slli_epi16(_mm256_abs_epi16(pr3), 1)));
+        const V sHat =
+            W::min(W::max(W::template sar<1>(W::add(eHalf, one)), W::set(-1)), W::set(3));
+        const V s1 = W::add(sHat, one);
+        V act = W::add(W::load(R.act0.data() + p),
+                       W::add(W::magnitudes(R.z0.data() + r), W::magnitudes(R.z1.data() + r)));
+        act = W::add(act, W::magnitudes(R.z2.data() + r));
+        act = W::add(act, W::bitAnd(inter, W::template shl<1>(W::abs(pr3))));
         // + (act >= 6) + (act >= 18)
-        __m256i q = _mm256_add_epi16(s1, _mm256_slli_epi16(s1, 1));
-        q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(act, _mm256_set1_epi16(5)));
-        q = _mm256_sub_epi16(q, _mm256_cmpgt_epi16(act, _mm256_set1_epi16(17)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(R.ctx.data() + r), ctxOf(q));
+        V q = W::add(s1, W::template shl<1>(s1));
+        q = W::add(q, W::keep(W::greater(act, W::set(5)), one));
+        q = W::add(q, W::keep(W::greater(act, W::set(17)), one));
+        W::store(reinterpret_cast<Lane*>(R.ctx.data() + r), W::contexts(ctxOf, q));
     }
     return bx;
 }
@@ -900,9 +916,14 @@ inline int crossEpsContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map
 
 // eps of the full blocks of a row, component c: contexts from the block sum that the planar
 // prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
-// With AVX2, the decoder's coder 6 contexts of blocks 0..16k-1 by crossEpsContextsAvx2; kFast =
-// false runs the scalar loop for every block (the reference of fast_paths_test).
-template <bool kEncode, bool kFast = true>
+// With AVX2, the decoder's coder 6 contexts of the first blocks by crossEpsContextsVec in the
+// widest lanes the build has (W, as prepareRow's); kFast = false runs the scalar loop for every
+// block (the reference of fast_paths_test).
+#if defined(__AVX2__)
+template <bool kEncode, bool kFast = true, class W = WidestLanes>
+#else
+template <bool kEncode, bool kFast = true, class W = void>
+#endif
 void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* __restrict m = R.m.data() + pi;
@@ -931,7 +952,7 @@ void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
         const int inter = c > 0 ? 1 : 0;
         int start = 0;
 #if defined(__AVX2__)
-        if constexpr (!kEncode && kFast) start = crossEpsContextsAvx2(R, lw, full, c, map);
+        if constexpr (!kEncode && kFast) start = crossEpsContextsVec<W>(R, lw, full, c, map);
 #endif
         PLX_PTM_IVDEP
         for (int bx = start; bx < full; ++bx) {
@@ -972,58 +993,54 @@ PLX_PTM_IVDEP
 }
 
 #if defined(__AVX2__)
-// finishFullRow (below) for blocks 0..16k-1, sixteen blocks per step in int16 lanes (p11 within
-// -765..1275 and r3 within +-3900 also in a corrupt level). Bit-exact with the scalar loops,
-// which do the rest. Returns the first block not done; ORs the range check's flags into bad.
-template <bool kKeepDetail, bool kCross>
-int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
-    using namespace avx2;
+// finishFullRow (below) for blocks 0..kLanes k - 1, W::kLanes blocks per step in int16 lanes
+// (p11 within -765..1275 and r3 within +-3900 also in a corrupt level). Bit-exact with the
+// scalar loops, which do the rest. Returns the first block not done; ORs the range check's
+// flags into bad.
+template <class W, bool kKeepDetail, bool kCross>
+int finishFullRowVec(FastRows& R, int lw, int full, int c, unsigned& bad) {
+    using V = typename W::V;
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;
     Lane* own3 = R.compRow(R.r3, c);
     const Lane* p3 = R.compRow(R.r3, c - 1);
     const Lane* q3 = R.compRow(R.r3, FastRows::secondBefore(c));
-    const __m256i zero = _mm256_setzero_si256();
-    __m256i flags = zero;
+    const V zero = W::set(0);
+    auto flags = W::none();
     int bx = 0;
-    for (; bx + 16 <= full; bx += 16) {
+    for (; bx + W::kLanes <= full; bx += W::kLanes) {
         const size_t p = pi + size_t(bx), r = ri + size_t(bx), st = si + size_t(bx);
-        const __m256i v0 = load16(R.v0.data() + r), v1 = load16(R.v1.data() + r);
-        const __m256i v2 = load16(R.v2.data() + r), u3 = load16(R.u3.data() + p);
-        const __m256i ep = widen16(R.ze.data() + r);
-        const __m256i last = _mm256_sub_epi16(  // eq. (3)
-            _mm256_add_epi16(_mm256_slli_epi16(load16(R.m.data() + p), 2), ep),
-            _mm256_add_epi16(_mm256_add_epi16(v0, v1), v2));
-        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(ep, _mm256_set1_epi16(3)));
-        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(zero, last));
-        flags = _mm256_or_si256(flags, _mm256_cmpgt_epi16(last, _mm256_set1_epi16(255)));
-        store16(R.v3.data() + r, last);
+        const V v0 = W::load(R.v0.data() + r), v1 = W::load(R.v1.data() + r);
+        const V v2 = W::load(R.v2.data() + r), u3 = W::load(R.u3.data() + p);
+        const V ep = W::widen(R.ze.data() + r);
+        const V last = W::sub(W::add(W::template shl<2>(W::load(R.m.data() + p)), ep),
+                              W::add(W::add(v0, v1), v2));  // eq. (3)
+        flags = W::either(flags, W::greater(ep, W::set(3)));
+        flags = W::either(flags, W::greater(zero, last));
+        flags = W::either(flags, W::greater(last, W::set(255)));
+        W::store(R.v3.data() + r, last);
         if constexpr (kKeepDetail) {
-            store16(R.detail01.data() + p, _mm256_sub_epi16(v2, load16(R.u2.data() + p)));
-            store16(R.detail11.data() + p, _mm256_sub_epi16(last, u3));
+            W::store(R.detail01.data() + p, W::sub(v2, W::load(R.u2.data() + p)));
+            W::store(R.detail11.data() + p, W::sub(last, u3));
         }
-        store16(R.curAct.data() + st,
-                _mm256_add_epi16(
-                    _mm256_add_epi16(magnitudes16(R.z0.data() + r), magnitudes16(R.z1.data() + r)),
-                    magnitudes16(R.z2.data() + r)));
-        __m256i ea = load16(R.errA.data() + r), eb = load16(R.errB.data() + r);
+        W::store(R.curAct.data() + st,
+                 W::add(W::add(W::magnitudes(R.z0.data() + r), W::magnitudes(R.z1.data() + r)),
+                        W::magnitudes(R.z2.data() + r)));
+        V ea = W::load(R.errA.data() + r), eb = W::load(R.errB.data() + r);
         if constexpr (kCross) {
-            const __m256i planar = _mm256_sub_epi16(_mm256_add_epi16(v1, v2), v0);
-            const __m256i r3 =
-                _mm256_sub_epi16(_mm256_sub_epi16(_mm256_slli_epi16(last, 1), planar), u3);
-            store16(own3 + bx, r3);
+            const V planar = W::sub(W::add(v1, v2), v0);
+            const V r3 = W::sub(W::sub(W::template shl<1>(last), planar), u3);
+            W::store(own3 + bx, r3);
             if (c > 0) {  // |r3| / 2 and |r3 - B's correction| / 2
-                const __m256i corr =
-                    _mm256_srai_epi16(_mm256_add_epi16(load16(p3 + bx), load16(q3 + bx)), 1);
-                ea = _mm256_add_epi16(ea, _mm256_srli_epi16(_mm256_abs_epi16(r3), 1));
-                eb = _mm256_add_epi16(
-                    eb, _mm256_srli_epi16(_mm256_abs_epi16(_mm256_sub_epi16(r3, corr)), 1));
+                const V corr = W::template sar<1>(W::add(W::load(p3 + bx), W::load(q3 + bx)));
+                ea = W::add(ea, W::template shr<1>(W::abs(r3)));
+                eb = W::add(eb, W::template shr<1>(W::abs(W::sub(r3, corr))));
             }
         }
-        store16(R.curEA.data() + st, ea);
-        store16(R.curEB.data() + st, eb);
+        W::store(R.curEA.data() + st, ea);
+        W::store(R.curEB.data() + st, eb);
     }
-    bad |= unsigned(_mm256_movemask_epi8(flags) != 0);
+    bad |= unsigned(W::any(flags));
     return bx;
 }
 #endif
@@ -1036,9 +1053,14 @@ int finishFullRowAvx2(FastRows& R, int lw, int full, int c, unsigned& bad) {
 // p11's errors under A and B to the block's sub-predictor statistics (components >= 1), so that
 // the next row's choice between A and B also weighs p11 (0.9113x -> 0.9077x optipng -o2 over
 // the 69 Sponza textures, with the inter-component p11).
-// With AVX2, blocks 0..16k-1 by finishFullRowAvx2; kFast = false runs the scalar loops for every
-// block (the reference that fast_paths_test compares the vector path with).
-template <bool kKeepDetail, bool kCross = false, bool kFast = true>
+// With AVX2, the first blocks by finishFullRowVec in the widest lanes the build has (W, as
+// prepareRow's); kFast = false runs the scalar loops for every block (the reference that
+// fast_paths_test compares the vector paths with).
+#if defined(__AVX2__)
+template <bool kKeepDetail, bool kCross = false, bool kFast = true, class W = WidestLanes>
+#else
+template <bool kKeepDetail, bool kCross = false, bool kFast = true, class W = void>
+#endif
 unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;
@@ -1063,7 +1085,7 @@ unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     unsigned bad = 0;
     int start = 0;
 #if defined(__AVX2__)
-    if constexpr (kFast) start = finishFullRowAvx2<kKeepDetail, kCross>(R, lw, full, c, bad);
+    if constexpr (kFast) start = finishFullRowVec<W, kKeepDetail, kCross>(R, lw, full, c, bad);
 #endif
     PLX_PTM_IVDEP
     for (int bx = start; bx < full; ++bx) {

@@ -197,70 +197,77 @@ TEST(PtmFastPaths, RunContextsMatchScalar) {
 }
 
 TEST(PtmFastPaths, EpsContextsMatchScalar) {
-    uint32_t seed = 2000;
-    for (int lw : kLengths)
-        for (int mi = 0; mi < 5; ++mi)
-            for (int c = 0; c < kComps; ++c)
-                for (const CtxMap& map : decoderMaps(kEpsContexts)) {
-                    FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
-                    epsContexts<false, true>(fast, lw, lw, c, map);
-                    epsContexts<false, false>(ref, lw, lw, c, map);
-                    expectSameRows(fast, ref, label(lw, c, mi));
-                }
+    forEachWidth([]<class W>() {
+        uint32_t seed = 2000;
+        for (int lw : kLengths)
+            for (int mi = 0; mi < 5; ++mi)
+                for (int c = 0; c < kComps; ++c)
+                    for (const CtxMap& map : decoderMaps(kEpsContexts)) {
+                        FastRows fast = randomRows(lw, kModels[mi], seed++), ref = fast;
+                        epsContexts<false, true, W>(fast, lw, lw, c, map);
+                        epsContexts<false, false>(ref, lw, lw, c, map);
+                        expectSameRows(fast, ref, label(lw, c, mi) + ", " + widthName<W>());
+                    }
+    });
 }
 
-template <bool kKeepDetail, bool kCross>
+template <class W, bool kKeepDetail, bool kCross>
 void finishCase(int lw, int c, int mi, uint32_t seed) {
     FastRows fast = randomRows(lw, kModels[mi], seed), ref = fast;
-    const unsigned badFast = finishFullRow<kKeepDetail, kCross, true>(fast, lw, lw, c);
+    const unsigned badFast = finishFullRow<kKeepDetail, kCross, true, W>(fast, lw, lw, c);
     const unsigned badRef = finishFullRow<kKeepDetail, kCross, false>(ref, lw, lw, c);
-    EXPECT_EQ(badFast != 0, badRef != 0) << label(lw, c, mi);
-    expectSameRows(fast, ref, label(lw, c, mi));
+    const std::string where = label(lw, c, mi) + ", " + widthName<W>();
+    EXPECT_EQ(badFast != 0, badRef != 0) << where;
+    expectSameRows(fast, ref, where);
 }
 
 TEST(PtmFastPaths, FinishRowMatchesScalar) {
-    uint32_t seed = 3000;
-    int flagged = 0, clean = 0;
-    for (int lw : kLengths)
-        for (int c = 0; c < kComps; ++c)
-            for (int rep = 0; rep < 4; ++rep) {
-                finishCase<false, false>(lw, c, 0, seed++);
-                finishCase<true, false>(lw, c, 1, seed++);
-                finishCase<true, true>(lw, c, 4, seed++);
-                // Both outcomes of the range check occur among these rows.
-                FastRows rows = randomRows(lw, kModels[4], seed++);
-                (finishFullRow<true, true, false>(rows, lw, lw, c) ? flagged : clean)++;
-            }
-    EXPECT_GT(flagged, 0);
-    EXPECT_GT(clean, 0);
+    forEachWidth([]<class W>() {
+        uint32_t seed = 3000;
+        int flagged = 0, clean = 0;
+        for (int lw : kLengths)
+            for (int c = 0; c < kComps; ++c)
+                for (int rep = 0; rep < 4; ++rep) {
+                    finishCase<W, false, false>(lw, c, 0, seed++);
+                    finishCase<W, true, false>(lw, c, 1, seed++);
+                    finishCase<W, true, true>(lw, c, 4, seed++);
+                    // Both outcomes of the range check occur among these rows.
+                    FastRows rows = randomRows(lw, kModels[4], seed++);
+                    (finishFullRow<true, true, false>(rows, lw, lw, c) ? flagged : clean)++;
+                }
+        EXPECT_GT(flagged, 0);
+        EXPECT_GT(clean, 0);
+    });
 }
 
 // eq. (3)'s range check at its edges: one block of an otherwise valid row gives p11 = -1, 0, 255
 // or 256 (4 m + eps - v0 - v1 - v2), at every position of the row.
 TEST(PtmFastPaths, FinishRowRangeCheckAtItsEdges) {
-    for (int lw : {16, 33, 47})
-        for (int at = 0; at < lw; ++at)
-            for (const int last : {-1, 0, 255, 256}) {
-                FastRows fast = randomRows(lw, kModels[4], uint32_t(4000 + at));
-                const int c = 1;
-                for (int bx = 0; bx < lw; ++bx) {  // p11 = m + eps, valid
-                    const size_t i = size_t(c * lw + bx);
-                    fast.m[i] = fast.v0[i] = fast.v1[i] = fast.v2[i] = Lane(bx % 200);
-                    fast.ze[i] = uint8_t(bx % 4);
+    forEachWidth([]<class W>() {
+        for (int lw : {16, 33, 47, 64, 70})
+            for (int at = 0; at < lw; ++at)
+                for (const int last : {-1, 0, 255, 256}) {
+                    FastRows fast = randomRows(lw, kModels[4], uint32_t(4000 + at));
+                    const int c = 1;
+                    for (int bx = 0; bx < lw; ++bx) {  // p11 = m + eps, valid
+                        const size_t i = size_t(c * lw + bx);
+                        fast.m[i] = fast.v0[i] = fast.v1[i] = fast.v2[i] = Lane(bx % 200);
+                        fast.ze[i] = uint8_t(bx % 4);
+                    }
+                    const size_t i = size_t(c * lw + at);
+                    fast.m[i] = last > 128 ? 64 : 0;  // 4 m - (v0 + v1 + v2) = last, eps = 0
+                    fast.v0[i] = Lane(last == 255 || last == -1 ? 1 : 0);
+                    fast.v1[i] = fast.v2[i] = 0;
+                    fast.ze[i] = 0;
+                    FastRows ref = fast;
+                    const bool expectBad = last < 0 || last > 255;
+                    const bool badFast = finishFullRow<true, true, true, W>(fast, lw, lw, c) != 0;
+                    const bool badRef = finishFullRow<true, true, false>(ref, lw, lw, c) != 0;
+                    EXPECT_EQ(badFast, expectBad) << "lw " << lw << ", block " << at << ", p11 "
+                                                  << last << ", " << widthName<W>();
+                    EXPECT_EQ(badRef, expectBad);
                 }
-                const size_t i = size_t(c * lw + at);
-                fast.m[i] = last > 128 ? 64 : 0;  // 4 m - (v0 + v1 + v2) = last, eps = 0
-                fast.v0[i] = Lane(last == 255 || last == -1 ? 1 : 0);
-                fast.v1[i] = fast.v2[i] = 0;
-                fast.ze[i] = 0;
-                FastRows ref = fast;
-                const bool expectBad = last < 0 || last > 255;
-                const bool badFast = finishFullRow<true, true, true>(fast, lw, lw, c) != 0;
-                const bool badRef = finishFullRow<true, true, false>(ref, lw, lw, c) != 0;
-                EXPECT_EQ(badFast, expectBad)
-                    << "lw " << lw << ", block " << at << ", p11 " << last;
-                EXPECT_EQ(badRef, expectBad);
-            }
+    });
 }
 
 // The tokens' values from their extra bits (SimdDecodeIO::run), sixteen per vector step against

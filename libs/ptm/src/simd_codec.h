@@ -14,6 +14,10 @@
 // - the extra bits of a run's tokens are read afterwards (symbol order, as coder 3's separate
 //   bit stream), sixteen tokens per vector step (extraBitsAvx2).
 //
+// With AVX-512 a round is two vectors of sixteen states (runVectorAvx512: vpgatherdd, and
+// vpexpandd for the renormalisation words), and coder 6's eps runs, whose tables hold tokens
+// 0..3, find their symbols without a table load (runSmallAvx512).
+//
 // A scalar decoder of the same stream handles the tail of a run (fewer than 32 symbols), the last
 // 64 bytes of the stream (bounds-checked reads) and builds without AVX2.
 
@@ -352,8 +356,9 @@ struct SimdDecodeIO : WordStream {
                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(ctx + j + 8 * v))),
                     kRansPrecision);
                 const __m256i slot = _mm256_and_si256(s[v], mask12);
-                // Eight scalar loads: faster than vpgatherdd on the measured machine (Zen 3),
-                // and checked by AddressSanitizer.
+                // Eight scalar loads: faster than an 8-lane vpgatherdd on Zen 3, and checked
+                // by AddressSanitizer (on Zen 5 the AVX-512 loop's gather is as fast as scalar
+                // loads, docs/ptm-results.md).
                 alignas(32) uint32_t ix[8];
                 _mm256_store_si256(reinterpret_cast<__m256i*>(ix), _mm256_add_epi32(off, slot));
                 const __m256i e = _mm256_setr_epi32(tab[ix[0]], tab[ix[1]], tab[ix[2]],

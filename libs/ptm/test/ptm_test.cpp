@@ -1,5 +1,7 @@
+#include <atomic>
 #include <filesystem>
 #include <random>
+#include <thread>
 #include <tuple>
 
 #include <gtest/gtest.h>
@@ -172,6 +174,28 @@ TEST(PtmDecoder, ProgressiveGroupsInOrder) {
     }
     EXPECT_TRUE(dec->complete());
     EXPECT_EQ(expectedOffset, file.size());
+}
+
+// The decode tables live in one buffer per thread (decoder.cpp): threads decoding at once get
+// their own, and a thread's buffer serves groups of every size in any order (it grows to the
+// largest and keeps it).
+TEST(PtmDecoder, ThreadsDecodeWithTheirOwnTables) {
+    const ByteImage small = randomImage(70, 9, 1, 31, true);
+    const ByteImage large = randomImage(300, 170, 4, 32, true);
+    const std::vector<uint8_t> files[2] = {mustEncode(small), mustEncode(large)};
+    const ByteImage* images[2] = {&small, &large};
+    std::atomic<int> wrong{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t)
+        threads.emplace_back([&, t] {
+            for (int i = 0; i < 6; ++i) {  // small and large alternate, each thread in its order
+                const int which = (i + t) % 2;
+                auto decoded = decodeImage(files[which]);
+                if (!decoded || *decoded != *images[which]) ++wrong;
+            }
+        });
+    for (auto& thread : threads) thread.join();
+    EXPECT_EQ(wrong.load(), 0);
 }
 
 TEST(PtmDecoder, WrongGroupIsRejected) {

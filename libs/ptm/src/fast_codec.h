@@ -358,8 +358,9 @@ struct CtxLut {
 
 #if defined(__AVX2__)
 // The int16-lane operations of the walker's vector passes for one vector width, so that one
-// template body (prepareRowVec, codeFullRowVec) serves AVX2 (Lanes16) and AVX-512 (Lanes32).
-// M is a lane mask: a vector of 0 / -1 lanes for AVX2, a mask register for AVX-512.
+// template body (prepareRowVec, codeFullRowVec, crossEpsContextsVec, finishFullRowVec) serves
+// AVX2 (Lanes16) and AVX-512 (Lanes32, 32 blocks per step). M is a lane mask: a vector of
+// 0 / -1 lanes for AVX2, a mask register for AVX-512.
 struct Lanes16 {
     using V = __m256i;
     using M = __m256i;

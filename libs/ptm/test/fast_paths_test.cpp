@@ -1,7 +1,8 @@
-// White-box tests of the walker's AVX2 passes (src/fast_codec.h): each must give exactly what its
-// scalar reference gives, on random rows of every length around the vector width, with values
-// over the ranges a corrupt level can reach (not only those of valid levels). Encoder and decoder
-// run the same passes, so the round trips alone would not see a vector path that both share.
+// White-box tests of the walker's vector passes (src/fast_codec.h, src/simd_codec.h; AVX2 and,
+// where the build has it, AVX-512): each must give exactly what its scalar reference gives, on
+// random rows of every length around the vector width, with values over the ranges a corrupt
+// level can reach (not only those of valid levels). Encoder and decoder run the same passes, so
+// the round trips alone would not see a vector path that both share.
 
 #include <algorithm>
 #include <functional>

@@ -144,6 +144,73 @@ inline int extraBitsAvx2(uint8_t* z, int n, BitReader& bits) {
 }
 #endif
 
+#if PLX_PTM_AVX512 && defined(__AVX512VBMI__)
+// Per token (0..31, tokens 24..31 never decoded) its extra-bit count and its value without the
+// extra bits (tokens below 16: the token itself), for vpermb.
+struct ExtraBitTables32 {
+    alignas(32) uint8_t bits[32]{}, base[32]{};
+    constexpr ExtraBitTables32() {
+        for (int t = 0; t < 32; ++t) {
+            const int k = std::min(t, kTokenCount - 1);
+            bits[t] = t < 16 ? 0 : kTokens.bits[size_t(k)];
+            base[t] = t < 16 ? uint8_t(t) : uint8_t(kTokens.base[size_t(k)]);
+        }
+    }
+};
+inline constexpr ExtraBitTables32 kExtra32{};
+
+// extraBitsAvx2 for thirty-two tokens per step (AVX-512 VBMI): counts and bases by vpermb, the
+// byte-wise prefix sum of the counts across the 32 bytes by five masked vpermb shifts (32
+// tokens hold at most 192 bits, so the offsets fit a byte and one 32-byte window of the stream
+// holds the bits), each token's two bytes from the window by vpermb, the shift and the mask by
+// 16-bit variable shifts. Reads the stream from bits' position while 32 bytes remain there,
+// then moves it past the bits taken. Returns the number of tokens done. Bit-exact with the
+// scalar take() loop.
+inline int extraBitsAvx512(uint8_t* z, int n, BitReader& bits) {
+    const __m256i bitsLut = _mm256_load_si256(reinterpret_cast<const __m256i*>(kExtra32.bits));
+    const __m256i baseLut = _mm256_load_si256(reinterpret_cast<const __m256i*>(kExtra32.base));
+    const __m256i index = _mm256_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15,
+                                           16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28,
+                                           29, 30, 31);
+    const __m512i one16 = _mm512_set1_epi16(1);
+    const uint8_t* stream = bits.streamBegin();
+    const size_t size = bits.streamBytes();
+    uint64_t pos = bits.position();
+    int i = 0;
+    for (; i + 32 <= n && pos / 8 + 32 <= size; i += 32) {
+        const __m256i t = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(z + i));
+        const __m256i count = _mm256_permutexvar_epi8(t, bitsLut);
+        const __m256i base = _mm256_permutexvar_epi8(t, baseLut);
+        // Inclusive prefix sum: add the vector shifted up by 1, 2, 4, 8, 16 bytes.
+        __m256i sum = count;
+        for (int k = 1; k < 32; k *= 2) {
+            const __m256i below = _mm256_sub_epi8(index, _mm256_set1_epi8(int8_t(k)));
+            sum = _mm256_add_epi8(sum, _mm256_maskz_permutexvar_epi8(~0u << k, below, sum));
+        }
+        const __m256i off = _mm256_add_epi8(_mm256_sub_epi8(sum, count),
+                                            _mm256_set1_epi8(int8_t(pos % 8)));
+        const __m256i byteAt = _mm256_srli_epi16(_mm256_and_si256(off, _mm256_set1_epi8(-8)), 3);
+        const __m256i window =
+            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(stream + pos / 8));
+        const __m256i b0 = _mm256_permutexvar_epi8(byteAt, window);
+        const __m256i b1 = _mm256_permutexvar_epi8(_mm256_add_epi8(byteAt, _mm256_set1_epi8(1)),
+                                                   window);
+        // (b1 b0 >> off mod 8) & (2^count - 1) in 16-bit lanes.
+        const __m512i pair = _mm512_or_si512(_mm512_cvtepu8_epi16(b0),
+                                             _mm512_slli_epi16(_mm512_cvtepu8_epi16(b1), 8));
+        const __m512i shift = _mm512_cvtepu8_epi16(_mm256_and_si256(off, _mm256_set1_epi8(7)));
+        const __m512i mask =
+            _mm512_sub_epi16(_mm512_sllv_epi16(one16, _mm512_cvtepu8_epi16(count)), one16);
+        const __m512i extra = _mm512_and_si512(_mm512_srlv_epi16(pair, shift), mask);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(z + i),
+                            _mm256_add_epi8(base, _mm512_cvtepi16_epi8(extra)));
+        pos += uint64_t(uint8_t(_mm256_extract_epi8(sum, 31)));
+    }
+    if (i > 0) bits.seek(pos);
+    return i;
+}
+#endif
+
 // The tables of one family whose tokens are 0..3 (coder 6's eps runs, per component), held as
 // vectors for runSmallAvx512: per table of the family (at most 16, lane = table - first), the
 // cumulative starts of tokens 1..3 and the frequencies of tokens 0..3. An empty table decodes
@@ -434,8 +501,11 @@ struct SimdDecodeIO : WordStream {
         runScalar(ctx, kFast ? runVector(ctx, n, z) : 0, n, z);
         if constexpr (kExtra) {
             int i = 0;
+#if PLX_PTM_AVX512 && defined(__AVX512VBMI__)
+            if constexpr (kFast) i = extraBitsAvx512(z, n, bits);
+#endif
 #if defined(__AVX2__)
-            if constexpr (kFast) i = extraBitsAvx2(z, n, bits);
+            if constexpr (kFast) i += extraBitsAvx2(z + i, n - i, bits);
 #endif
             BitReader br = bits;  // a local: the byte stores to z cannot alias it
             for (; i + 8 <= n; i += 8) {

@@ -271,45 +271,54 @@ TEST(PtmFastPaths, FinishRowRangeCheckAtItsEdges) {
     });
 }
 
-// The tokens' values from their extra bits (SimdDecodeIO::run), sixteen per vector step against
+// The tokens' values from their extra bits (SimdDecodeIO::run), 16 or 32 per vector step against
 // the scalar take() loop: every start bit within a byte, runs of several lengths, streams that
 // end right after the bits (so that the vector path leaves the last ones to the scalar loop).
 TEST(PtmFastPaths, ExtraBitsMatchScalar) {
 #if defined(__AVX2__)
-    std::mt19937 rng(6000);
-    int vectorTokens = 0;
-    for (int n : {1, 15, 16, 17, 48, 100, 512})
-        for (int start = 0; start < 12; ++start)
-            for (int slack : {0, 1, 40}) {
-                std::vector<uint8_t> tokens(static_cast<size_t>(n));
-                uint64_t needed = uint64_t(start);
-                for (uint8_t& t : tokens) {
-                    t = uint8_t(rng() % 2 ? rng() % 16 : 16 + rng() % 8);
-                    needed += kTokens.bits[t];
+    using Reader = int (*)(uint8_t*, int, BitReader&);
+    std::vector<std::pair<std::string, Reader>> readers = {{"16 tokens", &extraBitsAvx2}};
+#if PLX_PTM_AVX512 && defined(__AVX512VBMI__)
+    readers.push_back({"32 tokens", &extraBitsAvx512});
+#endif
+    for (const auto& [name, reader] : readers) {
+        std::mt19937 rng(6000);
+        int vectorTokens = 0;
+        for (int n : {1, 15, 16, 17, 31, 32, 33, 48, 64, 100, 512})
+            for (int start = 0; start < 12; ++start)
+                for (int slack : {0, 1, 17, 40}) {
+                    std::vector<uint8_t> tokens(static_cast<size_t>(n));
+                    uint64_t needed = uint64_t(start);
+                    for (uint8_t& t : tokens) {
+                        t = uint8_t(rng() % 2 ? rng() % 16 : 16 + rng() % 8);
+                        needed += kTokens.bits[t];
+                    }
+                    std::vector<uint8_t> stream(static_cast<size_t>(needed / 8 + 1) +
+                                                size_t(slack));
+                    for (uint8_t& b : stream) b = uint8_t(rng());
+                    BitReader fastBits(stream.data(), stream.data() + stream.size());
+                    BitReader refBits = fastBits;
+                    fastBits.get(start);
+                    refBits.get(start);
+                    std::vector<uint8_t> fast = tokens, ref = tokens;
+                    const int done = reader(fast.data(), n, fastBits);
+                    vectorTokens += done;
+                    for (int i = done; i < n; ++i) {
+                        fastBits.ensure24();
+                        fast[size_t(i)] = uint8_t(kTokens.base[fast[size_t(i)]] +
+                                                  fastBits.take(kTokens.bits[fast[size_t(i)]]));
+                    }
+                    for (uint8_t& t : ref) {
+                        refBits.ensure24();
+                        t = uint8_t(kTokens.base[t] + refBits.take(kTokens.bits[t]));
+                    }
+                    EXPECT_EQ(fast, ref) << name << ", n " << n << ", start bit " << start
+                                         << ", slack " << slack;
+                    EXPECT_EQ(fastBits.position(), refBits.position()) << name;
+                    EXPECT_TRUE(fastBits.exact(stream.size()) == refBits.exact(stream.size()));
                 }
-                std::vector<uint8_t> stream(static_cast<size_t>(needed / 8 + 1) + size_t(slack));
-                for (uint8_t& b : stream) b = uint8_t(rng());
-                BitReader fastBits(stream.data(), stream.data() + stream.size());
-                BitReader refBits = fastBits;
-                fastBits.get(start);
-                refBits.get(start);
-                std::vector<uint8_t> fast = tokens, ref = tokens;
-                const int done = extraBitsAvx2(fast.data(), n, fastBits);
-                vectorTokens += done;
-                for (int i = done; i < n; ++i) {
-                    fastBits.ensure24();
-                    fast[size_t(i)] = uint8_t(kTokens.base[fast[size_t(i)]] +
-                                              fastBits.take(kTokens.bits[fast[size_t(i)]]));
-                }
-                for (uint8_t& t : ref) {
-                    refBits.ensure24();
-                    t = uint8_t(kTokens.base[t] + refBits.take(kTokens.bits[t]));
-                }
-                EXPECT_EQ(fast, ref) << "n " << n << ", start bit " << start << ", slack " << slack;
-                EXPECT_EQ(fastBits.position(), refBits.position());
-                EXPECT_TRUE(fastBits.exact(stream.size()) == refBits.exact(stream.size()));
-            }
-    EXPECT_GT(vectorTokens, 0);
+        EXPECT_GT(vectorTokens, 0) << name;
+    }
 #else
     GTEST_SKIP() << "no AVX2 in this build";
 #endif

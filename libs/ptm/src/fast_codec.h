@@ -222,7 +222,7 @@ struct FastDecodeIO : WordStream {
 inline int magnitude(int z) { return (z + 1) >> 1; }
 inline int unzigzagFast(int z) { return (z >> 1) ^ -(z & 1); }
 // activityBucket (ctx_codec.h) by comparisons, so that loops over a row vectorise.
-inline int bucketOf(int a) {
+constexpr int bucketOf(int a) {
     return (a >= 2) + (a >= 4) + (a >= 6) + (a >= 9) + (a >= 12) + (a >= 16) + (a >= 21) +
            (a >= 28) + (a >= 38) + (a >= 52) + (a >= 72);
 }
@@ -451,6 +451,8 @@ struct Lanes32 {
 using WidestLanes = Lanes32;
 #elif defined(__AVX2__)
 using WidestLanes = Lanes16;
+#else
+using WidestLanes = void;  // no vector passes: the scalar loops do every block
 #endif
 
 #if defined(__AVX2__)
@@ -529,11 +531,7 @@ int prepareRowVec(FastRows& R, int lw, int c, bool firstRow) {
 // With AVX2, the first blocks by prepareRowVec in the widest lanes the build has (W: Lanes32
 // with AVX-512, else Lanes16); kFast = false runs the scalar loop for every block (the
 // reference that fast_paths_test compares the vector paths with).
-#if defined(__AVX2__)
 template <bool kShapeAbove, bool kFast = true, class W = WidestLanes>
-#else
-template <bool kShapeAbove, bool kFast = true, class W = void>
-#endif
 void prepareRow(FastRows& R, int lw, int c, bool firstRow) {
     int start = 0;
 #if defined(__AVX2__)
@@ -675,11 +673,7 @@ int codeFullRowVec(FastRows& R, int lw, int full, int c) {
 // components before: each carries the rounding noise of its own JPEG decode, which the mean
 // halves (0.9051x -> 0.9015x optipng -o2 over the 69 Sponza textures; rounding the mean half up
 // instead gives 0.9031x, toward minus infinity 0.9018x).
-#if defined(__AVX2__)
 template <bool kEncode, bool kCross, bool kFast = true, class W = WidestLanes>
-#else
-template <bool kEncode, bool kCross, bool kFast = true, class W = void>
-#endif
 void codeFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* __restrict m = R.m.data() + pi;
@@ -742,6 +736,67 @@ void codeFullRow(FastRows& R, int lw, int full, int c) {
 }
 
 #if defined(__AVX2__)
+// The rows of component c that the vector passes of fullRunContexts read and write; pad holds
+// the previous run's magnitudes as bytes (kinds 1, 2: p00's run for kind 1, p10's for kind 2),
+// ends replicated: e[bx] at pad[bx + 1].
+struct RunContextRows {
+    const Lane* act0;
+    const uint8_t *z0, *z1, *z2;
+    uint16_t* ctx;
+    const uint8_t* pad;
+};
+template <int kKind>
+RunContextRows runContextRows(FastRows& R, int lw, int full, int c) {
+    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
+    const RunContextRows rows{R.act0.data() + pi, R.z0.data() + ri, R.z1.data() + ri,
+                              R.z2.data() + ri, R.ctx.data() + ri, R.magBytes.data()};
+    if constexpr (kKind > 0) {
+        uint8_t* pad = R.magBytes.data();
+        const uint8_t* zp = kKind == 1 ? rows.z0 : rows.z1;
+        for (int i = 0; i + 16 <= full; i += 16)
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(pad + 1 + i), avx2::magnitudes8(zp + i));
+        for (int i = full & ~15; i < full; ++i) pad[i + 1] = uint8_t(magnitude(zp[i]));
+        pad[0] = pad[1];
+        pad[full + 1] = pad[full];
+    }
+    return rows;
+}
+
+// The activity of blocks bx..bx+W::kLanes-1 of a run of kind kKind, before bucketOf (every
+// intermediate below 2^12: act0 <= 4 * 510, magnitudes <= 128, also in a corrupt level), as
+// fullRunContexts' scalar loop: act0, the earlier runs' magnitudes of the block and, kinds 1
+// and 2, those of the previous run's neighbours (rows.pad); with `cross`, the previous
+// component's magnitudes.
+template <class W, int kKind>
+typename W::V runActivity(const RunContextRows& rows, int full, int bx, bool cross) {
+    using V = typename W::V;
+    const auto [act0, z0, z1, z2, ctx, pad] = rows;
+    V a = W::load(act0 + bx);
+    if constexpr (kKind == 1) {  // (a + 3 e + e left + e right) >> 1
+        const V e = W::widen(pad + bx + 1);
+        a = W::add(a, W::add(e, W::template shl<1>(e)));
+        a = W::add(a, W::add(W::widen(pad + bx), W::widen(pad + bx + 2)));
+        a = W::template shr<1>(a);
+    } else if constexpr (kKind == 2) {  // (a + 3 |z0| + 2 e + e left) >> 1
+        const V m0 = W::magnitudes(z0 + bx);
+        a = W::add(a, W::add(m0, W::template shl<1>(m0)));
+        a = W::add(a, W::add(W::template shl<1>(W::widen(pad + bx + 1)), W::widen(pad + bx)));
+        a = W::template shr<1>(a);
+    }
+    if (cross) {  // the previous component's magnitudes, as the scalar loop's `extra`
+        const V y0 = W::magnitudes(z0 + bx - full), y1 = W::magnitudes(z1 + bx - full);
+        const V y2 = W::magnitudes(z2 + bx - full);
+        const V same = kKind == 0 ? y0 : kKind == 1 ? y1 : y2;
+        const V block = W::add(W::add(y0, y1), y2);
+        const V sum = W::add(W::template shl<2>(same), W::template shl<1>(block));
+        a = W::add(a, W::template shr<2>(sum));
+    }
+    return a;
+}
+
+#endif
+
+#if defined(__AVX2__)
 // fullRunContexts for rows of at least 16 blocks: activities sixteen blocks at a time in int16
 // lanes (every intermediate is below 2^12: act0 <= 4 * 510, magnitudes <= 128, also in a corrupt
 // level), bucketed 32 at a time in bytes; near the row's end the groups of 16 overlap. Bit-exact
@@ -752,48 +807,9 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
     using namespace avx2;
     CtxLut ctxOf;
     if (!ctxOf.make(map, kActivityBuckets)) return false;
-    const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
-    const Lane* act0 = R.act0.data() + pi;
-    const uint8_t* z0 = R.z0.data() + ri;
-    const uint8_t* z1 = R.z1.data() + ri;
-    const uint8_t* z2 = R.z2.data() + ri;
-    uint16_t* ctx = R.ctx.data() + ri;
-    // Kinds 1, 2: the magnitudes of the previous run, ends replicated: e[bx] at pad[bx + 1].
-    uint8_t* pad = R.magBytes.data();
-    if constexpr (kKind > 0) {
-        const uint8_t* zp = kKind == 1 ? z0 : z1;
-        for (int i = 0; i + 16 <= full; i += 16)
-            _mm_storeu_si128(reinterpret_cast<__m128i*>(pad + 1 + i), magnitudes8(zp + i));
-        for (int i = full & ~15; i < full; ++i) pad[i + 1] = uint8_t(magnitude(zp[i]));
-        pad[0] = pad[1];
-        pad[full + 1] = pad[full];
-    }
-    // The activity of blocks bx..bx+15 (before bucketOf).
-    auto activity = [&](int bx) {
-        __m256i a = load16(act0 + bx);
-        if constexpr (kKind == 1) {  // (a + 3 e + e left + e right) >> 1
-            const __m256i e = widen16(pad + bx + 1);
-            a = _mm256_add_epi16(a, _mm256_add_epi16(e, _mm256_slli_epi16(e, 1)));
-            a = _mm256_add_epi16(a, _mm256_add_epi16(widen16(pad + bx), widen16(pad + bx + 2)));
-            a = _mm256_srli_epi16(a, 1);
-        } else if constexpr (kKind == 2) {  // (a + 3 |z0| + 2 e + e left) >> 1
-            const __m256i m0 = magnitudes16(z0 + bx);
-            a = _mm256_add_epi16(a, _mm256_add_epi16(m0, _mm256_slli_epi16(m0, 1)));
-            a = _mm256_add_epi16(a, _mm256_add_epi16(_mm256_slli_epi16(widen16(pad + bx + 1), 1),
-                                                     widen16(pad + bx)));
-            a = _mm256_srli_epi16(a, 1);
-        }
-        if (cross) {  // the previous component's magnitudes, as the scalar loop's `extra`
-            const __m256i y0 = magnitudes16(z0 + bx - full), y1 = magnitudes16(z1 + bx - full);
-            const __m256i y2 = magnitudes16(z2 + bx - full);
-            const __m256i same = kKind == 0 ? y0 : kKind == 1 ? y1 : y2;
-            const __m256i block = _mm256_add_epi16(_mm256_add_epi16(y0, y1), y2);
-            const __m256i sum =
-                _mm256_add_epi16(_mm256_slli_epi16(same, 2), _mm256_slli_epi16(block, 1));
-            a = _mm256_add_epi16(a, _mm256_srli_epi16(sum, 2));
-        }
-        return a;
-    };
+    const RunContextRows rows = runContextRows<kKind>(R, lw, full, c);
+    uint16_t* ctx = rows.ctx;
+    auto activity = [&](int bx) { return runActivity<Lanes16, kKind>(rows, full, bx, cross); };
     // bucketOf on 32 blocks at once, in bytes: the activities saturated to 127 (the last
     // threshold is 72), then the number of thresholds reached (each comparison gives -1).
     constexpr std::array<int8_t, 11> kBelow = {1, 3, 5, 8, 11, 15, 20, 27, 37, 51, 71};
@@ -818,15 +834,60 @@ bool fullRunContextsAvx2(FastRows& R, int lw, int full, int c, CtxMap map, bool 
 }
 #endif
 
+#if PLX_PTM_AVX512 && defined(__AVX512VBMI__)
+// Per activity 0..127 its bucket (bucketOf), for vpermb: activities from 72 on share the last.
+struct BucketBytes {
+    alignas(64) uint8_t of[128]{};
+    constexpr BucketBytes() {
+        for (int a = 0; a < 128; ++a) of[a] = uint8_t(bucketOf(a));
+    }
+};
+inline constexpr BucketBytes kBucketBytes{};
+
+// fullRunContexts for rows of at least 32 blocks with AVX-512 VBMI: activities 32 blocks at a
+// time (runActivity in Lanes32), saturated to 127 and turned into the context's offset by one
+// vpermi2b over a 128-byte table of map(bucketOf(a)) - map(0); near the row's end the last
+// step overlaps the one before. Bit-exact with the scalar loop. Returns false, having done
+// nothing, when a table offset of `map` does not fit a byte.
+template <int kKind>
+bool fullRunContextsAvx512(FastRows& R, int lw, int full, int c, CtxMap map, bool cross) {
+    avx2::CtxLut ctxOf;
+    if (!ctxOf.make(map, kActivityBuckets)) return false;
+    const RunContextRows rows = runContextRows<kKind>(R, lw, full, c);
+    // The offset of every activity 0..127: the bucket's offset, looked up by the bucket.
+    const __m512i offsets =
+        _mm512_broadcast_i32x4(_mm_load_si128(reinterpret_cast<const __m128i*>(ctxOf.offsets)));
+    auto table = [&](int half) {
+        return _mm512_permutexvar_epi8(_mm512_load_si512(kBucketBytes.of + 64 * half), offsets);
+    };
+    const __m512i lo = table(0), hi = table(1);
+    const __m512i first = _mm512_set1_epi16(int16_t(ctxOf.first));
+    for (int step = 0; step < full; step += Lanes32::kLanes) {
+        const int bx = std::min(step, full - Lanes32::kLanes);
+        const __m512i a = runActivity<Lanes32, kKind>(rows, full, bx, cross);
+        const __m256i q = _mm512_cvtepi16_epi8(_mm512_min_epi16(a, _mm512_set1_epi16(127)));
+        const __m512i off = _mm512_permutex2var_epi8(lo, _mm512_castsi256_si512(q), hi);
+        const __m512i bytes = _mm512_cvtepu8_epi16(_mm512_castsi512_si256(off));
+        _mm512_storeu_si512(rows.ctx + bx, _mm512_add_epi16(first, bytes));
+    }
+    return true;
+}
+#endif
+
 // Contexts of a run of the full blocks of a row, component c (kind 0..2 the stored position,
 // from the row's activity act0 and the magnitudes of the runs already decoded).
-// With AVX2, rows of at least 16 blocks by fullRunContextsAvx2; kFast = false runs the scalar
-// loop below (the reference that fast_paths_test compares the vector path with).
-template <int kKind, bool kFast = true>
+// With AVX-512 VBMI (W = Lanes32), rows of at least 32 blocks by fullRunContextsAvx512; with
+// AVX2, rows of at least 16 by fullRunContextsAvx2; kFast = false runs the scalar loop below
+// (the reference that fast_paths_test compares the vector paths with).
+template <int kKind, bool kFast = true, class W = WidestLanes>
 void fullRunContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
 #if defined(__AVX2__)
     if constexpr (kFast) {
         const bool cross = R.models.cross && c > 0;
+#if PLX_PTM_AVX512 && defined(__AVX512VBMI__)
+        if constexpr (W::kLanes == 32)
+            if (full >= 32 && fullRunContextsAvx512<kKind>(R, lw, full, c, map, cross)) return;
+#endif
         if (full >= 16 && fullRunContextsAvx2<kKind>(R, lw, full, c, map, cross)) return;
     }
 #endif
@@ -920,11 +981,7 @@ int crossEpsContextsVec(FastRows& R, int lw, int full, int c, CtxMap map) {
 // With AVX2, the decoder's coder 6 contexts of the first blocks by crossEpsContextsVec in the
 // widest lanes the build has (W, as prepareRow's); kFast = false runs the scalar loop for every
 // block (the reference of fast_paths_test).
-#if defined(__AVX2__)
 template <bool kEncode, bool kFast = true, class W = WidestLanes>
-#else
-template <bool kEncode, bool kFast = true, class W = void>
-#endif
 void epsContexts(FastRows& R, int lw, int full, int c, CtxMap map) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const Lane* __restrict m = R.m.data() + pi;
@@ -1057,11 +1114,7 @@ int finishFullRowVec(FastRows& R, int lw, int full, int c, unsigned& bad) {
 // With AVX2, the first blocks by finishFullRowVec in the widest lanes the build has (W, as
 // prepareRow's); kFast = false runs the scalar loops for every block (the reference that
 // fast_paths_test compares the vector paths with).
-#if defined(__AVX2__)
 template <bool kKeepDetail, bool kCross = false, bool kFast = true, class W = WidestLanes>
-#else
-template <bool kKeepDetail, bool kCross = false, bool kFast = true, class W = void>
-#endif
 unsigned finishFullRow(FastRows& R, int lw, int full, int c) {
     const size_t pi = size_t(c) * size_t(lw), ri = size_t(c) * size_t(full);
     const size_t si = size_t(c) * size_t(lw + 2) + 1;

@@ -175,26 +175,29 @@ TEST(PtmFastPaths, CodeRowMatchesScalar) {
     });
 }
 
-template <int kKind>
+template <class W, int kKind>
 void runContextsCase(int lw, int full, int c, int mi, CtxMap map, uint32_t seed) {
     FastRows fast = randomRows(lw, kModels[mi], seed), ref = fast;
-    fullRunContexts<kKind, true>(fast, lw, full, c, map);
+    fullRunContexts<kKind, true, W>(fast, lw, full, c, map);
     fullRunContexts<kKind, false>(ref, lw, full, c, map);
-    expectSameRows(fast, ref, label(lw, c, mi) + ", kind " + std::to_string(kKind));
+    expectSameRows(fast, ref,
+                   label(lw, c, mi) + ", kind " + std::to_string(kKind) + ", " + widthName<W>());
 }
 
 TEST(PtmFastPaths, RunContextsMatchScalar) {
-    uint32_t seed = 1000;
-    for (int lw : kLengths)
-        for (int full : {lw, lw - 1})
-            for (int mi = 0; mi < 5; ++mi)
-                for (int c = 0; c < kComps; ++c)
-                    for (const CtxMap& map : decoderMaps(kActivityBuckets)) {
-                        if (full < 1) continue;
-                        runContextsCase<0>(lw, full, c, mi, map, seed++);
-                        runContextsCase<1>(lw, full, c, mi, map, seed++);
-                        runContextsCase<2>(lw, full, c, mi, map, seed++);
-                    }
+    forEachWidth([]<class W>() {
+        uint32_t seed = 1000;
+        for (int lw : kLengths)
+            for (int full : {lw, lw - 1})
+                for (int mi = 0; mi < 5; ++mi)
+                    for (int c = 0; c < kComps; ++c)
+                        for (const CtxMap& map : decoderMaps(kActivityBuckets)) {
+                            if (full < 1) continue;
+                            runContextsCase<W, 0>(lw, full, c, mi, map, seed++);
+                            runContextsCase<W, 1>(lw, full, c, mi, map, seed++);
+                            runContextsCase<W, 2>(lw, full, c, mi, map, seed++);
+                        }
+    });
 }
 
 TEST(PtmFastPaths, EpsContextsMatchScalar) {

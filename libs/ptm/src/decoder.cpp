@@ -49,8 +49,10 @@ Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
 // 16 families x 16 tables = 4 MB): a buffer per thread, kept between groups and files and grown
 // to the largest group seen. A fresh 2.5 MB block per group (an RGB level's 156 tables) costs
 // its page faults on every group once the allocator has handed it back to the system: decoding
-// the four speed-table textures from .ptm files in a fresh process ran at 143-155 MB/s with it
-// and at 283-303 MB/s with this buffer (docs/ptm-results.md, "Decode tables kept per thread").
+// the four speed-table textures from .ptm files in a fresh process ran at 135.8 / 133.9 MB/s
+// (two cores) with it and at 293.1 / 273.7 MB/s with this buffer (docs/ptm-results.md, "Coder 6
+// decode on AVX-512"). The old block is freed before the larger one is taken, so the peak stays
+// one buffer.
 uint32_t* simdTableBuffer(size_t entries) {
     thread_local std::unique_ptr<uint32_t[]> buffer;
     thread_local size_t capacity = 0;

@@ -153,6 +153,7 @@ struct FastDecodeIO : WordStream {
     // True when the stream was used up exactly and all states returned to their initial value.
     bool finishedCleanly() const { return WordStream::finishedCleanly(x); }
     CtxMap ctxMap(int c, int kind) const { return rawCtxMap(c, kind); }
+    // Coder 6's walker needs it too (coder 3 never walks by component): as run<false>.
     void runEps(int, const uint16_t* ctx, int n, uint8_t* z) { run<false>(ctx, n, z); }
 
     // One symbol with state s; the renormalisation word is read unchecked (the caller made sure

@@ -482,15 +482,14 @@ struct SimdDecodeIO : WordStream {
 
     // Coder 6's eps run of component c (n symbols, contexts ctx, tokens into z): with AVX-512 by
     // runSmallAvx512 where the family allows it, else as run<false>.
-    template <bool kFast = true>
     void runEps([[maybe_unused]] int c, const uint16_t* ctx, int n, uint8_t* z) {
 #if PLX_PTM_AVX512
-        if (kFast && eps[size_t(c)].usable) {
+        if (eps[size_t(c)].usable) {
             runScalar(ctx, runSmallAvx512(ctx, n, z, eps[size_t(c)]), n, z);
             return;
         }
 #endif
-        run<false, kFast>(ctx, n, z);
+        run<false>(ctx, n, z);
     }
 
     // A run of n symbols with contexts ctx: tokens (kExtra: plus their extra bits) into z.

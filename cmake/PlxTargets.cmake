@@ -17,11 +17,27 @@ add_library(plx_opt INTERFACE)
 # reads errno after maths calls, and results are unchanged.
 target_compile_options(plx_opt INTERFACE -ffp-contract=off -fno-math-errno
     $<$<CONFIG:Release>:-O3>)
+# Runtime dispatch (libs/core/include/plx/core/cpu.h): the default build targets baseline x86-64
+# and compiles each hot kernel once more per ISA tier (plx_add_isa_kernels). PLX_NATIVE builds
+# everything for the build machine instead, kernels included; PLX_NO_SIMD keeps the scalar path
+# alone.
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$" AND NOT PLX_NO_SIMD)
+    set(PLX_ISA_DISPATCH ON)
+else()
+    set(PLX_ISA_DISPATCH OFF)
+endif()
+set(PLX_ISA_FLAGS_scalar "")
+set(PLX_ISA_FLAGS_avx2 -march=x86-64-v3)
+set(PLX_ISA_FLAGS_avx512 -march=x86-64-v4 -mavx512vbmi)
 if(PLX_NATIVE AND NOT PLX_NO_SIMD)
     target_compile_options(plx_opt INTERFACE -march=native)
+    target_compile_definitions(plx_opt INTERFACE PLX_NATIVE_BUILD=1)
 endif()
 if(PLX_NO_SIMD)
     target_compile_definitions(plx_opt INTERFACE PLX_NO_SIMD=1)
+endif()
+if(PLX_ISA_DISPATCH)
+    target_compile_definitions(plx_opt INTERFACE PLX_ISA_KERNELS=1)
 endif()
 
 add_library(plx_sanitize INTERFACE)
@@ -70,4 +86,29 @@ function(plx_add_bench name)
     add_executable(${name} ${ARG_SOURCES})
     target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark plx_flags)
     target_compile_definitions(${name} PRIVATE PLX_SHARED_DATA_DIR="${PLX_SHARED_DATA_DIR}")
+endfunction()
+
+# plx_add_isa_kernels(TARGET KERNELS src/a.inl ...): compiles each kernel `.inl` once per ISA tier
+# into TARGET, in generated translation units that carry that tier's flags and include
+# <plx/core/isa_kernel.h> (which refuses to compile without them and names the namespace:
+# isa_scalar, isa_avx2, isa_avx512). Dispatch code picks one with PLX_ISA_PICK.
+function(plx_add_isa_kernels target)
+    cmake_parse_arguments(ARG "" "" "KERNELS" ${ARGN})
+    set(isas scalar)
+    if(PLX_ISA_DISPATCH)
+        list(APPEND isas avx2 avx512)
+    endif()
+    foreach(kernel IN LISTS ARG_KERNELS)
+        get_filename_component(PLX_KERNEL_PATH ${kernel} ABSOLUTE)
+        get_filename_component(PLX_KERNEL_NAME ${kernel} NAME_WE)
+        foreach(PLX_ISA IN LISTS isas)
+            list(FIND isas ${PLX_ISA} PLX_ISA_LEVEL)
+            set(out ${CMAKE_CURRENT_BINARY_DIR}/isa/${PLX_KERNEL_NAME}_${PLX_ISA}.cpp)
+            configure_file(${PROJECT_SOURCE_DIR}/cmake/isa/kernel.cpp.in ${out} @ONLY)
+            target_sources(${target} PRIVATE ${out})
+            set_source_files_properties(${out} PROPERTIES
+                COMPILE_OPTIONS "${PLX_ISA_FLAGS_${PLX_ISA}}"
+                OBJECT_DEPENDS ${PLX_KERNEL_PATH})
+        endforeach()
+    endforeach()
 endfunction()

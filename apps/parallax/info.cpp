@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/cpu.h>
 #include <plx/scene/import.h>
 
 #include "commands.h"
@@ -39,6 +40,10 @@ Command registerInfo(CLI::App& app) {
                 nlohmann::json views = nlohmann::json::array();
                 for (const auto& v : scene->viewpoints) views.push_back(v.name);
                 doc["viewpoints"] = views;
+                doc["kernels"] = std::string(isaName(activeIsa()));
+                doc["kernels_runnable"] = nlohmann::json::array();
+                for (Isa isa : runnableIsas())
+                    doc["kernels_runnable"].push_back(std::string(isaName(isa)));
                 if (args->json) {
                     printJson(doc);
                 } else {
@@ -50,6 +55,7 @@ Command registerInfo(CLI::App& app) {
                                s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z, s.bounds.hi.x,
                                s.bounds.hi.y, s.bounds.hi.z);
                     for (const auto& v : scene->viewpoints) fmt::print("viewpoint: {}\n", v.name);
+                    fmt::print("{}\n", isaSummary());
                 }
                 return kExitOk;
             }};

@@ -2,11 +2,13 @@
 
 #include "commands.h"
 
+#include <plx/core/cpu.h>
+
 int main(int argc, char** argv) {
     using namespace plx::cli;
     CLI::App app{"Parallax: render complex 3D scenes for stereo, remote and curved displays by "
                  "reusing visibility, pixels, reference images and textures."};
-    app.set_version_flag("--version", "parallax 0.1.0");
+    app.set_version_flag("--version", "parallax 0.1.0\n" + plx::isaSummary());
     app.require_subcommand(1);
     app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
 
@@ -19,6 +21,8 @@ int main(int argc, char** argv) {
         registerPredistort(app),
         registerBench(app),
     };
+    if (std::string problem = plx::isaEnvironmentError(); !problem.empty())
+        return fail(problem, kExitUsage);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

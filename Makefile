@@ -4,7 +4,7 @@ PRESET ?= release
 BUILD_DIR := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps configure build demo test test-asan bench format clean
+.PHONY: deps configure build demo test test-one test-release test-scalar test-asan bench format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -18,12 +18,22 @@ build: configure
 demo: build
 	$(BUILD_DIR)/apps/parallax/parallax demo
 
-test: build
+# The whole suite: the dispatched release build (every kernel path the CPU has), the scalar-only
+# build (PLX_NO_SIMD) and ASan + UBSan.
+test: test-release test-scalar test-asan
+
+# One preset's build and tests.
+test-one: build
 	ctest --preset $(PRESET) -j $(JOBS)
 
-# The untrusted-input suites (image and PTM decoders, importers) under ASan + UBSan.
+test-release:
+	$(MAKE) test-one PRESET=release
+
+test-scalar:
+	$(MAKE) test-one PRESET=scalar
+
 test-asan:
-	$(MAKE) test PRESET=asan
+	$(MAKE) test-one PRESET=asan
 
 bench: build
 	scripts/run-benchmarks.sh $(BUILD_DIR)

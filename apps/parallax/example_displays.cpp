@@ -25,14 +25,14 @@ Result<display::Display> loadDisplayArgument(const std::string& pathOrName) {
     std::error_code ec;
     if (!std::filesystem::exists(pathOrName, ec))
         if (const ExampleDisplay* e = findExampleDisplay(pathOrName))
-            return display::parseDisplayJson(std::string(e->json));
+            return display::parseDisplayJson(e->json);
     return display::loadDisplayFile(pathOrName);
 }
 
 display::Display exampleDisplay(std::string_view name) {
     const ExampleDisplay* e = findExampleDisplay(name);
     PLX_CHECK(e != nullptr);
-    auto d = display::parseDisplayJson(std::string(e->json));
+    auto d = display::parseDisplayJson(e->json);
     PLX_CHECK(d.isOk());
     return *d;
 }

@@ -2,6 +2,8 @@
 
 #include "experiment_predistort.h"
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 
 #include <fmt/format.h>

@@ -1,9 +1,11 @@
 // The CLI's own pieces: the embedded example displays against the files they come from, and the
 // experiments' typed rows and the JSON and CSV made from them.
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -62,12 +64,15 @@ TEST(ExampleDisplays, ArgumentIsAFileFirstThenAnExampleName) {
         EXPECT_EQ(byName->defaultViewerMm, byFile->defaultViewerMm);
     }
     // A file of an example's name in the working directory wins over the example.
-    fs::path dir = fs::temp_directory_path() / "plx_parallax_test";
+    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / "parallax_test";
     fs::create_directories(dir);
-    fs::path shadow = dir / "cone_showcase";
-    std::ofstream(shadow) << "{";
-    auto shadowed = loadDisplayArgument(shadow.string());
-    EXPECT_FALSE(shadowed.isOk());
+    std::ofstream(dir / "cone_showcase") << "{";
+    fs::path cwd = fs::current_path();
+    fs::current_path(dir);
+    auto shadowed = loadDisplayArgument("cone_showcase");
+    fs::current_path(cwd);
+    ASSERT_FALSE(shadowed.isOk());
+    EXPECT_NE(shadowed.status().message().find("cone_showcase: "), std::string::npos);
     auto missing = loadDisplayArgument((dir / "missing.json").string());
     ASSERT_FALSE(missing.isOk());
     EXPECT_NE(missing.status().message().find("missing.json"), std::string::npos);

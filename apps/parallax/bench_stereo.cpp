@@ -6,40 +6,9 @@
 #include <fmt/format.h>
 
 #include "bench.h"
+#include "experiment_stereo.h"
 
 namespace plx::cli {
-
-std::vector<std::pair<std::string, std::string>> stereoPlots(
-    const std::vector<stereo::StereoExperimentRow>& rows) {
-    PlotSeries fullFirst{"full pipeline", {}}, pbufFirst{"p-buffer method", {}};
-    PlotSeries fullSecond{"full pipeline", {}}, pbufSecond{"p-buffer method", {}};
-    PlotSeries fullPair{"full pipeline", {}}, pbufPair{"p-buffer method", {}};
-    PlotSeries speedup{"pair speedup (full / p-buffer)", {}}, visible{"visible polygons", {}};
-    for (const auto& r : rows) {
-        double n = double(r.polygons);
-        fullFirst.points.emplace_back(n, r.fullFirstMs);
-        pbufFirst.points.emplace_back(n, r.pbufferFirstMs);
-        fullSecond.points.emplace_back(n, r.fullSecondMs);
-        pbufSecond.points.emplace_back(n, r.pbufferSecondMs + r.collectMs);
-        fullPair.points.emplace_back(n, r.fullFirstMs + r.fullSecondMs);
-        pbufPair.points.emplace_back(n, r.pbufferFirstMs + r.collectMs + r.pbufferSecondMs);
-        speedup.points.emplace_back(n, r.pairSpeedup);
-        visible.points.emplace_back(n, double(r.visiblePolygons));
-    }
-    auto spec = [](const char* title, const char* y) {
-        return PlotSpec{title, "polygons (log scale)", y, true, true};
-    };
-    return {
-        {"fig17a_first_eye.svg",
-         svgLinePlot(spec("Fig. 17(a): first eye", "ms"), {fullFirst, pbufFirst})},
-        {"fig17b_second_eye.svg",
-         svgLinePlot(spec("Fig. 17(b): second eye (p-buffer: collect + subset)", "ms"),
-                     {fullSecond, pbufSecond})},
-        {"fig17c_pair.svg", svgLinePlot(spec("Fig. 17(c): both eyes", "ms"), {fullPair, pbufPair})},
-        {"speedup.svg", svgLinePlot(spec("Pair speedup of the p-buffer method", "x"), {speedup})},
-        {"visible.svg", svgLinePlot(spec("Visible polygons (first eye)", "polygons"), {visible})},
-    };
-}
 
 namespace {
 
@@ -62,7 +31,7 @@ int runStereoBench(const StereoBenchArgs& a) {
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
-    stereo::StereoExperimentConfig config;
+    StereoExperimentConfig config;
     config.rooms = a.rooms;
     config.width = size->x;
     config.height = size->y;
@@ -72,12 +41,12 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.rig.convergence = a.convergence;
     config.conservative = !a.noConservative;
     Progress progress("bench stereo", a.rooms.size());
-    auto rows = stereo::runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
+    auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return fail(rows.status());
     std::string dir = a.out + "/";
-    nlohmann::json doc = stereo::experimentToJson(config, *rows);
+    nlohmann::json doc = stereoExperimentJson(config, *rows);
     if (Status s = writeText(dir + "table1.json", doc.dump(2)); !s) return fail(s);
-    std::string csv = stereo::experimentToCsv(*rows);
+    std::string csv = stereoExperimentCsv(*rows);
     if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);
     for (const auto& [file, svg] : stereoPlots(*rows))
         if (Status s = writeText(dir + file, svg); !s) return fail(s);

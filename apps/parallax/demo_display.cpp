@@ -4,11 +4,12 @@
 #include <fmt/format.h>
 
 #include <plx/core/image_io.h>
-#include <plx/display/display_json.h>
 #include <plx/display/predistort.h>
+#include <plx/scene/generators.h>
 
-#include "bench.h"
 #include "demo.h"
+#include "example_displays.h"
+#include "experiment_predistort.h"
 
 namespace plx::cli {
 namespace {
@@ -19,14 +20,14 @@ std::string fmtMs(double ms) { return fmt::format("{:.2f}", ms); }
 
 Status demoDisplaySection(DemoContext& ctx) {
     HtmlReport& rep = *ctx.report;
-    auto parsed = display::parseDisplayJson(kConeShowcaseJson);
-    if (!parsed) return parsed.status();
-    display::Display d = *parsed;
+    display::Display d = exampleDisplay("cone_showcase");
     // Quick runs (tests) use a small framebuffer, a coarser matrix and two thresholds.
     if (ctx.quick) d.framebufferWidth = d.framebufferHeight = 256;
     const int gridLevel = ctx.quick ? 7 : 9;
     const double showcaseMm = ctx.quick ? 2.0 : 0.5;
-    auto content = display::fitSceneToContent(display::makeShowcaseScene(), d);
+    auto showcase = scene::generateShowcase();
+    if (!showcase) return showcase.status();
+    auto content = display::fitSceneToContent(*showcase, d);
     display::ImagePlane plane =
         display::makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
 
@@ -39,7 +40,7 @@ Status demoDisplaySection(DemoContext& ctx) {
     auto warper = display::QuadtreeWarper::create({gridLevel, showcaseMm});
     if (!warper) return warper.status();
     display::Container container =
-        display::makeContainer(display::ExperimentConfig{}.container,
+        display::makeContainer(PredistortExperimentConfig{}.container,
                                display::scenePointsMm(content));
     display::WarpMesh adaptive, uniform;
     display::WarpStats adaptiveStats, uniformStats;
@@ -72,7 +73,7 @@ Status demoDisplaySection(DemoContext& ctx) {
                 {"display_frame.png", "pass 2: the predistorted frame"}});
 
     // Table 1 of the paper: uniform against adaptive at equal measured maximum error.
-    display::ExperimentConfig config;
+    PredistortExperimentConfig config;
     config.gridLevel = gridLevel;
     config.threads = ctx.threads;
     if (ctx.quick) {
@@ -80,32 +81,27 @@ Status demoDisplaySection(DemoContext& ctx) {
         config.repetitions = 1;
         config.pass1Size = 256;
     }
-    auto result = display::runPredistortExperiment(d, d.defaultViewerMm, content, config);
+    auto result = runPredistortExperiment(d, d.defaultViewerMm, content, config);
     if (!result) return result.status();
     std::vector<std::vector<std::string>> rows;
     PlotSeries gridA{"grid stage, A (full)", {}}, gridB{"grid stage, B (container)", {}};
     PlotSeries totalA{"grid + pass 2, A", {}}, totalB{"grid + pass 2, B", {}};
-    for (const auto& r : (*result)["rows"]) {
-        const auto& u = r["uniform"];
-        const auto& a = r["adaptive_full"];
-        const auto& b = r["adaptive_container"];
-        double x = r["error_mm"].get<double>();
-        gridA.points.emplace_back(x, a["speedup_grid"].get<double>());
-        gridB.points.emplace_back(x, b["speedup_grid"].get<double>());
-        totalA.points.emplace_back(x, a["speedup"].get<double>());
-        totalB.points.emplace_back(x, b["speedup"].get<double>());
+    for (const PredistortExperimentRow& r : result->rows) {
+        const UniformGridResult& u = r.uniform;
+        const AdaptiveGridResult& a = r.adaptiveFull;
+        const AdaptiveGridResult& b = r.adaptiveContainer;
+        double x = r.errorMm;
+        gridA.points.emplace_back(x, a.speedupGrid);
+        gridB.points.emplace_back(x, b.speedupGrid);
+        totalA.points.emplace_back(x, a.speedup);
+        totalB.points.emplace_back(x, b.speedup);
         rows.push_back({fmt::format("{}", x),
-                        fmt::format("{} ({} / {})", u["level"].get<int>(),
-                                    u["vertex_transformations"].get<uint64_t>(),
-                                    u["triangles"].get<uint64_t>()),
-                        fmt::format("{} / {}", b["vertex_transformations"].get<uint64_t>(),
-                                    b["triangles"].get<uint64_t>()),
-                        fmt::format("{:.3f}", b["max_measured_error_mm"].get<double>()),
-                        fmtMs(u["generate_ms"].get<double>()),
-                        fmtMs(b["generate_ms"].get<double>()),
-                        fmtMs(u["render_ms"].get<double>()), fmtMs(b["render_ms"].get<double>()),
-                        fmt::format("{:.2f}", b["speedup_grid"].get<double>()),
-                        fmt::format("{:.2f}", b["speedup"].get<double>())});
+                        fmt::format("{} ({} / {})", u.level, u.stats.vertexTransformations,
+                                    u.triangles),
+                        fmt::format("{} / {}", b.stats.vertexTransformations, b.triangles),
+                        fmt::format("{:.3f}", b.maxMeasuredErrorMm), fmtMs(u.generateMs),
+                        fmtMs(b.generateMs), fmtMs(u.renderMs), fmtMs(b.renderMs),
+                        fmt::format("{:.2f}", b.speedupGrid), fmt::format("{:.2f}", b.speedup)});
     }
     std::string plots = "<div class='row'>" +
                         svgLinePlot({"Speedup over the uniform grid of equal error",
@@ -119,7 +115,7 @@ Status demoDisplaySection(DemoContext& ctx) {
               rows);
     (*ctx.summary)["display"] = {{"adaptive_vertices", adaptive.vertexCount()},
                                  {"adaptive_triangles", adaptive.triangleCount()},
-                                 {"experiment", *result}};
+                                 {"experiment", predistortExperimentJson(*result)}};
     return Status::ok();
 }
 

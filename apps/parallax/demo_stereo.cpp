@@ -8,15 +8,16 @@
 #include <plx/scene/generators.h>
 #include <plx/stereo/layout.h>
 
-#include "bench.h"
+#include "cli.h"
 #include "demo.h"
+#include "experiment_stereo.h"
 #include "view.h"
 
 namespace plx::cli {
 
 Status demoStereoSection(DemoContext& ctx) {
     HtmlReport& rep = *ctx.report;
-    stereo::StereoExperimentConfig config;
+    StereoExperimentConfig config;
     if (ctx.quick) {
         config.rooms = {1, 4};
         config.width = 160;
@@ -27,7 +28,7 @@ Status demoStereoSection(DemoContext& ctx) {
     }
     config.threads = ctx.threads;
     Progress progress("demo: stereo experiment", config.rooms.size());
-    auto rows = stereo::runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
+    auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return rows.status();
 
     rep.heading("Stereo from the P-buffer (Heo, Jung, Wohn)");
@@ -87,7 +88,7 @@ Status demoStereoSection(DemoContext& ctx) {
                "p-buf 2nd ms", "pair speedup", "2nd-eye PSNR dB", "missed polygons",
                "missed (conservative)"},
               table);
-    (*ctx.summary)["stereo"] = stereo::experimentToJson(config, *rows);
+    (*ctx.summary)["stereo"] = stereoExperimentJson(config, *rows);
     return Status::ok();
 }
 

@@ -14,9 +14,12 @@
 #include <plx/display/mesh_io.h>
 #include <plx/display/predistort.h>
 #include <plx/display/validate.h>
+#include <plx/scene/generators.h>
 #include <plx/scene/import.h>
 
 #include "commands.h"
+#include "example_displays.h"
+#include "experiment_predistort.h"
 
 namespace plx::cli {
 namespace {
@@ -36,7 +39,7 @@ struct PredistortArgs {
     std::string scene;
     std::string method = "adaptive";
     // The experiment's (and `bench predistort`'s) default: the coarse hull.
-    std::string container = display::containerKindName(display::ExperimentConfig{}.container);
+    std::string container = display::containerKindName(PredistortExperimentConfig{}.container);
     std::string out;
     std::string format = "bourke";
     int gridLevel = 9;
@@ -45,12 +48,10 @@ struct PredistortArgs {
     bool json = false;
 };
 
-
 // The scene in display millimetres: the given one (a file or a generator spec) or the built-in
-// exhibit, fitted to the display's content sphere.
+// exhibit (the showcase generator), fitted to the display's content sphere.
 Result<scene::Scene> loadContent(const std::string& spec, const display::Display& d) {
-    if (spec.empty()) return display::fitSceneToContent(display::makeShowcaseScene(), d);
-    auto s = scene::loadScene(spec);
+    auto s = spec.empty() ? scene::generateShowcase() : scene::loadScene(spec);
     if (!s) return s.status();
     return display::fitSceneToContent(*s, d);
 }
@@ -91,7 +92,7 @@ int run(const PredistortArgs& a) {
         return fail(fmt::format("--format '{}' is not bourke, obj or pfm", a.format), kExitUsage);
     auto containerKind = display::parseContainerKind(a.container);
     if (!containerKind) return fail(containerKind.status());
-    auto d = display::loadDisplayFile(a.display);
+    auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
     auto viewer = viewerPosition(a, *d);
     if (!viewer) return fail(viewer.status());
@@ -202,14 +203,19 @@ Command registerPredistort(CLI::App& app) {
         "predistort", "Predistort an image for a curved mirror or screen (Bimber et al.)");
     sub->footer(
         "Example: parallax predistort examples/displays/cone_showcase.json --error 0.5 "
-        "--out out/cone\nWithout --scene a built-in exhibit (pedestal and figure) is fitted to "
-        "the display's content sphere.");
-    sub->add_option("display", args->display, "Display description (JSON)")->required();
+        "--out out/cone\nWithout --scene a built-in exhibit (pedestal and figure, the scene "
+        "'showcase') is fitted to the display's content sphere.");
+    sub->add_option("display", args->display,
+                    "Display description: a JSON file, or the name of an example built in from "
+                    "examples/displays/ (" +
+                        exampleDisplayNames() + ") when no such file exists")
+        ->required();
     sub->add_option("--viewer", args->viewer, "Viewer position x,y,z in display millimetres "
                                               "(default: the display file's viewer)");
     sub->add_option("--error", args->errorMm, "Image space error threshold in millimetres")
         ->required();
-    sub->add_option("--scene", args->scene, "Scene file or generator spec (default: built-in)");
+    sub->add_option("--scene", args->scene,
+                    "Scene file or generator spec (default: showcase, the built-in exhibit)");
     sub->add_option("--method", args->method, "adaptive (quadtree) or uniform (baseline)");
     sub->add_option("--container", args->container,
                     "Convex container: hull (the coarse convex hull, default), obb or none");

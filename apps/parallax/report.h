@@ -6,8 +6,6 @@
 #include <utility>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include <plx/core/status.h>
 
 namespace plx::cli {
@@ -46,9 +44,5 @@ private:
 };
 
 std::string htmlEscape(const std::string& text);
-
-// The SVG plots of Bimber et al. Figs. 8-10 (file name, SVG) from a predistortion experiment's
-// result (display::runPredistortExperiment); defined in bench.cpp.
-std::vector<std::pair<std::string, std::string>> predistortPlots(const nlohmann::json& result);
 
 }  // namespace plx::cli

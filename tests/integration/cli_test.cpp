@@ -91,6 +91,14 @@ TEST(Cli, UnknownGeneratorAndBadCounts) {
     expectOneLineError(runParallax("render foo:3 --out x"), "foo");
     expectOneLineError(runParallax("render office:0 --out x"), "office");
     expectOneLineError(runParallax("render office:999999999 --out x"), "office");
+    expectOneLineError(runParallax("render showcase:2 --out x"), "takes no count");
+}
+
+TEST(Cli, ShowcaseIsABareSceneSpec) {
+    RunResult r = runParallax("info showcase --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["triangles"], 1492);
 }
 
 TEST(Cli, BadCameraAndOptions) {

@@ -50,6 +50,27 @@ TEST(PredistortCli, UniformObjAndAdaptivePfm) {
     EXPECT_EQ(magic, "PF");
 }
 
+// An example display's name, with no file of that name, gives the embedded example: the same
+// mesh as the file; "showcase" is the built-in exhibit as a scene spec.
+TEST(PredistortCli, ExampleDisplayByNameEqualsItsFile) {
+    std::string args = " --error 2 --pass1-size 64 --grid-level 6 --json --out ";
+    RunResult byFile = runParallax("predistort " + std::string(PLX_SOURCE_DIR) +
+                                   "/examples/displays/cylinder_mirror.json" + args +
+                                   (scratchDir() / "file").string());
+    RunResult byName = runParallax("predistort cylinder_mirror --scene showcase" + args +
+                                   (scratchDir() / "name").string());
+    ASSERT_EQ(byFile.exitCode, 0) << byFile.err;
+    ASSERT_EQ(byName.exitCode, 0) << byName.err;
+    auto a = nlohmann::json::parse(byFile.out), b = nlohmann::json::parse(byName.out);
+    for (const char* key : {"display", "vertices", "triangles", "max_measured_error_mm"})
+        EXPECT_EQ(a[key], b[key]) << key;
+    EXPECT_EQ(a["scene"], "built-in exhibit");
+    EXPECT_EQ(b["scene"], "showcase");
+    expectOneLineError(runParallax("predistort no_such_display --error 1 --out " +
+                                   (scratchDir() / "none").string()),
+                       "no_such_display", 1);
+}
+
 TEST(PredistortCli, BadInputGivesOneLineErrors) {
     std::string out = " --out " + (scratchDir() / "bad").string();
     expectOneLineError(runParallax("predistort " + (scratchDir() / "missing.json").string() +

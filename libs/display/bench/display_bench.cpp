@@ -5,6 +5,7 @@
 
 #include <plx/display/display_json.h>
 #include <plx/display/predistort.h>
+#include <plx/scene/generators.h>
 
 namespace {
 
@@ -25,7 +26,7 @@ void BM_AdaptiveGenerate(benchmark::State& state) {
     Display d = coneDisplay();
     double thr = double(state.range(0)) / 10.0;
     ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
-    auto scene = fitSceneToContent(makeShowcaseScene(), d);
+    auto scene = fitSceneToContent(*plx::scene::generateShowcase(), d);
     Container c = containerOfArg(state.range(1), scene);  // arg 1: see containerOfArg
     auto warper = QuadtreeWarper::create({9, thr});
     WarpMesh mesh;
@@ -62,7 +63,7 @@ void BM_PassTwo(benchmark::State& state) {
     // 2 hull). Pass 2 on one renderer thread, the pass-1 image at 512^2.
     Display d = coneDisplay();
     ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
-    auto scene = fitSceneToContent(makeShowcaseScene(), d);
+    auto scene = fitSceneToContent(*plx::scene::generateShowcase(), d);
     auto pass2 = PredistortRenderer::create(1);
     if (!pass2.isOk()) {
         state.SkipWithError(pass2.status().toString().c_str());

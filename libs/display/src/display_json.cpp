@@ -206,7 +206,7 @@ Status validateDisplay(const Display& d) {
     return Status::ok();
 }
 
-Result<Display> parseDisplayJson(const std::string& text) {
+Result<Display> parseDisplayJson(std::string_view text) {
     json root = json::parse(text, nullptr, false);
     if (root.is_discarded())
         return errorStatus(ErrorCode::kCorruptData, "not valid JSON (NaN and Infinity are not "
@@ -248,7 +248,8 @@ Result<Display> parseDisplayJson(const std::string& text) {
 Result<Display> loadDisplayFile(const std::string& path) {
     auto bytes = readFileBytes(path);
     if (!bytes) return Status(bytes.status().code(), path + ": " + bytes.status().message());
-    auto display = parseDisplayJson(std::string(bytes->begin(), bytes->end()));
+    auto display = parseDisplayJson(
+        std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
     if (!display) return Status(display.status().code(), path + ": " + display.status().message());
     return display;
 }

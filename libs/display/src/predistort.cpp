@@ -1,4 +1,4 @@
-// Two-pass predistortion on the software rasterizer, and the Table 1 experiment.
+// Two-pass predistortion on the software rasterizer.
 
 #include <plx/display/predistort.h>
 
@@ -12,38 +12,6 @@
 
 namespace plx::display {
 namespace {
-
-// Adds an axis-aligned box (centre, half sizes) to a mesh.
-void addBox(scene::Mesh* m, Vec3 c, Vec3 h) {
-    static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
-                                     {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
-    for (const auto& f : kFaces) {
-        uint32_t base = uint32_t(m->positions.size());
-        for (int k = 0; k < 4; ++k) {
-            int i = f[k];
-            m->positions.push_back(c + Vec3((i & 1) ? h.x : -h.x, (i & 2) ? h.y : -h.y,
-                                            (i & 4) ? h.z : -h.z));
-        }
-        for (uint32_t idx : {0u, 2u, 1u, 0u, 3u, 2u}) m->indices.push_back(base + idx);
-    }
-}
-
-void addSphere(scene::Mesh* m, Vec3 c, float r, int rings, int segments) {
-    uint32_t base = uint32_t(m->positions.size());
-    for (int i = 0; i <= rings; ++i) {
-        float th = kPi * float(i) / float(rings);
-        for (int j = 0; j <= segments; ++j) {
-            float ph = 2.0f * kPi * float(j) / float(segments);
-            m->positions.push_back(c + r * Vec3(std::sin(th) * std::cos(ph), std::cos(th),
-                                                std::sin(th) * std::sin(ph)));
-        }
-    }
-    for (int i = 0; i < rings; ++i)
-        for (int j = 0; j < segments; ++j) {
-            uint32_t a = base + uint32_t(i * (segments + 1) + j), b = a + uint32_t(segments + 1);
-            for (uint32_t idx : {a, a + 1, b, a + 1, b + 1, b}) m->indices.push_back(idx);
-        }
-}
 
 // True when every triangle of the pass-2 mesh (positions in the plane z = const) has the same
 // orientation or none (zero area): the warp does not fold over, so no two triangles cover the
@@ -67,22 +35,6 @@ bool meshKeepsOrientation(const scene::Mesh& m) {
 
 }  // namespace
 
-scene::Scene makeShowcaseScene() {
-    scene::Scene s;
-    scene::Material stone{"stone", {0.75f, 0.7f, 0.6f, 1.0f}, -1};
-    scene::Material bronze{"bronze", {0.7f, 0.45f, 0.2f, 1.0f}, -1};
-    s.materials = {stone, bronze};
-    scene::Mesh pedestal{"pedestal", {}, {}, {}, {}, 0};
-    addBox(&pedestal, {0.0f, -0.35f, 0.0f}, {0.12f, 0.05f, 0.12f});
-    scene::Mesh figure{"figure", {}, {}, {}, {}, 1};
-    addSphere(&figure, {0.0f, -0.12f, 0.0f}, 0.12f, 16, 24);
-    addSphere(&figure, {0.0f, 0.1f, 0.0f}, 0.08f, 12, 18);
-    addSphere(&figure, {0.04f, 0.24f, 0.0f}, 0.05f, 10, 14);
-    s.meshes = {pedestal, figure};
-    PLX_CHECK(s.finalize().isOk());
-    return s;
-}
-
 scene::Scene fitSceneToContent(const scene::Scene& scene, const Display& display) {
     scene::Scene out = scene;
     const Aabb& b = scene.bounds();
@@ -92,6 +44,10 @@ scene::Scene fitSceneToContent(const scene::Scene& scene, const Display& display
     Vec3 target(display.contentCenterMm);
     for (auto& m : out.meshes)
         for (auto& p : m.positions) p = target + (p - centre) * scale;
+    for (auto& v : out.viewpoints) {  // the same similarity keeps each view on the scene
+        v.eyePos = target + (v.eyePos - centre) * scale;
+        v.targetPos = target + (v.targetPos - centre) * scale;
+    }
     PLX_CHECK(out.finalize().isOk());
     return out;
 }

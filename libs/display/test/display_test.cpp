@@ -16,6 +16,7 @@
 #include <plx/display/predistort.h>
 #include <plx/display/quadtree.h>
 #include <plx/display/validate.h>
+#include <plx/scene/generators.h>
 
 #include "../src/brent.h"
 
@@ -423,7 +424,7 @@ TEST(Predistort, ColorOnlyPassTwoEqualsDepthTestedFrames) {
     for (const char* name : {"cone_showcase.json", "cylinder_mirror.json", "cylinder_screen.json",
                              "dome_screen.json"}) {
         Display d = loadExample(name);
-        scene::Scene scene = fitSceneToContent(makeShowcaseScene(), d);
+        scene::Scene scene = fitSceneToContent(*plx::scene::generateShowcase(), d);
         Container hull = makeContainer(ContainerKind::kHull, scenePointsMm(scene));
         auto fast = PredistortRenderer::create(2);
         auto tested = PredistortRenderer::create(1);
@@ -471,7 +472,7 @@ TEST(Predistort, ColorOnlyPassTwoEqualsDepthTestedFrames) {
 // that copies its image argument; before any pass-1 image the frame is black.
 TEST(Predistort, RenderFromViewerImageEqualsRenderOfACopy) {
     Display d = loadExample("cone_showcase.json");
-    scene::Scene scene = fitSceneToContent(makeShowcaseScene(), d);
+    scene::Scene scene = fitSceneToContent(*plx::scene::generateShowcase(), d);
     ImagePlane plane = makeImagePlane(d.defaultViewerMm, d.contentCenterMm, d.contentRadiusMm);
     auto inPlace = PredistortRenderer::create(2);
     auto copying = PredistortRenderer::create(2);

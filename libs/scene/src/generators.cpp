@@ -1,6 +1,6 @@
 // Procedural scenes: the P-buffer paper's open-plan office (Heo, Jung, Wohn, section V and
-// Table 1) and a textured museum. Everything is deterministic: variety comes from a fixed integer
-// hash, never from a platform random generator.
+// Table 1), a textured museum and the curved displays' showcase exhibit. Everything is
+// deterministic: variety comes from a fixed integer hash, never from a platform random generator.
 
 #include <plx/scene/generators.h>
 
@@ -499,6 +499,42 @@ void addPillars(const MuseumLayout& layout, Mesh* wall) {
                   2.0f);
 }
 
+// ---------------------------------------------------------------------------------------------
+// showcase
+
+// An axis-aligned box (centre, half sizes) without normals (finalize computes them per face).
+void addShowcaseBox(Mesh* m, Vec3 c, Vec3 h) {
+    static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                     {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+    for (const auto& f : kFaces) {
+        uint32_t base = uint32_t(m->positions.size());
+        for (int k = 0; k < 4; ++k) {
+            int i = f[k];
+            m->positions.push_back(c + Vec3((i & 1) ? h.x : -h.x, (i & 2) ? h.y : -h.y,
+                                            (i & 4) ? h.z : -h.z));
+        }
+        for (uint32_t idx : {0u, 2u, 1u, 0u, 3u, 2u}) m->indices.push_back(base + idx);
+    }
+}
+
+// A UV sphere of rings x segments quads without normals (finalize smooths them).
+void addShowcaseSphere(Mesh* m, Vec3 c, float r, int rings, int segments) {
+    uint32_t base = uint32_t(m->positions.size());
+    for (int i = 0; i <= rings; ++i) {
+        float th = kPi * float(i) / float(rings);
+        for (int j = 0; j <= segments; ++j) {
+            float ph = 2.0f * kPi * float(j) / float(segments);
+            m->positions.push_back(c + r * Vec3(std::sin(th) * std::cos(ph), std::cos(th),
+                                                std::sin(th) * std::sin(ph)));
+        }
+    }
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segments; ++j) {
+            uint32_t a = base + uint32_t(i * (segments + 1) + j), b = a + uint32_t(segments + 1);
+            for (uint32_t idx : {a, a + 1, b, a + 1, b + 1, b}) m->indices.push_back(idx);
+        }
+}
+
 }  // namespace
 
 Result<Scene> generateOffice(int rooms) {
@@ -603,12 +639,40 @@ Result<Scene> generateMuseum(int rooms) {
     return scene;
 }
 
+Result<Scene> generateShowcase() {
+    Scene s;
+    Material stone{"stone", {0.75f, 0.7f, 0.6f, 1.0f}, -1};
+    Material bronze{"bronze", {0.7f, 0.45f, 0.2f, 1.0f}, -1};
+    s.materials = {stone, bronze};
+    Mesh pedestal{"pedestal", {}, {}, {}, {}, 0};
+    addShowcaseBox(&pedestal, {0.0f, -0.35f, 0.0f}, {0.12f, 0.05f, 0.12f});
+    Mesh figure{"figure", {}, {}, {}, {}, 1};
+    addShowcaseSphere(&figure, {0.0f, -0.12f, 0.0f}, 0.12f, 16, 24);
+    addShowcaseSphere(&figure, {0.0f, 0.1f, 0.0f}, 0.08f, 12, 18);
+    addShowcaseSphere(&figure, {0.04f, 0.24f, 0.0f}, 0.05f, 10, 14);
+    s.meshes = {pedestal, figure};
+    PLX_RETURN_IF_ERROR(s.finalize());
+    Viewpoint framing = framingViewpoint(s.bounds());
+    framing.name = "default";
+    s.viewpoints = {framing};
+    return s;
+}
+
+bool isCountFreeGenerator(const std::string& name) { return name == "showcase"; }
+
 Result<Scene> generateFromSpec(const std::string& spec) {
     size_t colon = spec.find(':');
     std::string name = spec.substr(0, colon);
+    if (isCountFreeGenerator(name)) {
+        if (colon != std::string::npos)
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               fmt::format("scene generator '{}' takes no count", name));
+        return generateShowcase();
+    }
     if (name != "office" && name != "museum")
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("unknown scene generator '{}' (known: office:N, museum:N)",
+                           fmt::format("unknown scene generator '{}' (known: office:N, museum:N, "
+                                       "showcase)",
                                        name));
     int maxRooms = name == "office" ? kMaxOfficeRooms : kMaxMuseumRooms;
     std::string arg = colon == std::string::npos ? "" : spec.substr(colon + 1);

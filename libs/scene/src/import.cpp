@@ -475,7 +475,8 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
 
 bool isGeneratorSpec(const std::string& spec) {
     size_t colon = spec.find(':');
-    if (colon == std::string::npos || colon == 0) return false;
+    if (colon == std::string::npos) return isCountFreeGenerator(spec) && !fileExists(spec);
+    if (colon == 0) return false;
     for (size_t i = 0; i < colon; ++i)
         if (!std::isalpha(uint8_t(spec[i])) && spec[i] != '_') return false;
     // "C:/models/x.obj" and "name:arg/with/slashes" are paths, never specs.

@@ -149,6 +149,47 @@ TEST(Museum, IsDeterministicAndGrows) {
     EXPECT_GT(c->bounds().extent().z, a->bounds().extent().z);
 }
 
+TEST(Showcase, IsAPedestalAndAFigureOnTheVerticalAxis) {
+    auto s = generateShowcase();
+    ASSERT_TRUE(s.isOk()) << s.status().toString();
+    ASSERT_EQ(s->meshes.size(), 2u);
+    // Box 12, spheres 2 * (16 * 24 + 12 * 18 + 10 * 14).
+    EXPECT_EQ(s->meshes[0].triangleCount(), 12u);
+    EXPECT_EQ(s->triangleCount(), 1492u);
+    EXPECT_EQ(s->materials.size(), 2u);
+    EXPECT_TRUE(s->textures.empty());
+    const Aabb& b = s->bounds();
+    EXPECT_NEAR(b.lo.y, -0.40f, 1e-5f);
+    EXPECT_NEAR(b.hi.y, 0.29f, 1e-5f);
+    EXPECT_NEAR(b.lo.x, -0.12f, 1e-5f);  // the pedestal and the body are 0.24 wide
+    EXPECT_NEAR(b.hi.x, 0.12f, 1e-5f);
+    ASSERT_EQ(s->viewpoints.size(), 1u);
+    EXPECT_EQ(s->viewpoints[0].name, "default");
+    // The pedestal's faces point away from its centre.
+    const Mesh& pedestal = s->meshes[0];
+    for (size_t t = 0; t < pedestal.triangleCount(); ++t)
+        EXPECT_GT(glm::dot(faceNormal(pedestal, t), centroid(pedestal, t) - Vec3(0, -0.35f, 0)),
+                  0.0f)
+            << "triangle " << t;
+}
+
+TEST(Showcase, IsABareSpecAndDeterministic) {
+    EXPECT_TRUE(isGeneratorSpec("showcase"));
+    EXPECT_FALSE(isGeneratorSpec("showcases"));
+    auto a = loadScene("showcase");
+    auto b = generateShowcase();
+    ASSERT_TRUE(a.isOk()) << a.status().toString();
+    ASSERT_TRUE(b.isOk());
+    ASSERT_EQ(a->meshes.size(), b->meshes.size());
+    for (size_t m = 0; m < a->meshes.size(); ++m) {
+        EXPECT_EQ(a->meshes[m].positions, b->meshes[m].positions);
+        EXPECT_EQ(a->meshes[m].indices, b->meshes[m].indices);
+    }
+    auto counted = generateFromSpec("showcase:2");
+    ASSERT_FALSE(counted.isOk());
+    EXPECT_NE(counted.status().message().find("takes no count"), std::string::npos);
+}
+
 TEST(GeneratorSpec, ParsesCountsAndRejectsBadOnes) {
     auto s = generateFromSpec("office:2");
     ASSERT_TRUE(s.isOk());

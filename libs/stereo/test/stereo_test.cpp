@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <plx/scene/generators.h>
-#include <plx/stereo/experiment.h>
 #include <plx/stereo/layout.h>
 #include <plx/stereo/path.h>
 #include <plx/stereo/stereo.h>
@@ -331,24 +330,6 @@ TEST(Stereo, EveryPrefixOfAPathParsesOrFailsCleanly) {
         EXPECT_FALSE(r.isOk()) << "prefix " << cut;
         EXPECT_FALSE(r.status().message().empty());
     }
-}
-
-TEST(Stereo, ExperimentProducesRowsWithSpeedupAndQuality) {
-    StereoExperimentConfig config;
-    config.rooms = {1, 3};
-    config.width = 96;
-    config.height = 72;
-    config.frames = 1;
-    auto rows = runStereoExperiment(config);
-    ASSERT_TRUE(rows.isOk()) << rows.status().toString();
-    ASSERT_EQ(rows->size(), 2u);
-    EXPECT_GT((*rows)[1].polygons, (*rows)[0].polygons);
-    EXPECT_GT((*rows)[0].visiblePolygons, 0u);
-    EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
-    EXPECT_GT((*rows)[0].secondEyePsnrDb, 20.0);
-    nlohmann::json j = experimentToJson(config, *rows);
-    EXPECT_EQ(j["rows"].size(), 2u);
-    EXPECT_NE(experimentToCsv(*rows).find("pair_speedup"), std::string::npos);
 }
 
 }  // namespace

@@ -22,15 +22,16 @@
 // }
 
 #include <string>
+#include <string_view>
 
 #include <plx/core/status.h>
 #include <plx/display/optics.h>
 
 namespace plx::display {
 
-// Parses a display description. Errors name the field and the problem in one line
-// ("optics.bottom_radius: must be a positive number").
-Result<Display> parseDisplayJson(const std::string& text);
+// Parses a display description (the file's bytes). Errors name the field and the problem in one
+// line ("optics.bottom_radius: must be a positive number").
+Result<Display> parseDisplayJson(std::string_view text);
 
 // Reads and parses a display file; errors are prefixed with the path.
 Result<Display> loadDisplayFile(const std::string& path);

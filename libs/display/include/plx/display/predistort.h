@@ -1,6 +1,5 @@
 #pragma once
-// The two rendering passes of Bimber et al. section 2 on the software rasterizer, and the
-// experiment of section 8 (Table 1, Figs. 8-10).
+// The two rendering passes of Bimber et al. section 2 on the software rasterizer.
 //
 // Pass 1 renders the scene for the tracked viewer into an image whose frustum is the image
 // plane's. Pass 2 draws the warp mesh, vertices at their display positions, texture-mapped with
@@ -11,22 +10,18 @@
 #include <memory>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include <plx/display/quadtree.h>
 #include <plx/raster/raster.h>
 
 namespace plx::display {
 
 // Scales and moves a scene (in metres or any unit) so that its bounding box's sphere is the
-// display's content sphere (millimetres). Precondition: the scene is finalized.
+// display's content sphere (millimetres), its viewpoints with it. Precondition: the scene is
+// finalized.
 scene::Scene fitSceneToContent(const scene::Scene& scene, const Display& display);
 
 // All vertex positions of a scene, for the container.
 std::vector<DVec3> scenePointsMm(const scene::Scene& scene);
-
-// A small procedural exhibit (pedestal, body, head) for when no scene is given.
-scene::Scene makeShowcaseScene();
 
 // Pass 1: the scene seen from the image plane's eye, sizePx x sizePx. Precondition: sizePx in
 // [1, 16384].
@@ -82,30 +77,5 @@ private:
 // Draws the mesh's triangle edges over a copy of `background` (or black), in display pixels.
 Image<Rgba8> drawMeshOverlay(const Display& display, const WarpMesh& mesh,
                              const Image<Rgba8>* background);
-
-struct ExperimentConfig {
-    std::vector<double> thresholdsMm{8.0, 4.0, 2.0, 1.0, 0.5, 0.1};
-    int gridLevel = 9;
-    int errorDirectionLevel = 3;  // Lambda (section 7.4, the paper's 3); > gridLevel: off
-    // B's container: the coarse convex hull (section 7.1's "very coarse but tighter" option),
-    // which culls more patches than the OBB of the paper's Table 1 and measured faster at every
-    // threshold (docs/display-results.md); kObb reproduces the paper's setup.
-    ContainerKind container = ContainerKind::kHull;
-    int repetitions = 5;  // timing: median of this many frames
-    int pass1Size = 512;
-    bool render = true;   // include pass-2 rendering in the timings
-    int threads = 0;      // pass-2 renderer threads (0 = all hardware threads); generation: one core
-};
-
-// Runs the experiment for one viewer: per threshold the uniform grid at the resolution needed
-// for the same measured maximum error, the full refined grid (A) and the container-limited one
-// (B), with vertex transformations, triangles, generation and render times, measured maximum
-// errors and speedups. Returns {"rows": [...], ...}.
-Result<nlohmann::json> runPredistortExperiment(const Display& display, const DVec3& viewerMm,
-                                               const scene::Scene& sceneMm,
-                                               const ExperimentConfig& config);
-
-// The experiment's rows as CSV (one header line).
-std::string experimentCsv(const nlohmann::json& result);
 
 }  // namespace plx::display

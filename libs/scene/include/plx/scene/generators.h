@@ -1,5 +1,5 @@
 #pragma once
-// Deterministic procedural scenes, addressable as specs ("office:4", "museum:3").
+// Deterministic procedural scenes, addressable as specs ("office:4", "museum:3", "showcase").
 //
 // office:N - the P-buffer paper's office room (Heo, Jung, Wohn, section V) "after removing walls
 //   and adding posts to make it somewhat open": desks, chairs, partitions, shelves, posts and a
@@ -13,6 +13,10 @@
 //   per wall (each with its own procedural 256x256, 512x512 or 512x256 texture, up to 128
 //   distinct ones), tiled floor and plaster walls. Viewpoints: "default" in room 0 looking
 //   through the doorway along +x, "overview".
+// showcase - a small exhibit for the curved displays (Bimber et al.): a stone pedestal and a
+//   bronze figure of three spheres, 0.69 units tall, 1,492 triangles, no textures. It is the
+//   content fitted to a display's content sphere when no scene is given. Viewpoint: "default",
+//   framing the exhibit.
 // Metres, y up; all faces wound counter-clockwise seen from outside with outward normals.
 
 #include <plx/scene/scene.h>
@@ -28,7 +32,14 @@ Result<Scene> generateOffice(int rooms);
 // The museum with `rooms` rooms. Errors: rooms outside 1..kMaxMuseumRooms.
 Result<Scene> generateMuseum(int rooms);
 
-// Parses and runs a generator spec. Unknown names and bad counts give kInvalidArgument.
+// The showcase exhibit. Never fails; a Result like the other generators.
+Result<Scene> generateShowcase();
+
+// True for the generators whose spec is their bare name, without a count ("showcase").
+bool isCountFreeGenerator(const std::string& name);
+
+// Parses and runs a generator spec. Unknown names, bad counts and a count given to a count-free
+// generator give kInvalidArgument.
 Result<Scene> generateFromSpec(const std::string& spec);
 
 }  // namespace plx::scene

@@ -24,7 +24,7 @@ struct ImportOptions {
 // (repeated indices or zero area) are dropped and counted in Scene::degenerateTrianglesDropped.
 Result<Scene> importFile(const std::string& path, const ImportOptions& options = {});
 
-// True when spec names a generator ("office:N", "museum:N") rather than a file.
+// True when spec names a generator ("office:N", "museum:N", "showcase") rather than a file.
 bool isGeneratorSpec(const std::string& spec);
 
 // A scene from a file path or a generator spec.

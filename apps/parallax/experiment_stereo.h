@@ -1,34 +1,36 @@
 #pragma once
 // The experiment of Heo, Jung, Wohn Table 1 and Fig. 17: office:N for growing N, both methods,
 // per N the polygon counts, the time of each eye, the pair speedup and the second eye's quality.
+// Typed rows; JSON, CSV and plots are made from them.
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include <plx/stereo/stereo.h>
 
-namespace plx::stereo {
+namespace plx::cli {
 
 struct StereoExperimentConfig {
     std::vector<int> rooms{1, 2, 3, 4, 8, 15, 32, 64, 128, 280};  // 280: over 1M triangles
     int width = 640, height = 480;
     int frames = 7;  // timed frames per method (median), methods interleaved; one warm-up each
     int threads = 0;
-    StereoRigDesc rig;             // default separation and convergence
+    StereoRigDesc rig;                                 // default separation and convergence
     raster::Shading shading = raster::Shading::kFlat;  // the paper's constant shading
-    bool conservative = true;      // also measure the conservative option
+    bool conservative = true;                          // also measure the conservative option
 };
 
 struct StereoExperimentRow {
     int rooms = 0;
     size_t polygons = 0, visiblePolygons = 0;
-    double fullFirstMs = 0, fullSecondMs = 0;      // full pipeline, each eye
+    double fullFirstMs = 0, fullSecondMs = 0;  // full pipeline, each eye
     double pbufferFirstMs = 0, pbufferSecondMs = 0, collectMs = 0;
-    double pairSpeedup = 0;                        // full pair / pbuffer pair
-    double secondEyePsnrDb = 0, differingFraction = 0;
+    double pairSpeedup = 0;                             // full pair / pbuffer pair
+    double secondEyePsnrDb = 0, differingFraction = 0;  // infinite PSNR: identical eyes
     size_t missedPolygons = 0;
     int64_t missedPixels = 0;
     // Conservative option (zero when not measured).
@@ -43,8 +45,17 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     const StereoExperimentConfig& config,
     const std::function<void(size_t, size_t)>& progress = nullptr);
 
-nlohmann::json experimentToJson(const StereoExperimentConfig& config,
-                                const std::vector<StereoExperimentRow>& rows);
-std::string experimentToCsv(const std::vector<StereoExperimentRow>& rows);
+// {"width", "height", "frames", "separation", "convergence", "rows": [...]}: the document
+// `parallax bench stereo --json` prints. JSON has no infinity: an infinite PSNR reads 99 dB.
+nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
+                                    const std::vector<StereoExperimentRow>& rows);
+// The rows as CSV (one header line), infinite PSNR as 99 dB.
+std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows);
 
-}  // namespace plx::stereo
+// Fig. 17 of Heo, Jung, Wohn from an experiment: (a) first-eye time, (b) second-eye time,
+// (c) pair time, each for both methods against the polygon count; plus the pair speedup and the
+// visible polygons. Returns (file name, SVG) pairs.
+std::vector<std::pair<std::string, std::string>> stereoPlots(
+    const std::vector<StereoExperimentRow>& rows);
+
+}  // namespace plx::cli

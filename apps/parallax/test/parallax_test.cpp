@@ -1,0 +1,168 @@
+// The CLI's own pieces: the embedded example displays against the files they come from, and the
+// experiments' typed rows and the JSON and CSV made from them.
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include <plx/display/display_json.h>
+#include <plx/scene/generators.h>
+
+#include "example_displays.h"
+#include "experiment_predistort.h"
+#include "experiment_stereo.h"
+
+namespace plx::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kExamples = fs::path(PLX_SOURCE_DIR) / "examples" / "displays";
+
+std::string readFile(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+
+size_t lineCount(const std::string& text) {
+    return size_t(std::count(text.begin(), text.end(), '\n'));
+}
+
+TEST(ExampleDisplays, EmbeddedTextEqualsEachFileOnDisk) {
+    std::set<std::string> onDisk;
+    for (const auto& entry : fs::directory_iterator(kExamples))
+        if (entry.path().extension() == ".json") {
+            std::string name = entry.path().stem().string();
+            onDisk.insert(name);
+            const ExampleDisplay* e = findExampleDisplay(name);
+            ASSERT_NE(e, nullptr) << name;
+            EXPECT_EQ(std::string(e->json), readFile(entry.path())) << name;
+        }
+    EXPECT_EQ(onDisk.size(), 4u);
+    std::set<std::string> embedded;
+    for (const ExampleDisplay& e : exampleDisplays()) embedded.insert(std::string(e.name));
+    EXPECT_EQ(embedded, onDisk);
+    EXPECT_EQ(findExampleDisplay("no_such_display"), nullptr);
+    EXPECT_EQ(exampleDisplayNames(),
+              "cone_showcase, cylinder_mirror, cylinder_screen, dome_screen");
+}
+
+TEST(ExampleDisplays, ArgumentIsAFileFirstThenAnExampleName) {
+    for (const ExampleDisplay& e : exampleDisplays()) {
+        auto byName = loadDisplayArgument(std::string(e.name));
+        ASSERT_TRUE(byName.isOk()) << e.name << ": " << byName.status().toString();
+        auto byFile =
+            display::loadDisplayFile((kExamples / (std::string(e.name) + ".json")).string());
+        ASSERT_TRUE(byFile.isOk());
+        EXPECT_EQ(byName->name, byFile->name);
+        EXPECT_EQ(byName->framebufferWidth, byFile->framebufferWidth);
+        EXPECT_EQ(byName->defaultViewerMm, byFile->defaultViewerMm);
+    }
+    // A file of an example's name in the working directory wins over the example.
+    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / "parallax_test";
+    fs::create_directories(dir);
+    std::ofstream(dir / "cone_showcase") << "{";
+    fs::path cwd = fs::current_path();
+    fs::current_path(dir);
+    auto shadowed = loadDisplayArgument("cone_showcase");
+    fs::current_path(cwd);
+    ASSERT_FALSE(shadowed.isOk());
+    EXPECT_NE(shadowed.status().message().find("cone_showcase: "), std::string::npos);
+    auto missing = loadDisplayArgument((dir / "missing.json").string());
+    ASSERT_FALSE(missing.isOk());
+    EXPECT_NE(missing.status().message().find("missing.json"), std::string::npos);
+}
+
+TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
+    StereoExperimentConfig config;
+    config.rooms = {1, 3};
+    config.width = 96;
+    config.height = 72;
+    config.frames = 1;
+    config.threads = 2;
+    auto rows = runStereoExperiment(config);
+    ASSERT_TRUE(rows.isOk()) << rows.status().toString();
+    ASSERT_EQ(rows->size(), 2u);
+    EXPECT_EQ((*rows)[0].rooms, 1);
+    EXPECT_EQ((*rows)[0].polygons, scene::generateOffice(1)->triangleCount());
+    EXPECT_GT((*rows)[1].polygons, (*rows)[0].polygons);
+    EXPECT_GT((*rows)[0].visiblePolygons, 0u);
+    EXPECT_LE((*rows)[0].visiblePolygons, (*rows)[0].polygons);
+    EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
+    EXPECT_GT((*rows)[0].secondEyePsnrDb, 20.0);
+    nlohmann::json j = stereoExperimentJson(config, *rows);
+    ASSERT_EQ(j["rows"].size(), 2u);
+    EXPECT_EQ(j["width"], 96);
+    EXPECT_EQ(j["rows"][1]["rooms"], 3);
+    EXPECT_EQ(j["rows"][0]["polygons"].get<size_t>(), (*rows)[0].polygons);
+    // JSON has no infinity: identical eyes read 99 dB.
+    std::vector<StereoExperimentRow> identical = {(*rows)[0]};
+    identical[0].secondEyePsnrDb = std::numeric_limits<double>::infinity();
+    EXPECT_EQ(stereoExperimentJson(config, identical)["rows"][0]["second_eye_psnr_db"], 99.0);
+    std::string csv = stereoExperimentCsv(*rows);
+    EXPECT_EQ(lineCount(csv), 3u);
+    EXPECT_EQ(csv.rfind("rooms,polygons,visible_polygons,", 0), 0u);
+    EXPECT_EQ(stereoPlots(*rows).size(), 5u);
+}
+
+TEST(StereoExperiment, RejectsAnEmptyConfig) {
+    StereoExperimentConfig config;
+    config.rooms.clear();
+    EXPECT_FALSE(runStereoExperiment(config).isOk());
+}
+
+TEST(PredistortExperiment, RowsMeetTheThresholdAndSerialise) {
+    display::Display d = exampleDisplay("cone_showcase");
+    d.framebufferWidth = d.framebufferHeight = 256;
+    PredistortExperimentConfig config;
+    config.thresholdsMm = {4.0, 1.0};
+    config.gridLevel = 7;
+    config.repetitions = 1;
+    config.pass1Size = 128;
+    config.threads = 2;
+    auto content = display::fitSceneToContent(*scene::generateShowcase(), d);
+    auto e = runPredistortExperiment(d, d.defaultViewerMm, content, config);
+    ASSERT_TRUE(e.isOk()) << e.status().toString();
+    ASSERT_EQ(e->rows.size(), 2u);
+    EXPECT_EQ(e->rendererThreads, 2);
+    for (const PredistortExperimentRow& r : e->rows) {
+        EXPECT_LE(r.uniform.maxMeasuredErrorMm, r.errorMm);
+        EXPECT_LE(r.adaptiveContainer.maxMeasuredErrorMm, r.errorMm);
+        // The container only removes patches the exhibit cannot be seen through.
+        EXPECT_LE(r.adaptiveContainer.triangles, r.adaptiveFull.triangles);
+        EXPECT_GT(r.adaptiveContainer.triangles, 0u);
+        EXPECT_GT(r.adaptiveFull.speedup, 0.0);
+    }
+    // A finer threshold needs at least as fine a uniform grid.
+    EXPECT_GE(e->rows[1].uniform.level, e->rows[0].uniform.level);
+    nlohmann::json j = predistortExperimentJson(*e);
+    EXPECT_EQ(j["container"], "hull");
+    EXPECT_EQ(j["grid_level"], 7);
+    ASSERT_EQ(j["rows"].size(), 2u);
+    EXPECT_EQ(j["rows"][1]["error_mm"], 1.0);
+    EXPECT_EQ(j["rows"][0]["adaptive_container"]["triangles"].get<size_t>(),
+              e->rows[0].adaptiveContainer.triangles);
+    EXPECT_EQ(j["rows"][0]["uniform"]["level"], e->rows[0].uniform.level);
+    std::string csv = predistortExperimentCsv(*e);
+    EXPECT_EQ(lineCount(csv), 3u);
+    EXPECT_EQ(csv.rfind("error_mm,uniform_level,", 0), 0u);
+    EXPECT_EQ(predistortPlots(*e).size(), 3u);
+}
+
+TEST(PredistortExperiment, RejectsBadThresholds) {
+    display::Display d = exampleDisplay("cone_showcase");
+    auto content = display::fitSceneToContent(*scene::generateShowcase(), d);
+    PredistortExperimentConfig config;
+    config.thresholdsMm = {1.0, -2.0};
+    auto e = runPredistortExperiment(d, d.defaultViewerMm, content, config);
+    ASSERT_FALSE(e.isOk());
+    EXPECT_NE(e.status().message().find("thresholds"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace plx::cli

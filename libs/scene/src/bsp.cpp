@@ -67,7 +67,8 @@ bool trianglePlane(const Vec3& a, const Vec3& b, const Vec3& c, Vec4* plane) {
     double cx = (double(a.x) + b.x + c.x) / 3.0;
     double cy = (double(a.y) + b.y + c.y) / 3.0;
     double cz = (double(a.z) + b.z + c.z) / 3.0;
-    *plane = Vec4(float(n[0]), float(n[1]), float(n[2]), float(-(n[0] * cx + n[1] * cy + n[2] * cz)));
+    *plane =
+        Vec4(float(n[0]), float(n[1]), float(n[2]), float(-(n[0] * cx + n[1] * cy + n[2] * cz)));
     return true;
 }
 
@@ -112,9 +113,15 @@ public:
                 // every node takes at least one polygon and the build terminates.
                 Side side = p == splitter ? Side::kCoplanar : classify(plane, mPolygons[p]);
                 switch (side) {
-                    case Side::kCoplanar: coplanar.push_back(p); break;
-                    case Side::kFront: front.polygons.push_back(p); break;
-                    case Side::kBack: back.polygons.push_back(p); break;
+                    case Side::kCoplanar:
+                        coplanar.push_back(p);
+                        break;
+                    case Side::kFront:
+                        front.polygons.push_back(p);
+                        break;
+                    case Side::kBack:
+                        back.polygons.push_back(p);
+                        break;
                     case Side::kStraddle: {
                         auto [f, b] = split(plane, p);
                         front.polygons.push_back(f);
@@ -221,10 +228,17 @@ private:
             int splits = 0, fronts = 0, backs = 0;
             for (uint32_t q : mSample) {
                 switch (classify(plane, mPolygons[q])) {
-                    case Side::kCoplanar: break;
-                    case Side::kFront: ++fronts; break;
-                    case Side::kBack: ++backs; break;
-                    case Side::kStraddle: ++splits; break;
+                    case Side::kCoplanar:
+                        break;
+                    case Side::kFront:
+                        ++fronts;
+                        break;
+                    case Side::kBack:
+                        ++backs;
+                        break;
+                    case Side::kStraddle:
+                        ++splits;
+                        break;
                 }
             }
             float score = mConfig.splitWeight * float(splits) + float(std::abs(fronts - backs));
@@ -296,18 +310,18 @@ private:
 Result<BspTree> BspTree::build(const Scene& scene, const BspConfig& config) {
     if (config.candidatePlanes < 1 || config.scoreSample < 1 || !(config.splitWeight >= 0.0f) ||
         !(config.coplanarEpsilon >= 0.0f) || !(config.maxFragmentsPerTriangle >= 1.0f))
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("BSP config out of range: candidatePlanes {} and "
-                                       "scoreSample {} must be >= 1, splitWeight {} and "
-                                       "coplanarEpsilon {} >= 0, maxFragmentsPerTriangle {} >= 1",
-                                       config.candidatePlanes, config.scoreSample,
-                                       config.splitWeight, config.coplanarEpsilon,
-                                       config.maxFragmentsPerTriangle));
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("BSP config out of range: candidatePlanes {} and "
+                        "scoreSample {} must be >= 1, splitWeight {} and "
+                        "coplanarEpsilon {} >= 0, maxFragmentsPerTriangle {} >= 1",
+                        config.candidatePlanes, config.scoreSample, config.splitWeight,
+                        config.coplanarEpsilon, config.maxFragmentsPerTriangle));
     if (scene.triangleCount() == 0) return BspTree();
     if (scene.triangleCount() > size_t(std::numeric_limits<int32_t>::max()))
-        return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("BSP of {} triangles: at most 2^31 - 1 supported",
-                                       scene.triangleCount()));
+        return errorStatus(
+            ErrorCode::kOutOfRange,
+            fmt::format("BSP of {} triangles: at most 2^31 - 1 supported", scene.triangleCount()));
     // Scale of the coordinates: plane distances carry rounding proportional to it.
     const Aabb& bounds = scene.bounds();
     Vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));

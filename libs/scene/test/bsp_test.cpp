@@ -47,7 +47,8 @@ Scene randomCrossingTriangles(std::mt19937* rng, int count) {
     std::vector<Vec3> corners;
     for (int i = 0; i < count; ++i) {
         Vec3 c{centre(*rng), centre(*rng), centre(*rng)};
-        for (int k = 0; k < 3; ++k) corners.push_back(c + Vec3{offset(*rng), offset(*rng), offset(*rng)});
+        for (int k = 0; k < 3; ++k)
+            corners.push_back(c + Vec3{offset(*rng), offset(*rng), offset(*rng)});
     }
     return sceneOf(corners);
 }
@@ -147,10 +148,18 @@ TEST(Bsp, EmptySceneGivesAnEmptyTree) {
 }
 
 TEST(Bsp, DegenerateTrianglesAreSkipped) {
-    Scene scene = sceneOf({{0, 0, 0}, {1, 0, 0}, {0, 1, 0},     // good, global 0
-                           {0, 0, 1}, {1, 0, 1}, {2, 0, 1},     // collinear
-                           {5, 5, 5}, {5, 5, 5}, {6, 5, 5},     // repeated corner
-                           {0, 0, 2}, {1, 0, 2}, {0, 1, 2}});   // good, global 3
+    Scene scene = sceneOf({{0, 0, 0},
+                           {1, 0, 0},
+                           {0, 1, 0},  // good, global 0
+                           {0, 0, 1},
+                           {1, 0, 1},
+                           {2, 0, 1},  // collinear
+                           {5, 5, 5},
+                           {5, 5, 5},
+                           {6, 5, 5},  // repeated corner
+                           {0, 0, 2},
+                           {1, 0, 2},
+                           {0, 1, 2}});  // good, global 3
     auto tree = BspTree::build(scene);
     ASSERT_TRUE(tree.isOk()) << tree.status().toString();
     EXPECT_EQ(tree->stats().sourceTriangles, 4u);
@@ -177,8 +186,8 @@ TEST(Bsp, RejectsConfigsOutOfRange) {
 
 TEST(Bsp, FragmentBoundIsEnforced) {
     // Two triangles crossing each other's planes: whichever is chosen first splits the other.
-    Scene scene = sceneOf({{-1, 0, -1}, {1, 0, -1}, {0, 0, 1},
-                           {0, -1, -0.5f}, {0, 1, -0.5f}, {0.01f, 0, 0.5f}});
+    Scene scene = sceneOf(
+        {{-1, 0, -1}, {1, 0, -1}, {0, 0, 1}, {0, -1, -0.5f}, {0, 1, -0.5f}, {0.01f, 0, 0.5f}});
     BspConfig config;
     config.maxFragmentsPerTriangle = 1.0f;
     auto tree = BspTree::build(scene, config);
@@ -207,14 +216,14 @@ TEST(Bsp, FragmentsCoverTheirTriangles) {
         uint32_t source = tree->fragment(f).sourceTriangle;
         area[source] += polygonArea(v);
         Vec3 a = triangleCorner(scene, source, 0);
-        Vec3 n = glm::normalize(glm::cross(triangleCorner(scene, source, 1) - a,
-                                           triangleCorner(scene, source, 2) - a));
+        Vec3 n = glm::normalize(
+            glm::cross(triangleCorner(scene, source, 1) - a, triangleCorner(scene, source, 2) - a));
         for (const Vec3& p : v) EXPECT_NEAR(glm::dot(n, p - a), 0.0f, 1e-4f);
     }
     for (size_t t = 0; t < scene.triangleCount(); ++t) {
         Vec3 a = triangleCorner(scene, t, 0);
-        double expected = polygonArea(std::vector<Vec3>{a, triangleCorner(scene, t, 1),
-                                                        triangleCorner(scene, t, 2)});
+        double expected = polygonArea(
+            std::vector<Vec3>{a, triangleCorner(scene, t, 1), triangleCorner(scene, t, 2)});
         EXPECT_NEAR(area[t], expected, 1e-4 * expected + 1e-6) << "triangle " << t;
     }
 }
@@ -245,8 +254,10 @@ TEST(Bsp, FragmentsLieOnTheirSideOfEveryAncestorPlane) {
             EXPECT_TRUE(inFront || p.back == child);
             for (const Vec3& v : tree->fragmentVertices(f)) {
                 float d = planeDistance(p.plane, v);
-                if (inFront) EXPECT_GE(d, -tolerance);
-                else EXPECT_LE(d, tolerance);
+                if (inFront)
+                    EXPECT_GE(d, -tolerance);
+                else
+                    EXPECT_LE(d, tolerance);
                 ++checked;
             }
         }
@@ -328,8 +339,10 @@ TEST(Bsp, ConvexSolidBuildsAChainAndWalksIt) {
     size_t facingAfterAway = 0;
     for (uint32_t f : order) {
         bool facing = planeDistance(tree->fragmentPlane(f), eye) > 0.0f;
-        if (!facing) seenAway = true;
-        else if (seenAway) ++facingAfterAway;
+        if (!facing)
+            seenAway = true;
+        else if (seenAway)
+            ++facingAfterAway;
     }
     EXPECT_EQ(facingAfterAway, 0u);
 }
@@ -350,8 +363,8 @@ TEST(Bsp, OfficeBuildsWithFewSplits) {
     size_t uncovered = 0;
     for (size_t t = 0; t < scene->triangleCount(); ++t) {
         Vec3 a = triangleCorner(*scene, t, 0);
-        double expected = polygonArea(std::vector<Vec3>{a, triangleCorner(*scene, t, 1),
-                                                        triangleCorner(*scene, t, 2)});
+        double expected = polygonArea(
+            std::vector<Vec3>{a, triangleCorner(*scene, t, 1), triangleCorner(*scene, t, 2)});
         if (std::abs(area[t] - expected) > 1e-3 * expected + 1e-7) ++uncovered;
     }
     EXPECT_EQ(uncovered, 0u);

@@ -56,7 +56,7 @@ struct BspFragment {
 
 // An interior node of the tree. Children are node indices, or kNoNode.
 struct BspNode {
-    Vec4 plane{0.0f};  // (n, d): unit normal n, signed distance of p is dot(n, p) + d
+    Vec4 plane{0.0f};            // (n, d): unit normal n, signed distance of p is dot(n, p) + d
     uint32_t firstFragment = 0;  // the fragments in this plane: [first, first + count)
     uint32_t fragmentCount = 0;
     int32_t front = -1;   // subtree on the side n points to
@@ -65,14 +65,14 @@ struct BspNode {
 };
 
 struct BspStats {
-    size_t sourceTriangles = 0;     // the scene's triangle count
-    size_t degenerateSkipped = 0;   // triangles with no well-defined plane, not in the tree
-    size_t fragments = 0;           // polygons stored in the nodes
-    size_t splitTriangles = 0;      // source triangles cut into more than one fragment
+    size_t sourceTriangles = 0;    // the scene's triangle count
+    size_t degenerateSkipped = 0;  // triangles with no well-defined plane, not in the tree
+    size_t fragments = 0;          // polygons stored in the nodes
+    size_t splitTriangles = 0;     // source triangles cut into more than one fragment
     size_t nodes = 0;
-    size_t maxDepth = 0;            // root has depth 1; 0 for an empty tree
-    size_t vertexCount = 0;         // fragment vertices stored
-    size_t memoryBytes = 0;         // nodes, fragments and vertices
+    size_t maxDepth = 0;     // root has depth 1; 0 for an empty tree
+    size_t vertexCount = 0;  // fragment vertices stored
+    size_t memoryBytes = 0;  // nodes, fragments and vertices
     // Fragments per tree triangle (sourceTriangles - degenerateSkipped); 0 for an empty tree.
     double fragmentsPerTriangle() const;
 };

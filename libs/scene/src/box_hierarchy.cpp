@@ -1,0 +1,185 @@
+// Box hierarchy and per-hole flags (Fu, Bao, Peng section 3). See <plx/scene/box_hierarchy.h>.
+
+#include <plx/scene/box_hierarchy.h>
+
+#include <algorithm>
+#include <array>
+#include <limits>
+
+#include <fmt/format.h>
+
+namespace plx::scene {
+
+namespace {
+
+// Slack, in pixels, added around the rectangle before declaring a miss. The projected box of a
+// node's corners contains the projection of its triangles in exact arithmetic; float rounding
+// of a projection is a few ulps of the pixel coordinate (under 0.01 px up to 16384 px wide), so
+// 1/16 px keeps every miss a true miss while costing almost no rejections.
+constexpr float kMarginPx = 1.0f / 16.0f;
+
+// Task of the iterative build: triangles [begin, end) of mTriangles become a subtree.
+struct BuildTask {
+    uint32_t begin;
+    uint32_t end;
+    int64_t parentOfSecondChild;  // node whose `first` must point here, or -1
+    uint32_t depth;
+};
+
+}  // namespace
+
+bool pointsMayCoverRect(const Camera& camera, std::span<const Vec3> points, const PixelRect& rect) {
+    const Mat4& clipFromWorld = camera.clipFromWorld();
+    float nearPlane = camera.desc().nearPlane;
+    size_t nearer = 0;
+    float minX = std::numeric_limits<float>::infinity(), minY = minX;
+    float maxX = -minX, maxY = -minX;
+    for (const Vec3& p : points) {
+        Vec4 clip = clipFromWorld * Vec4(p, 1.0f);
+        // clip.w is the view-space distance along the viewing direction (OpenGL projection).
+        if (clip.w < nearPlane) {
+            ++nearer;
+            continue;
+        }
+        Vec2 pixel = camera.pixelFromClip(clip);
+        minX = std::min(minX, pixel.x);
+        maxX = std::max(maxX, pixel.x);
+        minY = std::min(minY, pixel.y);
+        maxY = std::max(maxY, pixel.y);
+    }
+    if (nearer == points.size()) return false;  // wholly clipped by the near plane
+    if (nearer > 0) return true;  // the visible part's projection is unbounded: conservative
+    return !(maxX < float(rect.x0) - kMarginPx || minX > float(rect.x1) + kMarginPx ||
+             maxY < float(rect.y0) - kMarginPx || minY > float(rect.y1) + kMarginPx);
+}
+
+bool triangleMayCoverRect(const Camera& camera, const Vec3& a, const Vec3& b, const Vec3& c,
+                          const PixelRect& rect) {
+    const Vec3 corners[3] = {a, b, c};
+    return pointsMayCoverRect(camera, corners, rect);
+}
+
+bool boxMayCoverRect(const Camera& camera, const Aabb& box, const PixelRect& rect) {
+    PLX_DCHECK(!box.isEmpty());
+    std::array<Vec3, 8> corners;
+    for (int i = 0; i < 8; ++i)
+        corners[size_t(i)] = Vec3((i & 1) ? box.hi.x : box.lo.x, (i & 2) ? box.hi.y : box.lo.y,
+                                  (i & 4) ? box.hi.z : box.lo.z);
+    return pointsMayCoverRect(camera, corners, rect);
+}
+
+void HoleFlags::beginQuery(size_t nodes, size_t triangles) {
+    if (mNodeStamp.size() != nodes || mTriangleStamp.size() != triangles) {
+        mNodeStamp.assign(nodes, 0);
+        mTriangleStamp.assign(triangles, 0);
+        mGeneration = 0;
+    }
+    if (++mGeneration == 0) {
+        // After 2^32 - 1 queries: old stamps could alias the new generation.
+        std::fill(mNodeStamp.begin(), mNodeStamp.end(), 0u);
+        std::fill(mTriangleStamp.begin(), mTriangleStamp.end(), 0u);
+        mGeneration = 1;
+    }
+}
+
+Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyConfig& config) {
+    if (config.leafSize < 1 || config.leafSize > kMaxLeafSize)
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("box hierarchy leafSize {} outside 1..{}", config.leafSize, kMaxLeafSize));
+    BoxHierarchy h;
+    size_t count = scene.triangleCount();
+    if (count == 0) return h;
+    if (count > size_t(std::numeric_limits<uint32_t>::max()))
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("box hierarchy of {} triangles: at most 2^32 - 1", count));
+
+    // Per triangle: its box and the centre the splits sort by.
+    std::vector<Aabb> boxes(count);
+    std::vector<Vec3> centres(count);
+    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+        const Mesh& mesh = scene.meshes[m];
+        for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+            size_t global = scene.firstTriangle(m) + t;
+            Aabb& box = boxes[global];
+            for (int k = 0; k < 3; ++k) box.extend(mesh.positions[mesh.indices[3 * t + size_t(k)]]);
+            centres[global] = box.center();
+        }
+    }
+    h.mTriangles.resize(count);
+    for (size_t i = 0; i < count; ++i) h.mTriangles[i] = uint32_t(i);
+    h.mNodes.reserve(2 * (count / size_t(config.leafSize)) + 1);
+
+    // Depth first, first child before second: popping the first child right after its parent
+    // puts it at index parent + 1. Median splits halve the range, so depth <= log2(count) + 1.
+    std::vector<BuildTask> stack{{0, uint32_t(count), -1, 1}};
+    while (!stack.empty()) {
+        BuildTask task = stack.back();
+        stack.pop_back();
+        uint32_t index = uint32_t(h.mNodes.size());
+        if (task.parentOfSecondChild >= 0) h.mNodes[size_t(task.parentOfSecondChild)].first = index;
+        h.mMaxDepth = std::max<size_t>(h.mMaxDepth, task.depth);
+        BoxNode node;
+        Aabb centreBounds;
+        for (uint32_t i = task.begin; i < task.end; ++i) {
+            node.box.extend(boxes[h.mTriangles[i]]);
+            centreBounds.extend(centres[h.mTriangles[i]]);
+        }
+        uint32_t size = task.end - task.begin;
+        if (size <= uint32_t(config.leafSize)) {
+            node.first = task.begin;
+            node.count = size;
+            h.mNodes.push_back(node);
+            continue;
+        }
+        h.mNodes.push_back(node);
+        Vec3 extent = centreBounds.extent();
+        int axis =
+            extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+        uint32_t mid = task.begin + size / 2;
+        std::nth_element(h.mTriangles.begin() + task.begin, h.mTriangles.begin() + mid,
+                         h.mTriangles.begin() + task.end, [&](uint32_t a, uint32_t b) {
+                             return centres[a][axis] < centres[b][axis];
+                         });
+        stack.push_back({mid, task.end, int64_t(index), task.depth + 1});
+        stack.push_back({task.begin, mid, -1, task.depth + 1});
+    }
+    return h;
+}
+
+void BoxHierarchy::markHole(const Camera& camera, const PixelRect& rect, HoleFlags* flags,
+                            HoleQueryStats* stats) const {
+    PLX_CHECK(!rect.empty());
+    flags->beginQuery(mNodes.size(), mTriangles.size());
+    uint32_t generation = flags->mGeneration;
+    HoleQueryStats counts;
+    if (!mNodes.empty()) {
+        // Median splits bound the depth by 33 for 2^32 triangles; the stack holds at most one
+        // pending second child per level.
+        std::array<uint32_t, 64> stack;
+        size_t top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            uint32_t index = stack[--top];
+            const BoxNode& node = mNodes[index];
+            ++counts.nodesTested;
+            if (!boxMayCoverRect(camera, node.box, rect)) {
+                ++counts.nodesRejected;  // negative with its subtree: left unstamped
+                continue;
+            }
+            flags->mNodeStamp[index] = generation;
+            if (node.isLeaf()) {
+                for (uint32_t i = node.first; i < node.first + node.count; ++i)
+                    flags->mTriangleStamp[mTriangles[i]] = generation;
+                counts.trianglesPositive += node.count;
+                continue;
+            }
+            PLX_DCHECK(top + 2 <= stack.size());
+            stack[top++] = node.first;  // second child
+            stack[top++] = index + 1;   // first child
+        }
+    }
+    if (stats) *stats = counts;
+}
+
+}  // namespace plx::scene

@@ -322,7 +322,7 @@ int crossEpsContextsVec(LevelRows& R, int lw, int full, int c, CtxMap map) {
 // eps of the full blocks of a row, component c: contexts from the block sum that the planar
 // prediction p11 ~ p10 + p01 - p00 implies (encode: also the eps values).
 // With AVX2, the decoder's contexts of the first blocks by crossEpsContextsVec in the
-// widest lanes the build has (W, as prepareRow's); kFast = false runs the scalar loop for every
+// widest lanes the ISA has (W, as prepareRow's); kFast = false runs the scalar loop for every
 // block (the reference of fast_paths_test).
 template <bool kEncode, bool kFast = true, class W = WidestLanes>
 void epsContexts(LevelRows& R, int lw, int full, int c, CtxMap map) {

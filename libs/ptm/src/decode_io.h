@@ -264,7 +264,7 @@ struct DecodeIO : WordStream {
 
     // The symbols of a run, from the first, while whole rounds of kSimdStates symbols remain and
     // 2 kSimdStates bytes are left (a round reads at most one word per state); returns the first
-    // symbol not done. The widest vector code the build has: runVectorAvx512 or runVectorAvx2.
+    // symbol not done. The widest vector code the ISA has: runVectorAvx512 or runVectorAvx2.
     int runVector(const uint16_t* ctx, int n, uint8_t* tok) {
 #if PLX_PTM_AVX512
         return runVectorAvx512(ctx, n, tok);

@@ -179,10 +179,12 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
     ByteImage img = levelImage(mHeader.levelSize(k), mHeader.components);
     const ByteImage* low = k > 0 ? &mLevels.back() : nullptr;
-    if (mHeader.coder == Coder::kRans && !(groupBytes.size() >= 1 && groupBytes[0] == kStoredGroupMode)) {
+    const bool stored = mHeader.coder == Coder::kRans && !groupBytes.empty() &&
+                        groupBytes[0] == kStoredGroupMode;
+    if (mHeader.coder == Coder::kRans && !stored) {
         PLX_RETURN_IF_ERROR(decodeGroupRans(groupBytes, low, img, k));
     } else {
-        if (mHeader.coder == Coder::kRans) groupBytes = groupBytes.subspan(1);  // stored
+        if (stored) groupBytes = groupBytes.subspan(1);  // coder kRaw's payload follows
         PLX_RETURN_IF_ERROR(decodeGroupRaw(groupBytes, low, img, k));
     }
     mLevels.push_back(std::move(img));

@@ -109,10 +109,10 @@ int prepareRowVec(LevelRows& R, int lw, int c, bool firstRow) {
 // detail (value - upsample) of the pixel right above each, p01 and p11 of the block above
 // (w = R.shapeEighths, the group's mode byte); C++ division, truncated toward zero. The
 // block-sum predictor spreads the block's sum by these shapes, so the pixels above steer how it
-// splits between the block's upper and lower rows. The details are zero on the first block row and from `full` on (odd
-// widths: finishFullRow keeps only the full blocks'), which keeps those blocks' bilinear
-// shapes.
-// With AVX2, the first blocks by prepareRowVec in the widest lanes the build has (W: Lanes32
+// splits between the block's upper and lower rows. The details are zero on the first block row
+// and from `full` on (odd widths: finishFullRow keeps only the full blocks'), which keeps those
+// blocks' bilinear shapes.
+// With AVX2, the first blocks by prepareRowVec in the widest lanes the ISA has (W: Lanes32
 // with AVX-512, else Lanes16); kFast = false runs the scalar loop for every block (the
 // reference that fast_paths_test compares the vector paths with).
 template <bool kShapeAbove, bool kFast = true, class W = WidestLanes>
@@ -248,10 +248,10 @@ int codeFullRowVec(LevelRows& R, int lw, int full, int c) {
 
 // Prediction and reconstruction of the three stored pixels of every full block of a row, for
 // component c. Encode: values v0..v2 to run values z0..z2; decode: the reverse. Sub-predictor A
-// is the block-sum predictor (predictBlockPixel); B (components >= 1) is clamp(A + r, 0, 255) with r the
-// previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No dependency
-// between blocks: with AVX2, the first blocks by codeFullRowVec in the widest lanes the build
-// has (W, as prepareRow's); kFast = false runs the scalar loop for every block (the reference
+// is the block-sum predictor (predictBlockPixel); B (components >= 1) is clamp(A + r, 0, 255)
+// with r the previous component's A-residual at the same pixel; `sel` (pass 0) picks B. No
+// dependency between blocks: with AVX2, the first blocks by codeFullRowVec in the widest lanes
+// the ISA has (W, as prepareRow's); kFast = false runs the scalar loop for every block (the reference
 // of fast_paths_test).
 // For components >= 2, r is the mean (truncated) of the A-residuals of the two components
 // before: each carries the rounding noise of its own JPEG decode, which the mean halves.
@@ -376,7 +376,7 @@ int finishFullRowVec(LevelRows& R, int lw, int full, int c, unsigned& bad) {
 // next block row's prepareRow, and p11's half-step residual for the next components (r3), and
 // adds p11's errors under A and B to the block's sub-predictor statistics (components >= 1), so
 // that the next row's choice between A and B also weighs p11.
-// With AVX2, the first blocks by finishFullRowVec in the widest lanes the build has (W, as
+// With AVX2, the first blocks by finishFullRowVec in the widest lanes the ISA has (W, as
 // prepareRow's); kFast = false runs the scalar loops for every block (the reference that
 // fast_paths_test compares the vector paths with).
 template <bool kFast = true, class W = WidestLanes>

@@ -91,8 +91,8 @@ const char* firstDifference(const LevelRows& a, const LevelRows& b) {
         {"z1", a.z1 == b.z1},       {"z2", a.z2 == b.z2},       {"errA", a.errA == b.errA},
         {"errB", a.errB == b.errB}, {"rA0", a.rA0 == b.rA0},    {"rA1", a.rA1 == b.rA1},
         {"rA2", a.rA2 == b.rA2},    {"r3", a.r3 == b.r3},       {"ctx", a.ctx == b.ctx},
-        {"detail01", a.detail01 == b.detail01},                 {"detail11", a.detail11 == b.detail11},
-        {"curAct", a.curAct == b.curAct}, {"curEA", a.curEA == b.curEA},
+        {"detail01", a.detail01 == b.detail01}, {"detail11", a.detail11 == b.detail11},
+        {"curAct", a.curAct == b.curAct},       {"curEA", a.curEA == b.curEA},
         {"curEB", a.curEB == b.curEB}};
     for (const auto& [name, same] : rows)
         if (!same) return name;

@@ -32,6 +32,22 @@
 namespace plx::ptm::detail {
 inline namespace PLX_PTM_KERNEL_NS {
 
+// Fills the kRansTotal entries of one table from freq (sum kRansTotal, or all zero: then every
+// slot decodes token 0 with frequency kRansTotal, which keeps the state and is caught by the
+// final state check). A kernel: it writes 16 KB per table, for every table of every group.
+inline void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries) {
+    uint32_t cum = 0;
+    for (int s = 0; s < kTokenCount; ++s) {
+        const uint32_t f = freq[size_t(s)];
+        const uint32_t head = f | uint32_t(s) << kEntryTokenShift;
+        uint32_t* e = entries + cum;  // a valid table has cum + f <= kRansTotal (readTable)
+        for (uint32_t i = 0; i < f; ++i) e[i] = head | i << kEntryBiasShift;
+        cum += f;
+    }
+    if (cum == 0)  // empty table: token 0 everywhere, the state unchanged
+        for (uint32_t i = 0; i < kRansTotal; ++i) entries[i] = kRansTotal | i << kEntryBiasShift;
+}
+
 // Packed lane-to-word permutations for the renormalisation: for a mask of the lanes that read a
 // word, 3 bits per lane (lane l at bits 3l) giving the index of its word among the words read
 // (the number of reading lanes below it); 0 for lanes that read nothing.

@@ -8,6 +8,10 @@
 namespace plx::ptm::detail::PLX_ISA_NS {
 
 LevelCheck decodeLevel(const LevelStreams& s, const ByteImage& lower, ByteImage& level) {
+    // One 32-bit entry per slot; the walker's contexts are table indices. A valid table's
+    // frequencies sum to kRansTotal, so every entry is written.
+    for (size_t t = 0; t < s.freqs.size(); ++t)
+        buildSimdTable(s.freqs[t], s.entries + t * kRansTotal);
     DecodeIO io(s.entries, *s.familyTables, s.storedStates, s.rans, s.ransEnd,
                 BitReader(s.ransEnd, s.bitsEnd));
     io.shapeEighths = s.shapeEighths;

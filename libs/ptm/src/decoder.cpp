@@ -118,13 +118,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     if (ransBytes < minBytes || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
         return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
     if (lowest) return decodeLowest(p, p + ransBytes, end, freqs, ctxToTable, img);
-    // One 32-bit entry per slot (16 KB per table); the walker's contexts are table indices.
-    // buildSimdTable writes every entry (a valid table's frequencies sum to kRansTotal).
-    uint32_t* entries = simdTableBuffer(tables * detail::kRansTotal);
-    for (size_t t = 0; t < tables; ++t)
-        detail::buildSimdTable(freqs[t], entries + t * detail::kRansTotal);
     detail::LevelStreams streams;
-    streams.entries = entries;
+    streams.entries = simdTableBuffer(tables * detail::kRansTotal);  // 16 KB per table
     streams.familyTables = &familyTables;
     streams.freqs = freqs;
     streams.shapeEighths = shapeEighths;

@@ -16,11 +16,11 @@
 
 namespace plx::ptm::detail {
 
-// What the decoder needs of a group k >= 1 beyond its level: the decode tables (one of
-// kRansTotal entries per table, buildSimdTable), per family {first table, g} of the context
-// map, the group's frequency tables, its shape weight, and its two streams.
+// What the decoder needs of a group k >= 1 beyond its level: a buffer for its decode tables
+// (kRansTotal entries per table, which decodeLevel fills), per family {first table, g} of the
+// context map, the group's frequency tables, its shape weight, and its two streams.
 struct LevelStreams {
-    const uint32_t* entries = nullptr;
+    uint32_t* entries = nullptr;
     const std::array<std::array<int, 2>, 16>* familyTables = nullptr;
     std::span<const std::array<uint16_t, kTokenCount>> freqs;
     int shapeEighths = 0;

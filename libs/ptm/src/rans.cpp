@@ -151,19 +151,6 @@ std::vector<uint8_t> ransEncode(std::span<const CodedSymbol> symbols,
     return out;
 }
 
-void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries) {
-    uint32_t cum = 0;
-    for (int s = 0; s < kTokenCount; ++s) {
-        const uint32_t f = freq[size_t(s)];
-        const uint32_t head = f | uint32_t(s) << kEntryTokenShift;
-        uint32_t* e = entries + cum;  // a valid table has cum + f <= kRansTotal (readTable)
-        for (uint32_t i = 0; i < f; ++i) e[i] = head | i << kEntryBiasShift;
-        cum += f;
-    }
-    if (cum == 0)  // empty table: token 0 everywhere, the state unchanged
-        for (uint32_t i = 0; i < kRansTotal; ++i) entries[i] = kRansTotal | i << kEntryBiasShift;
-}
-
 std::vector<uint8_t> ransEncodeLanes(std::span<const LaneSymbol> symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
                                      const std::vector<uint16_t>& ctxToTable, int stored) {

@@ -118,10 +118,6 @@ inline constexpr uint32_t kEntryFreqMask = 0x1FFF;
 inline constexpr int kEntryBiasShift = 13;
 inline constexpr int kEntryTokenShift = 27;
 
-// Fills the kRansTotal entries of one table from freq (sum kRansTotal, or all zero: then every
-// slot decodes token 0 with frequency kRansTotal, which keeps the state and is caught by the
-// final state check).
-void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries);
 
 // One symbol of a group k >= 1 as the encoder collects them: context, token and rANS state.
 struct LaneSymbol {

@@ -406,7 +406,8 @@ unsigned finishFullRow(LevelRows& R, int lw, int full, int c) {
 #if defined(__AVX2__)
     if constexpr (kFast) start = finishFullRowVec<W>(R, lw, full, c, bad);
 #endif
-    PLX_PTM_IVDEP
+    // No ivdep here: `bad` is a reduction, and GCC 12 vectorised this loop wrongly under ivdep
+    // in the scalar ISA of the sanitizer build (valid levels failed the range check).
     for (int bx = start; bx < full; ++bx) {
         const int ep = ze[bx];
         const int last = 4 * m[bx] + ep - v0[bx] - v1[bx] - v2[bx];  // eq. (3)

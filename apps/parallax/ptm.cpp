@@ -16,11 +16,9 @@ struct PtmArgs {
     std::string against;
     int level = -1;
     int lowest = 1;
-    int zstdLevel = 9;
     bool raw = false;
-    bool zstd = false;
-    int coder = -1;  // --coder, overrides --raw / --zstd
-    int shapeEighths = -1;  // --shape-eighths (coder 6)
+    std::string coder;      // --coder name, overrides --raw
+    int shapeEighths = -1;  // --shape-eighths (coder rans)
     bool json = false;
 };
 
@@ -29,12 +27,9 @@ int runEncode(const PtmArgs& a) {
     if (!image) return fail(image.status());
     ptm::EncodeConfig cfg;
     cfg.lowestMaxSide = a.lowest;
-    cfg.zstdLevel = a.zstdLevel;
     cfg.shapeEighths = a.shapeEighths;
-    cfg.coder = a.coder >= 0 ? ptm::Coder(a.coder)
-                : a.raw      ? ptm::Coder::kRaw
-                : a.zstd     ? ptm::Coder::kPredictZstd
-                             : ptm::EncodeConfig{}.coder;
+    cfg.coder = a.raw || a.coder == ptm::coderName(ptm::Coder::kRaw) ? ptm::Coder::kRaw
+                                                                     : ptm::Coder::kRans;
     Stopwatch watch;
     auto file = ptm::encode(*image, cfg);
     if (!file) return fail(file.status());
@@ -91,8 +86,8 @@ int runInfo(const PtmArgs& a) {
         nlohmann::json level = {{"level", k},         {"width", s.width},
                                 {"height", s.height}, {"offset", r.offset},
                                 {"bytes", r.size},    {"ratio", double(levelRaw) / double(r.size)}};
-        // Coder 6: how the encoder coded the group (its mode byte), when the file holds it.
-        if (h->coder == ptm::Coder::kPredictCrossRansSimd && r.offset < bytes->size()) {
+        // Coder rans: how the encoder coded the group (its mode byte), when the file holds it.
+        if (h->coder == ptm::Coder::kRans && r.offset < bytes->size()) {
             const uint8_t mode = (*bytes)[r.offset];
             level["stored"] = mode == ptm::kStoredGroupMode;
             if (mode != ptm::kStoredGroupMode && k > 0) level["shape_eighths"] = int(mode);
@@ -169,21 +164,16 @@ Command registerPtm(CLI::App& app) {
     enc->add_option("-o,--output", args->output, "Output .ptm file")->required();
     enc->add_option("--lowest", args->lowest, "Largest side of the smallest stored level")
         ->check(CLI::Range(1, 1 << 15));
-    enc->add_option("--zstd-level", args->zstdLevel, "zstd level 1..22 (with --zstd)")
-        ->check(CLI::Range(1, 22));
     auto* rawFlag =
         enc->add_flag("--raw", args->raw, "Store the planes uncompressed (the paper's layout)");
-    auto* zstdFlag = enc->add_flag("--zstd", args->zstd, "Coder 1, predict+zstd (default: coder 6)")
-                         ->excludes(rawFlag);
     enc->add_option("--coder", args->coder,
-                    "Coder id: 0 raw, 1 predict+zstd, 2 predict+rans, 3 predict+rans-fast, "
-                    "4 predict+rans-simd, 5 predict-above+rans-simd, 6 predict-cross+rans-simd "
-                    "(default 6)")
-        ->check(CLI::Range(0, int(ptm::kLastCoder)))
-        ->excludes(rawFlag)
-        ->excludes(zstdFlag);
+                    "rans (the default: context-modelled, 32 rANS states) or raw (uncompressed, "
+                    "for debugging)")
+        ->check(CLI::IsMember({ptm::coderName(ptm::Coder::kRans),
+                               ptm::coderName(ptm::Coder::kRaw)}))
+        ->excludes(rawFlag);
     enc->add_option("--shape-eighths", args->shapeEighths,
-                    "Coder 6: weight of the detail above in the upper pixels' shapes, 0..4 "
+                    "Coder rans: weight of the detail above in the upper pixels' shapes, 0..4 "
                     "eighths, for every level (default: tried per level, about 3x slower)")
         ->check(CLI::Range(0, ptm::kMaxShapeEighths));
     enc->add_flag("--json", args->json, "Machine-readable output on stdout");

@@ -41,7 +41,7 @@ TEST(PtmCli, EncodeInfoDecodeVerify) {
     RunResult info = runParallax("ptm info " + ptm.string() + " --json");
     ASSERT_EQ(info.exitCode, 0) << info.err;
     const auto doc = nlohmann::json::parse(info.out);
-    EXPECT_EQ(doc["coder"], "predict-cross+rans-simd");
+    EXPECT_EQ(doc["coder"], "rans");
     EXPECT_EQ(doc["levels"].get<int>(), 7);
     EXPECT_TRUE(doc["file_complete"].get<bool>());
     // Level groups smallest first, contiguous, ending at the end of the file.
@@ -52,7 +52,7 @@ TEST(PtmCli, EncodeInfoDecodeVerify) {
     }
     EXPECT_EQ(next, fs::file_size(ptm));
     EXPECT_EQ(doc["level_groups"][6]["width"].get<int>(), 37);
-    // Coder 6 says how each group was coded: the 1x1 level is always stored (3 bytes against
+    // Coder rans says how each group was coded: the 1x1 level is always stored (3 bytes against
     // a modelled group's tables), a modelled level k >= 1 names its shape weight.
     EXPECT_TRUE(doc["level_groups"][0]["stored"].get<bool>());
     for (const auto& g : doc["level_groups"]) {
@@ -89,7 +89,7 @@ TEST(PtmCli, EveryCoderAndShapeWeightRoundTrips) {
         RunResult v = runParallax("ptm verify " + ptm.string() + " --against " + png.string());
         EXPECT_EQ(v.exitCode, 0) << option << ": " << v.err;
     };
-    for (int coder = 0; coder <= 6; ++coder) roundTrips("--coder " + std::to_string(coder));
+    for (const char* option : {"--coder rans", "--coder raw", "--raw"}) roundTrips(option);
     for (int w = 0; w <= 4; ++w) roundTrips("--shape-eighths " + std::to_string(w));
 }
 
@@ -129,7 +129,21 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
                        "does not decode to");
     expectOneLineError(runParallax("ptm decode " + ptm.string() + " --level 7 -o " + out.string()),
                        "--level 7 outside 0..6", 2);
-    EXPECT_EQ(runParallax("ptm encode " + png.string() + " -o x.ptm --coder 7").exitCode, 2);
+    // Version 1's other coders are gone: by name or number, a usage error that names the
+    // option and the coders left (CLI11's usage errors add a "Run with --help" line).
+    for (const char* removed : {"6", "zstd", "predict+zstd", "predict-cross+rans-simd"}) {
+        RunResult r = runParallax("ptm encode " + png.string() + " -o x.ptm --coder " + removed);
+        EXPECT_EQ(r.exitCode, 2) << removed;
+        EXPECT_EQ(r.err.find("--coder: " + std::string(removed) + " not in {rans,raw}"), 0u)
+            << r.err;
+    }
+    RunResult zstd = runParallax("ptm encode " + png.string() + " -o x.ptm --zstd");
+    EXPECT_EQ(zstd.exitCode, 2);
+    EXPECT_NE(zstd.err.find("--zstd"), std::string::npos) << zstd.err;
+    // A version 1 file: one line that names the version and says to re-encode.
+    const std::string v1 = std::string(PLX_SOURCE_DIR) + "/tests/golden/ptm/v1_rgb_70x9.ptm";
+    for (const char* command : {"ptm info ", "ptm verify "})
+        expectOneLineError(runParallax(command + v1), "version 1 is no longer supported");
     EXPECT_EQ(runParallax("ptm encode " + png.string() + " -o x.ptm --shape-eighths 5").exitCode,
               2);
 }

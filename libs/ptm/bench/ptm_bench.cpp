@@ -2,12 +2,12 @@
 //   plx_ptm_bench sizes [--cache CSV] FILES...
 //                                  size table: raw mip chain, PNG (libpng 9), optipng -o2 PNG,
 //                                  WebP lossless, JPEG XL lossless e7, PTM, residual overhead
-//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=0..6) next to libpng decode
-//   plx_ptm_bench coderab FILES...  two coders (PLX_AB="5,6"): sizes, decode MB/s, libpng
+//   plx_ptm_bench ptmspeed FILES... PTM alone (PLX_PTM_CODER=rans|raw) next to libpng decode
 //   plx_ptm_bench ptmdecode FILES.. encode once (or read .ptm files), decode 20 times
 //                                  (PLX_PTM_REPS=N): best MB/s;
 //                                  for profilers and alternated runs of two builds
 //   plx_ptm_bench speed FILES...   single-thread encode/decode MB/s of decoded base pixels
+// The PTM kernels take the widest SIMD path the CPU has; PLX_FORCE_ISA=scalar|avx2|avx512 caps it.
 // Peers (libwebp, libjxl, optipng) are used here only, never by the library.
 
 #include <algorithm>
@@ -24,6 +24,7 @@
 #include <webp/decode.h>
 #include <webp/encode.h>
 
+#include <plx/core/cpu.h>
 #include <plx/core/image_io.h>
 #include <plx/core/timing.h>
 #include <plx/ptm/ptm.h>
@@ -32,10 +33,12 @@ namespace {
 
 using plx::ByteImage;
 
-// The coder of the "PTM" columns: PLX_PTM_CODER=0..6, else the library default.
+// The coder of the "PTM" columns: PLX_PTM_CODER=raw, else the library default.
 plx::ptm::EncodeConfig ptmConfig() {
     plx::ptm::EncodeConfig cfg;
-    if (const char* c = std::getenv("PLX_PTM_CODER")) cfg.coder = plx::ptm::Coder(std::atoi(c));
+    const char* c = std::getenv("PLX_PTM_CODER");
+    if (c && std::string(c) == plx::ptm::coderName(plx::ptm::Coder::kRaw))
+        cfg.coder = plx::ptm::Coder::kRaw;
     return cfg;
 }
 
@@ -192,10 +195,9 @@ int runSizes(std::vector<std::string> files) {
     std::map<std::string, PeerSizes> cache = loadCache(cachePath);
     struct Totals {
         double raw = 0, chain = 0, png = 0, opti = 0, webp = 0, jxl = 0, ptm = 0, ptmRaw = 0;
-        double ptmZstd = 0;
     } t;
     std::printf("file,w,h,c,raw,mip_chain,png9,optipng_o2,webp_ll,jxl_ll_e7,ptm,ptm_raw_coder,"
-                "ptm_vs_optipng,ptm_zstd\n");
+                "ptm_vs_optipng\n");
     int count = 0;
     for (const auto& f : files) {
         auto img = plx::readImage(f);
@@ -230,21 +232,17 @@ int runSizes(std::vector<std::string> files) {
             std::fprintf(stderr, "%s: PTM round trip FAILED %s\n", f.c_str(), back ? "mismatch" : back.status().toString().c_str());
             return 1;
         }
-        plx::ptm::EncodeConfig zstdCfg;
-        zstdCfg.coder = plx::ptm::Coder::kPredictZstd;
-        const size_t ptmZstd = std::getenv("PLX_BENCH_NO_ZSTD") ? 0 : plx::ptm::encode(*img, zstdCfg)->size();
         plx::ptm::EncodeConfig rawCfg;
         rawCfg.coder = plx::ptm::Coder::kRaw;
         const size_t ptmRaw = plx::ptm::encode(*img, rawCfg)->size();
-        std::printf("%s,%d,%d,%d,%.0f,%.0f,%zu,%zu,%zu,%zu,%zu,%zu,%.4f,%zu\n",
+        std::printf("%s,%d,%d,%d,%.0f,%.0f,%zu,%zu,%zu,%zu,%zu,%zu,%.4f\n",
                     std::filesystem::path(f).filename().c_str(), img->width, img->height,
                     img->channels, raw, chain, peers.png, opti, webp, jxl, ptm, ptmRaw,
-                    double(ptm) / double(opti), ptmZstd);
+                    double(ptm) / double(opti));
         std::fflush(stdout);
         t.raw += raw, t.chain += chain, t.png += double(peers.png), t.opti += double(opti);
         t.webp += double(webp), t.jxl += double(jxl), t.ptm += double(ptm);
         t.ptmRaw += double(ptmRaw);
-        t.ptmZstd += double(ptmZstd);
     }
     const double o = t.opti;
     std::printf("\n%d images. Totals in bytes (ratio to optipng -o2 PNG of the base level):\n",
@@ -260,10 +258,8 @@ int runSizes(std::vector<std::string> files) {
     row("PNG (optipng -o2)", t.opti);
     row("WebP lossless", t.webp);
     row("JPEG XL lossless e7", t.jxl);
-    row("PTM predict+zstd (coder 1, all levels)", t.ptmZstd);
-    const std::string ptmName = std::string("PTM ") + plx::ptm::coderName(ptmConfig().coder) +
-                                " (coder " + std::to_string(int(ptmConfig().coder)) +
-                                ", all levels)";
+    const std::string ptmName =
+        std::string("PTM coder ") + plx::ptm::coderName(ptmConfig().coder) + " (all levels)";
     row(ptmName.c_str(), t.ptm);
     std::printf("\nuncompressed residual overhead (raw-coder PTM / raw base - 1): %.2f%%\n",
                 100.0 * (t.ptmRaw / t.raw - 1.0));
@@ -294,33 +290,13 @@ double bestCpuMs(int reps, F&& f) {
     return best;
 }
 
-// The PTM rows of the speed table: row, coder, best-of-N repetitions for encode and decode.
-struct PtmColumn {
-    int row;
-    plx::ptm::Coder coder;
-    int encodeReps, decodeReps;
-};
-constexpr PtmColumn kPtmColumns[] = {{0, plx::ptm::Coder::kPredictRansFast, 3, 9},
-                                     {1, plx::ptm::Coder::kPredictRans, 1, 5},
-                                     {2, plx::ptm::Coder::kPredictZstd, 1, 5},
-                                     {6, plx::ptm::Coder::kPredictRansSimd, 3, 9},
-                                     {7, plx::ptm::Coder::kPredictAboveRansSimd, 3, 9},
-                                     {8, plx::ptm::Coder::kPredictCrossRansSimd, 3, 9}};
-
 int runSpeed(const std::vector<std::string>& files) {
     // Sums over the files of best-of-N times; MB/s = decoded base-level bytes / time, one thread.
     double mb = 0;
-    constexpr int kCodecs = 9;
+    constexpr int kCodecs = 4;
     double enc[kCodecs] = {}, dec[kCodecs] = {};
-    const char* names[kCodecs] = {"PTM predict+rans-fast (coder 3)",
-                                  "PTM predict+rans (coder 2)",
-                                  "PTM predict+zstd (coder 1, zstd 9)",
-                                  "PNG (libpng 9)",
-                                  "WebP lossless",
-                                  "JPEG XL lossless e7",
-                                  "PTM predict+rans-simd (coder 4)",
-                                  "PTM predict-above+rans-simd (coder 5)",
-                                  "PTM predict-cross+rans-simd (coder 6, default)"};
+    const char* names[kCodecs] = {"PTM coder rans (default)", "PNG (libpng 9)", "WebP lossless",
+                                  "JPEG XL lossless e7"};
     for (const auto& f : files) {
         auto img = plx::readImage(f);
         if (!img) continue;
@@ -328,28 +304,22 @@ int runSpeed(const std::vector<std::string>& files) {
         mb += double(img->bytes.size()) / 1e6;
         // Decode times are process CPU time (best of N), so that other work on a shared
         // machine counts less; all codecs are measured in the same run.
-        for (const PtmColumn& col : kPtmColumns) {
-            plx::ptm::EncodeConfig cfg;
-            cfg.coder = col.coder;
-            std::vector<uint8_t> file;
-            enc[col.row] += bestMs(col.encodeReps, [&] { file = *plx::ptm::encode(*img, cfg); });
-            dec[col.row] +=
-                bestCpuMs(col.decodeReps, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
-        }
-        std::vector<uint8_t> png, webp, jxl, px;
-        enc[3] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
-        enc[4] += bestMs(1, [&] { webp = webpEncode(peer); });
-        enc[5] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
-        dec[3] += bestCpuMs(9, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
-        dec[4] += bestCpuMs(5, [&] { PLX_CHECK(webpDecode(webp, peer.channels)); });
-        dec[5] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
+        std::vector<uint8_t> file, png, webp, jxl, px;
+        enc[0] += bestMs(3, [&] { file = *plx::ptm::encode(*img); });
+        dec[0] += bestCpuMs(9, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
+        enc[1] += bestMs(1, [&] { png = *plx::encodePng(*img, 9); });
+        enc[2] += bestMs(1, [&] { webp = webpEncode(peer); });
+        enc[3] += bestMs(1, [&] { jxl = jxlEncode(peer, 7); });
+        dec[1] += bestCpuMs(9, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
+        dec[2] += bestCpuMs(5, [&] { PLX_CHECK(webpDecode(webp, peer.channels)); });
+        dec[3] += bestCpuMs(3, [&] { PLX_CHECK(jxlDecode(jxl, peer.channels, px)); });
     }
     std::printf("%.1f MB of base-level pixels, single thread\n", mb);
     std::printf("| codec | encode MB/s | decode MB/s (CPU time) | decode vs libpng |\n"
                 "| --- | ---: | ---: | ---: |\n");
     for (int i = 0; i < kCodecs; ++i)
         std::printf("| %s | %.1f | %.1f | %.2f |\n", names[i], mb / (enc[i] / 1e3),
-                    mb / (dec[i] / 1e3), dec[3] / dec[i]);
+                    mb / (dec[i] / 1e3), dec[1] / dec[i]);
     return 0;
 }
 
@@ -369,54 +339,11 @@ int runPtmSpeed(const std::vector<std::string>& files) {
         const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
         pngCpuMs += bestCpuMs(5, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
     }
-    std::printf("PTM coder %d: %.1f MB, %.0f PTM bytes, encode %.1f MB/s, decode %.1f MB/s (one "
+    std::printf("PTM coder %s: %.1f MB, %.0f PTM bytes, encode %.1f MB/s, decode %.1f MB/s (one "
                 "thread)\n",
-                int(ptmConfig().coder), mb, ptmBytes, mb / (encMs / 1e3), mb / (decMs / 1e3));
+                plx::ptm::coderName(ptmConfig().coder), mb, ptmBytes, mb / (encMs / 1e3), mb / (decMs / 1e3));
     std::printf("CPU time: PTM decode %.1f MB/s, libpng decode %.1f MB/s, ratio %.2f\n",
                 mb / (decCpuMs / 1e3), mb / (pngCpuMs / 1e3), pngCpuMs / decCpuMs);
-    return 0;
-}
-
-// Two coders on the same images (PLX_AB="A,B", default "5,6"): sizes and best-of-N CPU decode
-// times, the two decoders alternated so that load on a shared machine hits both alike; libpng
-// in the same run.
-int runCoderAB(const std::vector<std::string>& files) {
-    int ids[2] = {5, 6};
-    if (const char* ab = std::getenv("PLX_AB")) std::sscanf(ab, "%d,%d", &ids[0], &ids[1]);
-    for (int& id : ids) id = std::clamp(id, 0, int(plx::ptm::kLastCoder));
-    double mb = 0, bytesA = 0, bytesB = 0, msA = 0, msB = 0, pngMs = 0;
-    for (const auto& f : files) {
-        auto img = plx::readImage(f);
-        if (!img) continue;
-        mb += double(img->bytes.size()) / 1e6;
-        plx::ptm::EncodeConfig cA, cB;
-        cA.coder = plx::ptm::Coder(ids[0]);
-        cB.coder = plx::ptm::Coder(ids[1]);
-        const std::vector<uint8_t> fA = *plx::ptm::encode(*img, cA);
-        const std::vector<uint8_t> fB = *plx::ptm::encode(*img, cB);
-        PLX_CHECK(*plx::ptm::decodeImage(fA) == *img && *plx::ptm::decodeImage(fB) == *img);
-        bytesA += double(fA.size());
-        bytesB += double(fB.size());
-        const std::vector<uint8_t> png = *plx::encodePng(*img, 6);
-        double bestA = 1e30, bestB = 1e30;
-        for (int i = 0; i < 5; ++i) {
-            auto decode = [](const std::vector<uint8_t>& file) {
-                return [&file] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); };
-            };
-            bestA = std::min(bestA, bestCpuMs(2, decode(fA)));
-            bestB = std::min(bestB, bestCpuMs(2, decode(fB)));
-        }
-        msA += bestA;
-        msB += bestB;
-        pngMs += bestCpuMs(7, [&] { PLX_CHECK(plx::decodeImage(png).isOk()); });
-    }
-    std::printf("%.1f MB of base pixels; bytes: coder %d %.0f, coder %d %.0f (%.4fx)\n", mb, ids[0],
-                bytesA, ids[1], bytesB, bytesB / bytesA);
-    std::printf(
-        "decode MB/s (CPU time): coder %d %.1f, coder %d %.1f (%.2fx), libpng %.1f; vs "
-        "libpng: %.2f, %.2f\n",
-        ids[0], mb / (msA / 1e3), ids[1], mb / (msB / 1e3), msA / msB, mb / (pngMs / 1e3),
-        pngMs / msA, pngMs / msB);
     return 0;
 }
 
@@ -432,7 +359,6 @@ int main(int argc, char** argv) {
     if (mode == "sizes") return runSizes(files);
     if (mode == "speed") return runSpeed(files);
     if (mode == "ptmspeed") return runPtmSpeed(files);
-    if (mode == "coderab") return runCoderAB(files);
     if (mode == "ptmdecode") {  // for profilers: encode once, decode 20 (PLX_PTM_REPS) times
         const char* repsEnv = std::getenv("PLX_PTM_REPS");
         const int reps = repsEnv ? std::max(1, std::atoi(repsEnv)) : 20;
@@ -459,7 +385,8 @@ int main(int argc, char** argv) {
         double bestMs = 0;
         for (const auto& file : ptms)
             bestMs += bestCpuMs(reps, [&] { PLX_CHECK(plx::ptm::decodeImage(file).isOk()); });
-        std::printf("decode: %.1f MB/s (CPU time, best of %d per file)\n", mb / bestMs * 1e3, reps);
+        std::printf("decode: %.1f MB/s (CPU time, best of %d per file, %s path)\n",
+                    mb / bestMs * 1e3, reps, std::string(plx::isaName(plx::activeIsa())).c_str());
         return 0;
     }
     std::fprintf(stderr, "unknown mode '%s'\n", mode.c_str());

@@ -2,14 +2,12 @@
 #include <memory>
 
 #include <fmt/format.h>
-#include <zstd.h>
 
 #include <plx/ptm/decoder.h>
 
-#include "codec.h"
-#include "ctx_codec.h"
-#include "fast_codec.h"
-#include "simd_codec.h"
+#include "kernels.h"
+#include "lowest.h"
+#include "raw_layout.h"
 
 static_assert(std::endian::native == std::endian::little, "the bit reader assumes little-endian");
 
@@ -27,32 +25,11 @@ ByteImage levelImage(LevelSize size, int comps) {
     return img;
 }
 
-// Decompresses one zstd frame that must fill `out` exactly and use every input byte.
-Status unzstd(std::span<const uint8_t> in, std::span<uint8_t> out, int k) {
-    const unsigned long long declared = ZSTD_getFrameContentSize(in.data(), in.size());
-    if (declared == ZSTD_CONTENTSIZE_ERROR || declared == ZSTD_CONTENTSIZE_UNKNOWN)
-        return corrupt(fmt::format("level {}: payload is not a zstd frame with a size", k));
-    if (declared != out.size())
-        return corrupt(fmt::format("level {}: payload declares {} bytes, the level needs {}", k,
-                                   declared, out.size()));
-    const size_t frame = ZSTD_findFrameCompressedSize(in.data(), in.size());
-    if (ZSTD_isError(frame) || frame != in.size())
-        return corrupt(fmt::format("level {}: zstd frame does not span the group", k));
-    const size_t got = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
-    if (ZSTD_isError(got) || got != out.size())
-        return corrupt(fmt::format("level {}: zstd: {}", k,
-                                   ZSTD_isError(got) ? ZSTD_getErrorName(got) : "short payload"));
-    return Status::ok();
-}
-
-// The decode tables of coders 4 to 6 (one 16 KB table per context table of the group, up to
+// The decode tables of groups k >= 1 (one 16 KB table per context table of the group, up to
 // 16 families x 16 tables = 4 MB): a buffer per thread, kept between groups and files and grown
-// to the largest group seen. A fresh 2.5 MB block per group (an RGB level's 156 tables) costs
-// its page faults on every group once the allocator has handed it back to the system: decoding
-// the four speed-table textures from .ptm files in a fresh process ran at 135.8 / 133.9 MB/s
-// (two cores) with it and at 293.1 / 273.7 MB/s with this buffer (docs/ptm-results.md, "Coder 6
-// decode on AVX-512"). The old block is freed before the larger one is taken, so the peak stays
-// one buffer.
+// to the largest group seen, because a fresh block per group costs its page faults on every
+// group once the allocator has handed it back to the system (docs/ptm-format.md, "Decoder").
+// The old block is freed before the larger one is taken, so the peak stays one buffer.
 uint32_t* simdTableBuffer(size_t entries) {
     thread_local std::unique_ptr<uint32_t[]> buffer;
     thread_local size_t capacity = 0;
@@ -64,60 +41,58 @@ uint32_t* simdTableBuffer(size_t entries) {
     return buffer.get();
 }
 
-// Coders 3 to 6, group k >= 1: runtime component count to the walker's template argument.
-template <class IO>
-bool decodeLevelFast(int comps, const ByteImage& low, ByteImage& img, IO& io) {
-    uint8_t* px = img.bytes.data();
-    switch (comps) {
-    case 1: return detail::walkLevelFast<1>(low, px, img.width, img.height, io);
-    case 2: return detail::walkLevelFast<2>(low, px, img.width, img.height, io);
-    case 3: return detail::walkLevelFast<3>(low, px, img.width, img.height, io);
-    default: return detail::walkLevelFast<4>(low, px, img.width, img.height, io);
-    }
+Status badPixel(int k) {
+    return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out of "
+                               "range", k));
 }
 
-// The end of a coder 3 to 6 group: the walker's result, then the streams' ends.
-template <class IO>
-Status finishFast(bool walked, const IO& io, size_t extraBytes, int k) {
-    if (!walked)
-        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
-                                   "of range", k));
-    if (!io.finishedCleanly())
+// The checks at the end of a modelled group, as messages.
+Status levelStatus(detail::LevelCheck check, int k) {
+    switch (check) {
+    case detail::LevelCheck::kOk: return Status::ok();
+    case detail::LevelCheck::kBadPixel: return badPixel(k);
+    case detail::LevelCheck::kRansUnclean:
         return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
-    if (!io.bits.exact(extraBytes))
+    case detail::LevelCheck::kExtraBitsMismatch:
         return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
+    }
+    return corrupt(fmt::format("level {}: unknown decode result", k));
+}
+
+// Group 0 after its mode byte: the smallest level by two rANS states (lowest.h).
+Status decodeLowest(const uint8_t* p, const uint8_t* ransEnd, const uint8_t* end,
+                    const std::vector<std::array<uint16_t, detail::kTokenCount>>& freqs,
+                    const std::vector<uint16_t>& ctxToTable, ByteImage& img) {
+    auto decodeTables = std::make_unique<detail::DecodeTable[]>(freqs.size());
+    for (size_t t = 0; t < freqs.size(); ++t) detail::buildDecodeTable(freqs[t], decodeTables[t]);
+    detail::LowestDecodeIO io{decodeTables.get(), ctxToTable.data(),
+                              detail::RansDecoder(p, ransEnd), detail::BitReader(ransEnd, end)};
+    detail::walkLowest(img.bytes.data(), img.width, img.height, img.channels, io);
+    if (!io.rans.finishedCleanly()) return levelStatus(detail::LevelCheck::kRansUnclean, 0);
+    if (!io.bits.exact(size_t(end - ransEnd)))
+        return levelStatus(detail::LevelCheck::kExtraBitsMismatch, 0);
     return Status::ok();
 }
 
-// Coder 2 to 6 groups (docs/ptm-format.md): (coder 6: the mode byte, here 0..4,) family table
-// counts, tables, rANS stream, extra bits.
-Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k,
-                       Coder coder) {
+// A modelled group (docs/ptm-format.md, "Level groups"): the mode byte (here 0..4), family
+// table counts, tables, rANS stream, extra bits. Group 0 by two rANS states, the others by the
+// level walker of the active ISA.
+Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k) {
     const bool lowest = k == 0;
-    const bool cross = coder == Coder::kPredictCrossRansSimd;
-    // coders 4 to 6
-    const bool simd = uint8_t(coder) >= uint8_t(Coder::kPredictRansSimd) && !lowest;
-    // group 0 of coders 3 to 6 is coder 2's
-    const bool fast = coder == Coder::kPredictRansFast && !lowest;
     const uint8_t* p = in.data();
     const uint8_t* end = in.data() + in.size();
-    detail::WalkModels models;
-    if (coder == Coder::kPredictAboveRansSimd) models = detail::kCoder5Models;
-    if (cross) {  // the mode byte (a stored group's never reaches here)
-        if (p == end) return corrupt(fmt::format("level {}: truncated before the mode byte", k));
-        const int w = *p++;
-        const int most = lowest ? 0 : kMaxShapeEighths;
-        if (w > most)
-            return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, w, most));
-        models = {true, true, w};
-    }
+    if (p == end) return corrupt(fmt::format("level {}: truncated before the mode byte", k));
+    const int shapeEighths = *p++;
+    const int most = lowest ? 0 : kMaxShapeEighths;
+    if (shapeEighths > most)
+        return corrupt(fmt::format("level {}: shape weight {} outside 0..{}", k, shapeEighths,
+                                   most));
     std::vector<uint16_t> ctxToTable(detail::kMaxRawContexts, 0);
     std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
     const int families = detail::familyCount(img.channels, lowest);
     if (end - p < families) return corrupt(fmt::format("level {}: truncated context map", k));
     size_t tables = 0;
-    // Coders 4 to 6: {first table, g} per family.
-    std::array<std::array<int, 2>, 16> familyTables{};
+    std::array<std::array<int, 2>, 16> familyTables{};  // {first table, g} per family
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -125,7 +100,8 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
         if (g < 1 || g > raw || raw % g != 0)
             return corrupt(fmt::format("level {}: bad table count {} in the context map", k, g));
         for (int q = 0; q < raw; ++q)
-            ctxToTable[size_t(f * detail::kFamilyContexts + q)] = uint16_t(tables + size_t(q * g / raw));
+            ctxToTable[size_t(f * detail::kFamilyContexts + q)] =
+                uint16_t(tables + size_t(q * g / raw));
         familyTables[size_t(f)] = {int(tables), g};
         tables += size_t(g);
     }
@@ -137,52 +113,41 @@ Status decodeGroupRans(std::span<const uint8_t> in, const ByteImage* low, ByteIm
     const uint32_t ransBytes =
         uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
     p += 4;
-    const int simdStates = detail::simdStoredStates(img.channels, img.width);
-    const uint32_t minBytes = simd ? 4 * uint32_t(simdStates) : fast ? 4 * detail::kFastStates : 8;
+    const int storedStates = detail::simdStoredStates(img.channels, img.width);
+    const uint32_t minBytes = lowest ? 8 : 4 * uint32_t(storedStates);
     if (ransBytes < minBytes || ransBytes > size_t(end - p) || ransBytes % 2 != 0)
         return corrupt(fmt::format("level {}: rANS stream length {} out of range", k, ransBytes));
-    const size_t extraBytes = size_t(end - p) - ransBytes;
-    if (simd) {
-        // One 32-bit entry per slot (16 KB per table); the walker's contexts are table indices.
-        // buildSimdTable writes every entry (a valid table's frequencies sum to kRansTotal).
-        uint32_t* entries = simdTableBuffer(tables * detail::kRansTotal);
-        for (size_t t = 0; t < tables; ++t)
-            detail::buildSimdTable(freqs[t], entries + t * detail::kRansTotal);
-        detail::SimdDecodeIO io(entries, familyTables, simdStates, p, p + ransBytes,
-                                detail::BitReader(p + ransBytes, end));
-        io.models = models;
-        if (cross) io.buildSmallAlphabets(freqs, familyTables, img.channels);
-        const bool walked = decodeLevelFast(img.channels, *low, img, io);
-        return finishFast(walked, io, extraBytes, k);
+    if (lowest) return decodeLowest(p, p + ransBytes, end, freqs, ctxToTable, img);
+    detail::LevelStreams streams;
+    streams.entries = simdTableBuffer(tables * detail::kRansTotal);  // 16 KB per table
+    streams.familyTables = &familyTables;
+    streams.freqs = freqs;
+    streams.shapeEighths = shapeEighths;
+    streams.storedStates = storedStates;
+    streams.rans = p;
+    streams.ransEnd = p + ransBytes;
+    streams.bitsEnd = end;
+    using namespace detail;
+    return levelStatus(PLX_ISA_PICK(decodeLevel)(streams, *low, img), k);
+}
+
+// A raw group (coder kRaw, or a stored group): the planes of raw_layout.h.
+Status decodeGroupRaw(std::span<const uint8_t> in, const ByteImage* low, ByteImage& img, int k) {
+    const detail::GroupLayout layout =
+        detail::groupLayout({img.width, img.height}, img.channels, k == 0);
+    if (in.size() != layout.payloadBytes())
+        return corrupt(fmt::format("level {} raw group has {} bytes, needs {}", k, in.size(),
+                                   layout.payloadBytes()));
+    // The walker reads the planes through a mutable pointer (it also encodes).
+    uint8_t* payload = const_cast<uint8_t*>(in.data());
+    if (k == 0) {
+        detail::walkRawLowest<false>(img.bytes.data(), img.width, img.height, img.channels,
+                                     payload);
+        return Status::ok();
     }
-    if (fast) {
-        auto fastTables = std::make_unique<detail::FastTable[]>(tables);
-        for (size_t t = 0; t < tables; ++t) detail::buildFastTable(freqs[t], fastTables[t]);
-        std::vector<const detail::FastTable*> tableOf(detail::kMaxRawContexts);
-        for (size_t q = 0; q < tableOf.size(); ++q) tableOf[q] = &fastTables[ctxToTable[q]];
-        detail::FastDecodeIO io(tableOf.data(), p, p + ransBytes,
-                                detail::BitReader(p + ransBytes, end));
-        const bool walked = decodeLevelFast(img.channels, *low, img, io);
-        return finishFast(walked, io, extraBytes, k);
-    }
-    auto decodeTables = std::make_unique<detail::DecodeTable[]>(tables);
-    for (size_t t = 0; t < tables; ++t) detail::buildDecodeTable(freqs[t], decodeTables[t]);
-    detail::RansDecodeIO io{decodeTables.get(), ctxToTable.data(),
-                            detail::RansDecoder(p, p + ransBytes),
-                            detail::BitReader(p + ransBytes, end)};
-    bool ok = true;
-    if (lowest)
-        detail::walkLowestRans(img.bytes.data(), img.width, img.height, img.channels, io);
-    else
-        ok = detail::walkLevelRansAny(img.channels, *low, img.bytes.data(), img.width, img.height,
-                                      io);
-    if (!ok)
-        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
-                                   "of range", k));
-    if (!io.rans.finishedCleanly())
-        return corrupt(fmt::format("level {}: rANS stream does not end cleanly", k));
-    if (!io.bits.exact(extraBytes))
-        return corrupt(fmt::format("level {}: extra-bit stream length mismatch", k));
+    if (!detail::walkRawLevelAny<false>(img.channels, *low, img.bytes.data(), img.width,
+                                        img.height, payload))
+        return badPixel(k);
     return Status::ok();
 }
 
@@ -207,56 +172,16 @@ Status ProgressiveDecoder::addGroup(std::span<const uint8_t> groupBytes) {
         return corrupt(fmt::format("level {} group has {} bytes, the index says {}", k,
                                    groupBytes.size(), entry.size));
     if (crc32(groupBytes) != entry.crc32) return corrupt(fmt::format("level {} checksum mismatch", k));
-    const LevelSize size = mHeader.levelSize(k);
-    const int comps = mHeader.components;
-    Coder coder = mHeader.coder;
-    if (coder == Coder::kPredictCrossRansSimd && !groupBytes.empty() &&
-        groupBytes[0] == kStoredGroupMode) {  // coder 6: a stored group is coder 0's
-        coder = Coder::kRaw;
-        groupBytes = groupBytes.subspan(1);
-    }
-    if (uint8_t(coder) >= uint8_t(Coder::kPredictRans)) {  // coders 2 to 6
-        ByteImage img = levelImage(size, comps);
-        PLX_RETURN_IF_ERROR(
-            decodeGroupRans(groupBytes, k > 0 ? &mLevels.back() : nullptr, img, k, coder));
-        mLevels.push_back(std::move(img));
-        return Status::ok();
-    }
-    const detail::GroupLayout layout = detail::groupLayout(size, comps, k == 0);
-    const size_t payloadBytes = layout.payloadBytes();
-    std::span<uint8_t> payload;
-    if (coder == Coder::kRaw) {
-        if (groupBytes.size() != payloadBytes)
-            return corrupt(fmt::format("level {} raw group has {} bytes, needs {}", k,
-                                       groupBytes.size(), payloadBytes));
-        mScratch.assign(groupBytes.begin(), groupBytes.end());
+    ByteImage img = levelImage(mHeader.levelSize(k), mHeader.components);
+    const ByteImage* low = k > 0 ? &mLevels.back() : nullptr;
+    const bool stored = mHeader.coder == Coder::kRans && !groupBytes.empty() &&
+                        groupBytes[0] == kStoredGroupMode;
+    if (mHeader.coder == Coder::kRans && !stored) {
+        PLX_RETURN_IF_ERROR(decodeGroupRans(groupBytes, low, img, k));
     } else {
-        // A zstd frame cannot expand data by more than its block size ratio; a group claiming
-        // a payload over 1 GiB more than its own size is refused by the header limits anyway.
-        mScratch.resize(payloadBytes);
-        PLX_RETURN_IF_ERROR(unzstd(groupBytes, mScratch, k));
+        if (stored) groupBytes = groupBytes.subspan(1);  // coder kRaw's payload follows
+        PLX_RETURN_IF_ERROR(decodeGroupRaw(groupBytes, low, img, k));
     }
-    payload = mScratch;
-    ByteImage img = levelImage(size, comps);
-    const bool predict = coder == Coder::kPredictZstd;
-    bool ok = true;
-    if (k == 0) {
-        if (predict)
-            detail::walkLowest<true, false>(img.bytes.data(), size.width, size.height, comps,
-                                            payload.data());
-        else
-            detail::walkLowest<false, false>(img.bytes.data(), size.width, size.height, comps,
-                                             payload.data());
-    } else if (predict) {
-        ok = detail::walkLevelAny<true, false>(comps, mLevels.back(), img.bytes.data(),
-                                               size.width, size.height, payload.data());
-    } else {
-        ok = detail::walkLevelAny<false, false>(comps, mLevels.back(), img.bytes.data(),
-                                                size.width, size.height, payload.data());
-    }
-    if (!ok)
-        return corrupt(fmt::format("level {}: residual error or reconstructed pixel (eq. 3) out "
-                                   "of range", k));
     mLevels.push_back(std::move(img));
     return Status::ok();
 }

@@ -1,42 +1,32 @@
 #include <fmt/format.h>
-#include <zstd.h>
 
 #include <plx/ptm/encoder.h>
 
 #include <cmath>
+#include <memory>
 #include <span>
-#include <type_traits>
 
-#include "codec.h"
-#include "ctx_codec.h"
-#include "fast_codec.h"
-#include "simd_codec.h"
+#include "kernels.h"
+#include "lowest.h"
+#include "raw_layout.h"
 
 namespace plx::ptm {
 namespace {
 
-// The uncompressed payload of group k (layout in codec.h).
-std::vector<uint8_t> buildPayload(const std::vector<ByteImage>& chain, int k, Coder coder) {
-    ByteImage level = chain[size_t(k)];  // the walker's encode mode reads but takes a mutable ptr
+// Coder kRaw's payload of group k (layout in raw_layout.h).
+std::vector<uint8_t> rawPayload(const std::vector<ByteImage>& chain, int k) {
+    const ByteImage& level = chain[size_t(k)];
     const detail::GroupLayout layout =
         detail::groupLayout({level.width, level.height}, level.channels, k == 0);
     std::vector<uint8_t> payload(layout.payloadBytes(), 0);
-    const bool predict = coder == Coder::kPredictZstd;
-    if (k == 0) {
-        if (predict)
-            detail::walkLowest<true, true>(level.bytes.data(), level.width, level.height,
-                                           level.channels, payload.data());
-        else
-            detail::walkLowest<false, true>(level.bytes.data(), level.width, level.height,
-                                            level.channels, payload.data());
-    } else if (predict) {
-        detail::walkLevelAny<true, true>(level.channels, chain[size_t(k - 1)], level.bytes.data(),
-                                         level.width, level.height, payload.data());
-    } else {
-        detail::walkLevelAny<false, true>(level.channels, chain[size_t(k - 1)],
-                                          level.bytes.data(), level.width, level.height,
-                                          payload.data());
-    }
+    // The walker takes the pixels mutable for decoding; encoding only reads them.
+    uint8_t* px = const_cast<uint8_t*>(level.bytes.data());
+    if (k == 0)
+        detail::walkRawLowest<true>(px, level.width, level.height, level.channels,
+                                    payload.data());
+    else
+        detail::walkRawLevelAny<true>(level.channels, chain[size_t(k - 1)], px, level.width,
+                                      level.height, payload.data());
     return payload;
 }
 
@@ -51,62 +41,74 @@ double tableCost(const std::array<uint32_t, detail::kTokenCount>& count) {
     return bits;
 }
 
-// Coder 2 group (docs/ptm-format.md): per family the number g of tables its raw contexts are
-// merged into (raw context q uses table q * g / raw), chosen to minimise the estimated size;
-// the tables; the rANS stream's length (u32) and bytes; the extra bits.
-// Coder 3 (groups k >= 1) differs only in the walker and the four-state rANS stream.
-template <class IO>
-void walkForEncode(const std::vector<ByteImage>& chain, int k, ByteImage& level, IO& io) {
-    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
-        const ByteImage& low = chain[size_t(k - 1)];
-        uint8_t* px = level.bytes.data();
-        switch (level.channels) {
-        case 1: detail::walkLevelFast<1>(low, px, level.width, level.height, io); break;
-        case 2: detail::walkLevelFast<2>(low, px, level.width, level.height, io); break;
-        case 3: detail::walkLevelFast<3>(low, px, level.width, level.height, io); break;
-        default: detail::walkLevelFast<4>(low, px, level.width, level.height, io); break;
-        }
-    } else if (k == 0) {
-        detail::walkLowestRans(level.bytes.data(), level.width, level.height, level.channels, io);
-    } else {
-        detail::walkLevelRansAny(level.channels, chain[size_t(k - 1)], level.bytes.data(),
-                                 level.width, level.height, io);
-    }
+// A group's walk: its symbols (Symbol: CodedSymbol in group 0, LaneSymbol in the others) and
+// extra bits.
+template <class Symbol>
+struct GroupTokens {
+    std::vector<Symbol> symbols;
+    std::vector<uint8_t> bits;
+    size_t bitCount = 0;
+};
+
+// Group 0: the smallest level (lowest.h).
+GroupTokens<detail::CodedSymbol> walkLowestTokens(const ByteImage& level) {
+    const size_t pixels = size_t(level.width) * size_t(level.height) * size_t(level.channels);
+    GroupTokens<detail::CodedSymbol> t;
+    t.bits.resize(detail::maxExtraBytes(pixels));
+    detail::LowestEncodeIO io(t.bits.data());
+    io.symbols.reserve(pixels);
+    // The walker takes the pixels mutable for decoding; encoding only reads them.
+    detail::walkLowest(const_cast<uint8_t*>(level.bytes.data()), level.width, level.height,
+                       level.channels, io);
+    t.symbols = std::move(io.symbols);
+    t.bitCount = io.bits.bitCount();
+    t.bits.resize(io.bits.finish());
+    return t;
 }
 
-// A group up to its rANS stream: the walker's symbols and extra bits, the context map and
-// tables (`head`), and the group's estimated size in bits (tables, symbols at their table's
-// cost, extra bits), which lets the encoder compare candidates without coding them.
-template <class IO>
+// Group k >= 1 with shape weight w: the level walker of the active ISA (kernels.h).
+GroupTokens<detail::LaneSymbol> walkLevelTokens(const std::vector<ByteImage>& chain, int k,
+                                                int w) {
+    const ByteImage& lower = chain[size_t(k - 1)];
+    const size_t most = detail::maxLevelSymbols(lower);
+    auto symbols = std::make_unique_for_overwrite<detail::LaneSymbol[]>(most);
+    GroupTokens<detail::LaneSymbol> t;
+    t.bits.resize(detail::maxExtraBytes(most));
+    using namespace detail;
+    const LevelTokens n =
+        PLX_ISA_PICK(encodeLevel)(lower, chain[size_t(k)], w, symbols.get(), t.bits.data());
+    t.symbols.assign(symbols.get(), symbols.get() + n.symbols);
+    t.bitCount = n.bitCount;
+    t.bits.resize(n.bitBytes);
+    return t;
+}
+
+// A group up to its rANS stream: the walker's tokens, the mode byte, context map and tables
+// (`head`), and the group's estimated size in bits (tables, symbols at their table's cost,
+// extra bits), which lets the encoder compare candidates without coding them.
+template <class Symbol>
 struct ModelledGroup {
-    IO io;
+    GroupTokens<Symbol> tokens;
     std::vector<uint8_t> head;
     std::vector<std::array<uint16_t, detail::kTokenCount>> freqs;
     std::vector<uint16_t> ctxToTable;
     double bits = 0;
-    int channels = 0, width = 0;
 };
 
-template <class IO>
-ModelledGroup<IO> modelGroup(const std::vector<ByteImage>& chain, int k, int lanes,
-                             const detail::WalkModels& models) {
-    ByteImage level = chain[size_t(k)];
-    ModelledGroup<IO> g;
-    g.channels = level.channels;
-    g.width = level.width;
-    IO& io = g.io;
-    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>) {
-        io.lanes = lanes;
-        io.models = models;
-    }
-    const bool lowest = k == 0;
-    walkForEncode(chain, k, level, io);
+// Per family the number g of tables its raw contexts are merged into (raw context q uses table
+// q * g / raw), chosen to minimise the estimated size; then the tables.
+template <class Symbol>
+ModelledGroup<Symbol> modelGroup(GroupTokens<Symbol> tokens, int comps, bool lowest,
+                                 uint8_t mode) {
+    ModelledGroup<Symbol> g;
+    g.tokens = std::move(tokens);
     using Hist = std::array<uint32_t, detail::kTokenCount>;
     std::vector<Hist> hist(detail::kMaxRawContexts, Hist{});
-    for (const auto& s : io.symbols) ++hist[s.ctx][s.token];
+    for (const auto& s : g.tokens.symbols) ++hist[s.ctx][s.token];
     std::vector<uint8_t>& out = g.head;
+    out.push_back(mode);
     g.ctxToTable.assign(detail::kMaxRawContexts, 0);
-    const int families = detail::familyCount(level.channels, lowest);
+    const int families = detail::familyCount(comps, lowest);
     for (int i = 0; i < families; ++i) {
         const int f = detail::familyId(i, lowest);
         const int raw = detail::familyRawContexts(f & 3);
@@ -134,100 +136,60 @@ ModelledGroup<IO> modelGroup(const std::vector<ByteImage>& chain, int k, int lan
         for (const Hist& h : merged(bestG)) g.freqs.push_back(detail::normalizeCounts(h));
     }
     for (const auto& f : g.freqs) detail::writeTable(out, f);
-    g.bits += double(io.bits.bitCount());
+    g.bits += double(g.tokens.bitCount);
     return g;
 }
 
 // The whole group: head, rANS length and stream, extra bits.
-template <class IO>
-std::vector<uint8_t> emitGroup(ModelledGroup<IO>& g, int lanes) {
-    std::vector<uint8_t> rans;
-    if constexpr (std::is_same_v<IO, detail::FastEncodeIO>)
-        rans = detail::ransEncodeLanes(
-            g.io.symbols, g.freqs, g.ctxToTable, lanes,
-            lanes == detail::kSimdStates ? detail::simdStoredStates(g.channels, g.width) : lanes);
-    else
-        rans = detail::ransEncode(g.io.symbols, g.freqs, g.ctxToTable);
-    std::vector<uint8_t> out = std::move(g.head);
+std::vector<uint8_t> emitGroup(std::vector<uint8_t> out, const std::vector<uint8_t>& rans,
+                               const std::vector<uint8_t>& bits) {
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(rans.size() >> (8 * i)));
     out.insert(out.end(), rans.begin(), rans.end());
-    const std::vector<uint8_t> bits = g.io.bits.finish();
     out.insert(out.end(), bits.begin(), bits.end());
     return out;
 }
 
-template <class IO>
-std::vector<uint8_t> encodeGroupRansWith(const std::vector<ByteImage>& chain, int k,
-                                         int lanes = detail::kFastStates,
-                                         const detail::WalkModels& models = {}) {
-    ModelledGroup<IO> g = modelGroup<IO>(chain, k, lanes, models);
-    return emitGroup(g, lanes);
-}
-
-// Coder 6's group k >= 1, modelled: the shapes' weight byte, then the group coded with it. The
-// encoder tries these weights (eighths of the detail above) and keeps the group whose estimated
-// size (ModelledGroup::bits) is the smallest, coding only that one: 0.8986x optipng -o2 over
-// the 69 Sponza textures, where 4 alone gives 0.9012x and 3 alone 0.9007x
-// (docs/ptm-results.md). shapeEighths >= 0 (EncodeConfig) fixes the weight instead.
+// Group k >= 1, modelled: the encoder tries these shape weights (eighths of the detail above)
+// and keeps the group whose estimated size (ModelledGroup::bits) is the smallest, coding only
+// that one (docs/ptm-format.md, "Encoder"). shapeEighths >= 0 (EncodeConfig) fixes the weight.
 constexpr int kShapeCandidates[] = {4, 3, 2, 0};
 
-std::vector<uint8_t> modelledCrossGroup(const std::vector<ByteImage>& chain, int k,
+std::vector<uint8_t> modelledLevelGroup(const std::vector<ByteImage>& chain, int k,
                                         int shapeEighths) {
-    using Group = ModelledGroup<detail::FastEncodeIO>;
+    using Group = ModelledGroup<detail::LaneSymbol>;
     const int fixed[] = {shapeEighths};
     const std::span<const int> weights =
         shapeEighths >= 0 ? std::span<const int>(fixed) : std::span<const int>(kShapeCandidates);
+    const ByteImage& level = chain[size_t(k)];
     Group best;
     for (int w : weights) {
-        Group g = modelGroup<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
-                                                   detail::WalkModels{true, true, w});
-        g.head.insert(g.head.begin(), uint8_t(w));
+        Group g = modelGroup(walkLevelTokens(chain, k, w), level.channels, false, uint8_t(w));
         if (best.head.empty() || g.bits < best.bits) best = std::move(g);
     }
-    return emitGroup(best, detail::kSimdStates);
+    const auto rans =
+        detail::ransEncodeLanes(best.tokens.symbols, best.freqs, best.ctxToTable,
+                                detail::simdStoredStates(level.channels, level.width));
+    return emitGroup(std::move(best.head), rans, best.tokens.bits);
 }
 
-// Coder 6's group k: modelled (k = 0: mode byte 0, then coder 2's group 0), or stored (mode
-// byte kStoredGroupMode, then coder 0's payload) where that is smaller, as on the smallest levels,
-// whose tables and rANS states outweigh their pixels.
-std::vector<uint8_t> encodeGroupCross(const std::vector<ByteImage>& chain, int k,
-                                      int shapeEighths) {
-    std::vector<uint8_t> modelled;
-    if (k == 0) {
-        modelled = encodeGroupRansWith<detail::RansEncodeIO>(chain, 0);
-        modelled.insert(modelled.begin(), uint8_t(0));
-    } else {
-        modelled = modelledCrossGroup(chain, k, shapeEighths);
-    }
-    std::vector<uint8_t> stored = buildPayload(chain, k, Coder::kRaw);
+// Group 0, modelled: mode byte 0, then the smallest level by two rANS states.
+std::vector<uint8_t> modelledLowestGroup(const ByteImage& level) {
+    auto g = modelGroup(walkLowestTokens(level), level.channels, true, 0);
+    const auto rans = detail::ransEncode(g.tokens.symbols, g.freqs, g.ctxToTable);
+    return emitGroup(std::move(g.head), rans, g.tokens.bits);
+}
+
+// Coder kRans's group k: modelled, or stored (mode byte kStoredGroupMode, then coder kRaw's
+// payload) where that is smaller, as on the smallest levels, whose tables and rANS states
+// outweigh their pixels.
+std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k,
+                                     int shapeEighths) {
+    std::vector<uint8_t> modelled = k == 0 ? modelledLowestGroup(chain[0])
+                                           : modelledLevelGroup(chain, k, shapeEighths);
+    std::vector<uint8_t> stored = rawPayload(chain, k);
     if (stored.size() + 1 >= modelled.size()) return modelled;
     stored.insert(stored.begin(), kStoredGroupMode);
     return stored;
-}
-
-// Coder 2 everywhere, coders 3 to 6 for groups k >= 1 (4 or kSimdStates rANS states; coders 5
-// and 6 with the models that look at the block row above, coder 6 with its own).
-std::vector<uint8_t> encodeGroupRans(const std::vector<ByteImage>& chain, int k,
-                                     const EncodeConfig& config) {
-    const Coder coder = config.coder;
-    if (coder == Coder::kPredictCrossRansSimd)
-        return encodeGroupCross(chain, k, config.shapeEighths);
-    if (k == 0 || coder == Coder::kPredictRans)
-        return encodeGroupRansWith<detail::RansEncodeIO>(chain, k);
-    if (coder == Coder::kPredictAboveRansSimd)
-        return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, detail::kSimdStates,
-                                                         detail::kCoder5Models);
-    const int lanes = coder == Coder::kPredictRansSimd ? detail::kSimdStates : detail::kFastStates;
-    return encodeGroupRansWith<detail::FastEncodeIO>(chain, k, lanes);
-}
-
-Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& payload, int level) {
-    std::vector<uint8_t> out(ZSTD_compressBound(payload.size()));
-    const size_t n = ZSTD_compress(out.data(), out.size(), payload.data(), payload.size(), level);
-    if (ZSTD_isError(n))
-        return errorStatus(ErrorCode::kInternal, fmt::format("zstd: {}", ZSTD_getErrorName(n)));
-    out.resize(n);
-    return out;
 }
 
 }  // namespace
@@ -262,11 +224,6 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("PTM encode: shape weight {} outside -1..{}",
                                        config.shapeEighths, kMaxShapeEighths));
-    if (config.coder == Coder::kPredictZstd &&
-        (config.zstdLevel < 1 || config.zstdLevel > ZSTD_maxCLevel()))
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("PTM encode: zstd level {} outside 1..{}", config.zstdLevel,
-                                       ZSTD_maxCLevel()));
     const int count = storedLevelCount(image.width, image.height, config);
     const std::vector<ByteImage> chain = buildMipChain(image, count);  // eq. (1)
     Header header;
@@ -279,14 +236,9 @@ Result<std::vector<uint8_t>> encode(const ByteImage& image, const EncodeConfig& 
     std::vector<std::vector<uint8_t>> groups;
     uint64_t offset = headerBytesFor(count);
     for (int k = 0; k < count; ++k) {
-        const bool rans = uint8_t(config.coder) >= uint8_t(Coder::kPredictRans);  // coders 2-6
-        std::vector<uint8_t> payload =
-            rans ? encodeGroupRans(chain, k, config) : buildPayload(chain, k, config.coder);
-        if (config.coder == Coder::kPredictZstd) {
-            auto packed = compress(payload, config.zstdLevel);
-            if (!packed) return packed.status();
-            payload = std::move(packed).value();
-        }
+        std::vector<uint8_t> payload = config.coder == Coder::kRans
+                                           ? encodeGroupRans(chain, k, config.shapeEighths)
+                                           : rawPayload(chain, k);
         header.groups.push_back({offset, payload.size(), crc32(payload)});
         offset += payload.size();
         groups.push_back(std::move(payload));

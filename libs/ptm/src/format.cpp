@@ -27,14 +27,7 @@ Status corrupt(std::string message) {
 const char* coderName(Coder coder) {
     switch (coder) {
     case Coder::kRaw: return "raw";
-    case Coder::kPredictZstd: return "predict+zstd";
-    case Coder::kPredictRans: return "predict+rans";
-    case Coder::kPredictRansFast: return "predict+rans-fast";
-    case Coder::kPredictRansSimd: return "predict+rans-simd";
-    case Coder::kPredictAboveRansSimd:
-        return "predict-above+rans-simd";
-    case Coder::kPredictCrossRansSimd:
-        return "predict-cross+rans-simd";
+    case Coder::kRans: return "rans";
     }
     return "unknown";
 }
@@ -63,6 +56,11 @@ Result<Header> parseHeader(std::span<const uint8_t> prefix) {
     const uint8_t* p = prefix.data();
     if (std::memcmp(p, kMagic, sizeof(kMagic)) != 0) return corrupt("bad magic (not a PTM file)");
     const unsigned version = unsigned(p[8]) | unsigned(p[9]) << 8;
+    if (version < kVersion)  // version 1's seven coders are gone (docs/ptm-format.md)
+        return errorStatus(ErrorCode::kUnsupported,
+                           fmt::format("PTM format version {} is no longer supported: re-encode "
+                                       "with this version ({})",
+                                       version, kVersion));
     if (version != kVersion)
         return errorStatus(ErrorCode::kUnsupported,
                            fmt::format("PTM: unsupported version {} (this build reads {})",
@@ -107,7 +105,7 @@ Result<Header> parseHeader(std::span<const uint8_t> prefix) {
         if (g.offset != expectedOffset)
             return corrupt(fmt::format("level {} offset {} is not {} (groups are contiguous)", k,
                                        g.offset, expectedOffset));
-        // A group never exceeds 2 GiB (1 GiB of pixels at most, plus zstd's bound).
+        // A group never exceeds 2 GiB (1 GiB of pixels at most, plus its tables).
         if (g.size == 0 || g.size > (uint64_t(1) << 31))
             return corrupt(fmt::format("level {} size {} out of range", k, g.size));
         expectedOffset += g.size;

@@ -4,8 +4,6 @@
 
 #include <plx/core/check.h>
 
-#include "fast_codec.h"
-#include "simd_codec.h"
 
 namespace plx::ptm::detail {
 
@@ -121,7 +119,7 @@ std::vector<std::array<uint16_t, kTokenCount>> cumulativeFrequencies(
 }
 }  // namespace
 
-std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
+std::vector<uint8_t> ransEncode(std::span<const CodedSymbol> symbols,
                                 const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
                                 const std::vector<uint16_t>& ctxToTable) {
     const auto cums = cumulativeFrequencies(freqs);
@@ -153,39 +151,10 @@ std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
     return out;
 }
 
-void buildFastTable(const std::array<uint16_t, kTokenCount>& freq, FastTable& t) {
-    unsigned cum = 0;
-    std::memset(t.freqCum, 0, sizeof t.freqCum);
-    for (int s = 0; s < kTokenCount; ++s) {
-        const unsigned f = freq[size_t(s)];
-        if (f == 0) continue;
-        std::memset(t.sym + cum, s, f);  // a valid table has cum + f <= kRansTotal (readTable)
-        t.freqCum[s] = f | cum << 16;
-        cum += f;
-    }
-    if (cum == 0) {  // empty table: token 0 everywhere, the state unchanged
-        std::memset(t.sym, 0, sizeof t.sym);
-        t.freqCum[0] = kRansTotal;
-    }
-}
-
-void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries) {
-    uint32_t cum = 0;
-    for (int s = 0; s < kTokenCount; ++s) {
-        const uint32_t f = freq[size_t(s)];
-        const uint32_t head = f | uint32_t(s) << kEntryTokenShift;
-        uint32_t* e = entries + cum;  // a valid table has cum + f <= kRansTotal (readTable)
-        for (uint32_t i = 0; i < f; ++i) e[i] = head | i << kEntryBiasShift;
-        cum += f;
-    }
-    if (cum == 0)  // empty table: token 0 everywhere, the state unchanged
-        for (uint32_t i = 0; i < kRansTotal; ++i) entries[i] = kRansTotal | i << kEntryBiasShift;
-}
-
-std::vector<uint8_t> ransEncodeLanes(const std::vector<LaneSymbol>& symbols,
+std::vector<uint8_t> ransEncodeLanes(std::span<const LaneSymbol> symbols,
                                      const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
-                                     const std::vector<uint16_t>& ctxToTable, int lanes,
-                                     int stored) {
+                                     const std::vector<uint16_t>& ctxToTable, int stored) {
+    constexpr int lanes = kSimdStates;
     const auto cums = cumulativeFrequencies(freqs);
     std::vector<uint16_t> words;
     words.reserve(symbols.size() / 2 + 8);

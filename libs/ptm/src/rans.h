@@ -1,22 +1,22 @@
 #pragma once
-// Private: the entropy coder of Coder::kPredictRans (docs/ptm-format.md, "Coder 2").
+// Private: the entropy coder of the modelled coder (docs/ptm-format.md, "Entropy coding"): the
+// token alphabet, the frequency tables and their serialisation, the decode tables and the rANS
+// encoders. Declares what rans.cpp defines, plus the constants and one-line helpers those use.
 //
 // - Symbols are *tokens* of a hybrid-uint code (as JPEG XL's, split exponent 4, one mantissa bit
 //   in the token): a value z in 0..255 is token z when z < 16, else with n = floor(log2 z) token
 //   16 + 2 (n - 4) + (bit n-1 of z), followed by the n - 1 low bits of z as raw extra bits.
 //   24 tokens cover 0..255.
-// - Tokens are coded with static per-context frequency tables (12-bit precision) by two
-//   interleaved rANS states (32-bit state, 16-bit renormalisation words): symbol i uses state
-//   i mod 2. Extra bits go to a separate LSB-first bit stream.
-// - Everything the decoder reads is bounds-checked; running off the end sets a flag (reads give
-//   zeros) instead of touching memory outside the group.
+// - Tokens are coded with static per-context frequency tables (12-bit precision) by interleaved
+//   rANS states (32-bit state, 16-bit renormalisation words): two in group 0, kSimdStates in the
+//   other groups. Extra bits go to a separate LSB-first bit stream.
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
+#include <span>
 #include <vector>
 
 namespace plx::ptm::detail {
@@ -73,103 +73,9 @@ bool readTable(const uint8_t*& p, const uint8_t* end, std::array<uint16_t, kToke
 // Bytes writeTable would use.
 size_t tableBytes(const std::array<uint16_t, kTokenCount>& freq);
 
-// LSB-first bit writer for the extra bits.
-class BitWriter {
-public:
-    void put(uint32_t bits, int n) {
-        mAcc |= uint64_t(bits) << mCount;
-        mCount += n;
-        while (mCount >= 8) {
-            mBytes.push_back(uint8_t(mAcc));
-            mAcc >>= 8;
-            mCount -= 8;
-        }
-    }
-    size_t bitCount() const { return mBytes.size() * 8 + size_t(mCount); }
-    std::vector<uint8_t> finish() {
-        if (mCount > 0) mBytes.push_back(uint8_t(mAcc));
-        mAcc = 0;
-        mCount = 0;
-        return std::move(mBytes);
-    }
-
-private:
-    std::vector<uint8_t> mBytes;
-    uint64_t mAcc = 0;
-    int mCount = 0;
-};
-
-// Bounds-checked LSB-first bit reader; past the end it yields zeros and counts the overrun.
-class BitReader {
-public:
-    BitReader(const uint8_t* begin, const uint8_t* end) : mBegin(begin), mPtr(begin), mEnd(end) {
-        refill();
-    }
-    uint32_t get(int n) {  // n in 0..24
-        if (mCount < 24) refill();
-        return take(n);
-    }
-    // Makes at least 24 bits available to take().
-    void ensure24() {
-        if (mCount < 24) refill();
-    }
-    // n bits (0..24) of those made available by ensure24().
-    uint32_t take(int n) {
-        const uint32_t v = uint32_t(mAcc) & ((1u << n) - 1);
-        mAcc >>= n;
-        mCount -= n;
-        return v;
-    }
-    // Bits taken so far, counted from the stream's first byte.
-    uint64_t position() const {
-        return (uint64_t(mPtr - mBegin) + mVirtual) * 8 - uint64_t(mCount);
-    }
-    // The stream, for readers that decode from position() on by themselves and then seek().
-    const uint8_t* streamBegin() const { return mBegin; }
-    size_t streamBytes() const { return size_t(mEnd - mBegin); }
-    // Continues at bit pos (at most the stream's length in bits), as if pos bits had been taken.
-    void seek(uint64_t pos) {
-        mPtr = mBegin + pos / 8;
-        mAcc = 0;
-        mCount = 0;
-        mVirtual = 0;
-        refill();
-        take(int(pos % 8));
-    }
-    // True when exactly the stream's bytes were used (the last one possibly in part).
-    bool exact(size_t streamBytes) const { return (position() + 7) / 8 == streamBytes; }
-
-private:
-    void refill() {
-        if (mEnd - mPtr >= 8) {
-            uint64_t v;
-            std::memcpy(&v, mPtr, 8);  // little-endian hosts only (checked in decoder.cpp)
-            mAcc |= v << mCount;
-            const int take = (63 - mCount) >> 3;
-            mPtr += take;
-            mCount += take * 8;
-            return;
-        }
-        while (mCount <= 56) {
-            if (mPtr < mEnd)
-                mAcc |= uint64_t(*mPtr++) << mCount;
-            else
-                ++mVirtual;  // a zero byte past the end
-            mCount += 8;
-        }
-    }
-    const uint8_t* mBegin;
-    const uint8_t* mPtr;
-    const uint8_t* mEnd;
-    uint64_t mAcc = 0;
-    int mCount = 0;
-    uint64_t mVirtual = 0;
-};
-
-// Decode table of one context: per token its start and frequency, 32 entries (the tail padded
-// with starts beyond kRansTotal). 128 bytes, so the tables of a whole group stay in L1. The token
-// of a slot is found branch-free by counting the starts <= slot (a loop the compiler vectorises),
-// instead of a 4096-entry slot table per context.
+// Decode table of one context for group 0: per token its start and frequency, 32 entries (the
+// tail padded with starts beyond kRansTotal). 128 bytes, so the tables of a whole group stay in
+// L1. The token of a slot is found branch-free by counting the starts <= slot.
 struct DecodeTable {
     alignas(64) uint16_t cum[32];
     uint16_t freq[32];
@@ -183,72 +89,48 @@ struct DecodeTable {
 // frequency kRansTotal, which keeps the state and is caught by the final state check).
 void buildDecodeTable(const std::array<uint16_t, kTokenCount>& freq, DecodeTable& t);
 
-// One coded symbol as the encoder collects them, in decode order.
+// One coded symbol of group 0 as the encoder collects them, in decode order.
 struct CodedSymbol {
     uint16_t ctx;
     uint8_t token;
 };
 
-// rANS-encodes symbols (decode order) with per-context frequencies; returns the stream: the two
-// final states (state 0 first, big-endian 16-bit halves as words) then the renormalisation
-// words, each 16-bit word little-endian. Precondition: every symbol's frequency is > 0.
-std::vector<uint8_t> ransEncode(const std::vector<CodedSymbol>& symbols,
+// rANS-encodes group 0's symbols (decode order) with per-context frequencies over two states;
+// returns the stream: the two final states (state 0 first, high then low 16-bit word) then the
+// renormalisation words, each 16-bit word little-endian. Precondition: every symbol's
+// frequency is > 0.
+std::vector<uint8_t> ransEncode(std::span<const CodedSymbol> symbols,
                                 const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
                                 const std::vector<uint16_t>& ctxToTable);
 
-// The renormalisation words of a rANS stream (16-bit, little-endian), bounds-checked: past the
-// end a read gives zero and records the overrun. Shared by every rANS decoder.
-struct WordStream {
-    const uint8_t* ptr;
-    const uint8_t* end;
-    bool overrun = false;
+inline constexpr int kSimdStates = 32;
+inline constexpr int kSimdVectors = kSimdStates / 8;
 
-    uint32_t readWord() {
-        if (end - ptr >= 2) {
-            const uint32_t w = uint32_t(ptr[0]) | uint32_t(ptr[1]) << 8;
-            ptr += 2;
-            return w;
-        }
-        overrun = true;
-        return 0;
-    }
-    // True when the stream was used up exactly and every state is back at its initial value.
-    template <size_t N>
-    bool finishedCleanly(const uint32_t (&states)[N]) const {
-        bool initial = true;
-        for (uint32_t s : states) initial = initial && s == kRansLow;
-        return !overrun && ptr == end && initial;
-    }
+// States a group stores (the others are unused and stay 2^16): as many as the longest run of the
+// level (C times the blocks of a block row that code p00, at least C), at most kSimdStates.
+inline int simdStoredStates(int comps, int width) {
+    return std::min(kSimdStates, comps * std::max(1, width / 2));
+}
+
+// Decode entry of one slot: frequency in bits 0..12 (1..4096), slot - cumulative start in bits
+// 13..24, token in bits 27..31.
+inline constexpr uint32_t kEntryFreqMask = 0x1FFF;
+inline constexpr int kEntryBiasShift = 13;
+inline constexpr int kEntryTokenShift = 27;
+
+
+// One symbol of a group k >= 1 as the encoder collects them: context, token and rANS state.
+struct LaneSymbol {
+    uint16_t ctx;
+    uint8_t token;
+    uint8_t lane;
 };
-
-// Two-state interleaved rANS decoder over a bounds-checked word stream.
-class RansDecoder {
-public:
-    RansDecoder(const uint8_t* begin, const uint8_t* end) : mWords{begin, end} {
-        mX0 = readWord() << 16;
-        mX0 |= readWord();
-        mX1 = readWord() << 16;
-        mX1 |= readWord();
-    }
-    int decode(const DecodeTable& t) {
-        const uint32_t slot = mX0 & (kRansTotal - 1);
-        const int tok = t.find(slot);
-        uint32_t x = uint32_t(t.freq[tok]) * (mX0 >> kRansPrecision) + slot - t.cum[tok];
-        if (x < kRansLow) x = (x << 16) | readWord();
-        mX0 = mX1;
-        mX1 = x;
-        return tok;
-    }
-    // True when the stream was used up exactly and both states returned to their initial value.
-    bool finishedCleanly() const {
-        const uint32_t states[2] = {mX0, mX1};
-        return mWords.finishedCleanly(states);
-    }
-
-private:
-    uint32_t readWord() { return mWords.readWord(); }
-    WordStream mWords;
-    uint32_t mX0 = 0, mX1 = 0;
-};
+// rANS-encodes symbols (decode order) with per-context frequencies over kSimdStates states;
+// symbol i uses state lane[i]. Returns the final states of lanes 0..stored-1 (state 0 first,
+// each as high then low 16-bit word; lanes from `stored` on must be unused) then the
+// renormalisation words, each 16-bit word little-endian.
+std::vector<uint8_t> ransEncodeLanes(std::span<const LaneSymbol> symbols,
+                                     const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+                                     const std::vector<uint16_t>& ctxToTable, int stored);
 
 }  // namespace plx::ptm::detail

@@ -2,9 +2,10 @@
 // Progressive PTM decoding: parse the header, then feed level groups smallest first; each group
 // yields its level as soon as its bytes arrive. Builds without the encoder (plx_ptm_decode).
 // Every input byte is untrusted: failures come back as Status naming the problem.
-// Memory: each thread that decodes coder 4 to 6 groups keeps one buffer for their decode tables
+// Memory: each thread that decodes modelled groups keeps one buffer for their decode tables
 // (16 KB per table, up to 4 MB; 2.5 MB for an RGB texture), reused by every later group on that
 // thread instead of being allocated and faulted in again per group.
+// The decode loops take the widest SIMD path the CPU has (<plx/core/cpu.h>, activeIsa()).
 
 #include <span>
 #include <vector>
@@ -39,7 +40,6 @@ private:
     explicit ProgressiveDecoder(Header header) : mHeader(std::move(header)) {}
     Header mHeader;
     std::vector<ByteImage> mLevels;
-    std::vector<uint8_t> mScratch;  // decompressed payload, reused across groups
 };
 
 // Decodes stored level k (0 = smallest) from a prefix of a file holding at least groups 0..k.

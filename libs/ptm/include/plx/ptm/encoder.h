@@ -17,14 +17,11 @@ struct EncodeConfig {
     // the chain down to 1x1). Any resolution is allowed (paper 4.3); clients rebuild the levels
     // below it with eq. (1). Must be >= 1.
     int lowestMaxSide = 1;
-    Coder coder = Coder::kPredictCrossRansSimd;
-    // Coder 6: the weight of the detail above in the upper pixels' shapes, in eighths (0..4), for
-    // every level; -1 (the default) tries 4, 3, 2 and 0 per level and keeps the group with the
-    // smallest estimated size, which encodes about three times slower.
+    Coder coder = Coder::kRans;
+    // Coder kRans: the weight of the detail above in the upper pixels' shapes, in eighths (0..4),
+    // for every level; -1 (the default) tries 4, 3, 2 and 0 per level and keeps the group with
+    // the smallest estimated size, which encodes about three times slower.
     int shapeEighths = -1;
-    // zstd level 1..22 for Coder::kPredictZstd; the default trades encode speed for size
-    // (docs/ptm-results.md).
-    int zstdLevel = 9;
 };
 
 // Number of stored levels for an image of w x h under `config` (>= 1).

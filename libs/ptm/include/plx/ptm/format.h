@@ -15,7 +15,7 @@ namespace plx::ptm {
 
 // File signature: PNG-style, catches text-mode and truncation mangling.
 inline constexpr uint8_t kMagic[8] = {0x89, 'P', 'T', 'M', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint16_t kVersion = 1;
+inline constexpr uint16_t kVersion = 2;
 inline constexpr size_t kFixedHeaderBytes = 32;
 inline constexpr size_t kIndexEntryBytes = 20;
 inline constexpr size_t kHeaderCrcBytes = 4;
@@ -23,32 +23,21 @@ inline constexpr size_t kHeaderCrcBytes = 4;
 inline constexpr int kMaxSide = 32768;
 inline constexpr int64_t kMaxPixels = int64_t(1) << 28;
 
-// How a group is stored. kRaw and kPredictZstd share the plane layout; kPredictRans codes the
-// same values symbol by symbol in block order; kPredictRansFast in per-row runs whose contexts
-// never depend on the same run; kPredictRansSimd as kPredictRansFast with 32 interleaved rANS
-// states for a vectorised decoder; kPredictAboveRansSimd as kPredictRansSimd with the block row
-// above in two of its models; kPredictCrossRansSimd (the default) as kPredictAboveRansSimd with
-// component-major rows and more inter-component models (docs/ptm-format.md).
+// How a file's groups are stored (docs/ptm-format.md). Version 2 keeps two coders: the
+// context-modelled rANS coder every encoder writes by default, and raw values for debugging.
 enum class Coder : uint8_t {
-    kRaw = 0,              // planes hold the values themselves, uncompressed (the paper's layout)
-    kPredictZstd = 1,      // planes hold prediction residuals; the payload is one zstd frame
-    kPredictRans = 2,      // context-modelled residuals and eps, interleaved rANS (no planes)
-    kPredictRansFast = 3,  // as 2, symbols in runs with precomputed contexts, 4 rANS states
-    kPredictRansSimd = 4,  // as 3 with 32 rANS states, decoded eight at a time (AVX2)
-    // as 4; the upper pixels' predictions and the eps contexts also use the block row above
-    kPredictAboveRansSimd = 5,
-    // as 5, block rows component by component: each component's predictions and contexts also
-    // use the components before it in the same block; the encoder picks the shapes' weight
-    kPredictCrossRansSimd = 6,
+    kRaw = 0,   // groups hold the values themselves, uncompressed (the paper's plane layout)
+    kRans = 1,  // context-modelled residuals and eps in 32 interleaved rANS states, per group a
+                // mode byte (below) that may also store the group raw
 };
-inline constexpr Coder kLastCoder = Coder::kPredictCrossRansSimd;
-// Coder 6: every group's first byte, the mode (docs/ptm-format.md): 0..kMaxShapeEighths the
+inline constexpr Coder kLastCoder = Coder::kRans;
+// Coder kRans: every group's first byte, the mode (docs/ptm-format.md): 0..kMaxShapeEighths the
 // group is modelled (k >= 1: with that shape weight in eighths; k = 0: 0 only),
-// kStoredGroupMode it holds coder 0's payload.
+// kStoredGroupMode it holds coder kRaw's payload.
 inline constexpr int kMaxShapeEighths = 4;
 inline constexpr uint8_t kStoredGroupMode = 0xFF;
 
-// Human-readable name of a coder ("raw", "predict+zstd"); "unknown" for other values.
+// Name of a coder as the CLI spells it ("raw", "rans"); "unknown" for other values.
 const char* coderName(Coder coder);
 
 // One entry of the level index: where group k lies in the file and its CRC-32.

@@ -1,62 +1,52 @@
 #pragma once
-// Private: the decoder side of coders 4 to 6 (Coder::kPredictRansSimd, kPredictAboveRansSimd
-// and kPredictCrossRansSimd, docs/ptm-format.md; coders 5 and 6 change only the walker). Coder 4
-// is coder 3 (same runs, contexts, predictions, tables, tokens and extra bits) with kSimdStates
-// interleaved rANS states instead of four: symbol j of a run uses state j mod 32, and the
-// renormalisation words are read in symbol order, so that a round of 32 symbols decodes as four
-// AVX2 vectors of eight states each:
+// Private: the decoder's IO for the level walker (walker.h): kSimdStates interleaved rANS
+// states (docs/ptm-format.md, "Entropy coding"). Symbol j of a run uses state j mod 32 and the
+// renormalisation words are read in symbol order, so that a round of 32 symbols decodes as
+// vectors of states:
 //
 // - one 32-bit decode entry per (table, slot): frequency, slot - cumulative start and token, so
 //   a symbol is one gather, a multiply and an add;
-// - the states that fall below 2^16 take the next words in lane order: a movemask gives the
-//   lanes, a 256-entry table of packed lane-to-word permutations moves the eight words loaded at
-//   the stream pointer into them, and the pointer advances by the popcount;
-// - the extra bits of a run's tokens are read afterwards (symbol order, as coder 3's separate
-//   bit stream), sixteen tokens per vector step (extraBitsAvx2).
-//
-// With AVX-512 a round is two vectors of sixteen states (runVectorAvx512: vpgatherdd, and
-// vpexpandd for the renormalisation words), and coder 6's eps runs, whose tables hold tokens
-// 0..3, find their symbols without a table load (runSmallAvx512).
+// - AVX2: four vectors of eight states; the states that fall below 2^16 take the next words in
+//   lane order (a movemask gives the lanes, a 256-entry table of packed lane-to-word
+//   permutations moves the words loaded at the stream pointer into them);
+// - AVX-512: two vectors of sixteen states (vpgatherdd, vpexpandd for the words), and the eps
+//   runs, whose tables hold tokens 0..3, find their symbols without a table load;
+// - the extra bits of a run's tokens are read afterwards, sixteen (AVX2) or 32 (AVX-512 VBMI)
+//   tokens per vector step.
 //
 // A scalar decoder of the same stream handles the tail of a run (fewer than 32 symbols), the last
-// 64 bytes of the stream (bounds-checked reads) and builds without AVX2.
+// 64 bytes of the stream (bounds-checked reads) and the scalar ISA.
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
 #include <cstring>
-#include <vector>
+#include <span>
 
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
-
-#include "ctx_codec.h"
-#include "fast_codec.h"
+#include "contexts.h"
+#include "lanes.h"
 #include "rans.h"
+#include "streams.h"
 
 namespace plx::ptm::detail {
-
-inline constexpr int kSimdStates = 32;
-inline constexpr int kSimdVectors = kSimdStates / 8;
-
-// States a group stores (the others are unused and stay 2^16): as many as the longest run of the
-// level (C times the blocks of a block row that code p00, at least C), at most kSimdStates.
-inline int simdStoredStates(int comps, int width) {
-    return std::min(kSimdStates, comps * std::max(1, width / 2));
-}
-
-// Decode entry of one slot: frequency in bits 0..12 (1..4096), slot - cumulative start in bits
-// 13..24, token in bits 27..31.
-inline constexpr uint32_t kEntryFreqMask = 0x1FFF;
-inline constexpr int kEntryBiasShift = 13;
-inline constexpr int kEntryTokenShift = 27;
+inline namespace PLX_PTM_KERNEL_NS {
 
 // Fills the kRansTotal entries of one table from freq (sum kRansTotal, or all zero: then every
 // slot decodes token 0 with frequency kRansTotal, which keeps the state and is caught by the
-// final state check).
-void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries);
+// final state check). A kernel: it writes 16 KB per table, for every table of every group.
+inline void buildSimdTable(const std::array<uint16_t, kTokenCount>& freq, uint32_t* entries) {
+    uint32_t cum = 0;
+    for (int s = 0; s < kTokenCount; ++s) {
+        const uint32_t f = freq[size_t(s)];
+        const uint32_t head = f | uint32_t(s) << kEntryTokenShift;
+        uint32_t* e = entries + cum;  // a valid table has cum + f <= kRansTotal (readTable)
+        for (uint32_t i = 0; i < f; ++i) e[i] = head | i << kEntryBiasShift;
+        cum += f;
+    }
+    if (cum == 0)  // empty table: token 0 everywhere, the state unchanged
+        for (uint32_t i = 0; i < kRansTotal; ++i) entries[i] = kRansTotal | i << kEntryBiasShift;
+}
 
 // Packed lane-to-word permutations for the renormalisation: for a mask of the lanes that read a
 // word, 3 bits per lane (lane l at bits 3l) giving the index of its word among the words read
@@ -211,7 +201,7 @@ inline int extraBitsAvx512(uint8_t* z, int n, BitReader& bits) {
 }
 #endif
 
-// The tables of one family whose tokens are 0..3 (coder 6's eps runs, per component), held as
+// The tables of one family whose tokens are 0..3 (the eps runs, per component), held as
 // vectors for runSmallAvx512: per table of the family (at most 16, lane = table - first), the
 // cumulative starts of tokens 1..3 and the frequencies of tokens 0..3. An empty table decodes
 // as buildSimdTable's: token 0 with frequency kRansTotal everywhere.
@@ -223,7 +213,7 @@ struct SmallAlphabet {
 
     // From the frequencies of tables first..first+count-1; unusable (the family keeps the
     // table path) if count > 16 or a table has a token above 3.
-    void build(const std::vector<std::array<uint16_t, kTokenCount>>& freqs, int firstTable,
+    void build(std::span<const std::array<uint16_t, kTokenCount>> freqs, int firstTable,
                int count) {
         first = firstTable;
         usable = count <= 16;
@@ -241,10 +231,10 @@ struct SmallAlphabet {
     }
 };
 
-// Decoder IO of coders 4 to 6 for walkLevelFast: kSimdStates rANS states over a bounds-checked
+// Decoder IO for walkLevel: kSimdStates rANS states over a bounds-checked
 // word stream, extra bits from a separate bit stream. Past the end of either stream reads give
 // zeros and the overrun is recorded.
-struct SimdDecodeIO : WordStream {
+struct DecodeIO : WordStream {
     static constexpr bool kEncode = false;
     const uint32_t* entries;  // all tables, table t at t * kRansTotal
     // Per family (4c + kind), the context map's first table and `g`, as CtxMap: the walker's
@@ -252,13 +242,13 @@ struct SimdDecodeIO : WordStream {
     std::array<CtxMap, 16> families{};
     BitReader bits;
     alignas(64) uint32_t x[kSimdStates] = {};
-    WalkModels models;  // coders 5, 6 (FastRows)
-    // Coder 6's eps families (4c + 3) for runEps, when buildSmallAlphabets was called.
+    int shapeEighths = 0;  // the group's mode byte (LevelRows)
+    // The eps families (4c + 3) for runEps, when buildSmallAlphabets was called.
     std::array<SmallAlphabet, 4> eps{};
 
     // familyTables[f] = {first table, g} of family f (context map).
     // The stream stores the first `stored` states (simdStoredStates); the others start at 2^16.
-    SimdDecodeIO(const uint32_t* tableEntries,
+    DecodeIO(const uint32_t* tableEntries,
                  const std::array<std::array<int, 2>, 16>& familyTables, int stored,
                  const uint8_t* begin, const uint8_t* streamEnd, BitReader extra)
         : WordStream{begin, streamEnd}, entries(tableEntries), bits(extra) {
@@ -278,7 +268,7 @@ struct SimdDecodeIO : WordStream {
     CtxMap ctxMap(int c, int kind) const { return families[size_t(4 * c + kind)]; }
     // Prepares runEps for the eps families of components 0..comps-1 (freqs: the group's
     // tables; familyTables as the constructor's).
-    void buildSmallAlphabets(const std::vector<std::array<uint16_t, kTokenCount>>& freqs,
+    void buildSmallAlphabets(std::span<const std::array<uint16_t, kTokenCount>> freqs,
                              const std::array<std::array<int, 2>, 16>& familyTables, int comps) {
         for (int c = 0; c < comps; ++c) {
             const auto& [first, g] = familyTables[size_t(4 * c + 3)];
@@ -290,7 +280,7 @@ struct SimdDecodeIO : WordStream {
 
     // The symbols of a run, from the first, while whole rounds of kSimdStates symbols remain and
     // 2 kSimdStates bytes are left (a round reads at most one word per state); returns the first
-    // symbol not done. The widest vector code the build has: runVectorAvx512 or runVectorAvx2.
+    // symbol not done. The widest vector code the ISA has: runVectorAvx512 or runVectorAvx2.
     int runVector(const uint16_t* ctx, int n, uint8_t* tok) {
 #if PLX_PTM_AVX512
         return runVectorAvx512(ctx, n, tok);
@@ -424,8 +414,7 @@ struct SimdDecodeIO : WordStream {
                     kRansPrecision);
                 const __m256i slot = _mm256_and_si256(s[v], mask12);
                 // Eight scalar loads: faster than an 8-lane vpgatherdd on Zen 3, and checked
-                // by AddressSanitizer (on Zen 5 the AVX-512 loop's gather is as fast as scalar
-                // loads, docs/ptm-results.md).
+                // by AddressSanitizer.
                 alignas(32) uint32_t ix[8];
                 _mm256_store_si256(reinterpret_cast<__m256i*>(ix), _mm256_add_epi32(off, slot));
                 const __m256i e = _mm256_setr_epi32(tab[ix[0]], tab[ix[1]], tab[ix[2]],
@@ -480,7 +469,7 @@ struct SimdDecodeIO : WordStream {
         }
     }
 
-    // Coder 6's eps run of component c (n symbols, contexts ctx, tokens into z): with AVX-512 by
+    // The eps run of component c (n symbols, contexts ctx, tokens into z): with AVX-512 by
     // runSmallAvx512 where the family allows it, else as run<false>.
     void runEps([[maybe_unused]] int c, const uint16_t* ctx, int n, uint8_t* z) {
 #if PLX_PTM_AVX512
@@ -531,4 +520,5 @@ struct SimdDecodeIO : WordStream {
     }
 };
 
+}  // namespace PLX_PTM_KERNEL_NS
 }  // namespace plx::ptm::detail

@@ -2,6 +2,10 @@
 
 #include "commands.h"
 
+#include <algorithm>
+
+#include <fmt/format.h>
+
 #include <plx/core/cpu.h>
 
 int main(int argc, char** argv) {
@@ -23,11 +27,16 @@ int main(int argc, char** argv) {
     };
     if (std::string problem = plx::isaEnvironmentError(); !problem.empty())
         return fail(problem, kExitUsage);
+    if (argc > 1 && argv[1][0] != '-' &&
+        std::none_of(commands.begin(), commands.end(),
+                     [&](const Command& c) { return c.app->get_name() == argv[1]; }))
+        return fail(fmt::format("unknown command '{}' (see parallax --help)", argv[1]), kExitUsage);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        int code = app.exit(e);
-        return code == 0 ? kExitOk : kExitUsage;
+        // --help and --version print and succeed; a usage error is one line, as every error is.
+        if (e.get_exit_code() == 0) return app.exit(e);
+        return fail(e.what(), kExitUsage);
     }
     for (const Command& c : commands)
         if (c.app->parsed()) return c.run();

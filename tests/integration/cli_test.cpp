@@ -127,9 +127,10 @@ TEST(Cli, DemoQuickWritesReport) {
 }
 
 TEST(Cli, UsageErrorsExitWithTwo) {
-    EXPECT_EQ(runParallax("").exitCode, 2);
-    EXPECT_EQ(runParallax("render").exitCode, 2);
-    EXPECT_EQ(runParallax("frobnicate").exitCode, 2);
+    expectOneLineError(runParallax(""), "subcommand", 2);
+    expectOneLineError(runParallax("render"), "scene", 2);
+    expectOneLineError(runParallax("frobnicate"), "frobnicate", 2);
+    expectOneLineError(runParallax("render office:1 --out x --no-such-flag"), "--no-such-flag", 2);
     EXPECT_EQ(runParallax("--help").exitCode, 0);
     EXPECT_EQ(runParallax("render --help").exitCode, 0);
 }

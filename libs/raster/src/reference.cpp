@@ -8,6 +8,9 @@ namespace plx::raster {
 namespace {
 
 using namespace detail;
+// The reference takes the scalar path's setup and shading whatever path is active.
+using detail::isa_scalar::setupTriangle;
+using detail::isa_scalar::shadeSample;
 
 int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
     int j = (i + 1) % 3;

@@ -180,7 +180,7 @@ struct ShadeContext {
     bool collectUnsampled = false;
     bool colorOnly = false;  // RenderOptions::colorOnly: no depth test, no depth or ID writes
 
-    ShadeContext(const RenderOptions& options);
+    ShadeContext(const RenderOptions& options, const RenderTargets& targets);
 };
 
 // The identity part of a setup: the triangle's ID and where flat shading takes its colour from

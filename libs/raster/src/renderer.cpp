@@ -56,9 +56,10 @@ struct DrawnTiles {
 
     static DrawnTiles keyOf(const RenderTargets& rt, const RenderOptions& options,
                             uint32_t clearWord) {
-        return {{rt.color.data, rt.depth.data, rt.id.data, rt.depth2.data, rt.id2.data},
+        return {{rt.color.data, rt.depth.data, rt.id.data, rt.visibility.depth2.data,
+                 rt.visibility.id2.data},
                 {rt.color.strideElems, rt.depth.strideElems, rt.id.strideElems,
-                 rt.depth2.strideElems, rt.id2.strideElems},
+                 rt.visibility.depth2.strideElems, rt.visibility.id2.strideElems},
                 rt.depth.data ? rt.depth.width : rt.color.width,
                 rt.depth.data ? rt.depth.height : rt.color.height,
                 clearWord,
@@ -286,7 +287,7 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     Stopwatch clock;
     kernels = RasterKernels::active();
     Viewport vp(camera);
-    ShadeContext ctx(options);
+    ShadeContext ctx(options, rt);
     int tileSize = 1 << tileShift;
     int tilesX = (vp.width + tileSize - 1) / tileSize,
         tilesY = (vp.height + tileSize - 1) / tileSize;
@@ -299,7 +300,8 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     tileMemory.resize(size_t(pool.threadCount()));  // a no-op after the first frame
     binAndDraw(scene, camera, subset, vp, ctx, options, rt, tilesX, tiles);
 
-    if (options.unsampledVisible && !subset) collectUnsampled(rt, options.unsampledVisible);
+    if (rt.visibility.unsampledVisible && !subset)
+        collectUnsampled(rt, rt.visibility.unsampledVisible);
 
     RenderStats stats;
     stats.trianglesSubmitted = subset ? subset->size() : scene.triangleCount();
@@ -642,8 +644,9 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     // it is the only place for them, whatever the tile size (checkRenderRequest: such renders
     // clear their targets and have no second layer).
     const bool discards = !options.colorOnly && (!frame.depth.data || !frame.id.data);
-    const bool inTileMemory = discards || (clearTile[size_t(tile)] && !options.colorOnly &&
-                                           !frame.id2.data && tileSize <= kMaxTileMemorySize);
+    const bool inTileMemory =
+        discards || (clearTile[size_t(tile)] && !options.colorOnly && !frame.visibility.id2.data &&
+                     tileSize <= kMaxTileMemorySize);
     const uint32_t clearWord = clearWordOf(options);
     TileJob job;
     job.scene = &scene;
@@ -660,10 +663,11 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     job.clearWord = clearWord;
     // The second depth layer needs the hidden triangles too: no occlusion culling for it, nor
     // without a depth test.
-    job.occlusion = job.rt.id2.data || options.colorOnly ? nullptr : &blocks;
+    job.occlusion = job.rt.visibility.id2.data || options.colorOnly ? nullptr : &blocks;
     if (job.occlusion) blocks.reset(x0, y0, x1, y1, options.clearTargets);
     occludedPerTile[size_t(tile)] += kernels.drawTile(job);
-    if (options.tileIds) options.tileIds->visitTile(job.rt.id, x0, y0, x1, y1, slot);
+    if (frame.visibility.tileIds)
+        frame.visibility.tileIds->visitTile(job.rt.id, x0, y0, x1, y1, slot);
     if (inTileMemory)
         kernels.resolveTileMemory(job.rt, frame, x0, y0, x1, y1,
                                   tileMemory[size_t(slot)].colorWord());

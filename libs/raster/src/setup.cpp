@@ -19,12 +19,12 @@ Viewport::Viewport(const Camera& camera)
     guardY = (kGuardPixels - halfHeight) / halfHeight;
 }
 
-ShadeContext::ShadeContext(const RenderOptions& options)
+ShadeContext::ShadeContext(const RenderOptions& options, const RenderTargets& targets)
     : shading(options.shading),
       lit(options.lit),
       ambient(options.ambient),
       cullBackFaces(options.cullBackFaces),
-      collectUnsampled(options.unsampledVisible != nullptr),
+      collectUnsampled(targets.visibility.unsampledVisible != nullptr),
       colorOnly(options.colorOnly) {
     float len = glm::length(options.lightDir);
     lightDir = len > 0.0f && std::isfinite(len) ? options.lightDir / len : Vec3(0.0f, 1.0f, 0.0f);

@@ -163,17 +163,17 @@ inline void writeSample(const TriangleSetup& t, const ShadeContext& ctx, float b
     float& depth = rt.depth.row(y)[x];
     if (!(invW > depth)) {
         if constexpr (kLayer2) {
-            if (invW > rt.depth2.row(y)[x]) {
-                rt.depth2.row(y)[x] = invW;
-                rt.id2.row(y)[x] = t.id;
+            if (invW > rt.visibility.depth2.row(y)[x]) {
+                rt.visibility.depth2.row(y)[x] = invW;
+                rt.visibility.id2.row(y)[x] = t.id;
             }
         }
         return;
     }
     uint32_t& id = rt.id.row(y)[x];
     if constexpr (kLayer2) {
-        rt.depth2.row(y)[x] = depth;
-        rt.id2.row(y)[x] = id;
+        rt.visibility.depth2.row(y)[x] = depth;
+        rt.visibility.id2.row(y)[x] = id;
     }
     depth = invW;
     id = t.id;
@@ -883,7 +883,7 @@ bool blocksHide(DepthBlocks& blocks, int x0, int y0, int x1, int y1, float neare
 
 bool narrowFlatApplies(const ShadeContext& ctx, const RenderTargets& rt) {
 #ifdef PLX_RASTER_AVX2
-    return ctx.shading == Shading::kFlat && !ctx.colorOnly && !rt.id2.data;
+    return ctx.shading == Shading::kFlat && !ctx.colorOnly && !rt.visibility.id2.data;
 #else
     (void)ctx, (void)rt;
     return false;
@@ -981,7 +981,7 @@ void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const Re
 #endif
         rasterizeScalar<kS, kC, kL2>(t, ctx, rt, x0, y0, x1, y1, spans);
     };
-    if (rt.id2.data) {
+    if (rt.visibility.id2.data) {
         if (!color) run.template operator()<Shading::kFlat, false, true>();
         else if (flat) run.template operator()<Shading::kFlat, true, true>();
         else run.template operator()<Shading::kGouraud, true, true>();
@@ -1014,9 +1014,10 @@ void clearTile(const RenderTargets& rt, int x0, int y0, int x1, int y1, uint32_t
         if (rt.color.data)  // as 32-bit words, which the compiler fills several at a time
             std::fill_n(reinterpret_cast<uint32_t*>(rt.color.row(y) + x0), x1 - x0 + 1,
                         clearWord);
-        if (rt.id2.data) {
-            std::fill(rt.depth2.row(y) + x0, rt.depth2.row(y) + x1 + 1, 0.0f);
-            std::fill(rt.id2.row(y) + x0, rt.id2.row(y) + x1 + 1, 0u);
+        const VisibilityOutputs& layer2 = rt.visibility;
+        if (layer2.id2.data) {
+            std::fill(layer2.depth2.row(y) + x0, layer2.depth2.row(y) + x1 + 1, 0.0f);
+            std::fill(layer2.id2.row(y) + x0, layer2.id2.row(y) + x1 + 1, 0u);
         }
     }
 }

@@ -8,8 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include <plx/core/cpu.h>
 #include <plx/raster/raster.h>
+
+#include "isa_paths.h"
 
 namespace plx::raster {
 namespace {
@@ -151,19 +152,8 @@ Image<int> coverageCounts(const Scene& s, const Camera& cam, Renderer& r) {
 // Every TEST_P of this suite runs once per ISA path this process can run (runnableIsas: the
 // build's and the CPU's), so each path's kernels meet the scalar reference renderer and the
 // golden images; the renderer takes the active path at the start of each frame.
-class RasterPath : public ::testing::TestWithParam<Isa> {
-protected:
-    void SetUp() override { ASSERT_TRUE(setActiveIsa(GetParam()).isOk()); }
-    void TearDown() override { EXPECT_TRUE(setActiveIsa(mSaved).isOk()); }
-
-private:
-    Isa mSaved = activeIsa();
-};
-
-INSTANTIATE_TEST_SUITE_P(Isa, RasterPath, ::testing::ValuesIn(runnableIsas()),
-                         [](const ::testing::TestParamInfo<Isa>& info) {
-                             return std::string(isaName(info.param));
-                         });
+class RasterPath : public test::IsaPathTest {};
+PLX_INSTANTIATE_ISA_PATHS(RasterPath);
 
 TEST_P(RasterPath, TessellatedPlaneCoversEveryPixelExactlyOnce) {
     std::mt19937 rng(1234);
@@ -244,8 +234,8 @@ TEST_P(RasterPath, IdAtEachPixelIsTheDepthWinner) {
     Image<float> depth2(80, 60, 0.0f), secondDepth(80, 60, 0.0f);
     Image<uint32_t> id2(80, 60, 0u), secondId(80, 60, 0u);
     RenderTargets layered = full.targets();
-    layered.depth2 = depth2.view();
-    layered.id2 = id2.view();
+    layered.visibility.depth2 = depth2.view();
+    layered.visibility.id2 = id2.view();
     r->render(s, cam, {}, layered);
     for (uint32_t t = 0; t < s.triangleCount(); ++t) {
         std::span<const uint32_t> single(&t, 1);
@@ -267,8 +257,8 @@ TEST_P(RasterPath, IdAtEachPixelIsTheDepthWinner) {
     Image<float> refDepth2(80, 60);
     Image<uint32_t> refId2(80, 60);
     RenderTargets refTargets = ref.targets();
-    refTargets.depth2 = refDepth2.view();
-    refTargets.id2 = refId2.view();
+    refTargets.visibility.depth2 = refDepth2.view();
+    refTargets.visibility.id2 = refId2.view();
     renderReference(s, cam, {}, refTargets);
     EXPECT_TRUE(refId2 == id2);
     EXPECT_TRUE(refDepth2 == depth2);
@@ -656,9 +646,9 @@ TEST_P(RasterPath, ReportsUnsampledTrianglesInFrontOfTheDepth) {
     FrameBuffers fb;
     fb.resize(8, 8);
     std::vector<uint32_t> unsampled;
-    RenderOptions opt;
-    opt.unsampledVisible = &unsampled;
-    r->render(s, cam, opt, fb.targets());
+    RenderTargets targets = fb.targets();
+    targets.visibility.unsampledVisible = &unsampled;
+    r->render(s, cam, {}, targets);
     EXPECT_EQ(countDistinctIds(fb.id), 2u);  // only the wall's two triangles hit samples
     EXPECT_EQ(unsampled, std::vector<uint32_t>{2});  // the tiny one in front, not the one behind
 }
@@ -710,7 +700,7 @@ TEST_P(RasterPath, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
             auto r = makeRenderer(2, 16);
             r->render(s, cam, opt, tested.targets());
             opt.colorOnly = true;
-            renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}, {}});
+            renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}});
             if (!overlapping) {
                 EXPECT_TRUE(ref.color == tested.color) << what;
             }
@@ -720,7 +710,7 @@ TEST_P(RasterPath, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
                 out.resize(157, 103);
                 out.depth.fill(-7.0f);
                 out.id.fill(77u);
-                fast->render(s, cam, opt, {out.color.view(), {}, {}, {}, {}});
+                fast->render(s, cam, opt, {out.color.view(), {}, {}, {}});
                 EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
                 fast->render(s, cam, opt, out.targets());  // views present but ignored
                 EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
@@ -840,7 +830,7 @@ TEST_P(RasterPath, DepthAndIdsLeftOutChangeNothingElse) {
                 RenderTargets t = part.targets();
                 if (!keepDepth) t.depth = {};
                 if (!keepIds) t.id = {};
-                opt.tileIds = &visitor;
+                t.visibility.tileIds = &visitor;
                 if (subset)
                     r->renderSubset(s, cam, some, opt, t);
                 else
@@ -865,7 +855,7 @@ TEST_P(RasterPath, DepthAndIdsLeftOutChangeNothingElse) {
     opt.shading = Shading::kTextured;
     renderReference(s, cam, opt, ref.targets(), &someSpan);
     part.resize(150, 90);
-    renderReference(s, cam, opt, {part.color.view(), {}, {}, {}, {}}, &someSpan);
+    renderReference(s, cam, opt, {part.color.view(), {}, {}, {}}, &someSpan);
     EXPECT_TRUE(part.color == ref.color) << "reference renderer";
 }
 
@@ -880,38 +870,40 @@ TEST(Raster, RejectsMalformedRenderRequests) {
     RenderOptions colorOnly;
     colorOnly.colorOnly = true;
     EXPECT_TRUE(checkRenderRequest(cam, {}, fb.targets()).isOk());
-    EXPECT_TRUE(checkRenderRequest(cam, colorOnly, {fb.color.view(), {}, {}, {}, {}}).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, colorOnly, {fb.color.view(), {}, {}, {}}).isOk());
     auto message = [&](const RenderOptions& o, const RenderTargets& t) {
         Status st = checkRenderRequest(cam, o, t);
         EXPECT_EQ(st.code(), ErrorCode::kInvalidArgument);
         return st.message();
     };
-    EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}, {}})
+    EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}})
                   .find("needs a colour target"),
               std::string::npos);
-    EXPECT_NE(message(colorOnly, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(),
-                                  id2.view()})
+    EXPECT_NE(message(colorOnly,
+                      {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), id2.view()}})
                   .find("second depth layer"),
               std::string::npos);
-    RenderOptions withUnsampled = colorOnly;
-    withUnsampled.unsampledVisible = &unsampled;
-    EXPECT_NE(message(withUnsampled, fb.targets()).find("unsampled"), std::string::npos);
-    EXPECT_TRUE(checkRenderRequest(cam, {}, {fb.color.view(), {}, {}, {}, {}}).isOk());
-    EXPECT_TRUE(checkRenderRequest(cam, {}, {{}, {}, fb.id.view(), {}, {}}).isOk());
+    RenderTargets withUnsampled = fb.targets();
+    withUnsampled.visibility.unsampledVisible = &unsampled;
+    EXPECT_NE(message(colorOnly, withUnsampled).find("unsampled"), std::string::npos);
+    IdSetVisitor visitor;
+    RenderTargets withTileIds = fb.targets();
+    withTileIds.visibility.tileIds = &visitor;
+    EXPECT_NE(message(colorOnly, withTileIds).find("no ID target to visit"), std::string::npos);
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {fb.color.view(), {}, {}, {}}).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {{}, {}, fb.id.view(), {}}).isOk());
     RenderOptions keep;
     keep.clearTargets = false;
-    EXPECT_NE(message(keep, {fb.color.view(), fb.depth.view(), {}, {}, {}}).find("keeps its"),
+    EXPECT_NE(message(keep, {fb.color.view(), fb.depth.view(), {}, {}}).find("keeps its"),
               std::string::npos);
-    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), depth2.view(), id2.view()})
+    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), {depth2.view(), id2.view()}})
                   .find("second depth layer needs depth and ID"),
               std::string::npos);
-    RenderOptions unsampledOnly;
-    unsampledOnly.unsampledVisible = &unsampled;
-    EXPECT_NE(message(unsampledOnly, {fb.color.view(), {}, fb.id.view(), {}, {}})
+    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), {{}, {}, &unsampled}})
                   .find("needs a depth target"),
               std::string::npos);
     EXPECT_NE(message({}, small.targets()).find("size differs"), std::string::npos);
-    EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(), {}})
+    EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), {}}})
                   .find("both"),
               std::string::npos);
 }

@@ -13,8 +13,8 @@
 namespace plx::raster {
 
 namespace detail {
-PLX_ISA_DECLARE(size_t findRunStarts(const uint32_t* p, const uint32_t* above, size_t n,
-                                     uint32_t* starts))
+PLX_ISA_DECLARE(size_t findRunStarts(const uint32_t* origin, ptrdiff_t stride, size_t width,
+                                     int rows, int* row, uint32_t* starts, size_t capacity))
 namespace {
 auto activeFindRunStarts() { return PLX_ISA_PICK(findRunStarts); }
 }  // namespace
@@ -22,18 +22,20 @@ auto activeFindRunStarts() { return PLX_ISA_PICK(findRunStarts); }
 
 namespace {
 
-// The run starts of each row of the rectangle [x0, x1] x [y0, y1] of `ids` (visible_set.inl),
-// passed to mark(); `starts` is scratch for one row.
+// The run starts of the rectangle [x0, x1] x [y0, y1] of `ids` (visible_set.inl), passed to
+// mark(); `starts` is scratch, kept between calls.
 template <class Pixel, class Mark>
 void forEachRunStart(const ImageView<Pixel>& ids, int x0, int y0, int x1, int y1,
                      std::vector<uint32_t>* starts, const Mark& mark) {
+    // Room for several rows per kernel call; at least one.
+    constexpr size_t kMinScratch = 4096;
     const auto findRunStarts = detail::activeFindRunStarts();
-    const size_t n = size_t(x1 - x0 + 1);
-    if (starts->size() < n) starts->resize(n);
-    for (int y = y0; y <= y1; ++y) {
-        const size_t count =
-            findRunStarts(ids.row(y) + x0, y > y0 ? ids.row(y - 1) + x0 : nullptr, n,
-                          starts->data());
+    const size_t width = size_t(x1 - x0 + 1);
+    if (starts->size() < std::max(width, kMinScratch))
+        starts->resize(std::max(width, kMinScratch));
+    for (int row = 0; row <= y1 - y0;) {
+        const size_t count = findRunStarts(ids.row(y0) + x0, ids.strideElems, width, y1 - y0 + 1,
+                                           &row, starts->data(), starts->size());
         for (size_t i = 0; i < count; ++i) mark((*starts)[i]);
     }
 }

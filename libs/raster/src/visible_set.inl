@@ -10,6 +10,8 @@
 
 namespace plx::raster::detail::PLX_ISA_NS {
 
+namespace {
+
 // Writes id - 1 to starts[] for every pixel of one ID-target row p[0..n) whose non-zero ID
 // differs from both the pixel before it and the pixel above it (above[0..n), the row before;
 // null for none), and returns how many it wrote (at most n). A polygon's pixels form runs, and
@@ -21,7 +23,7 @@ namespace plx::raster::detail::PLX_ISA_NS {
 // remain are visited. Most groups of eight repeat the row above outright, and are passed over
 // after that one comparison: 3.8 -> 2.3 instructions per pixel (callgrind, office:280's first
 // eye), BM_CollectPass 130-175 -> 84-90 us.
-size_t findRunStarts(const uint32_t* p, const uint32_t* above, size_t n, uint32_t* starts) {
+size_t rowRunStarts(const uint32_t* p, const uint32_t* above, size_t n, uint32_t* starts) {
     size_t count = 0;
     size_t i = 0;
 #if defined(__AVX2__)
@@ -56,6 +58,24 @@ size_t findRunStarts(const uint32_t* p, const uint32_t* above, size_t n, uint32_
         if (p[i] != previous && p[i] != 0 && !(above && p[i] == above[i]))
             starts[count++] = p[i] - 1;
         previous = p[i];
+    }
+    return count;
+}
+
+}  // namespace
+
+// The run starts of the rows *row, *row + 1, ... of a rectangle `width` pixels wide whose first
+// row starts at `origin` (rows `stride` elements apart; the first row has no row above), up to
+// row `rows` - 1 or until the next row might not fit in what is left of `capacity` (>= width).
+// Returns how many it wrote to starts[] and leaves in *row the first row not scanned. One call
+// per rectangle rather than per row: a call per row cost the pass over office:280's first eye
+// about 9% (BM_CollectPass).
+size_t findRunStarts(const uint32_t* origin, ptrdiff_t stride, size_t width, int rows, int* row,
+                     uint32_t* starts, size_t capacity) {
+    size_t count = 0;
+    for (; *row < rows && count + width <= capacity; ++*row) {
+        const uint32_t* p = origin + ptrdiff_t(*row) * stride;
+        count += rowRunStarts(p, *row > 0 ? p - stride : nullptr, width, starts + count);
     }
     return count;
 }

@@ -87,6 +87,24 @@ TEST_P(VisibleSetPath, FindsEveryIdAmongRepeatingNeighbours) {
     }
 }
 
+// Rows wider than the collector's scratch holds several of are scanned one call per row, each
+// continuing from the row above: every ID must still be found once, in the whole image and in
+// tiles of it.
+TEST_P(VisibleSetPath, WideRowsAreScannedAcrossKernelCalls) {
+    std::mt19937 rng(11);
+    Image<uint32_t> image(5003, 5);
+    for (size_t i = 0; i < image.pixelCount(); ++i) image.data()[i] = uint32_t(rng() % 9000);
+    std::set<uint32_t> expected = distinctTriangles(image);
+    VisibleSetCollector whole, tiles;
+    whole.begin(9000);
+    whole.add(image);
+    EXPECT_EQ(whole.sorted(), std::vector<uint32_t>(expected.begin(), expected.end()));
+    tiles.begin(9000);
+    tiles.visitTile(image.view(), 3, 0, 5002, 4, 0);
+    tiles.visitTile(image.view(), 0, 0, 2, 4, 0);
+    EXPECT_EQ(tiles.sorted(), whole.sorted());
+}
+
 TEST(VisibleSet, ForgetsEarlierFrames) {
     VisibleSetCollector c;
     Image<uint32_t> a(4, 1), b(4, 1);

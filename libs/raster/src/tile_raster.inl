@@ -16,8 +16,8 @@
 //    decode and encode), bit-identical to shadeSample;
 //  - scalar versions of both for the scalar path (and PLX_NO_SIMD builds) and for the second
 //    depth layer.
-// The 8-wide loops are written with AVX2 intrinsics; the avx512 translation unit compiles the
-// same source with AVX-512 enabled (EVEX encodings, more registers).
+// The 8-wide loops are written with AVX2 intrinsics. The avx512 unit compiles the same source,
+// but the renderer takes the avx2 copy on AVX-512 CPUs too (RasterKernels, bins.h).
 
 #include <algorithm>
 #include <cmath>

@@ -187,7 +187,7 @@ Result<const Image<Rgba8>*> PredistortRenderer::Impl::renderFrame(const Display&
     raster::RenderTargets targets = fb.targets();
     if (colorOnly && meshKeepsOrientation(m)) {
         options.colorOnly = true;
-        targets = {fb.color.view(), {}, {}, {}, {}};
+        targets = {fb.color.view(), {}, {}, {}};
     }
     // Freshly sized buffers are targets the renderer has no frame of: it clears them whole.
     options.clearDrawnTilesOnly = colorOnly;

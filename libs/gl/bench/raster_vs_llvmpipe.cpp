@@ -24,6 +24,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <plx/core/cpu.h>
 #include <plx/gl/gl_renderer.h>
 #include <plx/raster/raster.h>
 #include <plx/scene/import.h>
@@ -319,10 +320,10 @@ Status run(const Options& options) {
     auto peers = createPeers(options);
     if (!peers) return peers.status();
     if (!options.json) {
-        fmt::print("Parallax raster::Renderer ({} threads, {}-pixel tiles) vs {} ({}), "
+        fmt::print("Parallax raster::Renderer ({} threads, {}-pixel tiles, {} path) vs {} ({}), "
                    "LP_NUM_THREADS={}, {}x{}, flat shading, {} warm-up + {} timed frames, "
                    "alternating\n",
-                   peers->parallax->threadCount(), options.tileSize,
+                   peers->parallax->threadCount(), options.tileSize, isaName(activeIsa()),
                    peers->llvmpipe->rendererName(),
                    peers->llvmpipe->versionString(), peers->llvmpipe->threads(), width, height,
                    options.warmup, options.frames);
@@ -341,6 +342,7 @@ Status run(const Options& options) {
     if (options.json) {
         nlohmann::json out = {{"parallax_threads", peers->parallax->threadCount()},
                               {"parallax_tile_size", options.tileSize},
+                              {"parallax_isa", std::string(isaName(activeIsa()))},
                               {"llvmpipe", peers->llvmpipe->rendererName()},
                               {"gl_version", peers->llvmpipe->versionString()},
                               {"lp_num_threads", peers->llvmpipe->threads()},

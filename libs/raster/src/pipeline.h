@@ -5,6 +5,11 @@
 // Fixed-point format: screen positions are int32 in 1/256 pixel (8 sub-pixel bits, "24.8").
 // Vertices are kept inside a guard band of +-kGuardPixels pixels, so coordinate differences
 // fit in 2^24 and edge-function values (products of two differences) in 2^49: int64 is exact.
+//
+// The per-ISA kernels (tile_raster.inl, triangle_setup.inl, vertex_transform.inl) include this
+// header too, so its inline helpers are `static`: each translation unit keeps its own copy,
+// compiled with its own flags. Shared (COMDAT) copies could hand an AVX-512 body to a scalar
+// caller (plx/core/isa_kernel.h; tests/portability checks the binary for it).
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +18,7 @@
 #include <limits>
 #include <vector>
 
+#include <plx/core/cpu.h>
 #include <plx/raster/raster.h>
 
 namespace plx::raster::detail {
@@ -42,7 +48,7 @@ struct Viewport {
     explicit Viewport(const Camera& camera);
 };
 
-inline uint32_t outcode(const Vec4& c, const Viewport& vp) {
+static inline uint32_t outcode(const Vec4& c, const Viewport& vp) {
     uint32_t code = 0;
     if (c.x < -c.w) code |= kOutLeft;
     if (c.x > c.w) code |= kOutRight;
@@ -65,7 +71,7 @@ struct RasterVertex {
 };
 
 // Snaps a clip-space vertex inside the guard band (w > 0) to fixed point.
-inline RasterVertex snapVertex(const Vec4& c, const Viewport& vp, const Vec3& bary) {
+static inline RasterVertex snapVertex(const Vec4& c, const Viewport& vp, const Vec3& bary) {
     RasterVertex v;
     v.invW = 1.0f / c.w;
     float px = (c.x * v.invW) * vp.halfWidth + vp.halfWidth;
@@ -85,32 +91,37 @@ struct VertexOut {
 };
 
 // Transforms positions[0 .. count) to clip space (clipFromWorld * (p, 1)), outcodes and snaps
-// them into out[0 .. count).
-void transformPositions(const Vec3* positions, size_t count, const Mat4& clipFromWorld,
-                        const Viewport& vp, VertexOut* out);
+// them into out[0 .. count). Per ISA (vertex_transform.inl), the same bits on every path.
+PLX_ISA_DECLARE(void transformPositions(const Vec3* positions, size_t count,
+                                        const Mat4& clipFromWorld, const Viewport& vp,
+                                        VertexOut* out))
 
-inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px, int64_t py) {
+static inline int64_t edgeAt(int32_t ax, int32_t ay, int32_t bx, int32_t by, int64_t px,
+                             int64_t py) {
     return int64_t(bx - ax) * (py - ay) - int64_t(by - ay) * (px - ax);
 }
 
 // First pixel whose centre (p*256 + 128) is >= v, and last pixel whose centre is <= v, for v
 // inside the guard band (|v| < 2^24, so nothing overflows). The arithmetic shift is floor
 // division: first = ceil((v - 128) / 256) = floor((v + 127) / 256), last = floor((v - 128) / 256).
-inline int firstPixelAtOrAfter(int32_t v) {
+static inline int firstPixelAtOrAfter(int32_t v) {
     return (v + kSubPixelScale / 2 - 1) >> kSubPixelBits;
 }
-inline int lastPixelAtOrBefore(int32_t v) { return (v - kSubPixelScale / 2) >> kSubPixelBits; }
+static inline int lastPixelAtOrBefore(int32_t v) {
+    return (v - kSubPixelScale / 2) >> kSubPixelBits;
+}
 
 // Top-left fill rule for edge (dx, dy) of a triangle with positive area: the interior lies where
 // the edge function is positive, its gradient (-dy, dx) points inwards. Left edge: dy < 0; top
 // edge: dy == 0 and dx > 0. Samples exactly on other edges are excluded by a bias of -1.
-inline int32_t topLeftBias(int32_t dx, int32_t dy) {
+static inline int32_t topLeftBias(int32_t dx, int32_t dy) {
     return dy < 0 || (dy == 0 && dx > 0) ? 0 : -1;
 }
 
 // The vertices of a snapped triangle with doubled signed area `area2`, ordered so that the area
 // is positive (vertices 1 and 2 swapped for front faces); returns the positive area.
-inline int64_t orientPositive(const RasterVertex vin[3], int64_t area2, const RasterVertex* v[3]) {
+static inline int64_t orientPositive(const RasterVertex vin[3], int64_t area2,
+                                     const RasterVertex* v[3]) {
     v[0] = &vin[0], v[1] = &vin[1], v[2] = &vin[2];
     if (area2 >= 0) return area2;
     std::swap(v[1], v[2]);
@@ -125,13 +136,13 @@ int clipTriangle(const Vec4 clip[3], const Viewport& vp, RasterVertex out[][3]);
 // Everything the pixel loop needs for one triangle, in the orientation where the signed area is
 // positive (vertex order may be swapped from the mesh's).
 struct TriangleSetup {
-    int32_t x[3], y[3];  // fixed point
-    int64_t area2 = 0;   // twice the area in (1/256 px)^2, > 0
+    int32_t x[3], y[3];   // fixed point
+    int64_t area2 = 0;    // twice the area in (1/256 px)^2, > 0
     int64_t edgeBias[3];  // 0 for top-left edges, -1 otherwise (top-left fill rule)
     int minX = 0, minY = 0, maxX = -1, maxY = -1;  // inclusive pixel bounds, clamped to viewport
     int32_t extentX = 0, extentY = 0;  // TriangleBox's: max - min of x and y, in 1/256 pixel
     float invW[3];
-    Vec3 color[3];   // linear lit colour at the vertices (Gouraud, textured)
+    Vec3 color[3];  // linear lit colour at the vertices (Gouraud, textured)
     Vec2 uv[3];
     // Flat shading: the triangle's encoded colour, computed on the first sample that passes the
     // depth test (hidden triangles, often most of them, never pay for it).
@@ -152,7 +163,7 @@ struct TriangleSetup {
 // exact integer edge values. Along the row, b = rowValue + float(x - minX) * step. The
 // reference, the scalar loops and the AVX2 loops all evaluate exactly this expression, so their
 // depth and attributes agree to the bit; the coverage test itself stays exact integer.
-inline void rowBarycentrics(const TriangleSetup& t, int y, float* b1Row, float* b2Row) {
+static inline void rowBarycentrics(const TriangleSetup& t, int y, float* b1Row, float* b2Row) {
     int64_t px = int64_t(t.minX) * kSubPixelScale + kSubPixelScale / 2;
     int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
     *b1Row = float(edgeAt(t.x[2], t.y[2], t.x[0], t.y[0], px, py)) * t.invArea;
@@ -169,13 +180,13 @@ struct ShadeContext {
     bool collectUnsampled = false;
     bool colorOnly = false;  // RenderOptions::colorOnly: no depth test, no depth or ID writes
 
-    ShadeContext(const RenderOptions& options);
+    ShadeContext(const RenderOptions& options, const RenderTargets& targets);
 };
 
 // The identity part of a setup: the triangle's ID and where flat shading takes its colour from
 // (computed on the first sample that needs it, flatColorFor).
-inline void setTriangleIdentity(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
-                                TriangleSetup* t) {
+static inline void setTriangleIdentity(const scene::Scene& scene, size_t meshIndex,
+                                       uint32_t localTri, TriangleSetup* t) {
     t->id = uint32_t(scene.firstTriangle(meshIndex) + localTri + 1);
     t->scene = &scene;
     t->meshIndex = uint32_t(meshIndex);
@@ -183,21 +194,34 @@ inline void setTriangleIdentity(const scene::Scene& scene, size_t meshIndex, uin
     t->flatReady = false;
 }
 
-// Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
-// `localTri`. Returns false when it covers no sample, is degenerate or is culled as back-facing.
-bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
-                   const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
-                   TriangleSetup* out);
-// The same, for a triangle whose box (triangleBox returned true) is already known and whose
-// identity the caller has set (setTriangleIdentity; a flat colour already set is kept).
 struct TriangleBox;
-void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
-                        const RasterVertex v[3], const TriangleBox& box,
-                        const ShadeContext& ctx, TriangleSetup* out);
+// Per ISA (triangle_setup.inl); the reference renderer takes the scalar definitions.
+PLX_ISA_DECLARE(
+    // Builds the setup of one (possibly clipped) triangle of mesh `meshIndex`, local triangle
+    // `localTri`. Returns false when it covers no sample, is degenerate or is culled as
+    // back-facing.
+    bool setupTriangle(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                       const RasterVertex v[3], const Viewport& vp, const ShadeContext& ctx,
+                       TriangleSetup* out);
+    // The same, for a triangle whose box (triangleBox returned true) is already known and whose
+    // identity the caller has set (setTriangleIdentity; a flat colour already set is kept).
+    void setupTriangleInBox(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
+                            const RasterVertex v[3], const TriangleBox& box,
+                            const ShadeContext& ctx, TriangleSetup* out);
+    // Shades one covered sample. b1, b2: barycentric weights of vertices 1 and 2
+    // (b0 = 1 - b1 - b2) in screen space; invW: interpolated 1/w at the sample.
+    Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
+                      float invW))
 
 // The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                   const ShadeContext& ctx);
+
+// Lambert + ambient of a normal, two-sided (|n.l|) so open meshes look the same from both sides.
+static inline float lambert(const Vec3& n, const ShadeContext& ctx) {
+    return std::min(1.0f,
+                    ctx.ambient + (1.0f - ctx.ambient) * std::fabs(glm::dot(n, ctx.lightDir)));
+}
 
 // Pixel bounds (inclusive, clamped to the viewport), doubled signed area and fixed-point extents
 // of a snapped triangle.
@@ -209,8 +233,8 @@ struct TriangleBox {
 
 // Cheap pre-test for binning and tiles: the box of a snapped triangle, false when it covers no
 // sample centre, is degenerate, or is a back face that must be culled.
-inline bool triangleBox(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                        const Viewport& vp, bool cullBackFaces, TriangleBox* box) {
+static inline bool triangleBox(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
+                               const Viewport& vp, bool cullBackFaces, TriangleBox* box) {
     box->area2 = edgeAt(a.x, a.y, b.x, b.y, c.x, c.y);
     // Positive area in y-down pixel coordinates means clockwise as displayed: a back face for
     // counter-clockwise front faces.
@@ -226,9 +250,9 @@ inline bool triangleBox(const RasterVertex& a, const RasterVertex& b, const Rast
     return box->minX <= box->maxX && box->minY <= box->maxY;
 }
 
-inline bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                           const Viewport& vp, bool cullBackFaces, int* minX, int* minY,
-                           int* maxX, int* maxY) {
+static inline bool triangleBounds(const RasterVertex& a, const RasterVertex& b,
+                                  const RasterVertex& c, const Viewport& vp, bool cullBackFaces,
+                                  int* minX, int* minY, int* maxX, int* maxY) {
     TriangleBox box;
     bool covers = triangleBox(a, b, c, vp, cullBackFaces, &box);
     *minX = box.minX;
@@ -238,7 +262,7 @@ inline bool triangleBounds(const RasterVertex& a, const RasterVertex& b, const R
     return covers;
 }
 
-inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
+static inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
     if (!t.flatReady) {
         t.flatColor = flatColorOf(*t.scene, t.meshIndex, t.localTri, ctx);
         t.flatReady = true;
@@ -249,16 +273,12 @@ inline Rgba8 flatColorFor(const TriangleSetup& t, const ShadeContext& ctx) {
 // Texel indices floor(f) and floor(f) + 1 wrapped into [0, n) (repeat addressing), given
 // fl = floor(f); non-finite values map to texel 0. Large values are reduced in int64 so the
 // float->int conversion cannot overflow.
-inline void wrapTexels(float fl, int n, int32_t* i0, int32_t* i1) {
+static inline void wrapTexels(float fl, int n, int32_t* i0, int32_t* i1) {
     auto wrap = [n](int64_t i) { return int32_t(((i % n) + n) % n); };
     int64_t i = std::isfinite(fl) ? int64_t(std::clamp(fl, -1e15f, 1e15f)) : 0;
     *i0 = wrap(i);
     *i1 = wrap(i + 1);
 }
-
-// Shades one covered sample. b1, b2: barycentric weights of vertices 1 and 2 (b0 = 1 - b1 - b2)
-// in screen space; invW: interpolated 1/w at the sample.
-Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2, float invW);
 
 // Coarse occlusion culling (beyond the P-buffer paper; the hierarchical-z idea of z-buffer
 // hardware): per 8x8 pixel block, a lower bound of the depth (1/w, larger is nearer) stored in
@@ -270,19 +290,16 @@ Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, flo
 struct DepthBlocks {
     static constexpr int kShift = 3;  // 8x8 pixels
     int blocksX = 0, blocksY = 0;
-    std::vector<float> bound;      // per block: <= every depth value in it
-    std::vector<uint8_t> dirty;    // per block: written since `bound` was taken
+    std::vector<float> bound;    // per block: <= every depth value in it
+    std::vector<uint8_t> dirty;  // per block: written since `bound` was taken
 
     // Sizes the blocks for a width x height target (keeps them when the size is unchanged).
     void resize(int width, int height);
     // Resets the blocks of the pixel rectangle [x0,x1]x[y0,y1] (whole blocks) to `depth` (the
     // cleared value), or marks them dirty when the depth they hold is unknown.
     void reset(int x0, int y0, int x1, int y1, bool cleared);
-    // Marks the blocks of the pixel rectangle [x0,x1]x[y0,y1] as possibly written.
-    void markDirty(int x0, int y0, int x1, int y1);
-    // True when a triangle whose samples all have 1/w <= `nearest` is hidden at every pixel of
-    // [x0,x1]x[y0,y1] (refreshes the dirty blocks it reads from `depth`).
-    bool hides(int x0, int y0, int x1, int y1, float nearest, const ImageView<float>& depth);
+    // Marking blocks written and testing them are part of the per-ISA tile kernel
+    // (tile_raster.inl: markDirty, blocksHide).
 };
 
 // The largest 1/w any covered sample of the snapped triangle (a, b, c) can be given by
@@ -291,34 +308,13 @@ struct DepthBlocks {
 // the rounding grows with the barycentric weights at the bounding box corners, which stay below
 // 2 * box / area, so slivers (area under 1/64 of their box) get no bound and the rest a 1/64
 // relative margin, far above the rounding (< 1e-4 relative with weights below 128).
-inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b, const RasterVertex& c,
-                              const TriangleBox& box) {
+static inline float nearestInvWBound(const RasterVertex& a, const RasterVertex& b,
+                                     const RasterVertex& c, const TriangleBox& box) {
     const int64_t area2 = box.area2 < 0 ? -box.area2 : box.area2;
     if (area2 * 32 < int64_t(box.extentX) * box.extentY)
         return std::numeric_limits<float>::infinity();
     float nearest = std::max({a.invW, b.invW, c.invW});
     return nearest + nearest * (1.0f / 64.0f);
 }
-
-// The narrow flat path below applies to every triangle of this render: AVX2, flat shading, a
-// depth test, no second depth layer.
-bool narrowFlatApplies(const ShadeContext& ctx, const RenderTargets& rt);
-
-// When the part of the snapped triangle `v` (box from triangleBox) in the inclusive rectangle
-// [x0,x1]x[y0,y1] is at most eight pixels wide and the triangle spans under 64 pixels in x and
-// y, rasterises it there as setupTriangleInBox + rasterizeTriangle would (bit-identical
-// results) without building the full setup, and returns true; returns false, having done
-// nothing, otherwise. `t` carries the triangle's identity only (setTriangleIdentity, and a flat
-// colour already known); its vertex fields are overwritten. Only when narrowFlatApplies.
-bool rasterizeNarrowFlat(const RasterVertex v[3], const TriangleBox& box, TriangleSetup& t,
-                         const ShadeContext& ctx, const RenderTargets& rt, int x0, int y0, int x1,
-                         int y1, DepthBlocks* blocks);
-
-// Rasterises t into targets restricted to the inclusive pixel rectangle [x0,x1]x[y0,y1], with
-// incremental edge functions (the fast path). The rectangle must belong to the calling thread:
-// pixels of it outside the triangle may be rewritten with their own values. `blocks`, when not
-// null, gets the blocks this triangle writes marked dirty.
-void rasterizeTriangle(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
-                       int x0, int y0, int x1, int y1, DepthBlocks* blocks = nullptr);
 
 }  // namespace plx::raster::detail

@@ -8,6 +8,9 @@ namespace plx::raster {
 namespace {
 
 using namespace detail;
+// The reference takes the scalar path's setup and shading whatever path is active.
+using detail::isa_scalar::setupTriangle;
+using detail::isa_scalar::shadeSample;
 
 int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
     int j = (i + 1) % 3;
@@ -33,15 +36,15 @@ void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const R
                 continue;
             }
             if (!(invW > rt.depth.at(x, y))) {
-                if (rt.id2.data && invW > rt.depth2.at(x, y)) {
-                    rt.depth2.at(x, y) = invW;
-                    rt.id2.at(x, y) = t.id;
+                if (rt.visibility.id2.data && invW > rt.visibility.depth2.at(x, y)) {
+                    rt.visibility.depth2.at(x, y) = invW;
+                    rt.visibility.id2.at(x, y) = t.id;
                 }
                 continue;
             }
-            if (rt.id2.data) {
-                rt.depth2.at(x, y) = rt.depth.at(x, y);
-                rt.id2.at(x, y) = rt.id.at(x, y);
+            if (rt.visibility.id2.data) {
+                rt.visibility.depth2.at(x, y) = rt.depth.at(x, y);
+                rt.visibility.id2.at(x, y) = rt.id.at(x, y);
             }
             rt.depth.at(x, y) = invW;
             rt.id.at(x, y) = t.id;
@@ -93,16 +96,16 @@ void renderReference(const scene::Scene& scene, const Camera& camera, const Rend
         return;
     }
     Viewport vp(camera);
-    ShadeContext ctx(options);
+    ShadeContext ctx(options, rt);
     if (options.clearTargets) {
         if (!options.colorOnly) {
             rt.depth.fill(0.0f);
             rt.id.fill(0u);
         }
         if (rt.color.data) rt.color.fill(options.clearColor);
-        if (rt.id2.data) {
-            rt.depth2.fill(0.0f);
-            rt.id2.fill(0u);
+        if (rt.visibility.id2.data) {
+            rt.visibility.depth2.fill(0.0f);
+            rt.visibility.id2.fill(0u);
         }
     }
     if (subset) {

@@ -19,14 +19,9 @@
 #include <thread>
 #include <utility>
 
-#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-#include <immintrin.h>
-#define PLX_STREAM_STORES 1
-#endif
-
 #include <fmt/format.h>
 
-#include "pipeline.h"
+#include "bins.h"
 
 namespace plx::raster {
 
@@ -41,76 +36,6 @@ constexpr size_t kChunkTriangles = 8192;
 // triangles costs more (vertices transformed per triangle, scattered memory), so they are cut
 // finer to keep every thread binning (chunks of at most this many, planChunks).
 constexpr size_t kSubsetChunkTriangles = 512;
-// Bin entries with this bit refer to a chunk's materialised triangles (clipped or subset).
-constexpr uint32_t kMaterialisedBit = 0x80000000u;
-
-// A binned triangle carries its snapped vertices, so the tile stage streams
-// through its bins instead of gathering vertices from scattered memory (measured: gathering
-// made random-order scenes 3x slower). Barycentric weights of clipped or subset triangles stay
-// in the chunk's `materialised` list.
-struct BinnedTri {
-    int32_t x[3], y[3];
-    float invW[3];
-    uint32_t ref;  // mesh-local triangle index, or kMaterialisedBit | index into materialised
-};
-
-struct Materialised {
-    uint32_t mesh;
-    uint32_t localTri;
-    Vec3 bary[3];
-    // Flat shading's colour, taken once here rather than once per tile the triangle reaches
-    // (large triangles of a subset, such as a second stereo eye's, reach several).
-    Rgba8 flatColor;
-};
-
-// A triangle that covers no sample centre: its centre pixel and nearest 1/w, tested against the
-// final depth after the tiles are done.
-struct Unsampled {
-    uint32_t globalTri;
-    int32_t x, y;
-    float maxInvW;
-};
-
-// Decides, per tile, whether the occlusion test is worth its cost: once it has hidden fewer than
-// one in kMinHitRatio of the tile's triangles (a dense mesh whose triangles are in front as they
-// come, say) it only probes every kProbeStride-th triangle, so such tiles pay a sixteenth of the
-// test, and resumes testing all if the probes start hitting. Only the cost changes, never the
-// image. Measured (callgrind, one 1280x720 frame): the subdivided helmet 347M -> 315M
-// instructions, office:64 304M -> 308M.
-class OcclusionProbe {
-public:
-    bool shouldTest() {
-        if (mTests < kWarmup || mHits * kMinHitRatio >= mTests) return true;
-        return ++mSkipped % kProbeStride == 0;
-    }
-    void record(bool hit) {
-        ++mTests;
-        mHits += hit ? 1 : 0;
-    }
-
-private:
-    static constexpr uint32_t kWarmup = 32, kMinHitRatio = 16, kProbeStride = 16;
-    uint32_t mTests = 0, mHits = 0, mSkipped = 0;
-};
-
-struct Chunk {
-    // Full render: mesh-local triangle range of one mesh. Subset: a range of the subset list.
-    size_t mesh = 0;
-    size_t begin = 0, end = 0;
-    std::vector<Materialised> materialised;
-    std::vector<std::vector<BinnedTri>> bins;  // per tile
-    std::vector<Unsampled> unsampled;
-    uint64_t clipped = 0, binned = 0;
-
-    void reset(size_t tiles) {
-        materialised.clear();
-        unsampled.clear();
-        if (bins.size() != tiles) bins.resize(tiles);
-        for (auto& b : bins) b.clear();
-        clipped = binned = 0;
-    }
-};
-
 // The clear colour as the 32-bit word the colour target holds.
 uint32_t clearWordOf(const RenderOptions& options) {
     static_assert(sizeof(Rgba8) == sizeof(uint32_t));
@@ -131,9 +56,10 @@ struct DrawnTiles {
 
     static DrawnTiles keyOf(const RenderTargets& rt, const RenderOptions& options,
                             uint32_t clearWord) {
-        return {{rt.color.data, rt.depth.data, rt.id.data, rt.depth2.data, rt.id2.data},
+        return {{rt.color.data, rt.depth.data, rt.id.data, rt.visibility.depth2.data,
+                 rt.visibility.id2.data},
                 {rt.color.strideElems, rt.depth.strideElems, rt.id.strideElems,
-                 rt.depth2.strideElems, rt.id2.strideElems},
+                 rt.visibility.depth2.strideElems, rt.visibility.id2.strideElems},
                 rt.depth.data ? rt.depth.width : rt.color.width,
                 rt.depth.data ? rt.depth.height : rt.color.height,
                 clearWord,
@@ -174,45 +100,6 @@ inline void waitUntilSet(const std::atomic<bool>& flag) {
 #endif
         std::this_thread::yield();
     }
-}
-
-// Copies n 32-bit words to a target row with non-temporal stores where the row allows, and
-// leaves `clearWord` in the source words. Non-temporal: the finished tile is not read again by
-// this thread, so its lines go out without first being read in (a normal store reads each line
-// of the cold target before writing it). The clear: the next tile drawn in the same tile memory
-// starts from the clear values, and writing them here, while the words are in the first-level
-// cache, replaced a separate clear of the whole tile (memset into lines the tile had pushed out
-// to the second level) before each tile.
-// 16 bytes a store: 32-byte streaming stores (vmovntdq ymm) ran a P-buffer second eye of
-// office:280 about 12% slower on the development machine (AMD EPYC), though they halve this
-// loop's instructions.
-void streamRowAndClear(uint32_t* dst, uint32_t* src, int n, uint32_t clearWord) {
-    int i = 0;
-#ifdef PLX_STREAM_STORES
-    for (; i < n && (reinterpret_cast<uintptr_t>(dst + i) & 15); ++i)
-        dst[i] = std::exchange(src[i], clearWord);
-    const __m128i clear = _mm_set1_epi32(int32_t(clearWord));
-    // Four streaming stores a step (a tile row is 128 words): the loop's control is shared by
-    // more of them, 11 instructions per 8 words -> 13 per 16 (callgrind).
-    for (; i + 16 <= n; i += 16) {
-        auto* from = reinterpret_cast<__m128i*>(src + i);
-        auto* to = reinterpret_cast<__m128i*>(dst + i);
-        for (int k = 0; k < 4; ++k) _mm_stream_si128(to + k, _mm_loadu_si128(from + k));
-#ifdef __AVX__
-        const __m256i clear8 = _mm256_set1_epi32(int32_t(clearWord));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from), clear8);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from + 2), clear8);
-#else
-        for (int k = 0; k < 4; ++k) _mm_storeu_si128(from + k, clear);
-#endif
-    }
-    for (; i + 4 <= n; i += 4) {
-        auto* from = reinterpret_cast<__m128i*>(src + i);
-        _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i), _mm_loadu_si128(from));
-        _mm_storeu_si128(from, clear);
-    }
-#endif
-    for (; i < n; ++i) dst[i] = std::exchange(src[i], clearWord);
 }
 
 // Finds the mesh of each triangle of a subset by stepping on from the previous one's: the
@@ -292,30 +179,8 @@ public:
         return tile;
     }
 
-    // Streams the rectangle [x0, x1] x [y0, y1] of `tile` (from bindCleared) to `frame` and clears
-    // it again; a plane the frame lacks is only cleared.
-    void resolve(const RenderTargets& tile, const RenderTargets& frame, int x0, int y0, int x1,
-                 int y1) const {
-        const int n = x1 - x0 + 1;
-        for (int y = y0; y <= y1; ++y) {
-            if (frame.depth.data)
-                streamRowAndClear(reinterpret_cast<uint32_t*>(frame.depth.row(y) + x0),
-                                  reinterpret_cast<uint32_t*>(tile.depth.row(y) + x0), n, 0);
-            else
-                std::fill_n(tile.depth.row(y) + x0, n, 0.0f);
-            if (frame.id.data)
-                streamRowAndClear(frame.id.row(y) + x0, tile.id.row(y) + x0, n, 0);
-            else
-                std::fill_n(tile.id.row(y) + x0, n, 0u);
-            if (frame.color.data)
-                streamRowAndClear(reinterpret_cast<uint32_t*>(frame.color.row(y) + x0),
-                                  reinterpret_cast<uint32_t*>(tile.color.row(y) + x0), n,
-                                  mColorWord);
-        }
-#ifdef PLX_STREAM_STORES
-        _mm_sfence();  // streaming stores are weakly ordered: complete them before the join
-#endif
-    }
+    // The word the colour plane holds where it is clear.
+    uint32_t colorWord() const { return mColorWord; }
 
 private:
     template <class T>
@@ -347,6 +212,7 @@ struct Renderer::Impl {
     std::vector<DrawnTiles> drawnRecords;  // most recent last, at most kMaxDrawnRecords
     std::vector<uint8_t> clearTile;        // this frame: per tile, whether to clear it
     mutable std::vector<TileMemory> tileMemory;  // per thread slot
+    RasterKernels kernels = RasterKernels::active();  // this frame's ISA path
     std::vector<uint32_t> tileOrder;             // this frame: the tiles, most binned pairs first
     std::vector<uint32_t> tilePairs;             // this frame: binned triangle-tile pairs per tile
 
@@ -385,8 +251,6 @@ struct Renderer::Impl {
     void rasterizeTile(int tile, int tilesX, const scene::Scene& scene, const Viewport& vp,
                        const ShadeContext& ctx, const RenderOptions& options,
                        const RenderTargets& frame) const;
-    bool hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0, int x1, int y1,
-                const ImageView<float>& depth) const;
 };
 
 Result<std::unique_ptr<Renderer>> Renderer::create(const RendererConfig& config) {
@@ -421,8 +285,9 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
                                 const RenderTargets& rt) {
     checkRenderRequestOrDie(camera, options, rt);
     Stopwatch clock;
+    kernels = RasterKernels::active();
     Viewport vp(camera);
-    ShadeContext ctx(options);
+    ShadeContext ctx(options, rt);
     int tileSize = 1 << tileShift;
     int tilesX = (vp.width + tileSize - 1) / tileSize,
         tilesY = (vp.height + tileSize - 1) / tileSize;
@@ -435,7 +300,8 @@ RenderStats Renderer::Impl::run(const scene::Scene& scene, const Camera& camera,
     tileMemory.resize(size_t(pool.threadCount()));  // a no-op after the first frame
     binAndDraw(scene, camera, subset, vp, ctx, options, rt, tilesX, tiles);
 
-    if (options.unsampledVisible && !subset) collectUnsampled(rt, options.unsampledVisible);
+    if (rt.visibility.unsampledVisible && !subset)
+        collectUnsampled(rt, rt.visibility.unsampledVisible);
 
     RenderStats stats;
     stats.trianglesSubmitted = subset ? subset->size() : scene.triangleCount();
@@ -463,7 +329,7 @@ void Renderer::Impl::transformVertices(const scene::Scene& scene, const Camera& 
         const auto& positions = scene.meshes[m].positions;
         VertexOut* out = vertices.data() + meshVertexBase[m];
         pool.parallelFor(positions.size(), 16384, [&](size_t b, size_t e) {
-            transformPositions(positions.data() + b, e - b, clipFromWorld, vp, out + b);
+            kernels.transformPositions(positions.data() + b, e - b, clipFromWorld, vp, out + b);
         });
     }
 }
@@ -691,7 +557,7 @@ void Renderer::Impl::binSubsetChunk(Chunk& chunk, const scene::Scene& scene, con
                 corners[3 * j + size_t(k)] = m.positions[m.indices[3 * size_t(locals[j]) + k]];
         }
         VertexOut out[3 * kSubsetBatch];
-        transformPositions(corners, 3 * n, camera.clipFromWorld(), vp, out);
+        kernels.transformPositions(corners, 3 * n, camera.clipFromWorld(), vp, out);
         for (size_t j = 0; j < n; ++j) {
             const VertexOut* c = out + 3 * j;
             if (c[0].code & c[1].code & c[2].code & kOutFrustum) continue;
@@ -764,17 +630,6 @@ void Renderer::Impl::planClears(const RenderOptions& options, const RenderTarget
     drawnRecords.push_back(std::move(now));
 }
 
-// True when the triangle's part in the tile [x0,x1]x[y0,y1] lies behind what the tile's blocks
-// already hold (or covers no sample there), so drawing it would change nothing.
-bool Renderer::Impl::hidden(const RasterVertex v[3], const TriangleBox& box, int x0, int y0,
-                            int x1, int y1, const ImageView<float>& depth) const {
-    int minX = std::max(box.minX, x0), minY = std::max(box.minY, y0);
-    int maxX = std::min(box.maxX, x1), maxY = std::min(box.maxY, y1);
-    if (minX > maxX || minY > maxY) return true;
-    return blocks.hides(minX, minY, maxX, maxY, nearestInvWBound(v[0], v[1], v[2], box),
-                        depth);
-}
-
 void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& scene,
                                    const Viewport& vp, const ShadeContext& ctx,
                                    const RenderOptions& options,
@@ -789,80 +644,33 @@ void Renderer::Impl::rasterizeTile(int tile, int tilesX, const scene::Scene& sce
     // it is the only place for them, whatever the tile size (checkRenderRequest: such renders
     // clear their targets and have no second layer).
     const bool discards = !options.colorOnly && (!frame.depth.data || !frame.id.data);
-    const bool inTileMemory = discards || (clearTile[size_t(tile)] && !options.colorOnly &&
-                                           !frame.id2.data && tileSize <= kMaxTileMemorySize);
+    const bool inTileMemory =
+        discards || (clearTile[size_t(tile)] && !options.colorOnly && !frame.visibility.id2.data &&
+                     tileSize <= kMaxTileMemorySize);
     const uint32_t clearWord = clearWordOf(options);
-    const RenderTargets rt = inTileMemory
-                                 ? tileMemory[size_t(slot)].bindCleared(
-                                       frame, tileSize, x0, y0, vp.width, vp.height, clearWord)
-                                 : frame;
-    if (clearTile[size_t(tile)] && !inTileMemory) {
-        for (int y = y0; y <= y1; ++y) {
-            if (!options.colorOnly) {
-                std::fill(rt.depth.row(y) + x0, rt.depth.row(y) + x1 + 1, 0.0f);
-                std::fill(rt.id.row(y) + x0, rt.id.row(y) + x1 + 1, 0u);
-            }
-            if (rt.color.data)  // as 32-bit words, which the compiler fills eight at a time
-                std::fill_n(reinterpret_cast<uint32_t*>(rt.color.row(y) + x0), x1 - x0 + 1,
-                            clearWord);
-            if (rt.id2.data) {
-                std::fill(rt.depth2.row(y) + x0, rt.depth2.row(y) + x1 + 1, 0.0f);
-                std::fill(rt.id2.row(y) + x0, rt.id2.row(y) + x1 + 1, 0u);
-            }
-        }
-    }
+    TileJob job;
+    job.scene = &scene;
+    job.vp = &vp;
+    job.ctx = &ctx;
+    job.chunks = chunks.data();
+    job.chunkCount = chunkCount;
+    job.tile = size_t(tile);
+    job.x0 = x0, job.y0 = y0, job.x1 = x1, job.y1 = y1;
+    job.rt = inTileMemory ? tileMemory[size_t(slot)].bindCleared(frame, tileSize, x0, y0,
+                                                                  vp.width, vp.height, clearWord)
+                          : frame;
+    job.clear = clearTile[size_t(tile)] && !inTileMemory;
+    job.clearWord = clearWord;
     // The second depth layer needs the hidden triangles too: no occlusion culling for it, nor
     // without a depth test.
-    DepthBlocks* occlusion = rt.id2.data || options.colorOnly ? nullptr : &blocks;
-    if (occlusion) blocks.reset(x0, y0, x1, y1, options.clearTargets);
-    OcclusionProbe probe;
-    TriangleSetup setup;
-    const bool narrowFlat = narrowFlatApplies(ctx, rt);
-    for (size_t c = 0; c < chunkCount; ++c) {
-        const Chunk& chunk = chunks[c];
-        for (const BinnedTri& tri : chunk.bins[size_t(tile)]) {
-            RasterVertex v[3];
-            for (int k = 0; k < 3; ++k) {
-                v[k].x = tri.x[k];
-                v[k].y = tri.y[k];
-                v[k].invW = tri.invW[k];
-            }
-            TriangleBox box;
-            if (!triangleBox(v[0], v[1], v[2], vp, ctx.cullBackFaces, &box)) continue;
-            if (occlusion && probe.shouldTest()) {
-                bool hit = hidden(v, box, x0, y0, x1, y1, rt.depth);
-                probe.record(hit);
-                if (hit) {
-                    ++occludedPerTile[size_t(tile)];
-                    continue;
-                }
-            }
-            size_t mesh = chunk.mesh;
-            uint32_t localTri = tri.ref;
-            const Materialised* m = nullptr;
-            if (tri.ref & kMaterialisedBit) {
-                m = &chunk.materialised[tri.ref & ~kMaterialisedBit];
-                mesh = m->mesh;
-                localTri = m->localTri;
-                for (int k = 0; k < 3; ++k) v[k].bary = m->bary[k];
-            } else if (ctx.shading != Shading::kFlat) {  // flat shading reads no weights
-                for (int k = 0; k < 3; ++k) v[k].bary = Vec3(k == 0, k == 1, k == 2);
-            }
-            setTriangleIdentity(scene, mesh, localTri, &setup);
-            // A materialised triangle's flat colour was taken at binning.
-            if (m && ctx.shading == Shading::kFlat) {
-                setup.flatColor = m->flatColor;
-                setup.flatReady = true;
-            }
-            if (narrowFlat &&
-                rasterizeNarrowFlat(v, box, setup, ctx, rt, x0, y0, x1, y1, occlusion))
-                continue;
-            setupTriangleInBox(scene, mesh, localTri, v, box, ctx, &setup);
-            rasterizeTriangle(setup, ctx, rt, x0, y0, x1, y1, occlusion);
-        }
-    }
-    if (options.tileIds) options.tileIds->visitTile(rt.id, x0, y0, x1, y1, slot);
-    if (inTileMemory) tileMemory[size_t(slot)].resolve(rt, frame, x0, y0, x1, y1);
+    job.occlusion = job.rt.visibility.id2.data || options.colorOnly ? nullptr : &blocks;
+    if (job.occlusion) blocks.reset(x0, y0, x1, y1, options.clearTargets);
+    occludedPerTile[size_t(tile)] += kernels.drawTile(job);
+    if (frame.visibility.tileIds)
+        frame.visibility.tileIds->visitTile(job.rt.id, x0, y0, x1, y1, slot);
+    if (inTileMemory)
+        kernels.resolveTileMemory(job.rt, frame, x0, y0, x1, y1,
+                                  tileMemory[size_t(slot)].colorWord());
 }
 
 }  // namespace plx::raster

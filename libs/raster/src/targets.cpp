@@ -36,18 +36,18 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
     auto bad = [](const char* what) { return errorStatus(ErrorCode::kInvalidArgument, what); };
     if (options.colorOnly) {
         if (!rt.color.data) return bad("a colour-only render needs a colour target");
-        if (rt.depth2.data || rt.id2.data)
+        if (rt.visibility.depth2.data || rt.visibility.id2.data)
             return bad("a colour-only render cannot write a second depth layer");
-        if (options.unsampledVisible)
+        if (rt.visibility.unsampledVisible)
             return bad("a colour-only render cannot report unsampled triangles (no depth)");
-        if (options.tileIds) return bad("a colour-only render has no ID target to visit");
+        if (rt.visibility.tileIds) return bad("a colour-only render has no ID target to visit");
     } else if (!rt.depth.data || !rt.id.data) {
         // Tile memory stands in for the missing planes, which holds only tiles that start clear.
         if (!options.clearTargets)
             return bad("a render that keeps its targets' contents needs depth and ID targets");
-        if (rt.id2.data)
+        if (rt.visibility.id2.data)
             return bad("a render with a second depth layer needs depth and ID targets");
-        if (options.unsampledVisible && !rt.depth.data)
+        if (rt.visibility.unsampledVisible && !rt.depth.data)
             return bad("reporting unsampled triangles needs a depth target");
     }
     if ((rt.depth.data && !fits(rt.depth.width, rt.depth.height)) ||
@@ -55,10 +55,10 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
         return bad("depth or ID target size differs from the camera's image");
     if (rt.color.data && !fits(rt.color.width, rt.color.height))
         return bad("colour target size differs from the camera's image");
-    if ((rt.id2.data == nullptr) != (rt.depth2.data == nullptr))
+    if ((rt.visibility.id2.data == nullptr) != (rt.visibility.depth2.data == nullptr))
         return bad("the second layer needs both its depth and its ID target");
-    if (rt.id2.data && (!fits(rt.id2.width, rt.id2.height) ||
-                        !fits(rt.depth2.width, rt.depth2.height)))
+    if (rt.visibility.id2.data && (!fits(rt.visibility.id2.width, rt.visibility.id2.height) ||
+                                   !fits(rt.visibility.depth2.width, rt.visibility.depth2.height)))
         return bad("second-layer target size differs from the camera's image");
     return Status::ok();
 }

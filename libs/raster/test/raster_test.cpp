@@ -10,6 +10,8 @@
 
 #include <plx/raster/raster.h>
 
+#include "isa_paths.h"
+
 namespace plx::raster {
 namespace {
 
@@ -147,7 +149,13 @@ Image<int> coverageCounts(const Scene& s, const Camera& cam, Renderer& r) {
     return counts;
 }
 
-TEST(Raster, TessellatedPlaneCoversEveryPixelExactlyOnce) {
+// Every TEST_P of this suite runs once per ISA path this process can run (runnableIsas: the
+// build's and the CPU's), so each path's kernels meet the scalar reference renderer and the
+// golden images; the renderer takes the active path at the start of each frame.
+class RasterPath : public test::IsaPathTest {};
+PLX_INSTANTIATE_ISA_PATHS(RasterPath);
+
+TEST_P(RasterPath, TessellatedPlaneCoversEveryPixelExactlyOnce) {
     std::mt19937 rng(1234);
     std::uniform_real_distribution<float> angle(-1.0f, 1.0f), dist(0.5f, 4.0f);
     auto r = makeRenderer(2, 16);
@@ -170,7 +178,7 @@ TEST(Raster, TessellatedPlaneCoversEveryPixelExactlyOnce) {
     }
 }
 
-TEST(Raster, FillRuleIncludesTopLeftEdgesOnly) {
+TEST_P(RasterPath, FillRuleIncludesTopLeftEdgesOnly) {
     // fov 90, 8x8: world x at z=-1 maps to pixel 4x+4, so these vertices sit on pixel centres
     // 2.5 and 5.5: a square of 3x3 pixel centres split along its diagonal.
     Camera cam = makeCamera({0, 0, 0}, {0, 0, -1}, 8, 8, 90.0f);
@@ -195,7 +203,7 @@ TEST(Raster, FillRuleIncludesTopLeftEdgesOnly) {
     }
 }
 
-TEST(Raster, IdAtEachPixelIsTheDepthWinner) {
+TEST_P(RasterPath, IdAtEachPixelIsTheDepthWinner) {
     Scene s = randomSoup(40, 77, false);
     Camera cam = makeCamera({0.3f, 0.5f, 9.0f}, {0, 0, 0}, 80, 60);
     auto r = makeRenderer(2, 16);
@@ -226,8 +234,8 @@ TEST(Raster, IdAtEachPixelIsTheDepthWinner) {
     Image<float> depth2(80, 60, 0.0f), secondDepth(80, 60, 0.0f);
     Image<uint32_t> id2(80, 60, 0u), secondId(80, 60, 0u);
     RenderTargets layered = full.targets();
-    layered.depth2 = depth2.view();
-    layered.id2 = id2.view();
+    layered.visibility.depth2 = depth2.view();
+    layered.visibility.id2 = id2.view();
     r->render(s, cam, {}, layered);
     for (uint32_t t = 0; t < s.triangleCount(); ++t) {
         std::span<const uint32_t> single(&t, 1);
@@ -249,14 +257,14 @@ TEST(Raster, IdAtEachPixelIsTheDepthWinner) {
     Image<float> refDepth2(80, 60);
     Image<uint32_t> refId2(80, 60);
     RenderTargets refTargets = ref.targets();
-    refTargets.depth2 = refDepth2.view();
-    refTargets.id2 = refId2.view();
+    refTargets.visibility.depth2 = refDepth2.view();
+    refTargets.visibility.id2 = refId2.view();
     renderReference(s, cam, {}, refTargets);
     EXPECT_TRUE(refId2 == id2);
     EXPECT_TRUE(refDepth2 == depth2);
 }
 
-TEST(Raster, FastPathEqualsScalarReference) {
+TEST_P(RasterPath, FastPathEqualsScalarReference) {
     for (bool textured : {false, true}) {
         Scene s = randomSoup(300, textured ? 5 : 6, textured);
         for (Shading shading : {Shading::kFlat, Shading::kGouraud, Shading::kTextured}) {
@@ -292,7 +300,7 @@ TEST(Raster, FastPathEqualsScalarReference) {
 // which skips the general setup): flat shading, with and without a colour target, against the
 // scalar reference, to the bit. Spheres at several distances give triangles from under a pixel
 // to about 20 pixels across, both windings and every edge slope; tiles of 8 cut many of them.
-TEST(Raster, DenseMeshFastPathEqualsScalarReference) {
+TEST_P(RasterPath, DenseMeshFastPathEqualsScalarReference) {
     Scene s;
     addSphere(&s, {0.0f, 0.0f, -3.0f}, 1.2f, 40, 80, 0);
     addSphere(&s, {-1.0f, 0.4f, -6.0f}, 1.5f, 90, 180, 1);
@@ -326,7 +334,7 @@ TEST(Raster, DenseMeshFastPathEqualsScalarReference) {
 // the bit: a receding plane whose UVs run past [0, 1] (wrapped texels, and several mip levels
 // across it), a sphere, noise textures (every texel differs, so a wrong texel index shows) with
 // and without a mip chain, lit and unlit, with a non-white base colour.
-TEST(Raster, TexturedFastPathEqualsScalarReference) {
+TEST_P(RasterPath, TexturedFastPathEqualsScalarReference) {
     std::mt19937 rng(31);
     Mat4 tilt = glm::rotate(Mat4(1.0f), -1.2f, Vec3(1.0f, 0.0f, 0.0f));
     Scene base = tessellatedPlane(14, 6.0f, tilt, rng);
@@ -375,7 +383,7 @@ TEST(Raster, TexturedFastPathEqualsScalarReference) {
 // strict test), in front of it and thin slivers behind it. The tiles skip most of the soup as
 // hidden by the wall's depth, and the targets stay exactly the reference's; the same holds when
 // the wall was drawn by an earlier call and the targets are not cleared.
-TEST(Raster, OcclusionCullingChangesNothing) {
+TEST_P(RasterPath, OcclusionCullingChangesNothing) {
     Scene wall;
     Mesh quad;
     quad.positions = {{-9, -9, -2}, {9, -9, -2}, {9, 9, -2}, {-9, 9, -2}};
@@ -428,7 +436,7 @@ TEST(Raster, OcclusionCullingChangesNothing) {
     }
 }
 
-TEST(Raster, SubsetOfAllTrianglesReproducesFullRender) {
+TEST_P(RasterPath, SubsetOfAllTrianglesReproducesFullRender) {
     Scene s = randomSoup(200, 9, true);
     Camera cam = makeCamera({1, 2, 9}, {0, 0, 0}, 96, 64);
     auto r = makeRenderer(2, 32);
@@ -456,7 +464,7 @@ TEST(Raster, SubsetOfAllTrianglesReproducesFullRender) {
 
 // Subsets are binned in equal chunks, a whole number per thread: sizes around the chunk
 // boundaries, for thread counts that do and do not divide them, all match the reference.
-TEST(Raster, SubsetsOfEverySizeMatchTheReference) {
+TEST_P(RasterPath, SubsetsOfEverySizeMatchTheReference) {
     Scene s = randomSoup(1100, 4, false);  // 3,300 triangles in three meshes
     Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 80, 56);
     FrameBuffers subset, ref;
@@ -484,7 +492,7 @@ TEST(Raster, SubsetsOfEverySizeMatchTheReference) {
 // Tiles are drawn in per-thread tile memory that each tile leaves cleared for the next: every
 // frame must still start from its own clear colour, after frames with other colours, without a
 // colour target, and with partial tiles at the image's edges (90x70 is not a multiple of 16).
-TEST(Raster, TileMemoryStartsEveryFrameFromItsClearColour) {
+TEST_P(RasterPath, TileMemoryStartsEveryFrameFromItsClearColour) {
     Scene s = randomSoup(300, 2, false);
     Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 90, 70);
     FrameBuffers fast, ref;
@@ -509,7 +517,7 @@ TEST(Raster, TileMemoryStartsEveryFrameFromItsClearColour) {
     }
 }
 
-TEST(Raster, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {
+TEST_P(RasterPath, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {
     // A floor that runs under and behind the eye: it must cover the lower half of the image up
     // to the bottom row, and nothing may be nearer than the near plane.
     Scene s;
@@ -541,7 +549,7 @@ TEST(Raster, NearPlaneClippingKeepsOnlyGeometryBeyondNear) {
     EXPECT_EQ(countDistinctIds(fb.id), 0u);
 }
 
-TEST(Raster, BackFaceCullingUsesCounterClockwiseFronts) {
+TEST_P(RasterPath, BackFaceCullingUsesCounterClockwiseFronts) {
     Camera cam = makeCamera({0, 0, 3}, {0, 0, 0}, 32, 32);
     Scene s;
     Mesh m;
@@ -570,7 +578,7 @@ TEST(Raster, RejectsBadConfig) {
 
 // Golden image: a fixed scene under all three shadings, compared with a committed PNG within a
 // tolerance; PLX_UPDATE_GOLDEN=1 rewrites the files, a failure writes a diff image.
-TEST(Raster, GoldenImages) {
+TEST_P(RasterPath, GoldenImages) {
     Scene s = randomSoup(60, 2024, true);
     addSphere(&s, {-2.0f, 1.0f, 3.0f}, 1.6f, 12, 24, 1);
     addSphere(&s, {2.5f, 0.5f, 3.0f}, 1.2f, 10, 20, 0);
@@ -612,7 +620,7 @@ TEST(Raster, GoldenImages) {
 namespace plx::raster {
 namespace {
 
-TEST(Raster, ReportsUnsampledTrianglesInFrontOfTheDepth) {
+TEST_P(RasterPath, ReportsUnsampledTrianglesInFrontOfTheDepth) {
     // fov 90, 8x8, z = -1: world x maps to pixel 4x+4. A wall at z = -2 fills the image; two
     // tiny triangles lie between the sample centres of pixel (3,3): one in front of the wall,
     // one behind it.
@@ -638,9 +646,9 @@ TEST(Raster, ReportsUnsampledTrianglesInFrontOfTheDepth) {
     FrameBuffers fb;
     fb.resize(8, 8);
     std::vector<uint32_t> unsampled;
-    RenderOptions opt;
-    opt.unsampledVisible = &unsampled;
-    r->render(s, cam, opt, fb.targets());
+    RenderTargets targets = fb.targets();
+    targets.visibility.unsampledVisible = &unsampled;
+    r->render(s, cam, {}, targets);
     EXPECT_EQ(countDistinctIds(fb.id), 2u);  // only the wall's two triangles hit samples
     EXPECT_EQ(unsampled, std::vector<uint32_t>{2});  // the tiny one in front, not the one behind
 }
@@ -676,7 +684,7 @@ Scene colorOnlyScene(bool overlapping, std::mt19937& rng) {
 // Colour-only rendering: on a mesh whose triangles never overlap, the colour of the
 // depth-tested render; on overlapping ones, the scalar reference's colour-only image (the last
 // triangle drawn wins); the depth and ID targets, when passed, stay untouched.
-TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
+TEST_P(RasterPath, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
     std::mt19937 rng(5);
     Camera cam = makeCamera({0.2f, 0.3f, 4.5f}, {0.0f, 0.0f, 0.0f}, 157, 103, 60.0f);
     for (bool overlapping : {false, true}) {
@@ -692,7 +700,7 @@ TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
             auto r = makeRenderer(2, 16);
             r->render(s, cam, opt, tested.targets());
             opt.colorOnly = true;
-            renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}, {}});
+            renderReference(s, cam, opt, {ref.color.view(), {}, {}, {}});
             if (!overlapping) {
                 EXPECT_TRUE(ref.color == tested.color) << what;
             }
@@ -702,7 +710,7 @@ TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
                 out.resize(157, 103);
                 out.depth.fill(-7.0f);
                 out.id.fill(77u);
-                fast->render(s, cam, opt, {out.color.view(), {}, {}, {}, {}});
+                fast->render(s, cam, opt, {out.color.view(), {}, {}, {}});
                 EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
                 fast->render(s, cam, opt, out.targets());  // views present but ignored
                 EXPECT_TRUE(out.color == ref.color) << what << " tile " << tile;
@@ -722,7 +730,7 @@ TEST(Raster, ColorOnlyEqualsDepthTestedColourWithoutOverlap) {
 // Clearing only the tiles drawn into (last frame's and this one's) gives, frame after frame, the
 // targets of a whole clear, byte for byte: a small object moving across tiles and out of view,
 // frames on other targets in between, a different clear colour, colour-only and depth-tested.
-TEST(Raster, ClearingDrawnTilesOnlyEqualsWholeClear) {
+TEST_P(RasterPath, ClearingDrawnTilesOnlyEqualsWholeClear) {
     std::mt19937 rng(9);
     Scene s = colorOnlyScene(false, rng);
     Scene other = randomSoup(60, 3, false);
@@ -795,7 +803,7 @@ private:
 // A render may leave out its depth or ID target (or both): the depth test runs in tile memory,
 // also for tiles too large to keep there otherwise (256), and the planes written equal those of
 // a complete render; the tile visitor still sees every ID; the reference renderer agrees.
-TEST(Raster, DepthAndIdsLeftOutChangeNothingElse) {
+TEST_P(RasterPath, DepthAndIdsLeftOutChangeNothingElse) {
     Scene s = randomSoup(400, 5, true);
     Camera cam = makeCamera({0.5f, 1, 9}, {0, 0, 0}, 150, 90);
     std::vector<uint32_t> some;
@@ -822,7 +830,7 @@ TEST(Raster, DepthAndIdsLeftOutChangeNothingElse) {
                 RenderTargets t = part.targets();
                 if (!keepDepth) t.depth = {};
                 if (!keepIds) t.id = {};
-                opt.tileIds = &visitor;
+                t.visibility.tileIds = &visitor;
                 if (subset)
                     r->renderSubset(s, cam, some, opt, t);
                 else
@@ -847,7 +855,7 @@ TEST(Raster, DepthAndIdsLeftOutChangeNothingElse) {
     opt.shading = Shading::kTextured;
     renderReference(s, cam, opt, ref.targets(), &someSpan);
     part.resize(150, 90);
-    renderReference(s, cam, opt, {part.color.view(), {}, {}, {}, {}}, &someSpan);
+    renderReference(s, cam, opt, {part.color.view(), {}, {}, {}}, &someSpan);
     EXPECT_TRUE(part.color == ref.color) << "reference renderer";
 }
 
@@ -862,38 +870,40 @@ TEST(Raster, RejectsMalformedRenderRequests) {
     RenderOptions colorOnly;
     colorOnly.colorOnly = true;
     EXPECT_TRUE(checkRenderRequest(cam, {}, fb.targets()).isOk());
-    EXPECT_TRUE(checkRenderRequest(cam, colorOnly, {fb.color.view(), {}, {}, {}, {}}).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, colorOnly, {fb.color.view(), {}, {}, {}}).isOk());
     auto message = [&](const RenderOptions& o, const RenderTargets& t) {
         Status st = checkRenderRequest(cam, o, t);
         EXPECT_EQ(st.code(), ErrorCode::kInvalidArgument);
         return st.message();
     };
-    EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}, {}})
+    EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}})
                   .find("needs a colour target"),
               std::string::npos);
-    EXPECT_NE(message(colorOnly, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(),
-                                  id2.view()})
+    EXPECT_NE(message(colorOnly,
+                      {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), id2.view()}})
                   .find("second depth layer"),
               std::string::npos);
-    RenderOptions withUnsampled = colorOnly;
-    withUnsampled.unsampledVisible = &unsampled;
-    EXPECT_NE(message(withUnsampled, fb.targets()).find("unsampled"), std::string::npos);
-    EXPECT_TRUE(checkRenderRequest(cam, {}, {fb.color.view(), {}, {}, {}, {}}).isOk());
-    EXPECT_TRUE(checkRenderRequest(cam, {}, {{}, {}, fb.id.view(), {}, {}}).isOk());
+    RenderTargets withUnsampled = fb.targets();
+    withUnsampled.visibility.unsampledVisible = &unsampled;
+    EXPECT_NE(message(colorOnly, withUnsampled).find("unsampled"), std::string::npos);
+    IdSetVisitor visitor;
+    RenderTargets withTileIds = fb.targets();
+    withTileIds.visibility.tileIds = &visitor;
+    EXPECT_NE(message(colorOnly, withTileIds).find("no ID target to visit"), std::string::npos);
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {fb.color.view(), {}, {}, {}}).isOk());
+    EXPECT_TRUE(checkRenderRequest(cam, {}, {{}, {}, fb.id.view(), {}}).isOk());
     RenderOptions keep;
     keep.clearTargets = false;
-    EXPECT_NE(message(keep, {fb.color.view(), fb.depth.view(), {}, {}, {}}).find("keeps its"),
+    EXPECT_NE(message(keep, {fb.color.view(), fb.depth.view(), {}, {}}).find("keeps its"),
               std::string::npos);
-    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), depth2.view(), id2.view()})
+    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), {depth2.view(), id2.view()}})
                   .find("second depth layer needs depth and ID"),
               std::string::npos);
-    RenderOptions unsampledOnly;
-    unsampledOnly.unsampledVisible = &unsampled;
-    EXPECT_NE(message(unsampledOnly, {fb.color.view(), {}, fb.id.view(), {}, {}})
+    EXPECT_NE(message({}, {fb.color.view(), {}, fb.id.view(), {{}, {}, &unsampled}})
                   .find("needs a depth target"),
               std::string::npos);
     EXPECT_NE(message({}, small.targets()).find("size differs"), std::string::npos);
-    EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), depth2.view(), {}})
+    EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), {}}})
                   .find("both"),
               std::string::npos);
 }

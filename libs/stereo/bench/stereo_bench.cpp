@@ -38,7 +38,7 @@ struct SecondEyeFixture {
     std::unique_ptr<stereo::StereoRenderer> pairs;  // owns `renderer`, configured as for pairs
     raster::Renderer* renderer;
     raster::FrameBuffers first, second;
-    stereo::VisibleSetCollector visible;
+    raster::VisibleSetCollector visible;
 
     explicit SecondEyeFixture(int rooms, int threads = 2)
         : scene(*scene::generateOffice(rooms)),
@@ -57,9 +57,9 @@ struct SecondEyeFixture {
     // The same without the final gathering and sorting (visible.sorted()).
     void renderFirstEye(bool perTile) {
         visible.begin(scene.triangleCount(), renderer->threadCount());
-        raster::RenderOptions options;
-        if (perTile) options.tileIds = &visible;
-        renderer->render(scene, rig.first(), options, first.targets());
+        raster::RenderTargets targets = first.targets();
+        if (perTile) targets.visibility.tileIds = &visible;
+        renderer->render(scene, rig.first(), {}, targets);
         if (!perTile) visible.add(first.id);
     }
     void secondEye(const std::vector<uint32_t>& subset) {

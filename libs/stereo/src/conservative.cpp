@@ -74,12 +74,11 @@ int renderConservativeFirstEye(raster::Renderer& renderer, const scene::Scene& s
         s->id2.resize(d.width, d.height);
     }
     raster::RenderTargets targets = s->wide.targets();
-    targets.depth2 = s->depth2.view();
-    targets.id2 = s->id2.view();
-    raster::RenderOptions renderOptions = options.render;
+    targets.visibility.depth2 = s->depth2.view();
+    targets.visibility.id2 = s->id2.view();
     s->unsampled.clear();
-    renderOptions.unsampledVisible = &s->unsampled;
-    renderer.render(scene, wide, renderOptions, targets);
+    targets.visibility.unsampledVisible = &s->unsampled;
+    renderer.render(scene, wide, options.render, targets);
     cropColumns(s->wide.color, band, &first->color);
     cropColumns(s->wide.depth, band, &first->depth);
     cropColumns(s->wide.id, band, &first->id);
@@ -92,7 +91,7 @@ int renderConservativeFirstEye(raster::Renderer& renderer, const scene::Scene& s
     return band;
 }
 
-void addConservativePolygons(ConservativeScratch& s, VisibleSetCollector* collector) {
+void addConservativePolygons(ConservativeScratch& s, raster::VisibleSetCollector* collector) {
     collector->add(s.wide.id);  // the guard band's polygons (the middle is already in)
     markEdgeBand(s.wide.depth, s.disparityScale, std::max(s.bandPx, 1), &s.edgeBand);
     collector->addMasked(s.id2, s.edgeBand);

@@ -11,7 +11,7 @@
 // optional second depth layer (the nearest hidden surface per pixel); at each depth
 // discontinuity the second-layer IDs over the width the edge's disparity change can reveal join
 // the set (kind 2). For kind 3 the rasterizer reports the triangles that covered no sample yet
-// lie in front of the depth around them (RenderOptions::unsampledVisible).
+// lie in front of the depth around them (raster::VisibilityOutputs::unsampledVisible).
 
 #include <plx/stereo/stereo.h>
 
@@ -40,6 +40,7 @@ int renderConservativeFirstEye(raster::Renderer& renderer, const scene::Scene& s
                                ConservativeScratch* scratch, raster::FrameBuffers* first);
 
 // Adds the guard band's IDs and the second-layer IDs along depth discontinuities.
-void addConservativePolygons(ConservativeScratch& scratch, VisibleSetCollector* collector);
+void addConservativePolygons(ConservativeScratch& scratch,
+                             raster::VisibleSetCollector* collector);
 
 }  // namespace plx::stereo

@@ -30,7 +30,7 @@ constexpr int kStereoTileSize = 128;
 
 struct StereoRenderer::Impl {
     std::unique_ptr<raster::Renderer> renderer;
-    VisibleSetCollector collector;
+    raster::VisibleSetCollector collector;
     ConservativeScratch conservative;
     std::vector<uint32_t> lastSet;
 
@@ -131,9 +131,9 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
         // Fig. 6, last loop (the visible flag of every polygon in the P-buffer), run inside the
         // render: each thread scans the tiles it has just drawn, while they are in its cache.
         collector.begin(scene.triangleCount(), renderer->threadCount());
-        raster::RenderOptions firstEye = options.render;
-        firstEye.tileIds = &collector;
-        renderer->render(scene, rig.first(), firstEye, eyeTargets(first));
+        raster::RenderTargets targets = eyeTargets(first);
+        targets.visibility.tileIds = &collector;
+        renderer->render(scene, rig.first(), options.render, targets);
     }
     stats->firstEyeMs = clock.elapsedMs();
 

@@ -30,28 +30,11 @@ enum class Shading {
 Result<Shading> parseShading(const std::string& name);
 const char* shadingName(Shading shading);
 
-// Caller-owned targets. All three views must have the same size as the camera's image. The colour
-// view may be empty (data == nullptr) to render depth and IDs only. The depth and ID views may be
-// empty in a colour-only render (RenderOptions::colorOnly), and each of them in a depth-tested
-// render that clears its targets: the depth test and the IDs then live in the renderer's tile
-// memory only and are dropped after each tile (RenderOptions::tileIds still sees each tile's
-// IDs), as a GPU discards a depth buffer nobody reads. A stereo pair's eyes are displayed as
-// colour alone, and not writing the 2.5 MB of depth and IDs of a 640x480 frame makes a P-buffer
-// second eye of office:280 about 12% faster (docs/stereo-results.md).
-struct RenderTargets {
-    ImageView<Rgba8> color;
-    ImageView<float> depth;      // 1/w, see Conventions; 0 = cleared
-    ImageView<uint32_t> id;      // global triangle index + 1; 0 = cleared
-    // Optional second layer (both or neither): the nearest surface behind the visible one at each
-    // pixel, its 1/w and ID. The stereo module's conservative visible set reads it.
-    ImageView<float> depth2;
-    ImageView<uint32_t> id2;
-};
-
 // Receives each tile of the ID target as soon as the renderer has finished drawing it: the
 // P-buffer's last loop ("for each pixel: set the visible flag of pid", Heo, Jung, Wohn Fig. 6)
 // run per tile by the thread that drew it, while the tile is still in that core's cache,
 // instead of a separate single-threaded pass over the whole target afterwards.
+// VisibleSetCollector (visible_set.h) is the one this module provides.
 class TileIdVisitor {
 public:
     virtual ~TileIdVisitor() = default;
@@ -62,6 +45,47 @@ public:
                            int slot) = 0;
 };
 
+// What a render reports about visibility beyond the depth and ID targets: the outputs that only
+// the consumers of the P-buffer (Heo, Jung, Wohn) read, such as the stereo module's visible set
+// and its conservative widening. Every member is optional and costs nothing when left empty.
+// None of them is allowed in a colour-only render (RenderOptions::colorOnly), which has no depth
+// test; checkRenderRequest names the broken precondition.
+struct VisibilityOutputs {
+    // Second depth layer, both views or neither, each of the camera's image size: at each pixel
+    // the nearest surface behind the visible one, its 1/w (0 = none) and ID (global triangle
+    // index + 1, 0 = none). Cleared with the other targets. Needs depth and ID targets; turns
+    // off coarse occlusion culling and tile memory for the render (hidden triangles count), so
+    // it costs time. Read by the conservative visible set (surfaces a foreground edge hides from
+    // one eye and reveals to the other).
+    ImageView<float> depth2;
+    ImageView<uint32_t> id2;
+    // When set, receives (appended, global indices) the triangles that cover no sample centre
+    // (smaller than a pixel, between samples) yet lie in front of the final depth somewhere in
+    // the 3x3 pixels around their centre: visible polygons the sampling missed, which a slightly
+    // shifted sampling (the other eye's) may hit. Full renders only (renderSubset reports none);
+    // clipped triangles are not reported. Needs a depth target.
+    std::vector<uint32_t>* unsampledVisible = nullptr;
+    // When set, sees every finished tile of the ID target (TileIdVisitor), also when the targets
+    // have no ID view (the tile's IDs in tile memory). The P-buffer's visible set is collected
+    // this way (VisibleSetCollector) while the tiles are still in cache.
+    TileIdVisitor* tileIds = nullptr;
+};
+
+// Caller-owned targets. All three views must have the same size as the camera's image. The colour
+// view may be empty (data == nullptr) to render depth and IDs only. The depth and ID views may be
+// empty in a colour-only render (RenderOptions::colorOnly), and each of them in a depth-tested
+// render that clears its targets: the depth test and the IDs then live in the renderer's tile
+// memory only and are dropped after each tile (VisibilityOutputs::tileIds still sees each tile's
+// IDs), as a GPU discards a depth buffer nobody reads. A stereo pair's eyes are displayed as
+// colour alone, and not writing the 2.5 MB of depth and IDs of a 640x480 frame makes a P-buffer
+// second eye of office:280 about 12% faster (docs/stereo-results.md).
+struct RenderTargets {
+    ImageView<Rgba8> color;
+    ImageView<float> depth;        // 1/w, see Conventions; 0 = cleared
+    ImageView<uint32_t> id;        // global triangle index + 1; 0 = cleared
+    VisibilityOutputs visibility;  // the P-buffer consumers' extras; empty by default
+};
+
 struct RenderOptions {
     Shading shading = Shading::kFlat;
     bool cullBackFaces = false;  // counter-clockwise triangles (as seen) are front faces
@@ -70,8 +94,8 @@ struct RenderOptions {
     // (their views may be empty). Triangles are drawn in submission order, a later one
     // overwriting an earlier one where both cover a sample, so the colour equals that of the
     // depth-tested render only when no two triangles cover the same sample (a flat warp mesh
-    // that does not fold, say). Preconditions: a colour target, no second layer, no
-    // unsampledVisible and no tileIds (see checkRenderRequest).
+    // that does not fold, say). Preconditions: a colour target and no visibility outputs
+    // (RenderTargets::visibility; see checkRenderRequest).
     bool colorOnly = false;
     // With clearTargets: clear only the tiles this Renderer drew into in its last frame on the
     // same targets (same views, size, clear colour and colorOnly) plus the tiles this frame
@@ -86,14 +110,6 @@ struct RenderOptions {
     // false: no lighting, colour = material base colour (times the texture when textured). Image
     // re-projection passes (display predistortion, warping) render this way.
     bool lit = true;
-    // When set, receives (appended, global indices) the triangles that cover no sample centre
-    // (smaller than a pixel, between samples) yet lie in front of the final depth somewhere in
-    // the 3x3 pixels around their centre: visible polygons the sampling missed. Full renders of
-    // unclipped triangles only. The stereo module's conservative set uses it.
-    std::vector<uint32_t>* unsampledVisible = nullptr;
-    // When set, sees every finished tile of the ID target (see TileIdVisitor), also when the
-    // targets have no ID view (the tile's IDs in tile memory).
-    TileIdVisitor* tileIds = nullptr;
 };
 
 struct RenderStats {
@@ -142,9 +158,9 @@ private:
 };
 
 // Checks that options and targets fit together (sizes against the camera's, the second layer
-// complete, colorOnly's preconditions, depth or IDs left out only where tile memory can stand in
-// for them); the message names the first problem. Renderer::render,
-// renderSubset and renderReference abort with that message on a failed check.
+// complete, colorOnly's and the visibility outputs' preconditions, depth or IDs left out only
+// where tile memory can stand in for them); the message names the first problem.
+// Renderer::render, renderSubset and renderReference abort with that message on a failed check.
 Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
                           const RenderTargets& targets);
 
@@ -160,7 +176,7 @@ struct FrameBuffers {
     Image<uint32_t> id;
 
     void resize(int width, int height);
-    RenderTargets targets() { return {color.view(), depth.view(), id.view(), {}, {}}; }
+    RenderTargets targets() { return {color.view(), depth.view(), id.view(), {}}; }
 };
 
 // Number of distinct non-zero IDs in an ID target (the visible triangles).

@@ -4,8 +4,9 @@
 // Methods:
 //  - full:    both eyes through the whole pipeline (the paper's baseline);
 //  - pbuffer: the first eye is rendered with the P-buffer (polygon-ID target); the visible flag of
-//             every polygon whose ID appears in it is set (Fig. 6, last loop); the second eye is
-//             rendered from the visible polygons only.
+//             every polygon whose ID appears in it is set (Fig. 6, last loop:
+//             raster::VisibleSetCollector); the second eye is rendered from the visible polygons
+//             only.
 // Beyond the paper, the conservative option widens the visible set towards what the second eye
 // sees and the first does not: a guard band of extra first-eye columns (polygons just outside the
 // first eye's frustum), a second depth layer along depth discontinuities (polygons just behind
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include <plx/raster/raster.h>
+#include <plx/raster/visible_set.h>
 
 namespace plx::stereo {
 
@@ -59,62 +61,6 @@ struct StereoFrame {
     raster::FrameBuffers left, right;
     raster::FrameBuffers& eye(Eye e) { return e == Eye::kLeft ? left : right; }
     const raster::FrameBuffers& eye(Eye e) const { return e == Eye::kLeft ? left : right; }
-};
-
-// Collects the distinct polygon IDs of a P-buffer as sorted triangle indices, in
-// O(pixels + visible) per frame: each triangle has a visible flag, one bit of a bit set, and a
-// new frame clears only the flags of the previous frame's list instead of every polygon's (so
-// the scene size never enters the cost after the one-time allocation). As a
-// raster::TileIdVisitor it collects during the render, tile by tile on the renderer's threads
-// (RenderOptions::tileIds).
-class VisibleSetCollector : public raster::TileIdVisitor {
-public:
-    // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
-    void add(const Image<uint32_t>& ids);
-    // Adds the IDs of the pixels where mask is non-zero.
-    void addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask);
-    // Adds triangle indices (each < triangleCount).
-    void addTriangles(std::span<const uint32_t> triangles);
-    // Adds the IDs of one tile. Safe to call from several threads at once with distinct slots
-    // below the `slots` given to begin(); not concurrently with the other add functions.
-    void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1,
-                   int slot) override;
-    // Starts a new set for a scene of triangleCount triangles; up to `slots` threads may call
-    // visitTile concurrently.
-    void begin(size_t triangleCount, int slots = 1);
-    // The set so far, ascending (ascending order keeps the full render's draw order, so exact
-    // depth ties resolve the same way in both methods).
-    const std::vector<uint32_t>& sorted();
-    size_t size() const;
-    bool contains(uint32_t triangle) const {
-        return triangle < mTriangles && (mFlags[triangle >> 6] >> (triangle & 63) & 1);
-    }
-
-private:
-    // Lists the triangle unless this frame's set holds it already (one thread at a time).
-    void insert(uint32_t tri) {
-        PLX_DCHECK(tri < mTriangles);
-        const uint64_t bit = uint64_t(1) << (tri & 63);
-        if (!(mFlags[tri >> 6] & bit)) {
-            mFlags[tri >> 6] |= bit;
-            mList.push_back(tri);
-            mSorted = false;
-        }
-    }
-    // One thread's finds during visitTile, on a cache line of its own.
-    struct alignas(64) SlotList {
-        std::vector<uint32_t> triangles;
-    };
-    // Visible flags, 64 triangles a word. A bit set rather than a word per triangle: the
-    // visible polygons of a frame cluster by mesh, so their flags share few cache lines, which
-    // the render's own traffic has evicted since the last frame (128 KB for office:280's
-    // 1,016,960 triangles, where epoch stamps took 4 MB).
-    std::vector<uint64_t> mFlags;
-    size_t mTriangles = 0;
-    std::vector<uint32_t> mList;
-    std::vector<uint32_t> mSortScratch, mDigitCounts;  // sorted()'s radix sort
-    std::vector<SlotList> mSlots;
-    bool mSorted = true;
 };
 
 struct StereoRendererConfig {

@@ -1,16 +1,17 @@
 // Stage 1 of the tiled renderer: mesh vertices to clip space, outcodes and snapped screen
-// positions. The AVX2 loop takes eight vertices at a time with the scalar loop's operations in
-// the scalar loop's order (glm's mat4 * vec4 is (m0 x + m1 y) + (m2 z + m3 w); no contraction),
-// so both give the same bits and the reference renderer's clipping and snapping agree with it.
+// positions, compiled once per ISA (plx_add_isa_kernels). The AVX2 loop (avx2 and avx512 units)
+// takes eight vertices at a time with the scalar loop's operations in the scalar loop's order
+// (glm's mat4 * vec4 is (m0 x + m1 y) + (m2 z + m3 w); no contraction), so both give the same
+// bits and the reference renderer's clipping and snapping agree with it.
 
 #include "pipeline.h"
 
-#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
+#if defined(__AVX2__)
 #include <immintrin.h>
 #define PLX_TRANSFORM_AVX2 1
 #endif
 
-namespace plx::raster::detail {
+namespace plx::raster::detail::PLX_ISA_NS {
 namespace {
 
 VertexOut transformOne(const Vec3& p, const Mat4& clipFromWorld, const Viewport& vp) {
@@ -103,4 +104,4 @@ void transformPositions(const Vec3* positions, size_t count, const Mat4& clipFro
     for (; i < count; ++i) out[i] = transformOne(positions[i], clipFromWorld, vp);
 }
 
-}  // namespace plx::raster::detail
+}  // namespace plx::raster::detail::PLX_ISA_NS

@@ -1,67 +1,42 @@
 // The last loop of Fig. 6 (Heo, Jung, Wohn): "for each pixel: set the visible-flag of pid TRUE",
-// made O(pixels + visible) per frame by clearing only the flags the previous frame set.
+// made O(pixels + visible) per frame by clearing only the flags the previous frame set. The row
+// scan that finds each run's first pixel is a per-ISA kernel (visible_set.inl).
 
 #include <algorithm>
 #include <atomic>
 #include <bit>
 #include <utility>
 
-#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
-#include <immintrin.h>
-#endif
+#include <plx/core/cpu.h>
+#include <plx/raster/visible_set.h>
 
-#include <plx/stereo/stereo.h>
+namespace plx::raster {
 
-namespace plx::stereo {
+namespace detail {
+PLX_ISA_DECLARE(size_t findRunStarts(const uint32_t* origin, ptrdiff_t stride, size_t width,
+                                     int rows, int* row, uint32_t* starts, size_t capacity))
+namespace {
+auto activeFindRunStarts() { return PLX_ISA_PICK(findRunStarts); }
+}  // namespace
+}  // namespace detail
 
 namespace {
 
-// Calls mark(id - 1) for every pixel of one ID-target row p[0..n) whose non-zero ID differs from
-// both the pixel before it and the pixel above it (above[0..n), the row before; null for none).
-// A polygon's pixels form runs, and a run mostly continues one in the row above: of the 18.3k
-// run starts of office:280's 640x480 first eye, 6.0k also differ from the pixel above
-// (BM_CollectPass: 15% less CPU time). No ID is missed: in scan order, the first pixel of an ID
-// has neither neighbour of that ID. An ID may still be passed to mark() more than once; mark()
-// keeps the set free of repeats.
-// With AVX2 eight pixels are compared with their neighbours at once, and only the lanes that
-// remain are visited. Most groups of eight repeat the row above outright, and are passed over
-// after that one comparison: 3.8 -> 2.3 instructions per pixel (callgrind, office:280's first
-// eye), BM_CollectPass 130-175 -> 84-90 us. Inside the render, where the scan takes about
-// 0.25-0.3 ms of CPU a frame, its time did not measurably change (alternated runs).
-template <class Mark>
-void markRunStarts(const uint32_t* p, const uint32_t* above, size_t n, const Mark& mark) {
-    size_t i = 0;
-#if defined(__AVX2__) && !defined(PLX_NO_SIMD)
-    const __m256i shiftRight = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
-    const __m256i zero = _mm256_setzero_si256();
-    // Marks the lanes of v (pixels g .. g+7) that are neither in `same` nor 0 nor equal to their
-    // left neighbour (pixel g + k - 1; none left of the row's first pixel).
-    auto markGroup = [&](size_t g, __m256i v, __m256i same) {
-        __m256i left =
-            g ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + g - 1))
-              : _mm256_blend_epi32(_mm256_permutevar8x32_epi32(v, shiftRight), zero, 0x01);
-        same = _mm256_or_si256(
-            same, _mm256_or_si256(_mm256_cmpeq_epi32(v, left), _mm256_cmpeq_epi32(v, zero)));
-        for (unsigned starts = ~unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(same))) & 0xFFu;
-             starts; starts &= starts - 1)
-            mark(p[g + size_t(__builtin_ctz(starts))] - 1);
-    };
-    if (above) {
-        for (; i + 8 <= n; i += 8) {
-            __m256i v = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + i));
-            __m256i up = _mm256_cmpeq_epi32(
-                v, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(above + i)));
-            if (_mm256_movemask_ps(_mm256_castsi256_ps(up)) != 0xFF) markGroup(i, v, up);
-        }
-    } else {
-        for (; i + 8 <= n; i += 8)
-            markGroup(i, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p + i)), zero);
-    }
-#endif
-    uint32_t previous = i ? p[i - 1] : 0;
-    for (; i < n; ++i) {
-        if (p[i] != previous && p[i] != 0 && !(above && p[i] == above[i])) mark(p[i] - 1);
-        previous = p[i];
+// The run starts of the rectangle [x0, x1] x [y0, y1] of `ids` (visible_set.inl), passed to
+// mark(); `starts` is scratch, kept between calls.
+template <class Pixel, class Mark>
+void forEachRunStart(const ImageView<Pixel>& ids, int x0, int y0, int x1, int y1,
+                     std::vector<uint32_t>* starts, const Mark& mark) {
+    // Room for several rows per kernel call; at least one.
+    constexpr size_t kMinScratch = 4096;
+    const auto findRunStarts = detail::activeFindRunStarts();
+    const size_t width = size_t(x1 - x0 + 1);
+    if (starts->size() < std::max(width, kMinScratch))
+        starts->resize(std::max(width, kMinScratch));
+    for (int row = 0; row <= y1 - y0;) {
+        const size_t count = findRunStarts(ids.row(y0) + x0, ids.strideElems, width, y1 - y0 + 1,
+                                           &row, starts->data(), starts->size());
+        for (size_t i = 0; i < count; ++i) mark((*starts)[i]);
     }
 }
 
@@ -116,16 +91,16 @@ void VisibleSetCollector::begin(size_t triangleCount, int slots) {
 }
 
 void VisibleSetCollector::add(const Image<uint32_t>& ids) {
-    const ImageView<const uint32_t> view = ids.view();
-    for (int y = 0; y < ids.height(); ++y)
-        markRunStarts(view.row(y), y > 0 ? view.row(y - 1) : nullptr, size_t(ids.width()),
-                      [&](uint32_t tri) { insert(tri); });
+    if (ids.empty()) return;
+    forEachRunStart(ids.view(), 0, 0, ids.width() - 1, ids.height() - 1, &mRunStarts,
+                    [&](uint32_t tri) { insert(tri); });
 }
 
 void VisibleSetCollector::visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1,
                                     int y1, int slot) {
     PLX_CHECK(slot >= 0 && size_t(slot) < mSlots.size());
-    std::vector<uint32_t>& found = mSlots[size_t(slot)].triangles;
+    SlotList& list = mSlots[size_t(slot)];
+    std::vector<uint32_t>& found = list.triangles;
     // Another thread may meet the same triangle in its own tile: the atomic OR lets exactly one
     // of them list it. Relaxed order suffices, the render's join publishes the lists.
     auto mark = [&](uint32_t tri) {
@@ -136,9 +111,7 @@ void VisibleSetCollector::visitTile(const ImageView<uint32_t>& ids, int x0, int 
             !(word.fetch_or(bit, std::memory_order_relaxed) & bit))
             found.push_back(tri);
     };
-    for (int y = y0; y <= y1; ++y)
-        markRunStarts(ids.row(y) + x0, y > y0 ? ids.row(y - 1) + x0 : nullptr,
-                      size_t(x1 - x0 + 1), mark);
+    forEachRunStart(ids, x0, y0, x1, y1, &list.runStarts, mark);
 }
 
 void VisibleSetCollector::addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask) {
@@ -177,4 +150,4 @@ const std::vector<uint32_t>& VisibleSetCollector::sorted() {
     return mList;
 }
 
-}  // namespace plx::stereo
+}  // namespace plx::raster

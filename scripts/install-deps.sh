@@ -15,6 +15,8 @@ packages=(
     libwebp-dev libjxl-dev optipng
     # fuzzing and sanitizers
     clang
+    # the portability test (disassembles parallax; objdump comes with binutils)
+    python3 binutils
 )
 
 missing=()

@@ -92,17 +92,28 @@ endfunction()
 # into TARGET, in generated translation units that carry that tier's flags and include
 # <plx/core/isa_kernel.h> (which refuses to compile without them and names the namespace:
 # isa_scalar, isa_avx2, isa_avx512). Dispatch code picks one with PLX_ISA_PICK.
+#
+# ISAS avx2 limits the vector tiers to those listed (scalar is always built): for kernels whose
+# dispatch never picks a tier, so that it is not compiled for nothing.
 function(plx_add_isa_kernels target)
-    cmake_parse_arguments(ARG "" "" "KERNELS" ${ARGN})
+    cmake_parse_arguments(ARG "" "" "KERNELS;ISAS" ${ARGN})
+    set(all_isas scalar avx2 avx512)
     set(isas scalar)
     if(PLX_ISA_DISPATCH)
-        list(APPEND isas avx2 avx512)
+        if(ARG_ISAS)
+            list(APPEND isas ${ARG_ISAS})
+        else()
+            list(APPEND isas avx2 avx512)
+        endif()
     endif()
     foreach(kernel IN LISTS ARG_KERNELS)
         get_filename_component(PLX_KERNEL_PATH ${kernel} ABSOLUTE)
         get_filename_component(PLX_KERNEL_NAME ${kernel} NAME_WE)
         foreach(PLX_ISA IN LISTS isas)
-            list(FIND isas ${PLX_ISA} PLX_ISA_LEVEL)
+            list(FIND all_isas ${PLX_ISA} PLX_ISA_LEVEL)
+            if(PLX_ISA_LEVEL LESS 0)
+                message(FATAL_ERROR "plx_add_isa_kernels: unknown ISA '${PLX_ISA}'")
+            endif()
             set(out ${CMAKE_CURRENT_BINARY_DIR}/isa/${PLX_KERNEL_NAME}_${PLX_ISA}.cpp)
             configure_file(${PROJECT_SOURCE_DIR}/cmake/isa/kernel.cpp.in ${out} @ONLY)
             target_sources(${target} PRIVATE ${out})

@@ -1,0 +1,104 @@
+#pragma once
+// Forward reprojection of the first eye's colour, depth (1/w) and ID targets into the second eye
+// (Fu, Bao, Peng, sections 1-2): both eyes share the image rows, so every pixel moves along its
+// row by a disparity that depends only on its depth, and collisions are resolved by depth.
+//
+// Disparity. With f the projection distance in pixels and e the separation, Heo eq. (1) gives
+// x_right - x_left = e f (1/c - 1/Z) for the converged rig (its image shift e f / (2c) per eye)
+// and -e f / Z for the parallel rig (Fu section 1, offset -a d / z_e). The depth target holds
+// 1/w = 1/Z, so the offset is linear in it: second column = first column + a * (1/w) + b
+// (DisparityLine); for the right eye first both coefficients change sign.
+//
+// Pixel positions. The first eye's pixel x is sampled at x + 0.5; it lands at x + 0.5 + offset
+// and is written to the second eye's pixel whose span [tx, tx + 1) holds that position,
+// tx = floor(x + 0.5 + offset). With offset 0 that is x itself, so zero separation reproduces the
+// first eye bit for bit. Pixels landing outside [0, width) are dropped.
+//
+// Collisions (Fu section 2, Fig. 3). A pixel is written when nothing landed there yet or its 1/w
+// is strictly larger (nearer) than what is there; on equal 1/w the first eye's pixel with the
+// smaller column wins (rows are processed left to right). Cleared first-eye pixels (1/w = 0,
+// ID 0: nothing drawn, infinitely far) move too, by b, so the background is carried over and
+// only pixels nothing lands on are holes: depth 0, ID 0, colour {0,0,0,0}, hole mask 1.
+
+#include <cstdint>
+#include <vector>
+
+#include <plx/core/image.h>
+#include <plx/core/parallel.h>
+#include <plx/core/status.h>
+#include <plx/core/stereo_rig.h>
+
+namespace plx::stereo {
+
+// second-eye column = first-eye column + perInvW * (1/w) + offsetPx, in pixels.
+struct DisparityLine {
+    float perInvW = 0.0f;   // a: -e f for the left eye first (pixels times scene units)
+    float offsetPx = 0.0f;  // b: e f / c for the converged rig and left eye first, 0 parallel
+};
+
+// The disparity line from the first eye to the second for a rig description and a projection
+// distance f in pixels ((height / 2) / tan(fovY / 2)). Errors: separation negative or not
+// finite, convergence <= 0 or not finite (converged rig), f <= 0 or not finite.
+Result<DisparityLine> disparityLine(const StereoRigDesc& desc, float focalPx);
+// The same for a built rig (its description and projection distance).
+DisparityLine disparityLine(const StereoRig& rig);
+
+// Fu section 2's offset look-up table, indexed by quantised depth. The depth target is 1/w, as a
+// z-buffer's window depth is affine in 1/z; the table quantises it uniformly over
+// [0, maxInvW] into entries - 1 steps and rounds to the nearest step, so the offset it returns
+// differs from the line's by at most |a| * maxInvW / (2 (entries - 1)) pixels (maxErrorPx()),
+// which can move a pixel whose landing position is that close to a column boundary by one
+// column. 1/w above maxInvW (nearer than the near plane the table was built for) is clamped to
+// the last entry. Built once per rig and camera (the paper's "initialize offset look-up table").
+class OffsetLut {
+public:
+    // Errors: maxInvW <= 0 or not finite, entries < 2 or > 2^24, line not finite.
+    static Result<OffsetLut> create(const DisparityLine& line, float maxInvW, int entries = 4096);
+
+    // Offset in pixels of a pixel with the given 1/w, plus the pixel centre's 0.5.
+    float centredOffset(float invW) const {
+        float q = invW * mScale + 0.5f;
+        if (!(q >= 0.0f)) q = 0.0f;  // negative or NaN 1/w: not produced by a renderer
+        if (q > mLast) q = mLast;
+        return mTable[size_t(q)];
+    }
+    float maxErrorPx() const { return mMaxErrorPx; }
+    const DisparityLine& line() const { return mLine; }
+    int entries() const { return int(mTable.size()); }
+
+private:
+    OffsetLut() = default;
+    DisparityLine mLine;
+    std::vector<float> mTable;  // entry i: a * i / scale + b + 0.5
+    float mScale = 0.0f;        // (entries - 1) / maxInvW
+    float mLast = 0.0f;         // entries - 1
+    float mMaxErrorPx = 0.0f;
+};
+
+// The first eye's targets (read only).
+struct FirstEyeTargets {
+    ImageView<const Rgba8> color;
+    ImageView<const float> depth;  // 1/w, 0 = cleared
+    ImageView<const uint32_t> id;  // triangle index + 1, 0 = none
+};
+
+// The second eye's targets, all written (every pixel of every row) by reproject().
+struct SecondEyeTargets {
+    ImageView<Rgba8> color;
+    ImageView<float> depth;
+    ImageView<uint32_t> id;
+    ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0
+};
+
+// Reprojects the first eye into the second with the direct form (one multiply-add per pixel).
+// Rows run in parallel on `pool` when given (Fu section 1's parallel mode), else on the calling
+// thread; the result does not depend on the thread count. Errors: targets of different sizes,
+// an empty target, a line that is not finite. Precondition: first and second targets do not
+// overlap in memory.
+Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
+                 const SecondEyeTargets& second, ThreadPool* pool = nullptr);
+// The same with the offset look-up table (see OffsetLut for its error).
+Status reproject(const FirstEyeTargets& first, const OffsetLut& lut, const SecondEyeTargets& second,
+                 ThreadPool* pool = nullptr);
+
+}  // namespace plx::stereo

@@ -1,0 +1,176 @@
+#include <algorithm>
+#include <cmath>
+
+#include <plx/core/check.h>
+#include <plx/stereo/holes.h>
+
+namespace plx::stereo {
+
+namespace {
+
+int32_t findRoot(std::vector<int32_t>& parent, int32_t h) {
+    int32_t root = h;
+    while (parent[size_t(root)] != root) root = parent[size_t(root)];
+    while (parent[size_t(h)] != root) {  // path compression
+        int32_t up = parent[size_t(h)];
+        parent[size_t(h)] = root;
+        h = up;
+    }
+    return root;
+}
+
+}  // namespace
+
+void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
+               HoleScratch& scratch, HoleSet& out) {
+    std::vector<HoleSegment>& segs = scratch.rowSegments;
+    std::vector<int32_t>& label = scratch.label;
+    std::vector<int32_t>& parent = scratch.parent;
+    segs.clear();
+    label.clear();
+    parent.clear();
+    // Diagonal neighbours count as touching for 8-connectivity: ranges may be one column apart.
+    int32_t slack = connectivity == HoleConnectivity::k8 ? 1 : 0;
+
+    size_t prevBegin = 0, prevEnd = 0;
+    for (int y = 0; y < holeMask.height; ++y) {
+        const uint8_t* m = holeMask.row(y);
+        size_t curBegin = segs.size();
+        // Fu Fig. 5: the row's segments, left to right.
+        for (int x = 0; x < holeMask.width;) {
+            if (!m[x]) {
+                ++x;
+                continue;
+            }
+            int x0 = x;
+            while (x < holeMask.width && m[x]) ++x;
+            segs.push_back({x0, x - 1, x - x0, y, -1});
+            label.push_back(-1);
+        }
+        size_t curEnd = segs.size();
+        // Join each segment to the holes of the previous row's segments it touches; the two
+        // rows' segments are both in column order, so one forward sweep finds every pair.
+        size_t j = prevBegin;
+        for (size_t c = curBegin; c < curEnd; ++c) {
+            const HoleSegment& cs = segs[c];
+            while (j < prevEnd && segs[j].xEnd + slack < cs.xStart) ++j;
+            int32_t hole = -1;
+            for (size_t p = j; p < prevEnd && segs[p].xStart <= cs.xEnd + slack; ++p) {
+                int32_t other = findRoot(parent, label[p]);
+                if (hole < 0) {
+                    hole = other;
+                } else if (other != hole) {
+                    // The segment bridges two holes (the bottom of a U): merge them, keeping the
+                    // older root so labels stay stable.
+                    int32_t keep = std::min(hole, other), gone = std::max(hole, other);
+                    parent[size_t(gone)] = keep;
+                    hole = keep;
+                }
+            }
+            if (hole < 0) {
+                hole = int32_t(parent.size());
+                parent.push_back(hole);
+            }
+            label[c] = hole;
+        }
+        prevBegin = curBegin;
+        prevEnd = curEnd;
+    }
+
+    // Compact output: holes in the order of their first segment (scan order); each hole's
+    // segments placed contiguously with a stable counting sort, so they stay in scan order.
+    std::vector<int32_t>& finalIndex = scratch.finalIndex;
+    finalIndex.assign(parent.size(), -1);
+    out.holes.clear();
+    out.pixelCount = 0;
+    for (size_t s = 0; s < segs.size(); ++s) {
+        int32_t root = findRoot(parent, label[s]);
+        int32_t& index = finalIndex[size_t(root)];
+        if (index < 0) {
+            index = int32_t(out.holes.size());
+            Hole h;
+            h.box = {segs[s].xStart, segs[s].y, segs[s].xEnd, segs[s].y};
+            out.holes.push_back(h);
+        }
+        Hole& h = out.holes[size_t(index)];
+        label[s] = index;
+        h.segmentCount += 1;
+        h.pixelCount += segs[s].count;
+        h.box.x0 = std::min(h.box.x0, segs[s].xStart);
+        h.box.x1 = std::max(h.box.x1, segs[s].xEnd);
+        h.box.y1 = segs[s].y;  // segments come in row order
+        out.pixelCount += segs[s].count;
+    }
+    std::vector<int32_t>& cursor = scratch.cursor;
+    cursor.resize(out.holes.size());
+    int32_t first = 0;
+    for (size_t h = 0; h < out.holes.size(); ++h) {
+        out.holes[h].firstSegment = first;
+        cursor[h] = first;
+        first += out.holes[h].segmentCount;
+    }
+    out.segments.resize(segs.size());
+    for (size_t s = 0; s < segs.size(); ++s) {
+        int32_t slot = cursor[size_t(label[s])]++;
+        out.segments[size_t(slot)] = segs[s];
+    }
+    for (const Hole& h : out.holes) {
+        int32_t last = h.firstSegment + h.segmentCount - 1;
+        for (int32_t s = h.firstSegment; s < last; ++s) out.segments[size_t(s)].next = s + 1;
+        out.segments[size_t(last)].next = -1;
+    }
+}
+
+void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes) {
+    int32_t w = id.width;
+    for (Hole& h : holes.holes) {
+        uint32_t polygon = 0;
+        bool expansion = true;
+        for (int32_t s = h.firstSegment; expansion && s < h.firstSegment + h.segmentCount; ++s) {
+            const HoleSegment& seg = holes.segments[size_t(s)];
+            PLX_CHECK(seg.y >= 0 && seg.y < id.height && seg.xEnd < w);
+            // Image border rule: nothing known beyond the first eye's left or right edge.
+            if (seg.xStart == 0 || seg.xEnd == w - 1) {
+                expansion = false;
+                break;
+            }
+            const uint32_t* row = id.row(seg.y);
+            uint32_t left = row[seg.xStart - 1], right = row[seg.xEnd + 1];
+            if (polygon == 0) polygon = left;
+            expansion = left != 0 && left == polygon && right == polygon;
+        }
+        h.holeClass = expansion ? HoleClass::kExpansion : HoleClass::kDisocclusion;
+        h.polygonId = expansion ? polygon : 0;
+    }
+}
+
+void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second) {
+    for (const Hole& h : holes.holes) {
+        if (h.holeClass != HoleClass::kExpansion) continue;
+        for (int32_t s = h.firstSegment; s < h.firstSegment + h.segmentCount; ++s) {
+            const HoleSegment& seg = holes.segments[size_t(s)];
+            PLX_CHECK(seg.xStart > 0 && seg.xEnd + 1 < second.color.width);
+            int32_t xl = seg.xStart - 1, xr = seg.xEnd + 1;
+            Rgba8* color = second.color.row(seg.y);
+            float* depth = second.depth.row(seg.y);
+            uint32_t* id = second.id.row(seg.y);
+            uint8_t* hole = second.holeMask.row(seg.y);
+            Rgba8 cl = color[xl], cr = color[xr];
+            float dl = depth[xl], dr = depth[xr];
+            float span = float(xr - xl);
+            auto mix = [](uint8_t a, uint8_t b, float t) {
+                return uint8_t(std::lround(float(a) + (float(b) - float(a)) * t));
+            };
+            for (int32_t x = seg.xStart; x <= seg.xEnd; ++x) {
+                float t = float(x - xl) / span;
+                color[x] = {mix(cl.r, cr.r, t), mix(cl.g, cr.g, t), mix(cl.b, cr.b, t),
+                            mix(cl.a, cr.a, t)};
+                depth[x] = dl + (dr - dl) * t;
+                id[x] = h.polygonId;
+                hole[x] = 0;
+            }
+        }
+    }
+}
+
+}  // namespace plx::stereo

@@ -1,0 +1,530 @@
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <plx/raster/raster.h>
+#include <plx/scene/generators.h>
+#include <plx/stereo/holes.h>
+#include <plx/stereo/reproject.h>
+
+namespace plx::stereo {
+namespace {
+
+// The second eye's targets plus the hole mask.
+struct SecondEye {
+    raster::FrameBuffers buffers;
+    Image<uint8_t> holeMask;
+    explicit SecondEye(int w, int h) {
+        buffers.resize(w, h);
+        holeMask.resize(w, h);
+    }
+    SecondEyeTargets targets() {
+        return {buffers.color.view(), buffers.depth.view(), buffers.id.view(), holeMask.view()};
+    }
+};
+
+template <class T>
+ImageView<const T> ro(const Image<T>& image) {
+    return image.view();
+}
+
+FirstEyeTargets firstTargets(const raster::FrameBuffers& b) {
+    return {b.color.view(), b.depth.view(), b.id.view()};
+}
+
+// office:2 seen from its first viewpoint, first eye of `desc`.
+struct OfficeEye {
+    scene::Scene scene = *scene::generateOffice(2);
+    raster::FrameBuffers first;
+    StereoRig rig;
+    explicit OfficeEye(StereoRigDesc desc, int w = 160, int h = 120)
+        : rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), w, h), desc)) {
+        first.resize(w, h);
+        auto renderer = std::move(raster::Renderer::create({2})).value();
+        renderer->render(scene, rig.first(), {}, first.targets());
+    }
+};
+
+TEST(Reproject, ZeroSeparationGivesTheFirstEyeExactly) {
+    for (StereoRigType type : {StereoRigType::kConverged, StereoRigType::kParallel}) {
+        for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+            StereoRigDesc desc;
+            desc.type = type;
+            desc.separation = 0.0f;
+            desc.firstEye = eye;
+            OfficeEye o(desc);
+            SecondEye second(160, 120);
+            ThreadPool pool(2);
+            ASSERT_TRUE(
+                reproject(firstTargets(o.first), disparityLine(o.rig), second.targets(), &pool)
+                    .isOk());
+            EXPECT_TRUE(second.buffers.color == o.first.color);
+            EXPECT_TRUE(second.buffers.depth == o.first.depth);
+            EXPECT_TRUE(second.buffers.id == o.first.id);
+            EXPECT_TRUE(second.holeMask == Image<uint8_t>(160, 120, 0));
+            auto lut = *OffsetLut::create(disparityLine(o.rig), 20.0f);
+            ASSERT_TRUE(reproject(firstTargets(o.first), lut, second.targets()).isOk());
+            EXPECT_TRUE(second.buffers.id == o.first.id);
+            EXPECT_TRUE(second.holeMask == Image<uint8_t>(160, 120, 0));
+        }
+    }
+}
+
+// The line agrees with the two eye cameras: a world point projected by both lands disparity
+// apart, for both rigs and either eye first.
+TEST(Reproject, DisparityLineMatchesTheEyeCameras) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (StereoRigType type : {StereoRigType::kConverged, StereoRigType::kParallel}) {
+        for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+            CameraDesc c;
+            c.eyePos = {0.3f, 1.2f, 4.0f};
+            c.targetPos = {0.0f, 1.0f, 0.0f};
+            c.width = 320;
+            c.height = 200;
+            StereoRigDesc desc{type, 0.1f, 2.5f, eye};
+            auto rig = *StereoRig::create(*Camera::create(c), desc);
+            DisparityLine line = disparityLine(rig);
+            for (int i = 0; i < 50; ++i) {
+                Vec3 p = c.targetPos + Vec3(u(rng), u(rng), 2.0f * u(rng));
+                Vec2 a, b;
+                ASSERT_TRUE(rig.first().projectToPixel(p, &a));
+                ASSERT_TRUE(rig.second().projectToPixel(p, &b));
+                float z = -(rig.first().viewFromWorld() * Vec4(p, 1.0f)).z;
+                EXPECT_NEAR(b.x - a.x, line.perInvW / z + line.offsetPx, 2e-3f);
+                EXPECT_NEAR(b.y, a.y, 2e-3f);
+            }
+        }
+    }
+}
+
+// Hand-made targets: a wall of ID `wallId` at 1/w `wallInvW`, with a box of ID `boxId` at
+// 1/w `boxInvW` over columns [bx0, bx1) and rows [by0, by1).
+raster::FrameBuffers wallWithBox(int w, int h, float wallInvW, float boxInvW, int bx0, int bx1,
+                                 int by0, int by1) {
+    raster::FrameBuffers b;
+    b.resize(w, h);
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            bool box = x >= bx0 && x < bx1 && y >= by0 && y < by1;
+            b.depth.at(x, y) = box ? boxInvW : wallInvW;
+            b.id.at(x, y) = box ? 2u : 1u;
+            b.color.at(x, y) = box ? Rgba8{200, 10, 10, 255} : Rgba8{uint8_t(x), 90, 90, 255};
+        }
+    }
+    return b;
+}
+
+TEST(Reproject, FrontoParallelPlaneHasNoInteriorHole) {
+    // Stripes of several IDs at one depth; a fractional shift of 3.3 px moves it rigidly.
+    raster::FrameBuffers first = wallWithBox(64, 8, 0.5f, 0.5f, 10, 30, 0, 8);
+    for (float b : {3.3f, -3.3f, 0.49f, -0.51f}) {
+        SecondEye second(64, 8);
+        ASSERT_TRUE(reproject(firstTargets(first), DisparityLine{-2.0f, b + 1.0f}, second.targets())
+                        .isOk());
+        int shift = int(std::floor(0.5f + b));
+        for (int y = 0; y < 8; ++y) {
+            for (int x = 0; x < 64; ++x) {
+                int src = x - shift;
+                bool inside = src >= 0 && src < 64;
+                ASSERT_EQ(second.holeMask.at(x, y), inside ? 0 : 1) << b << " " << x;
+                if (inside) {
+                    ASSERT_EQ(second.buffers.id.at(x, y), first.id.at(src, y));
+                }
+            }
+        }
+    }
+}
+
+TEST(Reproject, DepthStepOpensADisocclusionOnThePredictedSide) {
+    // Parallel rig with e f = 8 px: the wall (1/w 0.25) moves 2 px, the box (1/w 1) 8 px, so a
+    // gap of 6 px opens beside the box, on its right when the left eye comes first (the right
+    // eye sees past the box's right side) and on its left otherwise.
+    const int w = 100, h = 40;
+    raster::FrameBuffers first = wallWithBox(w, h, 0.25f, 1.0f, 40, 60, 10, 30);
+    for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+        StereoRigDesc desc{StereoRigType::kParallel, 0.08f, 3.0f, eye};
+        DisparityLine line = *disparityLine(desc, 100.0f);
+        SecondEye second(w, h);
+        ASSERT_TRUE(reproject(firstTargets(first), line, second.targets()).isOk());
+        HoleScratch scratch;
+        HoleSet holes;
+        findHoles(ro(second.holeMask), HoleConnectivity::k8, scratch, holes);
+        classifyHoles(ro(second.buffers.id), holes);
+        // The box gap and the 2-column strip at the border the wall moves away from.
+        ASSERT_EQ(holes.holes.size(), 2u);
+        int gapX0 = eye == Eye::kLeft ? 52 : 42;
+        bool found = false;
+        for (const Hole& hole : holes.holes) {
+            EXPECT_EQ(hole.holeClass, HoleClass::kDisocclusion);
+            if (hole.box.y0 == 10) {
+                found = true;
+                EXPECT_EQ(hole.box.x0, gapX0);
+                EXPECT_EQ(hole.box.x1, gapX0 + 5);
+                EXPECT_EQ(hole.box.y1, 29);
+                EXPECT_EQ(hole.pixelCount, 6 * 20);
+                EXPECT_EQ(hole.segmentCount, 20);
+            } else {
+                EXPECT_EQ(hole.box.x0, eye == Eye::kLeft ? w - 2 : 0);
+                EXPECT_EQ(hole.box.x1 - hole.box.x0, 1);
+                EXPECT_EQ(hole.pixelCount, 2 * h);
+            }
+        }
+        EXPECT_TRUE(found);
+        // The box covers the wall it moved over: nearer wins.
+        int boxX0 = eye == Eye::kLeft ? 32 : 48;
+        EXPECT_EQ(second.buffers.id.at(boxX0, 20), 2u);
+        EXPECT_EQ(second.buffers.id.at(boxX0 + 19, 20), 2u);
+        EXPECT_EQ(second.buffers.id.at(eye == Eye::kLeft ? boxX0 - 1 : boxX0 + 20, 20), 1u);
+    }
+}
+
+TEST(Reproject, StretchedSlantedPlaneGivesExpansionHoles) {
+    // One polygon whose 1/w falls from 1 to 0.2 across the row: with the left eye first and
+    // e f = 30 the offset grows by 0.24 px per column, so cracks open every few columns.
+    const int w = 100, h = 12;
+    raster::FrameBuffers first;
+    first.resize(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            first.depth.at(x, y) = 1.0f - 0.8f * float(x) / float(w);
+            first.id.at(x, y) = 7;
+            first.color.at(x, y) = {uint8_t(2 * x), 50, uint8_t(y), 255};
+        }
+    SecondEye second(w, h);
+    ASSERT_TRUE(
+        reproject(firstTargets(first), DisparityLine{-30.0f, 0.0f}, second.targets()).isOk());
+    HoleScratch scratch;
+    HoleSet holes;
+    findHoles(ro(second.holeMask), HoleConnectivity::k8, scratch, holes);
+    classifyHoles(ro(second.buffers.id), holes);
+    int expansion = 0;
+    for (const Hole& hole : holes.holes) {
+        bool border = hole.box.x0 == 0 || hole.box.x1 == w - 1;
+        EXPECT_EQ(hole.holeClass, border ? HoleClass::kDisocclusion : HoleClass::kExpansion);
+        if (hole.holeClass == HoleClass::kExpansion) {
+            ++expansion;
+            EXPECT_EQ(hole.polygonId, 7u);
+            EXPECT_EQ(hole.box.y0, 0);
+            EXPECT_EQ(hole.box.y1, h - 1);
+        }
+    }
+    EXPECT_GT(expansion, 10);
+    fillExpansionHoles(holes, second.targets());
+    for (const Hole& hole : holes.holes) {
+        for (int s = hole.firstSegment; s < hole.firstSegment + hole.segmentCount; ++s) {
+            const HoleSegment& seg = holes.segments[size_t(s)];
+            for (int x = seg.xStart; x <= seg.xEnd; ++x) {
+                bool filled = hole.holeClass == HoleClass::kExpansion;
+                EXPECT_EQ(second.holeMask.at(x, seg.y), filled ? 0 : 1);
+                if (!filled) continue;
+                EXPECT_EQ(second.buffers.id.at(x, seg.y), 7u);
+                float d = second.buffers.depth.at(x, seg.y);
+                EXPECT_LT(d, second.buffers.depth.at(seg.xStart - 1, seg.y));
+                EXPECT_GT(d, second.buffers.depth.at(seg.xEnd + 1, seg.y));
+                uint8_t r = second.buffers.color.at(x, seg.y).r;
+                EXPECT_GE(r, second.buffers.color.at(seg.xStart - 1, seg.y).r);
+                EXPECT_LE(r, second.buffers.color.at(seg.xEnd + 1, seg.y).r);
+            }
+        }
+    }
+}
+
+TEST(Reproject, LutAgreesWithTheDirectFormWithinItsBound) {
+    DisparityLine line = *disparityLine(StereoRigDesc{}, 623.5f);
+    for (int entries : {2, 256, 4096, 65536}) {
+        auto lut = *OffsetLut::create(line, 20.0f, entries);
+        EXPECT_FLOAT_EQ(lut.maxErrorPx(),
+                        std::fabs(line.perInvW) * 20.0f / (2.0f * float(entries - 1)));
+        std::mt19937 rng(entries);
+        std::uniform_real_distribution<float> u(0.0f, 20.0f);
+        for (int i = 0; i < 10000; ++i) {
+            float invW = i == 0 ? 0.0f : i == 1 ? 20.0f : u(rng);
+            float direct = line.perInvW * invW + line.offsetPx;
+            ASSERT_NEAR(lut.centredOffset(invW) - 0.5f, direct, lut.maxErrorPx() * 1.001f + 1e-4f);
+        }
+        // Nearer than the table's range: clamped to its last entry.
+        EXPECT_EQ(lut.centredOffset(50.0f), lut.centredOffset(20.0f));
+    }
+    // On a rendered eye every pixel lands in the column the direct form gives, or one beside it
+    // where the landing position is within the bound of a column boundary.
+    StereoRigDesc desc;
+    desc.separation = 0.3f;
+    OfficeEye o(desc);
+    DisparityLine officeLine = disparityLine(o.rig);
+    auto lut = *OffsetLut::create(officeLine, 1.0f / 0.05f, 4096);
+    for (int y = 0; y < 120; ++y)
+        for (int x = 0; x < 160; ++x) {
+            float invW = o.first.depth.at(x, y);
+            float direct = float(x) + officeLine.perInvW * invW + officeLine.offsetPx + 0.5f;
+            float viaLut = float(x) + lut.centredOffset(invW);
+            if (std::floor(direct) != std::floor(viaLut)) {
+                EXPECT_LT(std::fabs(direct - std::round(direct)), lut.maxErrorPx() + 1e-4f);
+            }
+        }
+}
+
+TEST(Reproject, ParallelRowsEqualOneThread) {
+    StereoRigDesc desc;
+    desc.separation = 0.2f;
+    for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+        desc.firstEye = eye;
+        OfficeEye o(desc, 200, 150);
+        SecondEye one(200, 150), many(200, 150);
+        ThreadPool pool(2);
+        DisparityLine line = disparityLine(o.rig);
+        ASSERT_TRUE(reproject(firstTargets(o.first), line, one.targets()).isOk());
+        ASSERT_TRUE(reproject(firstTargets(o.first), line, many.targets(), &pool).isOk());
+        EXPECT_TRUE(one.buffers.color == many.buffers.color);
+        EXPECT_TRUE(one.buffers.depth == many.buffers.depth);
+        EXPECT_TRUE(one.buffers.id == many.buffers.id);
+        EXPECT_TRUE(one.holeMask == many.holeMask);
+        auto lut = *OffsetLut::create(line, 20.0f);
+        ASSERT_TRUE(reproject(firstTargets(o.first), lut, one.targets()).isOk());
+        ASSERT_TRUE(reproject(firstTargets(o.first), lut, many.targets(), &pool).isOk());
+        EXPECT_TRUE(one.buffers.id == many.buffers.id);
+        EXPECT_TRUE(one.holeMask == many.holeMask);
+        // A real separation opens holes, all found and classified.
+        HoleScratch scratch;
+        HoleSet holes;
+        findHoles(ro(one.holeMask), HoleConnectivity::k8, scratch, holes);
+        classifyHoles(ro(one.buffers.id), holes);
+        int64_t maskPixels = 0;
+        for (uint8_t m : std::vector<uint8_t>(one.holeMask.data(),
+                                              one.holeMask.data() + one.holeMask.pixelCount()))
+            maskPixels += m;
+        EXPECT_GT(maskPixels, 0);
+        EXPECT_EQ(holes.pixelCount, maskPixels);
+    }
+}
+
+TEST(Reproject, BadParametersAreRejected) {
+    StereoRigDesc nan;
+    nan.separation = std::nanf("");
+    EXPECT_FALSE(disparityLine(nan, 600.0f).isOk());
+    StereoRigDesc negative;
+    negative.separation = -0.1f;
+    EXPECT_FALSE(disparityLine(negative, 600.0f).isOk());
+    StereoRigDesc noConvergence;
+    noConvergence.convergence = 0.0f;
+    EXPECT_FALSE(disparityLine(noConvergence, 600.0f).isOk());
+    EXPECT_FALSE(disparityLine(StereoRigDesc{}, std::nanf("")).isOk());
+    EXPECT_FALSE(disparityLine(StereoRigDesc{}, 0.0f).isOk());
+    EXPECT_FALSE(OffsetLut::create({}, 0.0f).isOk());
+    EXPECT_FALSE(OffsetLut::create({}, 20.0f, 1).isOk());
+    EXPECT_FALSE(OffsetLut::create({std::nanf(""), 0.0f}, 20.0f).isOk());
+
+    raster::FrameBuffers first;
+    first.resize(16, 8);
+    SecondEye ok(16, 8), wide(17, 8), tall(16, 9);
+    EXPECT_TRUE(reproject(firstTargets(first), DisparityLine{}, ok.targets()).isOk());
+    EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, wide.targets()).isOk());
+    EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, tall.targets()).isOk());
+    SecondEyeTargets maskOff = ok.targets();
+    maskOff.holeMask = tall.holeMask.view();
+    EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, maskOff).isOk());
+    EXPECT_FALSE(
+        reproject(firstTargets(first), DisparityLine{0.0f, std::nanf("")}, ok.targets()).isOk());
+    raster::FrameBuffers empty;
+    SecondEye none(0, 0);
+    EXPECT_FALSE(reproject(firstTargets(empty), DisparityLine{}, none.targets()).isOk());
+}
+
+// Hand-made masks: '#' is a hole pixel.
+Image<uint8_t> mask(const std::vector<std::string>& rows) {
+    Image<uint8_t> m(int(rows[0].size()), int(rows.size()));
+    for (int y = 0; y < m.height(); ++y)
+        for (int x = 0; x < m.width(); ++x) m.at(x, y) = rows[size_t(y)][size_t(x)] == '#';
+    return m;
+}
+
+HoleSet holesOf(const Image<uint8_t>& m, HoleConnectivity c = HoleConnectivity::k8) {
+    HoleScratch scratch;
+    HoleSet out;
+    findHoles(ro(m), c, scratch, out);
+    return out;
+}
+
+// Structural invariants: segments contiguous per hole, chained by next, in scan order, counts
+// and boxes consistent.
+void expectConsistent(const HoleSet& set) {
+    int64_t pixels = 0;
+    for (const Hole& h : set.holes) {
+        int count = 0;
+        PixelBox box{1 << 30, 1 << 30, -1, -1};
+        for (int s = h.firstSegment; s < h.firstSegment + h.segmentCount; ++s) {
+            const HoleSegment& seg = set.segments[size_t(s)];
+            EXPECT_EQ(seg.count, seg.xEnd - seg.xStart + 1);
+            EXPECT_EQ(seg.next, s + 1 < h.firstSegment + h.segmentCount ? s + 1 : -1);
+            if (s > h.firstSegment) {
+                const HoleSegment& prev = set.segments[size_t(s - 1)];
+                EXPECT_TRUE(prev.y < seg.y || (prev.y == seg.y && prev.xEnd < seg.xStart));
+            }
+            count += seg.count;
+            box = {std::min(box.x0, seg.xStart), std::min(box.y0, seg.y),
+                   std::max(box.x1, seg.xEnd), std::max(box.y1, seg.y)};
+        }
+        EXPECT_EQ(count, h.pixelCount);
+        EXPECT_EQ(box.x0, h.box.x0);
+        EXPECT_EQ(box.y0, h.box.y0);
+        EXPECT_EQ(box.x1, h.box.x1);
+        EXPECT_EQ(box.y1, h.box.y1);
+        pixels += count;
+    }
+    EXPECT_EQ(pixels, set.pixelCount);
+}
+
+// Masks laid out as images.
+// clang-format off
+TEST(Holes, UShapeIsOneHole) {
+    HoleSet set = holesOf(mask({"#...#",
+                                "#...#",
+                                "#####"}));
+    expectConsistent(set);
+    ASSERT_EQ(set.holes.size(), 1u);
+    EXPECT_EQ(set.holes[0].segmentCount, 5);
+    EXPECT_EQ(set.holes[0].pixelCount, 9);
+    // Upside down: one hole that splits into two arms.
+    set = holesOf(mask({"#####",
+                        "#...#",
+                        "#...#"}));
+    expectConsistent(set);
+    ASSERT_EQ(set.holes.size(), 1u);
+}
+
+TEST(Holes, DiagonalChainsDependOnConnectivity) {
+    Image<uint8_t> m = mask({"#...",
+                             ".#..",
+                             "..#.",
+                             "...#"});
+    EXPECT_EQ(holesOf(m, HoleConnectivity::k8).holes.size(), 1u);
+    EXPECT_EQ(holesOf(m, HoleConnectivity::k4).holes.size(), 4u);
+    Image<uint8_t> anti = mask({"...#",
+                                "..#.",
+                                ".#..",
+                                "#..."});
+    EXPECT_EQ(holesOf(anti, HoleConnectivity::k8).holes.size(), 1u);
+    EXPECT_EQ(holesOf(anti, HoleConnectivity::k4).holes.size(), 4u);
+    // One column apart is never touching.
+    EXPECT_EQ(holesOf(mask({"#..", "..#"}), HoleConnectivity::k8).holes.size(), 2u);
+}
+
+TEST(Holes, TwoHolesMergeLaterDownTheImage) {
+    // Three arms meeting at different rows; the holes are numbered by their first pixel.
+    HoleSet set = holesOf(mask({"#..#..#.....#",
+                                "#..#..#.....#",
+                                "#..####.....#",
+                                "#.....#......",
+                                "#######......"}));
+    expectConsistent(set);
+    ASSERT_EQ(set.holes.size(), 2u);
+    EXPECT_EQ(set.holes[0].box.x1, 6);
+    EXPECT_EQ(set.holes[0].box.y1, 4);
+    EXPECT_EQ(set.holes[1].box.x0, 12);
+    EXPECT_EQ(set.holes[1].pixelCount, 3);
+}
+
+TEST(Holes, SinglePixelsAndFullRows) {
+    HoleSet set = holesOf(mask({"#.#.#",
+                                ".....",
+                                "#####",
+                                "#####",
+                                ".....",
+                                "....#"}));
+    expectConsistent(set);
+    ASSERT_EQ(set.holes.size(), 5u);
+    EXPECT_EQ(set.holes[3].pixelCount, 10);
+    EXPECT_EQ(set.holes[3].segmentCount, 2);
+    EXPECT_EQ(set.holes[4].pixelCount, 1);
+    EXPECT_EQ(set.holes[4].box.y0, 5);
+    EXPECT_TRUE(holesOf(mask({"....", "...."})).holes.empty());
+    HoleSet all = holesOf(mask({"####", "####"}));
+    ASSERT_EQ(all.holes.size(), 1u);
+    EXPECT_EQ(all.pixelCount, 8);
+}
+
+// clang-format on
+
+// Every pixel's hole equals a flood fill's component, on random masks of growing density, for
+// both connectivities; the scratch and output are reused across masks.
+TEST(Holes, MatchFloodFillOnRandomMasks) {
+    std::mt19937 rng(11);
+    HoleScratch scratch;
+    HoleSet set;
+    for (int trial = 0; trial < 60; ++trial) {
+        int w = 1 + int(rng() % 40), h = 1 + int(rng() % 30);
+        float density = float(trial % 6) / 6.0f + 0.05f;
+        Image<uint8_t> m(w, h);
+        std::bernoulli_distribution hole(density);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) m.at(x, y) = hole(rng);
+        for (HoleConnectivity c : {HoleConnectivity::k4, HoleConnectivity::k8}) {
+            findHoles(ro(m), c, scratch, set);
+            expectConsistent(set);
+            Image<int> mine(w, h, -1);
+            for (size_t i = 0; i < set.holes.size(); ++i)
+                for (int s = set.holes[i].firstSegment;
+                     s < set.holes[i].firstSegment + set.holes[i].segmentCount; ++s)
+                    for (int x = set.segments[size_t(s)].xStart; x <= set.segments[size_t(s)].xEnd;
+                         ++x)
+                        mine.at(x, set.segments[size_t(s)].y) = int(i);
+            // Flood fill in scan order numbers components as findHoles numbers holes.
+            Image<int> ref(w, h, -1);
+            int components = 0;
+            std::vector<std::pair<int, int>> stack;
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x) {
+                    if (!m.at(x, y) || ref.at(x, y) >= 0) continue;
+                    stack = {{x, y}};
+                    ref.at(x, y) = components;
+                    while (!stack.empty()) {
+                        auto [px, py] = stack.back();
+                        stack.pop_back();
+                        for (int dy = -1; dy <= 1; ++dy)
+                            for (int dx = -1; dx <= 1; ++dx) {
+                                if (c == HoleConnectivity::k4 && dx != 0 && dy != 0) continue;
+                                int nx = px + dx, ny = py + dy;
+                                if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+                                if (!m.at(nx, ny) || ref.at(nx, ny) >= 0) continue;
+                                ref.at(nx, ny) = components;
+                                stack.push_back({nx, ny});
+                            }
+                    }
+                    ++components;
+                }
+            ASSERT_EQ(int(set.holes.size()), components);
+            ASSERT_TRUE(mine == ref) << "trial " << trial;
+        }
+    }
+}
+
+TEST(Holes, ClassesFollowTheRowNeighboursIds) {
+    // Row neighbours: 5|hole|5 -> expansion; 5|hole|6 -> disocclusion; 0 beside -> disocclusion;
+    // touching the left border -> disocclusion.
+    Image<uint8_t> m = mask({
+        ".##...##...#....##.",
+        ".#.....#...#.......",
+        "...................",
+        "#..................",
+    });
+    Image<uint32_t> ids(19, 4, 5);
+    ids.at(8, 0) = 6;  // right of the second hole's first segment
+    ids.at(12, 0) = 0;
+    ids.at(12, 1) = 0;
+    HoleSet set = holesOf(m);
+    classifyHoles(ro(ids), set);
+    ASSERT_EQ(set.holes.size(), 5u);
+    EXPECT_EQ(set.holes[0].holeClass, HoleClass::kExpansion);
+    EXPECT_EQ(set.holes[0].polygonId, 5u);
+    EXPECT_EQ(set.holes[1].holeClass, HoleClass::kDisocclusion);
+    EXPECT_EQ(set.holes[2].holeClass, HoleClass::kDisocclusion);
+    EXPECT_EQ(set.holes[2].polygonId, 0u);
+    EXPECT_EQ(set.holes[3].holeClass, HoleClass::kExpansion);
+    EXPECT_EQ(set.holes[4].holeClass, HoleClass::kDisocclusion);  // x = 0
+}
+
+}  // namespace
+}  // namespace plx::stereo

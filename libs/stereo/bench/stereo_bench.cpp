@@ -5,6 +5,8 @@
 #include <plx/core/timing.h>
 #include <plx/raster/raster.h>
 #include <plx/scene/generators.h>
+#include <plx/stereo/holes.h>
+#include <plx/stereo/reproject.h>
 #include <plx/stereo/stereo.h>
 
 namespace {
@@ -180,6 +182,86 @@ BENCHMARK(BM_SecondEyeParts)
     ->Arg(280)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime();
+
+// Reprojection stereo (Fu, Bao, Peng): the first eye of office:64 at 1280x720 with the default
+// converged rig, rendered once, and the second eye's targets it is reprojected into.
+struct ReprojectFixture {
+    scene::Scene scene = *scene::generateOffice(64);
+    StereoRig rig;
+    raster::FrameBuffers first, second;
+    Image<uint8_t> holeMask;
+
+    ReprojectFixture()
+        : rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 1280, 720),
+                                 {})) {
+        first.resize(1280, 720);
+        second.resize(1280, 720);
+        holeMask.resize(1280, 720);
+        auto renderer = std::move(raster::Renderer::create({2})).value();
+        renderer->render(scene, rig.first(), {}, first.targets());
+    }
+    stereo::FirstEyeTargets firstTargets() const {
+        return {first.color.view(), first.depth.view(), first.id.view()};
+    }
+    stereo::SecondEyeTargets secondTargets() {
+        return {second.color.view(), second.depth.view(), second.id.view(), holeMask.view()};
+    }
+    static ReprojectFixture& get() {
+        static ReprojectFixture f;
+        return f;
+    }
+};
+
+void setPixelRate(benchmark::State& state, int pixels) {
+    state.counters["Mpix/s"] = benchmark::Counter(double(pixels) * double(state.iterations()) / 1e6,
+                                                  benchmark::Counter::kIsRate);
+}
+
+// Arg(0): 0 the direct form (one multiply-add per pixel), 1 the offset look-up table of 4096
+// entries over 1/w in [0, 1/near]; Arg(1): threads.
+void BM_Reproject(benchmark::State& state) {
+    ReprojectFixture& f = ReprojectFixture::get();
+    ThreadPool pool(int(state.range(1)));
+    stereo::DisparityLine line = stereo::disparityLine(f.rig);
+    auto lut = *stereo::OffsetLut::create(line, 1.0f / f.rig.first().desc().nearPlane, 4096);
+    bool useLut = state.range(0) == 1;
+    for (auto _ : state) {
+        Status s = useLut ? stereo::reproject(f.firstTargets(), lut, f.secondTargets(), &pool)
+                          : stereo::reproject(f.firstTargets(), line, f.secondTargets(), &pool);
+        benchmark::DoNotOptimize(s);
+    }
+    setPixelRate(state, 1280 * 720);
+}
+BENCHMARK(BM_Reproject)
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->ArgNames({"lut", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Hole segments merged into holes (Fig. 5) and classified by the ID target (section 3), on the
+// reprojected second eye; Mpix/s counts the whole image.
+void BM_FindAndClassifyHoles(benchmark::State& state) {
+    ReprojectFixture& f = ReprojectFixture::get();
+    (void)stereo::reproject(f.firstTargets(), stereo::disparityLine(f.rig), f.secondTargets());
+    stereo::HoleScratch scratch;
+    stereo::HoleSet holes;
+    const Image<uint8_t>& mask = f.holeMask;
+    const Image<uint32_t>& id = f.second.id;
+    for (auto _ : state) {
+        stereo::findHoles(mask.view(), stereo::HoleConnectivity::k8, scratch, holes);
+        stereo::classifyHoles(id.view(), holes);
+        benchmark::DoNotOptimize(holes.holes.data());
+    }
+    int expansion = 0;
+    for (const stereo::Hole& h : holes.holes)
+        expansion += h.holeClass == stereo::HoleClass::kExpansion;
+    state.counters["holes"] = double(holes.holes.size());
+    state.counters["expansion_holes"] = double(expansion);
+    state.counters["hole_pixels"] = double(holes.pixelCount);
+    state.counters["segments"] = double(holes.segments.size());
+    setPixelRate(state, 1280 * 720);
+}
+BENCHMARK(BM_FindAndClassifyHoles)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -91,6 +91,9 @@ struct SecondEyeTargets {
 };
 
 // Reprojects the first eye into the second with the direct form (one multiply-add per pixel).
+// This is the default: the table's lookup (float-to-int conversion, clamp, load) costs more than
+// the multiply-add it replaces, where the paper's table saved a division per pixel (plx_stereo_
+// bench BM_Reproject measures both).
 // Rows run in parallel on `pool` when given (Fu section 1's parallel mode), else on the calling
 // thread; the result does not depend on the thread count. Errors: targets of different sizes,
 // an empty target, a line that is not finite. Precondition: first and second targets do not

@@ -100,8 +100,7 @@ PredistortRenderer::~PredistortRenderer() = default;
 
 Result<std::unique_ptr<PredistortRenderer>> PredistortRenderer::create(int threads) {
     // 64-pixel tiles, not the renderer's default 128: pass 2 clears only the tiles a mesh draws
-    // into, and grid B covers a small part of the frame. BM_PassTwo measured the two sizes
-    // within noise of each other (B hull at 2 mm 2.65-2.99 ms with 64, 2.95-3.15 ms with 128).
+    // into, and grid B covers a small part of the frame (BM_PassTwo: no slower than 128).
     auto renderer = raster::Renderer::create({threads, 64});
     if (!renderer) return renderer.status();
     auto impl = std::make_unique<Impl>();

@@ -93,8 +93,7 @@ struct RasterKernels {
     decltype(&isa_scalar::transformPositions) transformPositions;
 
     // The 8-wide loops are AVX2 code, and the avx512 path takes their avx2 copies: compiled for
-    // x86-64-v4 the same source drew DamagedHelmet (1280x720, one thread) in 3.34 ms a frame
-    // against 2.65 ms for the avx2 copy on an AMD EPYC with AVX-512 (CPU time, median of 5).
+    // x86-64-v4 the same source was no faster (docs/raster-performance.md, tried and dropped).
     static RasterKernels active() {
 #if defined(PLX_ISA_KERNELS)
         if (activeIsa() != Isa::kScalar)

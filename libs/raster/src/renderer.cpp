@@ -336,12 +336,10 @@ void Renderer::Impl::transformVertices(const scene::Scene& scene, const Camera& 
 
 // Bins the chunks, then draws the tiles, in one parallel region: threads take chunks from one
 // counter, the thread that bins the last chunk plans the clears and the tile order, and every
-// thread then takes tiles from another counter once that plan is published. Two parallel loops
-// (binning, then tiles) handed the work to the pool twice a frame; in a P-buffer second eye of
-// office:280 (mean over 30 frames) the second thread started binning 0.06-0.08 ms after the
-// first and the tiles up to 0.05 ms after it. Here it starts 0.01 ms after the first, and a
-// late thread joins whatever stage the others have reached. The binning itself still takes
-// 0.12-0.13 ms of the second eye's 1.1 there.
+// thread then takes tiles from another counter once that plan is published. Why one region: two
+// parallel loops handed the work to the pool twice a frame, and a thread started late in each;
+// here a late thread joins whatever stage the others have reached. Limit: binning is still
+// about a tenth of a P-buffer second eye.
 void Renderer::Impl::binAndDraw(const scene::Scene& scene, const Camera& camera,
                                 std::span<const uint32_t>* subset, const Viewport& vp,
                                 const ShadeContext& ctx, const RenderOptions& options,
@@ -407,13 +405,8 @@ void Renderer::Impl::planChunks(const scene::Scene& scene, std::span<const uint3
 // Threads take tiles from one shared counter, the tiles with the most binned triangle-tile pairs
 // first (longest processing time first), so that the last tiles drawn are short ones and no
 // thread waits long at the end for another's large tile: the far furniture of an office at the
-// top of the image holds several times the pairs of the bare floor at the bottom. Time the two
-// threads stood idle in the tile stage (wall time minus their mean busy time), mean over 40
-// frames of office:280 at 640x480, two runs each:
-//   order                                    full render        P-buffer second eye
-//   TBB's range splitting, image order       0.28, 0.23 ms      0.07, 0.06 ms
-//   shared counter, image order              0.19, 0.02 ms      0.08, 0.01 ms
-//   shared counter, most pairs first (this)  0.07, 0.03 ms      0.02, 0.01 ms
+// top of the image holds several times the pairs of the bare floor at the bottom. This order left
+// the threads idle least of TBB's range splitting and a counter in image order.
 void Renderer::Impl::orderTiles(size_t tiles) {
     tilePairs.assign(tiles, 0);
     for (size_t c = 0; c < chunkCount; ++c)

@@ -1029,9 +1029,8 @@ void clearTile(const RenderTargets& rt, int x0, int y0, int x1, int y1, uint32_t
 // starts from the clear values, and writing them here, while the words are in the first-level
 // cache, replaced a separate clear of the whole tile (memset into lines the tile had pushed out
 // to the second level) before each tile.
-// 16 bytes a store: 32-byte streaming stores (vmovntdq ymm) ran a P-buffer second eye of
-// office:280 about 12% slower on the development machine (AMD EPYC), though they halve this
-// loop's instructions.
+// 16 bytes a store: 32-byte streaming stores halve this loop's instructions but ran the P-buffer
+// second eye slower on AMD EPYC (docs/raster-performance.md, tried and dropped).
 void streamRowAndClear(uint32_t* dst, uint32_t* src, int n, uint32_t clearWord) {
     int i = 0;
 #if defined(__SSE2__)

@@ -6,6 +6,7 @@
 #include <map>
 
 #include <plx/core/cpu.h>
+#include <plx/core/image_io.h>
 
 #include "cli_runner.h"
 
@@ -29,13 +30,10 @@ private:
     std::string mOld;
 };
 
-std::string readFile(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
+using FileBytes = std::vector<uint8_t>;
 
 // Runs the same commands with one path forced and returns every file they wrote, by name.
-std::map<std::string, std::string> outputsOfPath(plx::Isa isa) {
+std::map<std::string, FileBytes> outputsOfPath(plx::Isa isa) {
     const std::string name(plx::isaName(isa));
     fs::path dir = scratchDir("isa") / name;
     fs::remove_all(dir);
@@ -54,9 +52,12 @@ std::map<std::string, std::string> outputsOfPath(plx::Isa isa) {
         RunResult r = runParallax(command);
         EXPECT_EQ(r.exitCode, 0) << name << ": " << command << "\n" << r.err;
     }
-    std::map<std::string, std::string> files;
-    for (const auto& entry : fs::directory_iterator(dir))
-        files[entry.path().filename().string()] = readFile(entry.path());
+    std::map<std::string, FileBytes> files;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        auto bytes = plx::readFileBytes(entry.path().string());
+        EXPECT_TRUE(bytes.isOk()) << bytes.status().toString();
+        if (bytes) files[entry.path().filename().string()] = std::move(*bytes);
+    }
     return files;
 }
 

@@ -36,7 +36,9 @@ TEST(Cpu, ScalarIsAlwaysRunnableAndTiersNest) {
     auto runnable = runnableIsas();
     ASSERT_FALSE(runnable.empty());
     EXPECT_EQ(runnable.front(), Isa::kScalar);
-    if (isaSupportedByCpu(Isa::kAvx512)) EXPECT_TRUE(isaSupportedByCpu(Isa::kAvx2));
+    if (isaSupportedByCpu(Isa::kAvx512)) {
+        EXPECT_TRUE(isaSupportedByCpu(Isa::kAvx2));
+    }
     EXPECT_EQ(runnable.back(), bestIsa());
 }
 

@@ -95,13 +95,8 @@ struct RasterKernels {
     // The 8-wide loops are AVX2 code, and the avx512 path takes their avx2 copies: compiled for
     // x86-64-v4 the same source was no faster (docs/raster-performance.md, tried and dropped).
     static RasterKernels active() {
-#if defined(PLX_ISA_KERNELS)
-        if (activeIsa() != Isa::kScalar)
-            return {&isa_avx2::drawTile, &isa_avx2::resolveTileMemory,
-                    &isa_avx2::transformPositions};
-#endif
-        return {&isa_scalar::drawTile, &isa_scalar::resolveTileMemory,
-                &isa_scalar::transformPositions};
+        return {PLX_ISA_PICK_UP_TO_AVX2(drawTile), PLX_ISA_PICK_UP_TO_AVX2(resolveTileMemory),
+                PLX_ISA_PICK_UP_TO_AVX2(transformPositions)};
     }
 };
 

@@ -69,6 +69,13 @@ Fn pickIsa(Fn scalar, Fn avx2, Fn avx512) {
     return scalar;
 }
 
+// The same for a kernel built for scalar and avx2 only (plx_add_isa_kernels ... ISAS avx2):
+// CPUs with AVX-512 take its avx2 entry.
+template <class Fn>
+Fn pickIsa(Fn scalar, Fn avx2) {
+    return activeIsa() == Isa::kScalar ? scalar : avx2;
+}
+
 }  // namespace plx
 
 // For a module's dispatch code, inside the module's namespace:
@@ -79,8 +86,11 @@ Fn pickIsa(Fn scalar, Fn avx2, Fn avx512) {
     namespace isa_scalar { __VA_ARGS__; }    \
     namespace isa_avx2 { __VA_ARGS__; }      \
     namespace isa_avx512 { __VA_ARGS__; }
+// PLX_ISA_PICK_UP_TO_AVX2 is PLX_ISA_PICK for a kernel built with ISAS avx2.
 #if defined(PLX_ISA_KERNELS)
 #define PLX_ISA_PICK(fn) ::plx::pickIsa(&isa_scalar::fn, &isa_avx2::fn, &isa_avx512::fn)
+#define PLX_ISA_PICK_UP_TO_AVX2(fn) ::plx::pickIsa(&isa_scalar::fn, &isa_avx2::fn)
 #else
 #define PLX_ISA_PICK(fn) (&isa_scalar::fn)
+#define PLX_ISA_PICK_UP_TO_AVX2(fn) (&isa_scalar::fn)
 #endif

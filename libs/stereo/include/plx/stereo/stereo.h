@@ -6,7 +6,11 @@
 //  - pbuffer: the first eye is rendered with the P-buffer (polygon-ID target); the visible flag of
 //             every polygon whose ID appears in it is set (Fig. 6, last loop:
 //             raster::VisibleSetCollector); the second eye is rendered from the visible polygons
-//             only.
+//             only;
+//  - reproject: the first eye is rendered with depth and IDs; its pixels are moved into the
+//             second eye (Fu, Bao, Peng, reproject.h), the hole segments merged into holes and
+//             classified (holes.h), and only the holes are drawn: expansion holes from their one
+//             polygon, disocclusion holes by the front-to-back BSP search (fill.h).
 // Beyond the paper, the conservative option widens the visible set towards what the second eye
 // sees and the first does not: a guard band of extra first-eye columns (polygons just outside the
 // first eye's frustum), a second depth layer along depth discontinuities (polygons just behind
@@ -23,7 +27,7 @@
 
 namespace plx::stereo {
 
-enum class Method { kFull, kPBuffer };
+enum class Method { kFull, kPBuffer, kReproject };
 Result<Method> parseMethod(const std::string& name);
 const char* methodName(Method method);
 
@@ -37,6 +41,16 @@ struct StereoOptions {
     // eye keeps its planes (it is cropped from a wider render). compareSecondEye needs them.
     bool writeDepthAndIds = true;
     raster::RenderOptions render;
+    // reproject method: the offset look-up table instead of the direct form (reproject.h).
+    bool reprojectWithLut = false;
+};
+
+// Per second-eye pixel, how the reproject method produced it (StereoFrame::holeClass).
+enum class PixelSource : uint8_t {
+    kReprojected = 0,         // moved from the first eye
+    kExpansion = 1,           // expansion hole, drawn from its polygon
+    kDisocclusion = 2,        // disocclusion hole, drawn from the polygon the BSP search found
+    kDisocclusionEmpty = 3,   // disocclusion hole no polygon covers: clear colour, depth 0
 };
 
 struct StereoFrameStats {
@@ -54,11 +68,27 @@ struct StereoFrameStats {
     size_t secondEyeTriangles = 0;      // triangles submitted for the second eye
     size_t conservativeExtra = 0;       // triangles the conservative option added
     int guardBandPx = 0;                // extra first-eye columns on each side (conservative)
+
+    // reproject method; secondEyeMs = reprojectMs + fillMs.
+    double reprojectMs = 0.0;       // moving the pixels, finding and classifying the holes
+    double fillMs = 0.0;            // drawing the expansion and disocclusion holes
+    int64_t holePixels = 0;         // second-eye pixels no first-eye pixel landed on
+    int64_t expansionPixels = 0;     // drawn from an expansion hole's polygon (PixelSource 1)
+    // The rest of the hole pixels (PixelSource 2 and 3): disocclusion holes, and the pixels of
+    // expansion holes their polygon does not cover, which fall through to the search.
+    int64_t disocclusionPixels = 0;
+    size_t expansionHoles = 0;
+    size_t disocclusionHoles = 0;
+    size_t fillNodesVisited = 0;      // BSP nodes the disocclusion searches reached
+    size_t fillPolygonsTested = 0;    // fragments given the separating test
+    size_t fillPolygonsDrawn = 0;     // fragments whose triangle was scan-converted into a hole
 };
 
 // Colour, depth and IDs of both eyes.
 struct StereoFrame {
     raster::FrameBuffers left, right;
+    // reproject method: PixelSource of every second-eye pixel; empty for the other methods.
+    Image<uint8_t> holeClass;
     raster::FrameBuffers& eye(Eye e) { return e == Eye::kLeft ? left : right; }
     const raster::FrameBuffers& eye(Eye e) const { return e == Eye::kLeft ? left : right; }
 };
@@ -75,6 +105,13 @@ public:
     // Renders both eyes of the rig into `frame` (resized as needed) with the given method.
     StereoFrameStats renderPair(const scene::Scene& scene, const StereoRig& rig,
                                 const StereoOptions& options, StereoFrame* frame);
+
+    // Builds what the reproject method reuses for every view of `scene` (its BSP tree and box
+    // hierarchy, scene/bsp.h and scene/box_hierarchy.h) unless already built for it; renderPair
+    // with Method::kReproject needs it first. Errors: those of BspTree::build.
+    Status prepareReprojection(const scene::Scene& scene);
+    // Milliseconds the last prepareReprojection that built something took.
+    double lastPrepareMs() const;
 
     // Triangle indices the second eye was drawn from in the last pbuffer frame (ascending).
     std::span<const uint32_t> lastVisibleSet() const;

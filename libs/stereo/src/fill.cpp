@@ -1,0 +1,377 @@
+// Hole filling of the reproject method (Fu, Bao, Peng section 3): expansion holes from their
+// polygon, disocclusion holes by the pruned front-to-back BSP search. See fill.h.
+
+#include <plx/stereo/fill.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <span>
+#include <utility>
+
+#include <plx/raster/span_fill.h>
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+
+using raster::PixelSpan;
+
+Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp,
+                                 const scene::BoxHierarchyConfig& boxes) {
+    FillScene fill;
+    auto tree = scene::BspTree::build(scene, bsp);
+    if (!tree) return tree.status();
+    fill.bsp = std::move(tree).value();
+    auto hierarchy = scene::BoxHierarchy::build(scene, boxes);
+    if (!hierarchy) return hierarchy.status();
+    fill.boxes = std::move(hierarchy).value();
+    fill.fragmentsOfTriangle.assign(scene.triangleCount(), 0);
+    for (size_t f = 0; f < fill.bsp.fragmentCount(); ++f) {
+        uint16_t& n = fill.fragmentsOfTriangle[fill.bsp.fragment(f).sourceTriangle];
+        if (n < std::numeric_limits<uint16_t>::max()) ++n;
+    }
+    return fill;
+}
+
+// A split triangle drawn into the current piece, and how many of its fragments the walk has yet
+// to pass; while that is above 0 the pixels it covers stay open (fill.h: split triangles). A
+// triangle of one fragment is reached once, so it needs no entry.
+struct DrawnTriangle {
+    uint32_t triangle;
+    uint32_t fragmentsLeft;
+};
+
+struct FillScratch::Slot {
+    scene::HoleFlags flags;
+    std::vector<PixelSpan> spans, next;  // the hole's open segments, and the next list
+    std::vector<DrawnTriangle> drawn;
+    FillStats stats;
+};
+
+// The frame's pieces: the pixels of one hole inside one kFillTile tile.
+struct FillPiece {
+    uint32_t hole = 0;
+    uint32_t firstSpan = 0;  // into FillScratch::Frame::spans, row order
+    uint32_t spanCount = 0;
+    int64_t pixels = 0;
+};
+
+struct FillScratch::Frame {
+    std::vector<PixelSpan> spans;
+    std::vector<FillPiece> pieces;
+    std::vector<std::pair<uint32_t, PixelSpan>> tiled;  // (tile, span) of one hole
+};
+
+FillScratch::FillScratch() = default;
+FillScratch::~FillScratch() = default;
+
+namespace {
+
+// One frame's inputs, shared by every hole.
+struct FillFrame {
+    const scene::Scene& scene;
+    const FillScene& fill;
+    const Camera& camera;
+    const FillOptions& options;
+    const SecondEyeTargets& second;
+    raster::RenderTargets targets;
+    ImageView<uint8_t> holeClass;
+};
+
+// Whether the projection of a fragment (convex, its corners in order) may cover the sample of
+// a pixel in `spans` (row order): a cheaper test than setting up its triangle, on corners the
+// frustum test has just read. A span whose two end samples lie outside the same edge, by more
+// than kEdgeMarginPx, is missed whole (the edge function is linear along the row). Corners
+// nearer than the near plane, or a polygon of no area, answer yes. The margin covers the float
+// projection's rounding and the rasterizer's snapping to 1/256 pixel.
+bool fragmentMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
+                           std::span<const PixelSpan> spans) {
+    constexpr float kEdgeMarginPx = 1.0f / 16.0f;
+    constexpr size_t kMaxCorners = 32;
+    if (corners.size() > kMaxCorners) return true;
+    std::array<Vec2, kMaxCorners> p;
+    float minY = std::numeric_limits<float>::infinity(), maxY = -minY;
+    for (size_t i = 0; i < corners.size(); ++i) {
+        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
+        if (!(clip.w >= camera.desc().nearPlane)) return true;
+        p[i] = camera.pixelFromClip(clip);
+        minY = std::min(minY, p[i].y);
+        maxY = std::max(maxY, p[i].y);
+    }
+    float area2 = 0.0f;
+    const size_t n = corners.size();
+    for (size_t i = 0; i < n; ++i) {
+        const Vec2 &a = p[i], &b = p[(i + 1) % n];
+        area2 += a.x * b.y - b.x * a.y;
+    }
+    if (!(std::fabs(area2) > 1e-6f)) return true;
+    const float orientation = area2 > 0.0f ? 1.0f : -1.0f;
+    auto first = std::lower_bound(spans.begin(), spans.end(), int(std::floor(minY - 1.0f)),
+                                  [](const PixelSpan& s, int y) { return s.y < y; });
+    for (auto s = first; s != spans.end() && float(s->y) <= maxY + 1.0f; ++s) {
+        const float sy = float(s->y) + 0.5f, sx0 = float(s->x0) + 0.5f, sx1 = float(s->x1) + 0.5f;
+        bool missed = false;
+        for (size_t i = 0; i < n && !missed; ++i) {
+            const Vec2 &a = p[i], &b = p[(i + 1) % n];
+            const Vec2 edge = b - a;
+            // Inside where orientation * cross(edge, sample - a) >= 0.
+            const float limit = -kEdgeMarginPx * glm::length(edge);
+            float e0 = orientation * (edge.x * (sy - a.y) - edge.y * (sx0 - a.x));
+            float e1 = orientation * (edge.x * (sy - a.y) - edge.y * (sx1 - a.x));
+            missed = e0 < limit && e1 < limit;
+        }
+        if (!missed) return true;
+    }
+    return false;
+}
+
+class HoleFiller {
+public:
+    HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : mFrame(frame), mSlot(slot) {}
+
+    void fill(const Hole& hole, std::span<const PixelSpan> piece, int64_t pixels) {
+        mSlot.spans.assign(piece.begin(), piece.end());
+        mSlot.drawn.clear();
+        mOpen = pixels;
+        if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
+        if (mOpen > 0) search();
+        classify(piece);
+    }
+
+private:
+    // The paper's expansion fill, by evaluation: the hole's one polygon over its segments.
+    void drawExpansion(uint32_t triangle) {
+        int64_t written = raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
+                                                      mFrame.options.render, mFrame.targets, mSlot.spans);
+        if (written == 0) return;
+        for (const PixelSpan& p : mSlot.spans)
+            for (int x = p.x0; x <= p.x1; ++x)
+                if (mFrame.targets.id.at(x, p.y) != 0)
+                    mFrame.holeClass.at(x, p.y) = uint8_t(PixelSource::kExpansion);
+        mSlot.stats.expansionPixels += written;
+        shrink();
+    }
+
+    // Steps 1-5 of fill.h over the open segments.
+    void search() {
+        const scene::RectFrustum frustum(mFrame.camera, openRect());
+        scene::HoleQueryStats query;
+        mFrame.fill.boxes.markHole(frustum, &mSlot.flags, &query);
+        mSlot.stats.boxNodesTested += query.nodesTested;
+        const scene::BspTree& bsp = mFrame.fill.bsp;
+        auto acceptSubtree = [&](int32_t, const Aabb& box) {
+            return !box.isEmpty() && frustum.mayCoverBox(box);
+        };
+        auto visit = [&](uint32_t fragment) {
+            const uint32_t tri = bsp.fragment(fragment).sourceTriangle;
+            if (!mSlot.flags.mayCover(tri)) return true;
+            const uint32_t fragments = mFrame.fill.fragmentsOfTriangle[tri];
+            if (fragments > 1) {
+                if (DrawnTriangle* d = findDrawn(tri)) {
+                    // A later fragment of a split triangle already drawn: passed, not drawn again.
+                    if (d->fragmentsLeft > 0 && --d->fragmentsLeft == 0) shrink();
+                    return mOpen > 0;
+                }
+            }
+            ++mSlot.stats.polygonsTested;
+            if (!frustum.mayCoverPoints(bsp.fragmentVertices(fragment))) return true;
+            if (!fragmentMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans))
+                return true;
+            ++mSlot.stats.polygonsDrawn;
+            if (fragments > 1) mSlot.drawn.push_back({tri, fragments - 1});
+            if (raster::drawTriangleInSpans(mFrame.scene, tri, mFrame.camera, mFrame.options.render, mFrame.targets,
+                                            mSlot.spans) > 0)
+                shrink();
+            return mOpen > 0;
+        };
+        mSlot.stats.nodesVisited += bsp.forEachFrontToBackPruned(mFrame.camera.eyePos(), acceptSubtree, visit);
+    }
+
+    DrawnTriangle* findDrawn(uint32_t triangle) {
+        for (DrawnTriangle& d : mSlot.drawn)
+            if (d.triangle == triangle) return &d;
+        return nullptr;
+    }
+
+    // A pixel stays open while nothing covers it, or only a triangle with fragments still to come.
+    bool isOpen(int x, int y) {
+        uint32_t id = mFrame.targets.id.at(x, y);
+        if (id == 0) return true;
+        if (mSlot.drawn.empty()) return false;
+        const DrawnTriangle* d = findDrawn(id - 1);
+        return d && d->fragmentsLeft > 0;
+    }
+
+    // Removes the closed pixels from the open segments, splitting segments where needed.
+    void shrink() {
+        mSlot.next.clear();
+        mOpen = 0;
+        for (const PixelSpan& p : mSlot.spans) {
+            int start = -1;
+            for (int x = p.x0; x <= p.x1 + 1; ++x) {
+                bool open = x <= p.x1 && isOpen(x, p.y);
+                if (open && start < 0) start = x;
+                if (!open && start >= 0) {
+                    mSlot.next.push_back({p.y, start, x - 1});
+                    mOpen += x - start;
+                    start = -1;
+                }
+            }
+        }
+        std::swap(mSlot.spans, mSlot.next);
+    }
+
+    scene::PixelRect openRect() const {
+        scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
+                           std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
+        for (const PixelSpan& p : mSlot.spans) {
+            r.x0 = std::min(r.x0, p.x0);
+            r.x1 = std::max(r.x1, p.x1 + 1);
+            r.y0 = std::min(r.y0, p.y);
+            r.y1 = std::max(r.y1, p.y + 1);
+        }
+        return r;
+    }
+
+    // Gives every pixel of the piece not drawn as an expansion its PixelSource; empty ones the
+    // clear colour (depth and ID are already 0).
+    void classify(std::span<const PixelSpan> piece) {
+        for (const PixelSpan& p : piece) {
+            for (int x = p.x0; x <= p.x1; ++x) {
+                uint8_t& c = mFrame.holeClass.at(x, p.y);
+                if (c == uint8_t(PixelSource::kExpansion)) continue;
+                if (mFrame.targets.id.at(x, p.y) != 0) {
+                    c = uint8_t(PixelSource::kDisocclusion);
+                    ++mSlot.stats.disocclusionPixels;
+                } else {
+                    c = uint8_t(PixelSource::kDisocclusionEmpty);
+                    mFrame.second.color.at(x, p.y) = mFrame.options.render.clearColor;
+                    ++mSlot.stats.emptyPixels;
+                }
+            }
+        }
+    }
+
+    const FillFrame& mFrame;
+    FillScratch::Slot& mSlot;
+    int64_t mOpen = 0;
+};
+
+void addStats(const FillStats& a, FillStats* sum) {
+    sum->expansionPixels += a.expansionPixels;
+    sum->disocclusionPixels += a.disocclusionPixels;
+    sum->emptyPixels += a.emptyPixels;
+    sum->nodesVisited += a.nodesVisited;
+    sum->boxNodesTested += a.boxNodesTested;
+    sum->polygonsTested += a.polygonsTested;
+    sum->polygonsDrawn += a.polygonsDrawn;
+}
+
+// Cuts every hole to be drawn into pieces, one per kFillTile tile it touches.
+void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* frame) {
+    frame->spans.clear();
+    frame->pieces.clear();
+    for (size_t h = 0; h < holes.holes.size(); ++h) {
+        const Hole& hole = holes.holes[h];
+        if (skipExpansion && hole.holeClass == HoleClass::kExpansion) continue;
+        const int32_t first = hole.firstSegment, end = first + hole.segmentCount;
+        if (hole.box.x0 / kFillTile == hole.box.x1 / kFillTile &&
+            hole.box.y0 / kFillTile == hole.box.y1 / kFillTile) {
+            FillPiece piece{uint32_t(h), uint32_t(frame->spans.size()), uint32_t(end - first),
+                            hole.pixelCount};
+            for (int32_t i = first; i < end; ++i) {
+                const HoleSegment& seg = holes.segments[size_t(i)];
+                frame->spans.push_back({seg.y, seg.xStart, seg.xEnd});
+            }
+            frame->pieces.push_back(piece);
+            continue;
+        }
+        // Segments cut at tile columns, grouped by tile; the stable sort keeps row order.
+        frame->tiled.clear();
+        for (int32_t i = first; i < end; ++i) {
+            const HoleSegment& seg = holes.segments[size_t(i)];
+            const uint32_t row = uint32_t(seg.y / kFillTile) << 16;
+            for (int x0 = seg.xStart; x0 <= seg.xEnd;) {
+                int x1 = std::min(seg.xEnd, (x0 / kFillTile + 1) * kFillTile - 1);
+                frame->tiled.push_back({row | uint32_t(x0 / kFillTile), {seg.y, x0, x1}});
+                x0 = x1 + 1;
+            }
+        }
+        std::stable_sort(frame->tiled.begin(), frame->tiled.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (size_t i = 0; i < frame->tiled.size(); ++i) {
+            if (i == 0 || frame->tiled[i].first != frame->tiled[i - 1].first)
+                frame->pieces.push_back({uint32_t(h), uint32_t(frame->spans.size()), 0, 0});
+            const PixelSpan& p = frame->tiled[i].second;
+            frame->spans.push_back(p);
+            frame->pieces.back().spanCount++;
+            frame->pieces.back().pixels += p.x1 - p.x0 + 1;
+        }
+    }
+}
+
+// Marks the pixels of the expansion holes that fillExpansionHoles filled.
+int64_t markInterpolated(const HoleSet& holes, ImageView<uint8_t> holeClass) {
+    int64_t pixels = 0;
+    for (const Hole& hole : holes.holes) {
+        if (hole.holeClass != HoleClass::kExpansion) continue;
+        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
+            const HoleSegment& seg = holes.segments[size_t(i)];
+            for (int x = seg.xStart; x <= seg.xEnd; ++x)
+                holeClass.at(x, seg.y) = uint8_t(PixelSource::kExpansion);
+        }
+        pixels += hole.pixelCount;
+    }
+    return pixels;
+}
+
+}  // namespace
+
+FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
+                    const FillOptions& options, const HoleSet& holes,
+                    const SecondEyeTargets& second, ImageView<uint8_t> holeClass,
+                    FillScratch* scratch, ThreadPool* pool) {
+    PLX_CHECK(second.id.width == camera.width() && second.id.height == camera.height());
+    PLX_CHECK(holeClass.width == camera.width() && holeClass.height == camera.height());
+    PLX_CHECK(fill.fragmentsOfTriangle.size() == scene.triangleCount());
+    FillStats total;
+    const bool interpolate = options.expansion == ExpansionFill::kInterpolate;
+    if (interpolate) {
+        fillExpansionHoles(holes, second);
+        total.expansionPixels = markInterpolated(holes, holeClass);
+    }
+    FillOptions drawOptions = options;
+    drawOptions.render.colorOnly = false;
+    FillFrame frame{scene, fill, camera, drawOptions, second,
+                    {second.color, second.depth, second.id, {}}, holeClass};
+    if (!scratch->mFrame) scratch->mFrame = std::make_unique<FillScratch::Frame>();
+    FillScratch::Frame& pieces = *scratch->mFrame;
+    makePieces(holes, interpolate, &pieces);
+    const size_t slots = pool ? size_t(pool->threadCount()) : 1;
+    while (scratch->mSlots.size() < slots)
+        scratch->mSlots.push_back(std::make_unique<FillScratch::Slot>());
+    for (auto& slot : scratch->mSlots) slot->stats = {};
+    auto body = [&](size_t begin, size_t end) {
+        FillScratch::Slot& slot = *scratch->mSlots[size_t(currentThreadSlot()) % slots];
+        HoleFiller filler(frame, slot);
+        for (size_t i = begin; i < end; ++i) {
+            const FillPiece& piece = pieces.pieces[i];
+            filler.fill(holes.holes[piece.hole],
+                        std::span<const PixelSpan>(pieces.spans).subspan(piece.firstSpan,
+                                                                         piece.spanCount),
+                        piece.pixels);
+        }
+    };
+    // Pieces differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small
+    // chunks let the threads balance.
+    constexpr size_t kPieceGrain = 8;
+    if (pool)
+        pool->parallelFor(pieces.pieces.size(), kPieceGrain, body);
+    else
+        body(0, pieces.pieces.size());
+    for (auto& slot : scratch->mSlots) addStats(slot->stats, &total);
+    return total;
+}
+
+}  // namespace plx::stereo

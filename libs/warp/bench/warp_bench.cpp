@@ -1,0 +1,5 @@
+#include <benchmark/benchmark.h>
+
+#include <plx/warp/warp.h>
+
+BENCHMARK_MAIN();

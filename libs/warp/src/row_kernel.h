@@ -1,0 +1,43 @@
+#pragma once
+// The row transform shared by the dispatch code (warper.cpp) and its per-ISA kernel
+// (warp_row.inl): source pixels of one row to destination splat rectangles and depth keys.
+
+#include <cstdint>
+
+#include <plx/core/cpu.h>
+#include <plx/warp/equation.h>
+
+namespace plx::warp::detail {
+
+// Splat rectangle half-sizes per kind; kDerivative computes them per pixel.
+enum class RowSplat : int { kDerivative = 0, kPoint = 1, kFixed2x2 = 2 };
+
+struct RowInput {
+    WarpCoefficients w;
+    int y = 0;
+    int width = 0;                 // source row length (neighbours exist inside it)
+    int x0 = 0, x1 = 0;            // the pixels to transform, [x0, x1)
+    const float* disparity = nullptr;  // the row, width values
+    const float* above = nullptr;  // the row above, or null (first row)
+    const float* below = nullptr;  // the row below, or null (last row)
+    RowSplat splat = RowSplat::kDerivative;
+    float destWidth = 0, destHeight = 0;
+    float maxSplat = 6.0f;         // kMaxSplatSize
+};
+
+// Per transformed pixel i (source x = x0 + i): the destination rectangle [rx0, rx1) x [ry0, ry1),
+// clipped to the destination, empty (rx0 == rx1) where the point is not in front of it; key =
+// float bits of the destination 1/w, plus one (so 0 never marks a written pixel).
+struct RowOutput {
+    int32_t* rx0;
+    int32_t* rx1;
+    int32_t* ry0;
+    int32_t* ry1;
+    uint32_t* key;
+};
+
+PLX_ISA_DECLARE(void transformRow(const RowInput& in, const RowOutput& out))
+
+inline auto activeTransformRow() { return PLX_ISA_PICK_UP_TO_AVX2(transformRow); }
+
+}  // namespace plx::warp::detail

@@ -1,0 +1,134 @@
+#pragma once
+// Shared between the warp's parts: the row plan (warper.cpp), the z-buffer pass (zbuffer.cpp),
+// the occlusion-compatible pass (occlusion.cpp) and the mesh kernel (mesh.cpp).
+
+#include <atomic>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <vector>
+
+#include <plx/core/parallel.h>
+#include <plx/warp/warp.h>
+
+#include "row_kernel.h"
+
+namespace plx::warp::detail {
+
+struct ViewJob {
+    const ReferenceView* view;
+    WarpCoefficients w;
+};
+
+// One source row of one view and its potentially visible span [x0, x1). Mesh: the quads between
+// rows y and y + 1 whose left pixel is in the span.
+struct RowJob {
+    uint32_t view;
+    int32_t y;
+    int32_t x0, x1;
+};
+
+// Per-thread buffers of the row transform's output, grown to the longest row.
+struct RowScratch {
+    std::vector<int32_t> rx0, rx1, ry0, ry1;
+    std::vector<uint32_t> key;
+    void reserve(size_t n) {
+        if (key.size() >= n) return;
+        rx0.resize(n);
+        rx1.resize(n);
+        ry0.resize(n);
+        ry1.resize(n);
+        key.resize(n);
+    }
+    RowOutput output() { return {rx0.data(), rx1.data(), ry0.data(), ry1.data(), key.data()}; }
+};
+
+// The destination words (key << 32 | colour bits; 0 = nothing written) and the colour that
+// background (delta = 0) pixels write.
+struct DestBuffer {
+    uint64_t* words;
+    int width, height;
+    uint32_t clearBits;
+};
+
+inline uint32_t rgbaBits(Rgba8 c) { return std::bit_cast<uint32_t>(c); }
+
+Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& destination);
+
+// Coefficients per view and the clipped rows of all views, in set, view and row order.
+void planRows(std::span<const ReferenceSet* const> sets, const Camera& destination,
+              const WarpOptions& options, std::vector<ViewJob>* views, std::vector<RowJob>* rows,
+              WarpStats* stats);
+
+// Transforms one row job with the active row kernel into scratch (not for mesh).
+void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
+                     RowScratch* scratch);
+
+// The z-buffer pass over all rows, in parallel chunks of balanced pixel counts.
+void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
+                 const std::vector<RowJob>& rows, const WarpOptions& options,
+                 const DestBuffer& dest, std::vector<RowScratch>* scratch);
+
+// McMillan's occlusion-compatible order, one thread: each view painted toward (positive
+// epipole) or away from (negative) its epipole; `stamp` marks which view wrote each pixel so
+// that a view overwrites its own pixels and z-tests against other views'.
+void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vector<RowJob>& rows,
+                             const Camera& destination, const WarpOptions& options, const DestBuffer& dest, uint8_t* stamp,
+                             RowScratch* scratch);
+
+// How a splat writes a destination word: z-buffer max (one thread, or several with a
+// compare-and-swap), or the occlusion-compatible painter (overwrites what the same view wrote,
+// z-tests against other views).
+enum class WriteMode { kMax, kAtomicMax, kPainter };
+struct Writer {
+    DestBuffer dest;
+    WriteMode mode = WriteMode::kMax;
+    uint8_t* stamp = nullptr;  // kPainter: per destination pixel, the view that wrote it + 1
+    uint8_t viewStamp = 0;
+};
+
+template <WriteMode kMode>
+inline void writeWord(const Writer& w, size_t i, uint64_t v) {
+    uint64_t* p = w.dest.words + i;
+    if constexpr (kMode == WriteMode::kAtomicMax) {
+        // The packed word makes the z-test and write one compare-and-swap, retried only while
+        // the word is still larger: the result is the maximum whatever the interleaving.
+        std::atomic_ref<uint64_t> ref(*p);
+        uint64_t old = ref.load(std::memory_order_relaxed);
+        while (v > old && !ref.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
+        }
+    } else if constexpr (kMode == WriteMode::kMax) {
+        if (v > *p) *p = v;
+    } else {
+        if (w.stamp[i] == w.viewStamp || v > *p) {
+            *p = v;
+            w.stamp[i] = w.viewStamp;
+        }
+    }
+}
+
+// Splats pixel i of a transformed row (scratch) with the given colour bits.
+template <WriteMode kMode>
+inline void splatPixel(const Writer& w, const RowScratch& s, size_t i, uint32_t color) {
+    const int32_t x0 = s.rx0[i], x1 = s.rx1[i], y0 = s.ry0[i], y1 = s.ry1[i];
+    const uint64_t v = uint64_t(s.key[i]) << 32 | color;
+    for (int32_t y = y0; y < y1; ++y) {
+        const size_t base = size_t(y) * size_t(w.dest.width);
+        for (int32_t x = x0; x < x1; ++x) writeWord<kMode>(w, base + size_t(x), v);
+    }
+}
+
+// The colour bits a source pixel writes: its own, or the clear colour where delta = 0.
+inline uint32_t sourceColor(const ReferenceView& view, int x, int y, float delta,
+                            uint32_t clearBits) {
+    return delta > 0.0f ? rgbaBits(view.color.row(y)[x]) : clearBits;
+}
+
+// Warps and draws the mesh quads of one row job (mesh.cpp). `order`: the quads' x in drawing
+// order, or empty for x0 .. x1 - 2 ascending.
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, RowScratch* scratch,
+             std::span<const int32_t> order = {});
+
+}  // namespace plx::warp::detail
+

@@ -6,13 +6,14 @@
 namespace plx::warp {
 
 int64_t fillRearSurface(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
-                        Rgba8 clearColor) {
+                        Rgba8 clearColor, const int* rowHoles) {
     const int w = color->width(), h = color->height();
     PLX_CHECK(depth->width() == w && depth->height() == h && holeMask->width() == w &&
               holeMask->height() == h);
     int64_t filled = 0;
     std::vector<int> emptyRows;
     for (int y = 0; y < h; ++y) {
+        if (rowHoles && rowHoles[y] == 0) continue;
         Rgba8* c = color->row(y);
         float* d = depth->row(y);
         uint8_t* m = holeMask->row(y);

@@ -66,7 +66,7 @@ void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vecto
                 for (size_t j = split; j < ys.size(); ++j) jobOrder.push_back(ys[j]);
             }
         }
-        const Writer writer{dest, WriteMode::kPainter, stamp, uint8_t(vi + 1)};
+        const Writer writer{dest, WriteMode::kPainter, 0, dest.height, stamp, uint8_t(vi + 1)};
         for (int32_t jo : jobOrder) {
             const RowJob& row = rows[begin + size_t(jo)];
             if (options.splat == Splat::kMesh) {

@@ -2,6 +2,7 @@
 // Shared between the warp's parts: the row plan (warper.cpp), the z-buffer pass (zbuffer.cpp),
 // the occlusion-compatible pass (occlusion.cpp) and the mesh kernel (mesh.cpp).
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cstdint>
@@ -27,6 +28,7 @@ struct RowJob {
     uint32_t view;
     int32_t y;
     int32_t x0, x1;
+    int32_t destY0, destY1;  // the destination rows its splats can reach (RowSpan)
 };
 
 // Per-thread buffers of the row transform's output, grown to the longest row.
@@ -65,7 +67,7 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
 void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
                      RowScratch* scratch);
 
-// The z-buffer pass over all rows, in parallel chunks of balanced pixel counts.
+// The z-buffer pass over all rows, in parallel destination bands of balanced pixel counts.
 void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
                  const std::vector<RowJob>& rows, const WarpOptions& options,
                  const DestBuffer& dest, std::vector<RowScratch>* scratch);
@@ -84,6 +86,7 @@ enum class WriteMode { kMax, kAtomicMax, kPainter };
 struct Writer {
     DestBuffer dest;
     WriteMode mode = WriteMode::kMax;
+    int bandY0 = 0, bandY1 = 0;  // the destination rows this writer may write, [bandY0, bandY1)
     uint8_t* stamp = nullptr;  // kPainter: per destination pixel, the view that wrote it + 1
     uint8_t viewStamp = 0;
 };
@@ -111,7 +114,8 @@ inline void writeWord(const Writer& w, size_t i, uint64_t v) {
 // Splats pixel i of a transformed row (scratch) with the given colour bits.
 template <WriteMode kMode>
 inline void splatPixel(const Writer& w, const RowScratch& s, size_t i, uint32_t color) {
-    const int32_t x0 = s.rx0[i], x1 = s.rx1[i], y0 = s.ry0[i], y1 = s.ry1[i];
+    const int32_t x0 = s.rx0[i], x1 = s.rx1[i];
+    const int32_t y0 = std::max(s.ry0[i], w.bandY0), y1 = std::min(s.ry1[i], w.bandY1);
     const uint64_t v = uint64_t(s.key[i]) << 32 | color;
     for (int32_t y = y0; y < y1; ++y) {
         const size_t base = size_t(y) * size_t(w.dest.width);

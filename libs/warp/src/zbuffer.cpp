@@ -35,23 +35,29 @@ void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const 
 
 namespace {
 
+// Warps the rows that reach destination rows [bandY0, bandY1), writing only those rows; a row
+// that reaches two bands is transformed by both (a few rows per boundary: source rows map to
+// destination curves that mostly run across the image).
 template <WriteMode kMode>
 void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJob* end,
-             const WarpOptions& options, const Writer& writer, RowScratch* scratch) {
-    for (const RowJob* row = begin; row != end; ++row) {
-        const ViewJob& view = views[row->view];
+             int bandY0, int bandY1, const WarpOptions& options, const DestBuffer& dest,
+             RowScratch* scratch) {
+    const Writer writer{dest, kMode, bandY0, bandY1};
+    for (const RowJob* it = begin; it != end; ++it) {
+        const RowJob& row = *it;
+        if (row.destY1 <= bandY0 || row.destY0 >= bandY1) continue;
+        const ViewJob& view = views[row.view];
         if (options.splat == Splat::kMesh) {
-            meshRow(view, *row, writer, scratch);
+            meshRow(view, row, writer, scratch);
             continue;
         }
-        transformRowJob(view, *row, options.splat, writer.dest, scratch);
-        const float* disparity = view.view->disparity.row(row->y);
-        const Rgba8* color = view.view->color.row(row->y);
-        for (int x = row->x0; x < row->x1; ++x) {
-            const size_t i = size_t(x - row->x0);
+        transformRowJob(view, row, options.splat, dest, scratch);
+        const float* disparity = view.view->disparity.row(row.y);
+        const Rgba8* color = view.view->color.row(row.y);
+        for (int x = row.x0; x < row.x1; ++x) {
+            const size_t i = size_t(x - row.x0);
             if (scratch->rx0[i] >= scratch->rx1[i]) continue;
-            const uint32_t bits =
-                disparity[x] > 0.0f ? rgbaBits(color[x]) : writer.dest.clearBits;
+            const uint32_t bits = disparity[x] > 0.0f ? rgbaBits(color[x]) : dest.clearBits;
             splatPixel<kMode>(writer, *scratch, i, bits);
         }
     }
@@ -65,30 +71,56 @@ void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
     if (rows.empty()) return;
     const int threads = pool.threadCount();
     if (threads <= 1) {
-        runRows<WriteMode::kMax>(views, rows.data(), rows.data() + rows.size(), options,
-                                 {dest, WriteMode::kMax}, &(*scratch)[0]);
+        runRows<WriteMode::kMax>(views, rows.data(), rows.data() + rows.size(), 0, dest.height,
+                                 options, dest, &(*scratch)[0]);
         return;
     }
-    // Chunks of about equal pixel counts: 16 per thread, so a chunk whose rows splat more (a
-    // magnified face) is absorbed by the others.
-    int64_t total = 0;
-    for (const RowJob& r : rows) total += r.x1 - r.x0;
-    const size_t chunkCount = std::min(rows.size(), size_t(threads) * 16);
-    std::vector<size_t> bounds{0};
-    int64_t acc = 0;
-    for (size_t j = 0; j < rows.size(); ++j) {
-        acc += rows[j].x1 - rows[j].x0;
-        if (acc * int64_t(chunkCount) >= total * int64_t(bounds.size()) &&
-            bounds.size() < chunkCount)
-            bounds.push_back(j + 1);
+    if (options.atomicWrites) {
+        // Chunks of about equal pixel counts, 16 per thread, written with compare-and-swap.
+        int64_t total = 0;
+        for (const RowJob& r : rows) total += r.x1 - r.x0;
+        const size_t chunkCount = std::min(rows.size(), size_t(threads) * 16);
+        std::vector<size_t> bounds{0};
+        int64_t acc = 0;
+        for (size_t j = 0; j < rows.size(); ++j) {
+            acc += rows[j].x1 - rows[j].x0;
+            if (acc * int64_t(chunkCount) >= total * int64_t(bounds.size()) &&
+                bounds.size() < chunkCount)
+                bounds.push_back(j + 1);
+        }
+        if (bounds.back() != rows.size()) bounds.push_back(rows.size());
+        pool.parallelFor(bounds.size() - 1, 1, [&](size_t c0, size_t c1) {
+            RowScratch* s = &(*scratch)[size_t(currentThreadSlot())];
+            for (size_t c = c0; c < c1; ++c)
+                runRows<WriteMode::kAtomicMax>(views, rows.data() + bounds[c],
+                                               rows.data() + bounds[c + 1], 0, dest.height,
+                                               options, dest, s);
+        });
+        return;
     }
-    if (bounds.back() != rows.size()) bounds.push_back(rows.size());
-    const Writer writer{dest, WriteMode::kAtomicMax};
-    pool.parallelFor(bounds.size() - 1, 1, [&](size_t c0, size_t c1) {
+    // Band boundaries at equal shares of the source pixels, each row counted at the middle of
+    // the destination rows it reaches. Four bands per thread, so a band whose rows splat more
+    // (a magnified face) is absorbed by the others.
+    std::vector<int64_t> weight(size_t(dest.height) + 1, 0);
+    int64_t total = 0;
+    for (const RowJob& r : rows) {
+        weight[size_t((r.destY0 + r.destY1) / 2)] += r.x1 - r.x0;
+        total += r.x1 - r.x0;
+    }
+    const int bandCount = std::min(dest.height, threads * 4);
+    std::vector<int> bounds{0};
+    int64_t acc = 0;
+    for (int y = 0; y < dest.height; ++y) {
+        acc += weight[size_t(y)];
+        if (acc * bandCount >= total * int64_t(bounds.size()) && int(bounds.size()) < bandCount)
+            bounds.push_back(y + 1);
+    }
+    if (bounds.back() != dest.height) bounds.push_back(dest.height);
+    pool.parallelFor(bounds.size() - 1, 1, [&](size_t b0, size_t b1) {
         RowScratch* s = &(*scratch)[size_t(currentThreadSlot())];
-        for (size_t c = c0; c < c1; ++c)
-            runRows<WriteMode::kAtomicMax>(views, rows.data() + bounds[c],
-                                           rows.data() + bounds[c + 1], options, writer, s);
+        for (size_t b = b0; b < b1; ++b)
+            runRows<WriteMode::kMax>(views, rows.data(), rows.data() + rows.size(), bounds[b],
+                                     bounds[b + 1], options, dest, s);
     });
 }
 

@@ -231,8 +231,12 @@ TEST(Warp, ThreadsNeverChangeTheImage) {
         options.splat = splat;
         WarpFrame one = warpOnce(o.set, dest, options, 1);
         WarpFrame two = warpOnce(o.set, dest, options, 2);
+        options.atomicWrites = true;
+        WarpFrame atomic = warpOnce(o.set, dest, options, 2);
         EXPECT_TRUE(one.color == two.color) << splatName(splat);
         EXPECT_TRUE(one.depth == two.depth) << splatName(splat);
+        EXPECT_TRUE(one.color == atomic.color) << splatName(splat);
+        EXPECT_TRUE(one.depth == atomic.depth) << splatName(splat);
     }
 }
 

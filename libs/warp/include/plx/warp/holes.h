@@ -14,8 +14,9 @@
 namespace plx::warp {
 
 // Fills every pixel whose mask is 1 (a hole) as above and sets its mask to 2. Returns how many
-// it filled. Preconditions: the three images have the same size; depth holds 1/w (0 = far).
+// it filled. rowHoles, when given, holds each row's count of holes (rows with none are passed
+// over). Preconditions: the three images have the same size; depth holds 1/w (0 = far).
 int64_t fillRearSurface(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
-                        Rgba8 clearColor);
+                        Rgba8 clearColor, const int* rowHoles = nullptr);
 
 }  // namespace plx::warp

@@ -102,10 +102,9 @@ void meshRowT(const ViewJob& view, const RowJob& row, const Writer& writer,
 
 }  // namespace
 
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, RowScratch* scratch,
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
              std::span<const int32_t> order) {
     thread_local std::vector<Vertex> rows[2];
-    (void)scratch;
     switch (writer.mode) {
         case WriteMode::kMax: return meshRowT<WriteMode::kMax>(view, row, writer, rows, order);
         case WriteMode::kAtomicMax:

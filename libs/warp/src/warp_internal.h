@@ -7,6 +7,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -29,10 +30,11 @@ struct RowJob {
     int32_t y;
     int32_t x0, x1;
     int32_t destY0, destY1;  // the destination rows its splats can reach (RowSpan)
+    uint32_t offset;         // where its pixels' transforms start in the Transformed arrays
 };
 
-// Per-thread buffers of the row transform's output, grown to the longest row.
-struct RowScratch {
+// The row transform's output for every planned row (RowJob::offset), kept between frames.
+struct Transformed {
     std::vector<int32_t> rx0, rx1, ry0, ry1;
     std::vector<uint32_t> key;
     void reserve(size_t n) {
@@ -43,7 +45,10 @@ struct RowScratch {
         ry1.resize(n);
         key.resize(n);
     }
-    RowOutput output() { return {rx0.data(), rx1.data(), ry0.data(), ry1.data(), key.data()}; }
+    RowOutput at(size_t offset) {
+        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset,
+                ry1.data() + offset, key.data() + offset};
+    }
 };
 
 // The destination words (key << 32 | colour bits; 0 = nothing written) and the colour that
@@ -63,21 +68,23 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
               const WarpOptions& options, std::vector<ViewJob>* views, std::vector<RowJob>* rows,
               WarpStats* stats);
 
-// Transforms one row job with the active row kernel into scratch (not for mesh).
+// Transforms one row job with the active row kernel into its place in `out` (not for mesh).
 void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
-                     RowScratch* scratch);
+                     Transformed* out);
 
-// The z-buffer pass over all rows, in parallel destination bands of balanced pixel counts.
+// The z-buffer pass over all rows, in parallel destination bands; finish(y0, y1) runs on each
+// band's rows as soon as they are complete (the unpack, by the thread that warped them).
 void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
                  const std::vector<RowJob>& rows, const WarpOptions& options,
-                 const DestBuffer& dest, std::vector<RowScratch>* scratch);
+                 const DestBuffer& dest, Transformed* transformed,
+                 const std::function<void(int, int)>& finish);
 
 // McMillan's occlusion-compatible order, one thread: each view painted toward (positive
 // epipole) or away from (negative) its epipole; `stamp` marks which view wrote each pixel so
 // that a view overwrites its own pixels and z-tests against other views'.
 void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vector<RowJob>& rows,
-                             const Camera& destination, const WarpOptions& options, const DestBuffer& dest, uint8_t* stamp,
-                             RowScratch* scratch);
+                             const Camera& destination, const WarpOptions& options,
+                             const DestBuffer& dest, uint8_t* stamp, Transformed* transformed);
 
 // How a splat writes a destination word: z-buffer max (one thread, or several with a
 // compare-and-swap), or the occlusion-compatible painter (overwrites what the same view wrote,
@@ -102,7 +109,10 @@ inline void writeWord(const Writer& w, size_t i, uint64_t v) {
         while (v > old && !ref.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
         }
     } else if constexpr (kMode == WriteMode::kMax) {
-        if (v > *p) *p = v;
+        // Always stores (a conditional move): neighbouring splats overlap with close depths, so
+        // a branch on the test would mispredict about half the time.
+        const uint64_t old = *p;
+        *p = v > old ? v : old;
     } else {
         if (w.stamp[i] == w.viewStamp || v > *p) {
             *p = v;
@@ -111,9 +121,9 @@ inline void writeWord(const Writer& w, size_t i, uint64_t v) {
     }
 }
 
-// Splats pixel i of a transformed row (scratch) with the given colour bits.
+// Splats transformed pixel i with the given colour bits.
 template <WriteMode kMode>
-inline void splatPixel(const Writer& w, const RowScratch& s, size_t i, uint32_t color) {
+inline void splatPixel(const Writer& w, const Transformed& s, size_t i, uint32_t color) {
     const int32_t x0 = s.rx0[i], x1 = s.rx1[i];
     const int32_t y0 = std::max(s.ry0[i], w.bandY0), y1 = std::min(s.ry1[i], w.bandY1);
     const uint64_t v = uint64_t(s.key[i]) << 32 | color;
@@ -131,7 +141,7 @@ inline uint32_t sourceColor(const ReferenceView& view, int x, int y, float delta
 
 // Warps and draws the mesh quads of one row job (mesh.cpp). `order`: the quads' x in drawing
 // order, or empty for x0 .. x1 - 2 ascending.
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, RowScratch* scratch,
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
              std::span<const int32_t> order = {});
 
 }  // namespace plx::warp::detail

@@ -14,9 +14,18 @@
 namespace plx::warp {
 
 // Fills every pixel whose mask is 1 (a hole) as above and sets its mask to 2. Returns how many
-// it filled. rowHoles, when given, holds each row's count of holes (rows with none are passed
-// over). Preconditions: the three images have the same size; depth holds 1/w (0 = far).
+// it filled. Preconditions: the three images have the same size; depth holds 1/w (0 = far).
 int64_t fillRearSurface(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
-                        Rgba8 clearColor, const int* rowHoles = nullptr);
+                        Rgba8 clearColor);
+
+// The fill of one row of `w` pixels, as above: returns how many it filled, or -1 when the row
+// has no covered pixel (left as it is, for fillEmptyRows). The warper runs it on each band of
+// rows while they are still in cache.
+int fillRowRearSurface(Rgba8* color, float* depth, uint8_t* holeMask, int w);
+
+// The second step: every row still wholly a hole (mask 1 at its first pixel after the row
+// fill) copies the nearest row that is not, or takes the clear colour. Returns pixels filled.
+int64_t fillEmptyRows(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
+                      Rgba8 clearColor);
 
 }  // namespace plx::warp

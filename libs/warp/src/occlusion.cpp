@@ -74,7 +74,7 @@ void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vecto
                 meshRow(view, row, writer, pixelOrder);
                 continue;
             }
-            transformRowJob(view, row, options.splat, dest, transformed);
+            (void)transformRowJob(view, row, options.splat, dest, transformed);
             orderToward(row.x0, row.x1, ex, toward, &pixelOrder);
             const float* disparity = view.view->disparity.row(row.y);
             const Rgba8* color = view.view->color.row(row.y);

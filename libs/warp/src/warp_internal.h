@@ -9,6 +9,7 @@
 #include <cstring>
 #include <functional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <plx/core/parallel.h>
@@ -37,6 +38,9 @@ struct RowJob {
 struct Transformed {
     std::vector<int32_t> rx0, rx1, ry0, ry1;
     std::vector<uint32_t> key;
+    // Per row job: the destination rows its transformed splats really reach, [first, second)
+    // (tighter than RowJob's clip bound, which spans the row's whole disparity range).
+    std::vector<std::pair<int32_t, int32_t>> rowReach;
     void reserve(size_t n) {
         if (key.size() >= n) return;
         rx0.resize(n);
@@ -68,9 +72,10 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
               const WarpOptions& options, std::vector<ViewJob>* views, std::vector<RowJob>* rows,
               WarpStats* stats);
 
-// Transforms one row job with the active row kernel into its place in `out` (not for mesh).
-void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
-                     Transformed* out);
+// Transforms one row job with the active row kernel into its place in `out` (not for mesh) and
+// returns the destination rows its splats reach ([first, second), empty when none).
+std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& row, Splat splat,
+                                            const DestBuffer& dest, Transformed* out);
 
 // The z-buffer pass over all rows, in parallel destination bands; finish(y0, y1) runs on each
 // band's rows as soon as they are complete (the unpack, by the thread that warped them).

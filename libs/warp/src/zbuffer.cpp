@@ -10,8 +10,8 @@
 
 namespace plx::warp::detail {
 
-void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
-                     Transformed* out) {
+std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& row, Splat splat,
+                                            const DestBuffer& dest, Transformed* out) {
     const ReferenceView& v = *view.view;
     const int h = v.disparity.height();
     RowInput in;
@@ -30,6 +30,13 @@ void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const 
     in.destHeight = float(dest.height);
     in.maxSplat = kMaxSplatSize;
     activeTransformRow()(in, out->at(row.offset));
+    int32_t lo = dest.height, hi = 0;
+    for (size_t i = row.offset, end = i + size_t(row.x1 - row.x0); i < end; ++i) {
+        if (out->rx0[i] >= out->rx1[i]) continue;
+        lo = std::min(lo, out->ry0[i]);
+        hi = std::max(hi, out->ry1[i]);
+    }
+    return {lo, hi};
 }
 
 namespace {
@@ -38,8 +45,8 @@ namespace {
 // their transforms (mesh: warped here, per band).
 template <WriteMode kMode>
 void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJob* end,
-             int bandY0, int bandY1, const WarpOptions& options, const DestBuffer& dest,
-             const Transformed& t) {
+             size_t firstRow, int bandY0, int bandY1, const WarpOptions& options,
+             const DestBuffer& dest, const Transformed& t) {
     const Writer writer{dest, kMode, bandY0, bandY1};
     for (const RowJob* it = begin; it != end; ++it) {
         const RowJob& row = *it;
@@ -49,6 +56,8 @@ void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJo
             meshRow(view, row, writer);
             continue;
         }
+        const auto [reachY0, reachY1] = t.rowReach[size_t(it - begin) + firstRow];
+        if (reachY1 <= bandY0 || reachY0 >= bandY1) continue;
         const float* disparity = view.view->disparity.row(row.y);
         const Rgba8* color = view.view->color.row(row.y);
         for (int x = row.x0; x < row.x1; ++x) {
@@ -68,10 +77,12 @@ void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
                  const std::function<void(int, int)>& finish) {
     const int threads = pool.threadCount();
     // Every row transformed once (the vector kernel), before any band splats it.
+    transformed->rowReach.resize(rows.size());
     if (options.splat != Splat::kMesh)
         pool.parallelFor(rows.size(), 16, [&](size_t r0, size_t r1) {
             for (size_t r = r0; r < r1; ++r)
-                transformRowJob(views[rows[r].view], rows[r], options.splat, dest, transformed);
+                transformed->rowReach[r] = transformRowJob(views[rows[r].view], rows[r],
+                                                           options.splat, dest, transformed);
         });
     if (threads > 1 && options.atomicWrites) {
         // Chunks of about equal pixel counts, 16 per thread, written with compare-and-swap.
@@ -90,8 +101,8 @@ void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
         pool.parallelFor(bounds.size() - 1, 1, [&](size_t c0, size_t c1) {
             for (size_t c = c0; c < c1; ++c)
                 runRows<WriteMode::kAtomicMax>(views, rows.data() + bounds[c],
-                                               rows.data() + bounds[c + 1], 0, dest.height,
-                                               options, dest, *transformed);
+                                               rows.data() + bounds[c + 1], bounds[c], 0,
+                                               dest.height, options, dest, *transformed);
         });
         pool.parallelFor(size_t(dest.height), 16,
                          [&](size_t y0, size_t y1) { finish(int(y0), int(y1)); });
@@ -107,7 +118,7 @@ void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
         for (size_t b = b0; b < b1; ++b) {
             const int y0 = int(b) * kBandRows;
             const int y1 = std::min(dest.height, y0 + kBandRows);
-            runRows<WriteMode::kMax>(views, rows.data(), rows.data() + rows.size(), y0, y1,
+            runRows<WriteMode::kMax>(views, rows.data(), rows.data() + rows.size(), 0, y0, y1,
                                      options, dest, *transformed);
             finish(y0, y1);
         }

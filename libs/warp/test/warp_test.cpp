@@ -194,7 +194,9 @@ TEST(Warp, PlaneLandsOnItsTrueRenderWithinAPixel) {
                     }
                 misses += !hit;
             }
-        if (splat != Splat::kPoint) EXPECT_EQ(stats.holePixels, 0) << splatName(splat);
+        if (splat != Splat::kPoint) {
+            EXPECT_EQ(stats.holePixels, 0) << splatName(splat);
+        }
         EXPECT_GT(count, 10000);
         EXPECT_LT(misses, count / 200) << splatName(splat);
     }

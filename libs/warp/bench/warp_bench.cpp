@@ -112,6 +112,18 @@ BENCHMARK(BM_Warp)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// Write conflicts with 2 threads: 0 destination bands (plain stores), 1 row chunks written with
+// compare-and-swap (WarpOptions::atomicWrites).
+void BM_WarpConflicts(benchmark::State& state) {
+    const Setup& s = cached("office:1");
+    WarpOptions options;
+    options.atomicWrites = state.range(0) != 0;
+    state.SetLabel(options.atomicWrites ? "compare-and-swap" : "bands");
+    runWarp(state, s, s.destination(0.1f, 0.1f, 10.0f), options, 2);
+}
+BENCHMARK(BM_WarpConflicts)->Arg(0)->Arg(1)->Arg(0)->Arg(1)->ArgName("atomic")
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // The clip's worth: the same warp with every row warped.
 void BM_WarpNoClip(benchmark::State& state) {
     const Setup& s = cached("office:1");

@@ -62,6 +62,14 @@ struct SplatRowInput {
 
 PLX_ISA_DECLARE(void splatRow(const SplatRowInput& in))
 
+// Unpacks `width` destination words (unpack_row.inl) into colour (the clear colour where no
+// splat wrote), 1/w (0 there) and the hole mask (1 there, else 0), zeroes the words, and returns
+// the row's holes.
+PLX_ISA_DECLARE(int unpackRow(uint64_t* words, int width, uint32_t clearBits, Rgba8* color,
+                              float* depth, uint8_t* holeMask))
+
+inline auto activeUnpackRow() { return PLX_ISA_PICK_UP_TO_AVX2(unpackRow); }
+
 inline auto activeSplatRow() { return PLX_ISA_PICK_UP_TO_AVX2(splatRow); }
 
 }  // namespace plx::warp::detail

@@ -44,24 +44,15 @@ void finishRows(uint64_t* words, size_t stride, int y0, int y1, const WarpOption
                 WarpFrame* out, int* rowHoles, int* rowFilled) {
     const int dw = out->color.width();
     const uint32_t clearBits = detail::rgbaBits(options.clearColor);
+    const auto unpack = detail::activeUnpackRow();
     for (int y = y0; y < y1; ++y) {
-        uint64_t* src = words + size_t(y) * stride;
         Rgba8* c = out->color.row(y);
         float* d = out->depth.row(y);
         uint8_t* m = out->holeMask.row(y);
-        int holes = 0;
-        for (int x = 0; x < dw; ++x) {
-            const uint64_t v = src[x];
-            src[x] = 0;
-            const uint32_t key = uint32_t(v >> 32);
-            const bool hole = key == 0;
-            m[x] = hole;
-            holes += hole;
-            c[x] = std::bit_cast<Rgba8>(hole ? clearBits : uint32_t(v));
-            d[x] = std::bit_cast<float>(hole ? 0u : key - 1u);  // key: bits of 1/w, plus 1
-        }
+        const int holes = unpack(words + size_t(y) * stride, dw, clearBits, c, d, m);
         rowHoles[y] = holes;
-        if (options.fillHoles && holes > 0) rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
+        if (options.fillHoles && holes > 0)
+            rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
     }
 }
 

@@ -38,10 +38,7 @@ struct Setup {
     Setup(const std::string& spec, ReferenceLayout layout, int face) {
         scene = std::move(scene::generateFromSpec(spec)).value();
         renderer = std::move(raster::Renderer::create({2})).value();
-        const scene::Viewpoint vp = scene.viewpoints.front();
-        pose.eye = vp.eyePos;
-        pose.forward = glm::normalize(vp.targetPos - vp.eyePos);
-        pose.up = vp.upDir;
+        pose = poseAt(scene.viewpoints.front());
         ReferenceSetOptions o;
         o.layout = layout;
         o.faceSize = face;

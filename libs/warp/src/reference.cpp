@@ -101,6 +101,14 @@ Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSe
     return cameras;
 }
 
+Pose poseAt(const scene::Viewpoint& viewpoint) {
+    Pose pose;
+    pose.eye = viewpoint.eyePos;
+    pose.forward = glm::normalize(viewpoint.targetPos - viewpoint.eyePos);
+    pose.up = viewpoint.upDir;
+    return pose;
+}
+
 void computeRowDisparityRange(ReferenceView* view) {
     const Image<float>& disparity = view->disparity;
     view->rowMinDisparity.assign(size_t(disparity.height()), 0.0f);

@@ -47,10 +47,7 @@ struct Office {
     Pose pose;
     ReferenceSet set;
     explicit Office(ReferenceLayout layout = ReferenceLayout::kCube4, int face = 96) {
-        const scene::Viewpoint& vp = scene.viewpoints.front();
-        pose.eye = vp.eyePos;
-        pose.forward = glm::normalize(vp.targetPos - vp.eyePos);
-        pose.up = vp.upDir;
+        pose = poseAt(scene.viewpoints.front());
         ReferenceSetOptions o;
         o.layout = layout;
         o.faceSize = face;

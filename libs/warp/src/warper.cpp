@@ -142,7 +142,14 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
 
     WarpStats st;
     detail::planRows(sets, destination, options, &im.views, &im.rows, &st);
-    im.transformed.reserve(size_t(st.sourcePixels));
+    const bool mesh = options.splat == Splat::kMesh;
+    const size_t entries =
+        im.rows.empty() ? 0 : im.rows.back().offset + detail::transformedSize(im.rows.back(), mesh);
+    if (mesh) {
+        if (im.transformed.vertices.size() < entries) im.transformed.vertices.resize(entries);
+    } else {
+        im.transformed.reserve(entries);
+    }
     detail::DestBuffer dest{im.words, dw, dh, detail::rgbaBits(options.clearColor), stride};
     // Image::resize refills its pixels, so only on a size change; every pixel is written below.
     if (out->color.width() != dw || out->color.height() != dh) out->color.resize(dw, dh);
@@ -233,8 +240,11 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
                     }
                     if (span.x0 > 0 || span.x1 < w) ++st->rowsCut;
                 }
-                rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1,
-                                 uint32_t(st->sourcePixels)});
+                const uint32_t offset =
+                    rows->empty() ? 0
+                                  : rows->back().offset +
+                                        uint32_t(transformedSize(rows->back(), mesh));
+                rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1, offset});
                 st->sourcePixels += span.x1 - span.x0;
             }
         }

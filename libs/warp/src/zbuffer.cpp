@@ -42,7 +42,7 @@ std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& r
 namespace {
 
 // Splats the rows that reach destination rows [bandY0, bandY1), writing only those rows, from
-// their transforms (mesh: warped here, per band).
+// their transforms.
 template <WriteMode kMode>
 void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJob* end,
              size_t firstRow, int bandY0, int bandY1, const WarpOptions& options,
@@ -53,12 +53,12 @@ void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJo
         const RowJob& row = *it;
         if (row.destY1 <= bandY0 || row.destY0 >= bandY1) continue;
         const ViewJob& view = views[row.view];
-        if (options.splat == Splat::kMesh) {
-            meshRow(view, row, writer);
-            continue;
-        }
         const auto [reachY0, reachY1] = t.rowReach[size_t(it - begin) + firstRow];
         if (reachY1 <= bandY0 || reachY0 >= bandY1) continue;
+        if (options.splat == Splat::kMesh) {
+            meshRow(view, row, writer, t);
+            continue;
+        }
         const float* disparity = view.view->disparity.row(row.y);
         const Rgba8* color = view.view->color.row(row.y);
         if constexpr (kMode == WriteMode::kMax) {
@@ -98,12 +98,15 @@ void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
     const int threads = pool.threadCount();
     // Every row transformed once (the vector kernel), before any band splats it.
     transformed->rowReach.resize(rows.size());
-    if (options.splat != Splat::kMesh)
-        pool.parallelFor(rows.size(), 16, [&](size_t r0, size_t r1) {
-            for (size_t r = r0; r < r1; ++r)
-                transformed->rowReach[r] = transformRowJob(views[rows[r].view], rows[r],
-                                                           options.splat, dest, transformed);
-        });
+    pool.parallelFor(rows.size(), 16, [&](size_t r0, size_t r1) {
+        for (size_t r = r0; r < r1; ++r) {
+            const ViewJob& view = views[rows[r].view];
+            transformed->rowReach[r] =
+                options.splat == Splat::kMesh
+                    ? transformMeshRow(view, rows[r], dest, transformed)
+                    : transformRowJob(view, rows[r], options.splat, dest, transformed);
+        }
+    });
     if (threads > 1 && options.atomicWrites) {
         // Chunks of about equal pixel counts, 16 per thread, written with compare-and-swap.
         int64_t total = 0;

@@ -102,7 +102,8 @@ void runWarp(benchmark::State& state, const Setup& s, const Camera& dest,
     state.counters["warped_Mpix/s"] =
         benchmark::Counter(double(stats.sourcePixels) * n * 1e-6, benchmark::Counter::kIsRate);
     state.counters["frames/s"] = benchmark::Counter(n, benchmark::Counter::kIsRate);
-    state.counters["holes_%"] = 100.0 * double(stats.holePixels) / double(dest.width() * dest.height());
+    state.counters["holes_%"] =
+        100.0 * double(stats.holePixels) / double(dest.width() * dest.height());
     state.counters["rows_skipped_%"] = 100.0 * double(stats.rowsSkipped) / double(stats.rowsTotal);
 }
 
@@ -130,8 +131,14 @@ void BM_WarpConflicts(benchmark::State& state) {
     state.SetLabel(options.atomicWrites ? "compare-and-swap" : "bands");
     runWarp(state, s, s.destination(0.1f, 0.1f, 10.0f), options, 2);
 }
-BENCHMARK(BM_WarpConflicts)->Arg(0)->Arg(1)->Arg(0)->Arg(1)->ArgName("atomic")
-    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WarpConflicts)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("atomic")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The clip's worth: the same warp with every row warped.
 void BM_WarpNoClip(benchmark::State& state) {
@@ -165,18 +172,24 @@ void BM_WarpSceneSize(benchmark::State& state) {
     state.counters["triangles"] = double(s.scene.triangleCount());
     runWarp(state, s, s.destination(0.1f, 0.1f, 10.0f), {}, 2);
 }
-BENCHMARK(BM_WarpSceneSize)->Arg(1)->Arg(256)->ArgName("rooms")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WarpSceneSize)
+    ->Arg(1)
+    ->Arg(256)
+    ->ArgName("rooms")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // Quality per splat kind: scene (0 office:1, 1 museum:1), pose (0 small move, 1 larger), splat.
 // Counters: holes before the fill (% of the frame) and PSNR of the filled frame against the
 // true render of the destination.
 void BM_Quality(benchmark::State& state) {
     const Setup& s = cached(state.range(0) ? "museum:1" : "office:1");
-    const Camera dest = state.range(1) ? s.destination(0.4f, 0.5f, 25.0f)
-                                       : s.destination(0.1f, 0.1f, 10.0f);
+    const Camera dest =
+        state.range(1) ? s.destination(0.4f, 0.5f, 25.0f) : s.destination(0.1f, 0.1f, 10.0f);
     WarpOptions options;
     options.splat = Splat(state.range(2));
-    state.SetLabel(std::string(state.range(0) ? "museum:1 " : "office:1 ") + splatName(options.splat));
+    state.SetLabel(std::string(state.range(0) ? "museum:1 " : "office:1 ") +
+                   splatName(options.splat));
     auto warper = std::move(Warper::create(2)).value();
     WarpFrame frame;
     WarpStats stats;

@@ -19,8 +19,7 @@ using Vertex = MeshVertex;
 // Whether a triangle is drawn: in front of the destination, no depth discontinuity, no
 // background/foreground mix, and no larger than a splat (splat.h).
 bool keepTriangle(const Vertex& a, const Vertex& b, const Vertex& c) {
-    if (!(a.p.denominator > 0.0f && b.p.denominator > 0.0f && c.p.denominator > 0.0f))
-        return false;
+    if (!(a.p.denominator > 0.0f && b.p.denominator > 0.0f && c.p.denominator > 0.0f)) return false;
     const float lo = std::min({a.sourceDelta, b.sourceDelta, c.sourceDelta});
     const float hi = std::max({a.sourceDelta, b.sourceDelta, c.sourceDelta});
     if (hi > 0.0f && (lo <= 0.0f || hi - lo > kMeshTearRatio * hi)) return false;
@@ -38,10 +37,9 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
     if (!(std::fabs(area) > 1e-12f)) return;
     const float inv = 1.0f / area;
     const int x0 = std::max(0, int(std::ceil(std::min({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int x1 = std::min(writer.dest.width - 1,
-                            int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int y0 =
-        std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    const int x1 =
+        std::min(writer.dest.width - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
+    const int y0 = std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     const int y1 =
         std::min(writer.bandY1 - 1, int(std::floor(std::max({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     for (int y = y0; y <= y1; ++y) {
@@ -54,8 +52,8 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
             const bool inside = wa >= 0.0f && wb >= 0.0f && wc >= 0.0f;
             if (kMode == WriteMode::kPainter && !inside) continue;
             const float delta = wa * a.p.delta + wb * b.p.delta + wc * c.p.delta;
-            const uint32_t color = wa >= wb ? (wa >= wc ? a.color : c.color)
-                                            : (wb >= wc ? b.color : c.color);
+            const uint32_t color =
+                wa >= wb ? (wa >= wc ? a.color : c.color) : (wb >= wc ? b.color : c.color);
             const uint64_t key = uint64_t(std::bit_cast<uint32_t>(std::max(delta, 0.0f)) + 1u);
             // Outside: word 0, which a max leaves unchanged; no branch on the edge tests, whose
             // outcome is a coin toss over a triangle's bounding box.
@@ -119,7 +117,8 @@ std::pair<int32_t, int32_t> transformMeshRow(const ViewJob& view, const RowJob& 
 void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, const Transformed& t,
              std::span<const int32_t> order) {
     switch (writer.mode) {
-        case WriteMode::kMax: return meshRowT<WriteMode::kMax>(view, row, writer, t, order);
+        case WriteMode::kMax:
+            return meshRowT<WriteMode::kMax>(view, row, writer, t, order);
         case WriteMode::kAtomicMax:
             return meshRowT<WriteMode::kAtomicMax>(view, row, writer, t, order);
         case WriteMode::kPainter:

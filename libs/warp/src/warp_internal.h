@@ -65,8 +65,8 @@ struct Transformed {
         key.resize(n);
     }
     RowOutput at(size_t offset) {
-        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset,
-                ry1.data() + offset, key.data() + offset};
+        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset, ry1.data() + offset,
+                key.data() + offset};
     }
 };
 
@@ -76,10 +76,12 @@ struct DestBuffer {
     uint64_t* words;  // 32-byte aligned
     int width, height;
     uint32_t clearBits;
-    size_t stride;    // words per row: width rounded up to 4, so 4-word blocks never span rows
+    size_t stride;  // words per row: width rounded up to 4, so 4-word blocks never span rows
 };
 
-inline uint32_t rgbaBits(Rgba8 c) { return std::bit_cast<uint32_t>(c); }
+inline uint32_t rgbaBits(Rgba8 c) {
+    return std::bit_cast<uint32_t>(c);
+}
 
 Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& destination);
 
@@ -115,7 +117,7 @@ struct Writer {
     DestBuffer dest;
     WriteMode mode = WriteMode::kMax;
     int bandY0 = 0, bandY1 = 0;  // the destination rows this writer may write, [bandY0, bandY1)
-    uint8_t* stamp = nullptr;  // kPainter: per destination pixel, the view that wrote it + 1
+    uint8_t* stamp = nullptr;    // kPainter: per destination pixel, the view that wrote it + 1
     uint8_t viewStamp = 0;
 };
 
@@ -171,4 +173,3 @@ void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, const
              std::span<const int32_t> order = {});
 
 }  // namespace plx::warp::detail
-

@@ -32,9 +32,7 @@
 
 namespace plx::warp {
 
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 // Unpacks destination rows [y0, y1) of the buffer into the frame (colour, 1/w, hole mask),
 // clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
@@ -64,9 +62,9 @@ struct Warper::Impl {
     std::vector<uint64_t> buffer;
     uint64_t* words = nullptr;
     size_t stride = 0;
-    std::vector<uint8_t> stamp;    // occlusion-compatible order: which view wrote last (+1)
-    std::vector<int> rowHoles;     // per destination row, its hole pixels before the fill
-    std::vector<int> rowFilled;    // per destination row, holes the row fill filled
+    std::vector<uint8_t> stamp;  // occlusion-compatible order: which view wrote last (+1)
+    std::vector<int> rowHoles;   // per destination row, its hole pixels before the fill
+    std::vector<int> rowFilled;  // per destination row, holes the row fill filled
     std::vector<detail::ViewJob> views;
     std::vector<detail::RowJob> rows;
     detail::Transformed transformed;  // the row transforms of the frame
@@ -82,7 +80,9 @@ Result<std::unique_ptr<Warper>> Warper::create(int threads) {
     return std::unique_ptr<Warper>(new Warper(std::make_unique<Impl>(threads)));
 }
 
-int Warper::threadCount() const { return mImpl->pool.threadCount(); }
+int Warper::threadCount() const {
+    return mImpl->pool.threadCount();
+}
 
 Status Warper::warp(const ReferenceSet& set, const Camera& destination, const WarpOptions& options,
                     WarpFrame* out, WarpStats* stats) {
@@ -117,8 +117,7 @@ Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& 
         }
     }
     if (views == 0) return {ErrorCode::kInvalidArgument, "warp: no reference views"};
-    if (views > 254)
-        return {ErrorCode::kOutOfRange, "warp: more than 254 reference views"};
+    if (views > 254) return {ErrorCode::kOutOfRange, "warp: more than 254 reference views"};
     return {};
 }
 
@@ -158,8 +157,7 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
     im.rowHoles.assign(size_t(dh), 0);
     im.rowFilled.assign(size_t(dh), 0);
     const auto finish = [&](int y0, int y1) {
-        finishRows(im.words, stride, y0, y1, options, out, im.rowHoles.data(),
-                   im.rowFilled.data());
+        finishRows(im.words, stride, y0, y1, options, out, im.rowHoles.data(), im.rowFilled.data());
     };
     if (options.order == WarpOrder::kOcclusionCompatible) {
         im.stamp.assign(stride * size_t(dh), 0);
@@ -175,8 +173,8 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
         st.holePixelsLeft += im.rowHoles[size_t(y)] - im.rowFilled[size_t(y)];
     }
     if (options.fillHoles && st.holePixelsLeft > 0)
-        st.holePixelsLeft -= fillEmptyRows(&out->color, &out->depth, &out->holeMask,
-                                           options.clearColor);
+        st.holePixelsLeft -=
+            fillEmptyRows(&out->color, &out->depth, &out->holeMask, options.clearColor);
     st.ms = timer.elapsedMs();
     if (stats) *stats = st;
     return {};
@@ -190,8 +188,7 @@ namespace {
 // both rows' spans, widened one pixel left (a quad starts left of its right vertices).
 RowSpan meshSpan(const WarpCoefficients& w, const ReferenceView& view, int y, RowSpan span,
                  const Camera& destination, float margin) {
-    const RowSpan next = clipRow(w, y + 1, view.camera.width(),
-                                 view.rowMinDisparity[size_t(y + 1)],
+    const RowSpan next = clipRow(w, y + 1, view.camera.width(), view.rowMinDisparity[size_t(y + 1)],
                                  view.rowMaxDisparity[size_t(y + 1)], destination.width(),
                                  destination.height(), margin);
     if (next.x0 < next.x1) {
@@ -241,9 +238,9 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
                     if (span.x0 > 0 || span.x1 < w) ++st->rowsCut;
                 }
                 const uint32_t offset =
-                    rows->empty() ? 0
-                                  : rows->back().offset +
-                                        uint32_t(transformedSize(rows->back(), mesh));
+                    rows->empty()
+                        ? 0
+                        : rows->back().offset + uint32_t(transformedSize(rows->back(), mesh));
                 rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1, offset});
                 st->sourcePixels += span.x1 - span.x0;
             }
@@ -257,9 +254,9 @@ Status warpStereo(Warper& warper, std::span<const ReferenceSet* const> sets, con
                   float separation, const WarpOptions& options, WarpFrame* left, WarpFrame* right,
                   WarpStats* stats) {
     if (!std::isfinite(separation) || separation < 0.0f)
-        return {ErrorCode::kInvalidArgument,
-                "warp stereo: separation " + std::to_string(separation) +
-                    " is negative or not finite"};
+        return {
+            ErrorCode::kInvalidArgument,
+            "warp stereo: separation " + std::to_string(separation) + " is negative or not finite"};
     // A parallel rig: both eyes keep the centre camera's orientation and projection.
     const Vec3 offset = center.rightDir() * (0.5f * separation);
     WarpStats total;

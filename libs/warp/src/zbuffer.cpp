@@ -23,7 +23,7 @@ std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& r
     in.disparity = v.disparity.row(row.y);
     in.above = row.y > 0 ? v.disparity.row(row.y - 1) : nullptr;
     in.below = row.y + 1 < h ? v.disparity.row(row.y + 1) : nullptr;
-    in.splat = splat == Splat::kPoint       ? RowSplat::kPoint
+    in.splat = splat == Splat::kPoint      ? RowSplat::kPoint
                : splat == Splat::kFixed2x2 ? RowSplat::kFixed2x2
                                            : RowSplat::kDerivative;
     in.destWidth = float(dest.width);

@@ -119,7 +119,8 @@ TEST(Warp, PureRotationIsTheHomography) {
         EXPECT_NEAR(p.x, expected.x, 2e-3) << x << "," << y;
         EXPECT_NEAR(p.y, expected.y, 2e-3) << x << "," << y;
         // delta' = 1 / (forward distance in the destination).
-        const double w2 = glm::dot(world - glm::dvec3(dest.eyePos()), glm::dvec3(dest.forwardDir()));
+        const double w2 =
+            glm::dot(world - glm::dvec3(dest.eyePos()), glm::dvec3(dest.forwardDir()));
         EXPECT_NEAR(p.delta * w2, 1.0, 1e-4);
     }
 }
@@ -134,7 +135,8 @@ scene::Scene checkerPlane() {
     Image<Rgba8> img(512, 512);
     for (int y = 0; y < 512; ++y)
         for (int x = 0; x < 512; ++x)
-            img.at(x, y) = ((x / 64 + y / 64) % 2) ? Rgba8{230, 60, 40, 255} : Rgba8{30, 90, 220, 255};
+            img.at(x, y) =
+                ((x / 64 + y / 64) % 2) ? Rgba8{230, 60, 40, 255} : Rgba8{30, 90, 220, 255};
     tex.mips.push_back(img);
     scene::buildMipChain(&tex);
     s.textures.push_back(tex);
@@ -176,7 +178,8 @@ TEST(Warp, PlaneLandsOnItsTrueRenderWithinAPixel) {
         WarpStats stats;
         WarpFrame frame = warpOnce(set, dest, options, 2, &stats);
         // Point splats leave gaps where the plane is magnified (the paper's case for sizing
-        // splats); the others cover it. Every covered pixel matches the true render at itself or one of its 8 neighbours.
+        // splats); the others cover it. Every covered pixel matches the true render at itself or
+        // one of its 8 neighbours.
         int misses = 0, count = 0;
         for (int y = 1; y < 119; ++y)
             for (int x = 1; x < 159; ++x) {
@@ -202,8 +205,9 @@ TEST(Warp, PlaneLandsOnItsTrueRenderWithinAPixel) {
 TEST(Warp, ClippingNeverChangesTheImage) {
     Office o;
     for (Splat splat : kSplats) {
-        for (auto [dx, dz, yaw] : {std::tuple{0.0f, 0.0f, 0.0f}, std::tuple{0.3f, 0.4f, 35.0f},
-                                   std::tuple{-0.5f, -0.3f, -80.0f}, std::tuple{0.1f, 0.8f, 170.0f}}) {
+        for (auto [dx, dz, yaw] :
+             {std::tuple{0.0f, 0.0f, 0.0f}, std::tuple{0.3f, 0.4f, 35.0f},
+              std::tuple{-0.5f, -0.3f, -80.0f}, std::tuple{0.1f, 0.8f, 170.0f}}) {
             const Camera dest = o.moved(dx, dz, yaw);
             WarpOptions options;
             options.splat = splat;

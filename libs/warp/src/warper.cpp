@@ -4,14 +4,13 @@
 // filled (holes.h).
 //
 // Parallelism (Mark, Bishop, McMillan, "Speedup techniques": a z-buffer instead of the
-// occlusion-compatible order, for load balance). The destination is cut into bands of 32 rows
-// that the threads take one at a time, so both cores stay busy on any pose; a thread warps
-// every row that reaches its band and writes only inside it, with plain stores, so there are no
-// write conflicts, and unpacks the band while it is in cache. Rows that cross a band boundary
-// are transformed twice; they are few because source rows map to curves that run across the
-// destination. The alternative (WarpOptions::atomicWrites) splits the rows into chunks and
-// writes the packed word with compare-and-swap; both give the maximum word per pixel, so the
-// image is deterministic and equal to the one-thread image.
+// occlusion-compatible order, for load balance). Every clipped row is transformed once, rows
+// split among the threads; then the destination is cut into bands, two per thread, at equal
+// shares of the estimated splat and unpack work, so both cores stay busy on any pose. A thread
+// splats every row that reaches its band and writes only inside it, with plain stores, so there
+// are no write conflicts, then unpacks the band. The alternative (WarpOptions::atomicWrites)
+// splits the rows into chunks and writes the packed word with compare-and-swap; both give the
+// maximum word per pixel, so the image is deterministic and equal to the one-thread image.
 
 #include <algorithm>
 #include <atomic>
@@ -37,7 +36,7 @@ namespace {}  // namespace
 // Unpacks destination rows [y0, y1) of the buffer into the frame (colour, 1/w, hole mask),
 // clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
 // from the rear surface (rows with no covered pixel wait for fillEmptyRows). Run per band right
-// after the band is warped, while its words are still in cache.
+// after the band is warped, by the thread that warped it.
 void finishRows(uint64_t* words, size_t stride, int y0, int y1, const WarpOptions& options,
                 WarpFrame* out, int* rowHoles, int* rowFilled) {
     const int dw = out->color.width();

@@ -105,7 +105,10 @@ inline __m256 ceil8(__m256 v) {
 }  // namespace
 
 void transformRow(const RowInput& in, const RowOutput& out) {
-    const RowTerms t = rowTerms(in.w, in.y);
+    // rowTerms (equation.h), spelled out: an inline function from a header, if the compiler
+    // kept it out of line here, would be an AVX2 copy the linker might give scalar callers.
+    const float fy = float(in.y);
+    const RowTerms t{in.w.b * fy + in.w.k, in.w.e * fy + in.w.l, in.w.h * fy + in.w.m};
     int x = in.x0;
 #if defined(__AVX2__)
     // Vector lanes need both row neighbours inside the row (the derivative's differences).

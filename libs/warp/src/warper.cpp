@@ -33,6 +33,8 @@ namespace plx::warp {
 
 namespace {}  // namespace
 
+namespace {
+
 // Unpacks destination rows [y0, y1) of the buffer into the frame (colour, 1/w, hole mask),
 // clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
 // from the rear surface (rows with no covered pixel wait for fillEmptyRows). Run per band right
@@ -52,6 +54,8 @@ void finishRows(uint64_t* words, size_t stride, int y0, int y1, const WarpOption
             rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
     }
 }
+
+}  // namespace
 
 struct Warper::Impl {
     explicit Impl(int threads) : pool(threads) {}

@@ -42,23 +42,29 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
     const int y0 = std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     const int y1 =
         std::min(writer.bandY1 - 1, int(std::floor(std::max({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    // Barycentric weights of b and c, affine in the pixel position, taken relative to vertex a
+    // (small numbers, so no cancellation) and advanced by constants along each row.
+    const float bx = b.p.x - a.p.x, by = b.p.y - a.p.y, cx = c.p.x - a.p.x, cy = c.p.y - a.p.y;
+    const float stepB = cy * inv, stepC = -by * inv;
+    const float dB = b.p.delta - a.p.delta, dC = c.p.delta - a.p.delta;
     for (int y = y0; y <= y1; ++y) {
-        const float py = float(y) + 0.5f;
-        for (int x = x0; x <= x1; ++x) {
-            const float px = float(x) + 0.5f;
-            const float wa = ((b.p.x - px) * (c.p.y - py) - (b.p.y - py) * (c.p.x - px)) * inv;
-            const float wb = ((c.p.x - px) * (a.p.y - py) - (c.p.y - py) * (a.p.x - px)) * inv;
-            const float wc = 1.0f - wa - wb;
+        const float py = float(y) + 0.5f - a.p.y;
+        const float px = float(x0) + 0.5f - a.p.x;
+        float wb = (px * cy - py * cx) * inv;
+        float wc = (bx * py - by * px) * inv;
+        uint64_t* row = writer.dest.words + size_t(y) * writer.dest.stride;
+        for (int x = x0; x <= x1; ++x, wb += stepB, wc += stepC) {
+            const float wa = 1.0f - wb - wc;
             const bool inside = wa >= 0.0f && wb >= 0.0f && wc >= 0.0f;
             if (kMode == WriteMode::kPainter && !inside) continue;
-            const float delta = wa * a.p.delta + wb * b.p.delta + wc * c.p.delta;
-            const uint32_t color =
-                wa >= wb ? (wa >= wc ? a.color : c.color) : (wb >= wc ? b.color : c.color);
+            const float delta = a.p.delta + wb * dB + wc * dC;
+            const uint32_t color = wa >= wb ? (wa >= wc ? a.color : c.color)
+                                            : (wb >= wc ? b.color : c.color);
             const uint64_t key = uint64_t(std::bit_cast<uint32_t>(std::max(delta, 0.0f)) + 1u);
             // Outside: word 0, which a max leaves unchanged; no branch on the edge tests, whose
             // outcome is a coin toss over a triangle's bounding box.
             const uint64_t word = inside ? key << 32 | color : 0;
-            writeWord<kMode>(writer, size_t(y) * writer.dest.stride + size_t(x), word);
+            writeWord<kMode>(writer, size_t(row - writer.dest.words) + size_t(x), word);
         }
     }
 }

@@ -1,0 +1,152 @@
+// Reference views and sets (reference.h): the cube and wide layouts around a pose, rendered with
+// raster::Renderer, and each row's disparity range for the row clip (clip.h).
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <plx/core/timing.h>
+#include <plx/warp/reference.h>
+
+namespace plx::warp {
+
+Result<ReferenceLayout> parseReferenceLayout(const std::string& name) {
+    if (name == "cube4") return ReferenceLayout::kCube4;
+    if (name == "cube6") return ReferenceLayout::kCube6;
+    if (name == "wide") return ReferenceLayout::kWide;
+    return errorStatus(ErrorCode::kInvalidArgument,
+                       "unknown reference layout '" + name + "' (cube4, cube6, wide)");
+}
+
+const char* referenceLayoutName(ReferenceLayout layout) {
+    switch (layout) {
+        case ReferenceLayout::kCube4:
+            return "cube4";
+        case ReferenceLayout::kCube6:
+            return "cube6";
+        case ReferenceLayout::kWide:
+            return "wide";
+    }
+    return "?";
+}
+
+Status checkPose(const Pose& pose) {
+    if (!isFinite(pose.eye)) return {ErrorCode::kInvalidArgument, "pose: eye is not finite"};
+    if (!isFinite(pose.forward) || !isFinite(pose.up))
+        return {ErrorCode::kInvalidArgument, "pose: forward or up is not finite"};
+    const float f = glm::length(pose.forward);
+    const float u = glm::length(pose.up);
+    if (!(f > 1e-6f) || !(u > 1e-6f))
+        return {ErrorCode::kInvalidArgument, "pose: forward or up has zero length"};
+    // sin of the angle between them; below ~0.06 degrees the frame is numerically meaningless.
+    if (!(glm::length(glm::cross(pose.forward / f, pose.up / u)) > 1e-3f))
+        return {ErrorCode::kInvalidArgument, "pose: up is parallel to forward"};
+    return {};
+}
+
+Status checkReferenceSetOptions(const ReferenceSetOptions& o) {
+    if (o.faceSize < 1 || o.faceSize > Camera::kMaxImageSide)
+        return {ErrorCode::kInvalidArgument, "reference face size " + std::to_string(o.faceSize) +
+                                                 " outside 1.." +
+                                                 std::to_string(Camera::kMaxImageSide)};
+    if (!(o.wideFovDegrees > 0.0f && o.wideFovDegrees < 180.0f))
+        return {
+            ErrorCode::kInvalidArgument,
+            "wide field of view " + std::to_string(o.wideFovDegrees) + " degrees outside (0, 180)"};
+    if (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect) ||
+        std::lround(double(o.faceSize) * o.wideAspect) > Camera::kMaxImageSide)
+        return {ErrorCode::kInvalidArgument, "wide aspect " + std::to_string(o.wideAspect) +
+                                                 " not positive or too wide for the face size"};
+    if (!(o.nearPlane > 0.0f && o.nearPlane < o.farPlane) || !std::isfinite(o.farPlane))
+        return {ErrorCode::kInvalidArgument, "reference near/far planes need 0 < near < far"};
+    return {};
+}
+
+Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSetOptions& o) {
+    PLX_RETURN_IF_ERROR(checkPose(pose));
+    PLX_RETURN_IF_ERROR(checkReferenceSetOptions(o));
+    const Vec3 fwd = glm::normalize(pose.forward);
+    const Vec3 right = glm::normalize(glm::cross(fwd, pose.up));
+    const Vec3 up = glm::cross(right, fwd);
+    struct Face {
+        Vec3 dir, up;
+    };
+    std::vector<Face> faces;
+    if (o.layout == ReferenceLayout::kWide) {
+        faces.push_back({fwd, up});
+    } else {
+        faces = {{fwd, up}, {right, up}, {-fwd, up}, {-right, up}};
+        if (o.layout == ReferenceLayout::kCube6) {
+            faces.push_back({up, -fwd});
+            faces.push_back({-up, fwd});
+        }
+    }
+    std::vector<Camera> cameras;
+    for (const Face& face : faces) {
+        CameraDesc d;
+        d.eyePos = pose.eye;
+        d.targetPos = pose.eye + face.dir;
+        d.upDir = face.up;
+        d.nearPlane = o.nearPlane;
+        d.farPlane = o.farPlane;
+        if (o.layout == ReferenceLayout::kWide) {
+            d.fovYDegrees = o.wideFovDegrees;
+            d.height = o.faceSize;
+            d.width = int(std::lround(double(o.faceSize) * o.wideAspect));
+        } else {
+            d.fovYDegrees = 90.0f;
+            d.width = d.height = o.faceSize;
+        }
+        Result<Camera> camera = Camera::create(d);
+        if (!camera) return camera.status();
+        cameras.push_back(std::move(camera).value());
+    }
+    return cameras;
+}
+
+Pose poseAt(const scene::Viewpoint& viewpoint) {
+    Pose pose;
+    pose.eye = viewpoint.eyePos;
+    pose.forward = glm::normalize(viewpoint.targetPos - viewpoint.eyePos);
+    pose.up = viewpoint.upDir;
+    return pose;
+}
+
+void computeRowDisparityRange(ReferenceView* view) {
+    const Image<float>& disparity = view->disparity;
+    view->rowMinDisparity.assign(size_t(disparity.height()), 0.0f);
+    view->rowMaxDisparity.assign(size_t(disparity.height()), 0.0f);
+    for (int y = 0; y < disparity.height(); ++y) {
+        const float* row = disparity.row(y);
+        const auto [lo, hi] = std::minmax_element(row, row + disparity.width());
+        view->rowMinDisparity[size_t(y)] = disparity.width() ? *lo : 0.0f;
+        view->rowMaxDisparity[size_t(y)] = disparity.width() ? *hi : 0.0f;
+    }
+}
+
+Status renderReferenceSet(raster::Renderer& renderer, const scene::Scene& scene, const Pose& pose,
+                          const ReferenceSetOptions& options, ReferenceSet* out) {
+    Result<std::vector<Camera>> cameras = referenceCameras(pose, options);
+    if (!cameras) return cameras.status();
+    Stopwatch timer;
+    out->pose = pose;
+    out->views.resize(cameras->size());
+    raster::RenderOptions render = options.render;
+    // The warp reads depth; a colour-only render would leave it unwritten.
+    render.colorOnly = false;
+    render.clearTargets = true;
+    render.clearDrawnTilesOnly = false;
+    for (size_t v = 0; v < cameras->size(); ++v) {
+        ReferenceView& view = out->views[v];
+        view.camera = (*cameras)[v];
+        view.color.resize(view.camera.width(), view.camera.height());
+        view.disparity.resize(view.camera.width(), view.camera.height());
+        raster::RenderTargets targets{view.color.view(), view.disparity.view(), {}, {}};
+        renderer.render(scene, view.camera, render, targets);
+        computeRowDisparityRange(&view);
+    }
+    out->renderMs = timer.elapsedMs();
+    return {};
+}
+
+}  // namespace plx::warp

@@ -38,25 +38,29 @@ DMat3 worldFromCamera(const Camera& cam) {
     return DMat3(DVec3(cam.rightDir()), DVec3(cam.upDir()), DVec3(cam.forwardDir()));
 }
 
-Rgba8 lerp(Rgba8 a, Rgba8 b, float t) {
-    auto mix = [t](uint8_t u, uint8_t v) {
-        return uint8_t(std::lround(float(u) + (float(v) - float(u)) * t));
-    };
-    return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b), mix(a.a, b.a)};
+// Bilinear weights in 8.8 fixed point (0..256, so that a sample on a pixel centre, whose
+// fraction may come out as 0.9999999, puts all its weight on one pixel and copies it exactly).
+uint32_t blend(uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t wx, uint32_t wy) {
+    uint32_t top = a * (256 - wx) + b * wx, bottom = c * (256 - wx) + d * wx;
+    return (top * (256 - wy) + bottom * wy + 32768) >> 16;
 }
 
 // Bilinear sample at continuous pixel coordinates (u, v) (pixel centres at +0.5), inside
 // [0, W] x [0, H]; the half pixel at each border clamps to the edge pixels.
-Rgba8 sampleBilinear(const Image<Rgba8>& img, double u, double v) {
+Rgba8 sampleBilinear(const Image<Rgba8>& img, float u, float v) {
     const int w = img.width(), h = img.height();
-    double fx = u - 0.5, fy = v - 0.5;
-    int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
-    float tx = float(fx - x0), ty = float(fy - y0);
+    // u, v >= 0, so fx, fy >= -0.5 and truncating fx + 1 floors it (std::floor is a library
+    // call on baseline x86-64, which has no SSE4.1 round instruction).
+    float fx = u - 0.5f, fy = v - 0.5f;
+    int x0 = int(fx + 1.0f) - 1, y0 = int(fy + 1.0f) - 1;
+    uint32_t wx = uint32_t(std::lrint((fx - float(x0)) * 256.0f));
+    uint32_t wy = uint32_t(std::lrint((fy - float(y0)) * 256.0f));
     int xa = std::clamp(x0, 0, w - 1), xb = std::clamp(x0 + 1, 0, w - 1);
-    int ya = std::clamp(y0, 0, h - 1), yb = std::clamp(y0 + 1, 0, h - 1);
-    Rgba8 top = lerp(img.at(xa, ya), img.at(xb, ya), tx);
-    Rgba8 bottom = lerp(img.at(xa, yb), img.at(xb, yb), tx);
-    return lerp(top, bottom, ty);
+    const Rgba8* ra = img.row(std::clamp(y0, 0, h - 1));
+    const Rgba8* rb = img.row(std::clamp(y0 + 1, 0, h - 1));
+    const Rgba8 a = ra[xa], b = ra[xb], c = rb[xa], d = rb[xb];
+    return {uint8_t(blend(a.r, b.r, c.r, d.r, wx, wy)), uint8_t(blend(a.g, b.g, c.g, d.g, wx, wy)),
+            uint8_t(blend(a.b, b.b, c.b, d.b, wx, wy)), uint8_t(blend(a.a, b.a, c.a, d.a, wx, wy))};
 }
 
 }  // namespace
@@ -78,21 +82,25 @@ Status rotationTimewarp(const ReferenceView& reference, const Camera& destinatio
                              worldFromCamera(destination) *
                              glm::inverse(pixelFromCamera(destination));
     const int w = destination.width(), h = destination.height();
+    const float srcW = float(src.width()), srcH = float(src.height());
     out->resize(w, h);
     for (int y = 0; y < h; ++y) {
         Rgba8* row = out->row(y);
+        // Along a row the homogeneous source point moves by the matrix's first column; it is
+        // evaluated from the row start in double (no drift over long rows), divided in float.
+        const DVec3 start = srcFromDst * DVec3(0.5, double(y) + 0.5, 1.0);
+        const DVec3 step = srcFromDst[0];
         for (int x = 0; x < w; ++x) {
-            DVec3 s = srcFromDst * DVec3(double(x) + 0.5, double(y) + 0.5, 1.0);
+            const DVec3 s = start + double(x) * step;
             // s.z is the point's depth along the reference's forward axis: <= 0 is behind it.
-            bool inside = false;
-            double u = 0.0, v = 0.0;
+            Rgba8 c = clearColor;
             if (s.z > 0.0) {
-                u = s.x / s.z;
-                v = s.y / s.z;
-                inside = u >= 0.0 && v >= 0.0 && u <= double(src.width()) &&
-                         v <= double(src.height());
+                const float inv = 1.0f / float(s.z);
+                const float u = float(s.x) * inv, v = float(s.y) * inv;
+                if (u >= 0.0f && v >= 0.0f && u <= srcW && v <= srcH)
+                    c = sampleBilinear(src, u, v);
             }
-            row[x] = inside ? sampleBilinear(src, u, v) : clearColor;
+            row[x] = c;
         }
     }
     return Status::ok();

@@ -67,15 +67,30 @@ RowSpan clipRow(const WarpCoefficients& w, int y, int width, float deltaMin, flo
         if (n == 0) return {};
     }
     double lo = in[0].x, hi = in[0].x;
-    for (int j = 1; j < n; ++j) {
+    double ylo = bottom, yhi = -mg;
+    for (int j = 0; j < n; ++j) {
         lo = std::min(lo, in[j].x);
         hi = std::max(hi, in[j].x);
+        const double d = td + w.g * in[j].x + w.i * in[j].delta;
+        if (d > 0) {
+            const double yp = (ty + w.d * in[j].x + w.f * in[j].delta) / d;
+            ylo = std::min(ylo, yp);
+            yhi = std::max(yhi, yp);
+        } else {
+            // A vertex on D = 0: the polygon reaches the horizon; any row may be hit.
+            ylo = -mg;
+            yhi = bottom;
+        }
     }
     // One pixel of slack each side covers the float kernel's rounding against this double clip.
     RowSpan span;
     span.x0 = std::max(0, int(std::floor(lo)) - 1);
     span.x1 = std::min(width, int(std::ceil(hi)) + 2);
     if (span.x0 >= span.x1) return {};
+    // The splat margin is already in the clip planes; one more row for rounding.
+    span.y0 = std::max(0, int(std::floor(ylo - mg)) - 1);
+    span.y1 = std::min(destHeight, int(std::ceil(yhi + mg)) + 2);
+    if (span.y0 >= span.y1) return {};
     return span;
 }
 

@@ -41,11 +41,13 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
     const float area = (b.p.x - a.p.x) * (c.p.y - a.p.y) - (b.p.y - a.p.y) * (c.p.x - a.p.x);
     if (!(std::fabs(area) > 1e-12f)) return;
     const float inv = 1.0f / area;
-    const int W = writer.dest.width, H = writer.dest.height;
+    const int W = writer.dest.width;
     const int x0 = std::max(0, int(std::ceil(std::min({a.p.x, b.p.x, c.p.x}) - 0.5f)));
     const int x1 = std::min(W - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int y0 = std::max(0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
-    const int y1 = std::min(H - 1, int(std::floor(std::max({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    const int y0 =
+        std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    const int y1 =
+        std::min(writer.bandY1 - 1, int(std::floor(std::max({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     for (int y = y0; y <= y1; ++y) {
         const float py = float(y) + 0.5f;
         for (int x = x0; x <= x1; ++x) {
@@ -100,10 +102,9 @@ void meshRowT(const ViewJob& view, const RowJob& row, const Writer& writer,
 
 }  // namespace
 
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, RowScratch* scratch,
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
              std::span<const int32_t> order) {
     thread_local std::vector<Vertex> rows[2];
-    (void)scratch;
     switch (writer.mode) {
         case WriteMode::kMax: return meshRowT<WriteMode::kMax>(view, row, writer, rows, order);
         case WriteMode::kAtomicMax:

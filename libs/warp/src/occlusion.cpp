@@ -36,7 +36,7 @@ void orderToward(int lo, int hi, double e, bool toward, std::vector<int32_t>* or
 
 void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vector<RowJob>& rows,
                              const Camera& destination, const WarpOptions& options,
-                             const DestBuffer& dest, uint8_t* stamp, RowScratch* scratch) {
+                             const DestBuffer& dest, uint8_t* stamp, Transformed* transformed) {
     std::vector<int32_t> rowOrder, pixelOrder;
     size_t begin = 0;
     // The rows of each view are contiguous in `rows`, in ascending y.
@@ -66,23 +66,23 @@ void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vecto
                 for (size_t j = split; j < ys.size(); ++j) jobOrder.push_back(ys[j]);
             }
         }
-        const Writer writer{dest, WriteMode::kPainter, stamp, uint8_t(vi + 1)};
+        const Writer writer{dest, WriteMode::kPainter, 0, dest.height, stamp, uint8_t(vi + 1)};
         for (int32_t jo : jobOrder) {
             const RowJob& row = rows[begin + size_t(jo)];
             if (options.splat == Splat::kMesh) {
                 orderToward(row.x0, std::max(row.x0, row.x1 - 1), ex, toward, &pixelOrder);
-                meshRow(view, row, writer, scratch, pixelOrder);
+                meshRow(view, row, writer, pixelOrder);
                 continue;
             }
-            transformRowJob(view, row, options.splat, dest, scratch);
+            (void)transformRowJob(view, row, options.splat, dest, transformed);
             orderToward(row.x0, row.x1, ex, toward, &pixelOrder);
             const float* disparity = view.view->disparity.row(row.y);
             const Rgba8* color = view.view->color.row(row.y);
             for (int32_t x : pixelOrder) {
-                const size_t i = size_t(x - row.x0);
-                if (scratch->rx0[i] >= scratch->rx1[i]) continue;
+                const size_t i = row.offset + size_t(x - row.x0);
+                if (transformed->rx0[i] >= transformed->rx1[i]) continue;
                 const uint32_t bits = disparity[x] > 0.0f ? rgbaBits(color[x]) : dest.clearBits;
-                splatPixel<WriteMode::kPainter>(writer, *scratch, i, bits);
+                splatPixel<WriteMode::kPainter>(writer, *transformed, i, bits);
             }
         }
         begin = end;

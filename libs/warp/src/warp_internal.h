@@ -2,11 +2,14 @@
 // Shared between the warp's parts: the row plan (warper.cpp), the z-buffer pass (zbuffer.cpp),
 // the occlusion-compatible pass (occlusion.cpp) and the mesh kernel (mesh.cpp).
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <plx/core/parallel.h>
@@ -27,12 +30,17 @@ struct RowJob {
     uint32_t view;
     int32_t y;
     int32_t x0, x1;
+    int32_t destY0, destY1;  // the destination rows its splats can reach (RowSpan)
+    uint32_t offset;         // where its pixels' transforms start in the Transformed arrays
 };
 
-// Per-thread buffers of the row transform's output, grown to the longest row.
-struct RowScratch {
+// The row transform's output for every planned row (RowJob::offset), kept between frames.
+struct Transformed {
     std::vector<int32_t> rx0, rx1, ry0, ry1;
     std::vector<uint32_t> key;
+    // Per row job: the destination rows its transformed splats really reach, [first, second)
+    // (tighter than RowJob's clip bound, which spans the row's whole disparity range).
+    std::vector<std::pair<int32_t, int32_t>> rowReach;
     void reserve(size_t n) {
         if (key.size() >= n) return;
         rx0.resize(n);
@@ -41,7 +49,10 @@ struct RowScratch {
         ry1.resize(n);
         key.resize(n);
     }
-    RowOutput output() { return {rx0.data(), rx1.data(), ry0.data(), ry1.data(), key.data()}; }
+    RowOutput at(size_t offset) {
+        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset,
+                ry1.data() + offset, key.data() + offset};
+    }
 };
 
 // The destination words (key << 32 | colour bits; 0 = nothing written) and the colour that
@@ -61,21 +72,24 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
               const WarpOptions& options, std::vector<ViewJob>* views, std::vector<RowJob>* rows,
               WarpStats* stats);
 
-// Transforms one row job with the active row kernel into scratch (not for mesh).
-void transformRowJob(const ViewJob& view, const RowJob& row, Splat splat, const DestBuffer& dest,
-                     RowScratch* scratch);
+// Transforms one row job with the active row kernel into its place in `out` (not for mesh) and
+// returns the destination rows its splats reach ([first, second), empty when none).
+std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& row, Splat splat,
+                                            const DestBuffer& dest, Transformed* out);
 
-// The z-buffer pass over all rows, in parallel chunks of balanced pixel counts.
+// The z-buffer pass over all rows, in parallel destination bands; finish(y0, y1) runs on each
+// band's rows as soon as they are complete (the unpack, by the thread that warped them).
 void warpZBuffer(ThreadPool& pool, const std::vector<ViewJob>& views,
                  const std::vector<RowJob>& rows, const WarpOptions& options,
-                 const DestBuffer& dest, std::vector<RowScratch>* scratch);
+                 const DestBuffer& dest, Transformed* transformed,
+                 const std::function<void(int, int)>& finish);
 
 // McMillan's occlusion-compatible order, one thread: each view painted toward (positive
 // epipole) or away from (negative) its epipole; `stamp` marks which view wrote each pixel so
 // that a view overwrites its own pixels and z-tests against other views'.
 void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vector<RowJob>& rows,
-                             const Camera& destination, const WarpOptions& options, const DestBuffer& dest, uint8_t* stamp,
-                             RowScratch* scratch);
+                             const Camera& destination, const WarpOptions& options,
+                             const DestBuffer& dest, uint8_t* stamp, Transformed* transformed);
 
 // How a splat writes a destination word: z-buffer max (one thread, or several with a
 // compare-and-swap), or the occlusion-compatible painter (overwrites what the same view wrote,
@@ -84,6 +98,7 @@ enum class WriteMode { kMax, kAtomicMax, kPainter };
 struct Writer {
     DestBuffer dest;
     WriteMode mode = WriteMode::kMax;
+    int bandY0 = 0, bandY1 = 0;  // the destination rows this writer may write, [bandY0, bandY1)
     uint8_t* stamp = nullptr;  // kPainter: per destination pixel, the view that wrote it + 1
     uint8_t viewStamp = 0;
 };
@@ -99,7 +114,10 @@ inline void writeWord(const Writer& w, size_t i, uint64_t v) {
         while (v > old && !ref.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
         }
     } else if constexpr (kMode == WriteMode::kMax) {
-        if (v > *p) *p = v;
+        // Always stores (a conditional move): neighbouring splats overlap with close depths, so
+        // a branch on the test would mispredict about half the time.
+        const uint64_t old = *p;
+        *p = v > old ? v : old;
     } else {
         if (w.stamp[i] == w.viewStamp || v > *p) {
             *p = v;
@@ -108,10 +126,11 @@ inline void writeWord(const Writer& w, size_t i, uint64_t v) {
     }
 }
 
-// Splats pixel i of a transformed row (scratch) with the given colour bits.
+// Splats transformed pixel i with the given colour bits.
 template <WriteMode kMode>
-inline void splatPixel(const Writer& w, const RowScratch& s, size_t i, uint32_t color) {
-    const int32_t x0 = s.rx0[i], x1 = s.rx1[i], y0 = s.ry0[i], y1 = s.ry1[i];
+inline void splatPixel(const Writer& w, const Transformed& s, size_t i, uint32_t color) {
+    const int32_t x0 = s.rx0[i], x1 = s.rx1[i];
+    const int32_t y0 = std::max(s.ry0[i], w.bandY0), y1 = std::min(s.ry1[i], w.bandY1);
     const uint64_t v = uint64_t(s.key[i]) << 32 | color;
     for (int32_t y = y0; y < y1; ++y) {
         const size_t base = size_t(y) * size_t(w.dest.width);
@@ -127,7 +146,7 @@ inline uint32_t sourceColor(const ReferenceView& view, int x, int y, float delta
 
 // Warps and draws the mesh quads of one row job (mesh.cpp). `order`: the quads' x in drawing
 // order, or empty for x0 .. x1 - 2 ascending.
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, RowScratch* scratch,
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
              std::span<const int32_t> order = {});
 
 }  // namespace plx::warp::detail

@@ -4,14 +4,14 @@
 // filled (holes.h).
 //
 // Parallelism (Mark, Bishop, McMillan, "Speedup techniques": a z-buffer instead of the
-// occlusion-compatible order, for load balance): the clipped rows of all views form one list,
-// cut into chunks of about equal pixel counts, so both cores stay busy whatever the pose (a
-// pose that sees one cube face only still has hundreds of rows). Write conflicts: the packed
-// word makes the z-test and the write one compare-and-swap that only runs when the new word is
-// larger, so the result is the maximum over all writers whatever the interleaving: the image
-// is deterministic and equal to the one-thread image. Per-thread destination bands were the
-// alternative; they need each thread to transform every row that reaches its band (rows cross
-// bands) and balance badly when the view looks up or down.
+// occlusion-compatible order, for load balance). The destination is cut into bands of 32 rows
+// that the threads take one at a time, so both cores stay busy on any pose; a thread warps
+// every row that reaches its band and writes only inside it, with plain stores, so there are no
+// write conflicts, and unpacks the band while it is in cache. Rows that cross a band boundary
+// are transformed twice; they are few because source rows map to curves that run across the
+// destination. The alternative (WarpOptions::atomicWrites) splits the rows into chunks and
+// writes the packed word with compare-and-swap; both give the maximum word per pixel, so the
+// image is deterministic and equal to the one-thread image.
 
 #include <algorithm>
 #include <atomic>
@@ -34,18 +34,47 @@ namespace plx::warp {
 
 namespace {
 
-Rgba8 bitsColor(uint32_t v) { return std::bit_cast<Rgba8>(v); }
-
 }  // namespace
+
+// Unpacks destination rows [y0, y1) of the buffer into the frame (colour, 1/w, hole mask),
+// clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
+// from the rear surface (rows with no covered pixel wait for fillEmptyRows). Run per band right
+// after the band is warped, while its words are still in cache.
+void finishRows(uint64_t* buffer, int y0, int y1, const WarpOptions& options, WarpFrame* out,
+                int* rowHoles, int* rowFilled) {
+    const int dw = out->color.width();
+    const uint32_t clearBits = detail::rgbaBits(options.clearColor);
+    for (int y = y0; y < y1; ++y) {
+        uint64_t* src = buffer + size_t(y) * size_t(dw);
+        Rgba8* c = out->color.row(y);
+        float* d = out->depth.row(y);
+        uint8_t* m = out->holeMask.row(y);
+        int holes = 0;
+        for (int x = 0; x < dw; ++x) {
+            const uint64_t v = src[x];
+            src[x] = 0;
+            const uint32_t key = uint32_t(v >> 32);
+            const bool hole = key == 0;
+            m[x] = hole;
+            holes += hole;
+            c[x] = std::bit_cast<Rgba8>(hole ? clearBits : uint32_t(v));
+            d[x] = std::bit_cast<float>(hole ? 0u : key - 1u);  // key: bits of 1/w, plus 1
+        }
+        rowHoles[y] = holes;
+        if (options.fillHoles && holes > 0) rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
+    }
+}
 
 struct Warper::Impl {
     explicit Impl(int threads) : pool(threads) {}
     ThreadPool pool;
     std::vector<uint64_t> buffer;  // destination words: key << 32 | colour; 0 = not written
     std::vector<uint8_t> stamp;    // occlusion-compatible order: which view wrote last (+1)
+    std::vector<int> rowHoles;     // per destination row, its hole pixels before the fill
+    std::vector<int> rowFilled;    // per destination row, holes the row fill filled
     std::vector<detail::ViewJob> views;
     std::vector<detail::RowJob> rows;
-    std::vector<detail::RowScratch> scratch;  // per thread slot
+    detail::Transformed transformed;  // the row transforms of the frame
 };
 
 Warper::Warper(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
@@ -107,53 +136,40 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
     Impl& im = *mImpl;
     const int dw = destination.width(), dh = destination.height();
     const size_t pixels = size_t(dw) * size_t(dh);
-    if (im.buffer.size() != pixels) im.buffer.resize(pixels);
-    const int threads = im.pool.threadCount();
-    im.scratch.resize(size_t(threads));
-    im.pool.parallelFor(size_t(dh), 64, [&](size_t y0, size_t y1) {
-        std::fill(im.buffer.begin() + ptrdiff_t(y0 * size_t(dw)),
-                  im.buffer.begin() + ptrdiff_t(y1 * size_t(dw)), uint64_t(0));
-    });
+    // The buffer is all zero between frames: finishRows clears each word it reads, which saves
+    // a separate pass over 8 bytes per destination pixel.
+    if (im.buffer.size() != pixels) im.buffer.assign(pixels, 0);
 
     WarpStats st;
     detail::planRows(sets, destination, options, &im.views, &im.rows, &st);
+    im.transformed.reserve(size_t(st.sourcePixels));
     detail::DestBuffer dest{im.buffer.data(), dw, dh, detail::rgbaBits(options.clearColor)};
+    // Image::resize refills its pixels, so only on a size change; every pixel is written below.
+    if (out->color.width() != dw || out->color.height() != dh) out->color.resize(dw, dh);
+    if (out->depth.width() != dw || out->depth.height() != dh) out->depth.resize(dw, dh);
+    if (out->holeMask.width() != dw || out->holeMask.height() != dh) out->holeMask.resize(dw, dh);
+    im.rowHoles.assign(size_t(dh), 0);
+    im.rowFilled.assign(size_t(dh), 0);
+    const auto finish = [&](int y0, int y1) {
+        finishRows(im.buffer.data(), y0, y1, options, out, im.rowHoles.data(),
+                   im.rowFilled.data());
+    };
     if (options.order == WarpOrder::kOcclusionCompatible) {
         im.stamp.assign(pixels, 0);
-        detail::warpOcclusionCompatible(im.views, im.rows, destination, options, dest, im.stamp.data(),
-                                        &im.scratch[0]);
+        detail::warpOcclusionCompatible(im.views, im.rows, destination, options, dest,
+                                        im.stamp.data(), &im.transformed);
+        im.pool.parallelFor(size_t(dh), 16,
+                            [&](size_t y0, size_t y1) { finish(int(y0), int(y1)); });
     } else {
-        detail::warpZBuffer(im.pool, im.views, im.rows, options, dest, &im.scratch);
+        detail::warpZBuffer(im.pool, im.views, im.rows, options, dest, &im.transformed, finish);
     }
-
-    // Unpack: colour, 1/w and the hole mask.
-    out->color.resize(dw, dh);
-    out->depth.resize(dw, dh);
-    out->holeMask.resize(dw, dh);
-    std::atomic<int64_t> holes{0};
-    im.pool.parallelFor(size_t(dh), 32, [&](size_t y0, size_t y1) {
-        int64_t local = 0;
-        for (size_t y = y0; y < y1; ++y) {
-            const uint64_t* src = im.buffer.data() + y * size_t(dw);
-            Rgba8* c = out->color.row(int(y));
-            float* d = out->depth.row(int(y));
-            uint8_t* m = out->holeMask.row(int(y));
-            for (int x = 0; x < dw; ++x) {
-                const uint64_t v = src[x];
-                const uint32_t key = uint32_t(v >> 32);
-                m[x] = key == 0;
-                local += key == 0;
-                c[x] = key ? bitsColor(uint32_t(v)) : options.clearColor;
-                d[x] = key ? std::bit_cast<float>(key - 1u) : 0.0f;
-            }
-        }
-        holes += local;
-    });
-    st.holePixels = holes.load();
-    st.holePixelsLeft = st.holePixels;
-    if (options.fillHoles && st.holePixels > 0)
-        st.holePixelsLeft -=
-            fillRearSurface(&out->color, &out->depth, &out->holeMask, options.clearColor);
+    for (int y = 0; y < dh; ++y) {
+        st.holePixels += im.rowHoles[size_t(y)];
+        st.holePixelsLeft += im.rowHoles[size_t(y)] - im.rowFilled[size_t(y)];
+    }
+    if (options.fillHoles && st.holePixelsLeft > 0)
+        st.holePixelsLeft -= fillEmptyRows(&out->color, &out->depth, &out->holeMask,
+                                           options.clearColor);
     st.ms = timer.elapsedMs();
     if (stats) *stats = st;
     return {};
@@ -175,6 +191,8 @@ RowSpan meshSpan(const WarpCoefficients& w, const ReferenceView& view, int y, Ro
         if (span.x0 < span.x1) {
             span.x0 = std::min(span.x0, next.x0);
             span.x1 = std::max(span.x1, next.x1);
+            span.y0 = std::min(span.y0, next.y0);
+            span.y1 = std::max(span.y1, next.y1);
         } else {
             span = next;
         }
@@ -203,7 +221,7 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
             const int rowCount = mesh ? h - 1 : h;
             for (int y = 0; y < rowCount; ++y) {
                 ++st->rowsTotal;
-                RowSpan span{0, w};
+                RowSpan span{0, w, 0, destination.height()};
                 if (options.clipRows) {
                     span = clipRow(job.w, y, w, view.rowMinDisparity[size_t(y)],
                                    view.rowMaxDisparity[size_t(y)], destination.width(),
@@ -215,7 +233,8 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
                     }
                     if (span.x0 > 0 || span.x1 < w) ++st->rowsCut;
                 }
-                rows->push_back({vi, y, span.x0, span.x1});
+                rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1,
+                                 uint32_t(st->sourcePixels)});
                 st->sourcePixels += span.x1 - span.x0;
             }
         }

@@ -11,10 +11,14 @@
 
 namespace plx::warp {
 
-// A source row's potentially visible pixels [x0, x1); empty when x0 >= x1.
+// A source row's potentially visible pixels [x0, x1) (empty when x0 >= x1), and the destination
+// rows [y0, y1) that their splats can reach (the clipped polygon's extent; a projective map
+// with D > 0 keeps the polygon convex, so its vertices bound it).
 struct RowSpan {
     int x0 = 0;
     int x1 = 0;
+    int y0 = 0;
+    int y1 = 0;
 };
 
 // The visible span of source row y (pixels 0..width-1, disparities in [deltaMin, deltaMax]) for a

@@ -18,4 +18,14 @@ namespace plx::warp {
 int64_t fillRearSurface(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
                         Rgba8 clearColor);
 
+// The fill of one row of `w` pixels, as above: returns how many it filled, or -1 when the row
+// has no covered pixel (left as it is, for fillEmptyRows). The warper runs it on each band of
+// rows while they are still in cache.
+int fillRowRearSurface(Rgba8* color, float* depth, uint8_t* holeMask, int w);
+
+// The second step: every row still wholly a hole (mask 1 at its first pixel after the row
+// fill) copies the nearest row that is not, or takes the clear colour. Returns pixels filled.
+int64_t fillEmptyRows(Image<Rgba8>* color, Image<float>* depth, Image<uint8_t>* holeMask,
+                      Rgba8 clearColor);
+
 }  // namespace plx::warp

@@ -86,6 +86,11 @@ struct WarpOptions {
     WarpOrder order = WarpOrder::kZBuffer;
     bool clipRows = true;    // per-row clipping (never changes the image)
     bool fillHoles = true;   // the rear-surface fill of what no reference covers
+    // Z-buffer with several threads: false (default) gives each thread destination bands of
+    // balanced source pixel counts and plain writes; true splits the rows into chunks and
+    // writes the packed (1/w, colour) word with compare-and-swap. Same image either way
+    // (docs/warp-results.md has the timings).
+    bool atomicWrites = false;
     Rgba8 clearColor{40, 44, 52, 255};  // what delta = 0 pixels warp as (the renderer's clear)
 };
 

@@ -41,9 +41,8 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
     const float area = (b.p.x - a.p.x) * (c.p.y - a.p.y) - (b.p.y - a.p.y) * (c.p.x - a.p.x);
     if (!(std::fabs(area) > 1e-12f)) return;
     const float inv = 1.0f / area;
-    const int W = writer.dest.width;
     const int x0 = std::max(0, int(std::ceil(std::min({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int x1 = std::min(W - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
+    const int x1 = std::min(writer.dest.width - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
     const int y0 =
         std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     const int y1 =
@@ -60,7 +59,7 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
             const uint32_t color = wa >= wb ? (wa >= wc ? a.color : c.color)
                                             : (wb >= wc ? b.color : c.color);
             const uint64_t key = uint64_t(std::bit_cast<uint32_t>(std::max(delta, 0.0f)) + 1u);
-            writeWord<kMode>(writer, size_t(y) * size_t(W) + size_t(x), key << 32 | color);
+            writeWord<kMode>(writer, size_t(y) * writer.dest.stride + size_t(x), key << 32 | color);
         }
     }
 }

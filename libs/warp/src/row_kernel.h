@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include <plx/core/cpu.h>
+#include <plx/core/image.h>
 #include <plx/warp/equation.h>
 
 namespace plx::warp::detail {
@@ -39,5 +40,28 @@ struct RowOutput {
 PLX_ISA_DECLARE(void transformRow(const RowInput& in, const RowOutput& out))
 
 inline auto activeTransformRow() { return PLX_ISA_PICK_UP_TO_AVX2(transformRow); }
+
+// One transformed row's splats written into a band of the destination words (splat_row.inl):
+// each word becomes the max of itself and (key << 32 | colour) inside the splat's rectangle
+// clipped to rows [bandY0, bandY1). The caller must be the band's only writer (the vector path
+// rewrites the words of a rectangle's aligned 4-word blocks outside it with their own values).
+struct SplatRowInput {
+    const int32_t* rx0;  // the row's transformed pixels (RowOutput), `count` of them
+    const int32_t* rx1;
+    const int32_t* ry0;
+    const int32_t* ry1;
+    const uint32_t* key;
+    const float* disparity;  // the source row's pixels from the span's first
+    const Rgba8* color;
+    int count = 0;
+    uint32_t clearBits = 0;  // what delta = 0 pixels write
+    uint64_t* words = nullptr;  // 32-byte aligned; rows `stride` words apart, stride % 4 == 0
+    size_t stride = 0;
+    int bandY0 = 0, bandY1 = 0;
+};
+
+PLX_ISA_DECLARE(void splatRow(const SplatRowInput& in))
+
+inline auto activeSplatRow() { return PLX_ISA_PICK_UP_TO_AVX2(splatRow); }
 
 }  // namespace plx::warp::detail

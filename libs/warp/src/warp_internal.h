@@ -58,9 +58,10 @@ struct Transformed {
 // The destination words (key << 32 | colour bits; 0 = nothing written) and the colour that
 // background (delta = 0) pixels write.
 struct DestBuffer {
-    uint64_t* words;
+    uint64_t* words;  // 32-byte aligned
     int width, height;
     uint32_t clearBits;
+    size_t stride;    // words per row: width rounded up to 4, so 4-word blocks never span rows
 };
 
 inline uint32_t rgbaBits(Rgba8 c) { return std::bit_cast<uint32_t>(c); }
@@ -133,7 +134,7 @@ inline void splatPixel(const Writer& w, const Transformed& s, size_t i, uint32_t
     const int32_t y0 = std::max(s.ry0[i], w.bandY0), y1 = std::min(s.ry1[i], w.bandY1);
     const uint64_t v = uint64_t(s.key[i]) << 32 | color;
     for (int32_t y = y0; y < y1; ++y) {
-        const size_t base = size_t(y) * size_t(w.dest.width);
+        const size_t base = size_t(y) * w.dest.stride;
         for (int32_t x = x0; x < x1; ++x) writeWord<kMode>(w, base + size_t(x), v);
     }
 }

@@ -40,12 +40,12 @@ namespace {
 // clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
 // from the rear surface (rows with no covered pixel wait for fillEmptyRows). Run per band right
 // after the band is warped, while its words are still in cache.
-void finishRows(uint64_t* buffer, int y0, int y1, const WarpOptions& options, WarpFrame* out,
-                int* rowHoles, int* rowFilled) {
+void finishRows(uint64_t* words, size_t stride, int y0, int y1, const WarpOptions& options,
+                WarpFrame* out, int* rowHoles, int* rowFilled) {
     const int dw = out->color.width();
     const uint32_t clearBits = detail::rgbaBits(options.clearColor);
     for (int y = y0; y < y1; ++y) {
-        uint64_t* src = buffer + size_t(y) * size_t(dw);
+        uint64_t* src = words + size_t(y) * stride;
         Rgba8* c = out->color.row(y);
         float* d = out->depth.row(y);
         uint8_t* m = out->holeMask.row(y);
@@ -68,7 +68,11 @@ void finishRows(uint64_t* buffer, int y0, int y1, const WarpOptions& options, Wa
 struct Warper::Impl {
     explicit Impl(int threads) : pool(threads) {}
     ThreadPool pool;
-    std::vector<uint64_t> buffer;  // destination words: key << 32 | colour; 0 = not written
+    // Destination words (key << 32 | colour; 0 = not written), rows `stride` words apart, from
+    // the first 32-byte boundary of `buffer`.
+    std::vector<uint64_t> buffer;
+    uint64_t* words = nullptr;
+    size_t stride = 0;
     std::vector<uint8_t> stamp;    // occlusion-compatible order: which view wrote last (+1)
     std::vector<int> rowHoles;     // per destination row, its hole pixels before the fill
     std::vector<int> rowFilled;    // per destination row, holes the row fill filled
@@ -135,15 +139,20 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
     Stopwatch timer;
     Impl& im = *mImpl;
     const int dw = destination.width(), dh = destination.height();
-    const size_t pixels = size_t(dw) * size_t(dh);
     // The buffer is all zero between frames: finishRows clears each word it reads, which saves
     // a separate pass over 8 bytes per destination pixel.
-    if (im.buffer.size() != pixels) im.buffer.assign(pixels, 0);
+    const size_t stride = (size_t(dw) + 3) & ~size_t(3);
+    if (im.stride != stride || im.buffer.size() != stride * size_t(dh) + 4) {
+        im.stride = stride;
+        im.buffer.assign(stride * size_t(dh) + 4, 0);
+        const size_t skew = (32 - reinterpret_cast<uintptr_t>(im.buffer.data()) % 32) % 32;
+        im.words = im.buffer.data() + skew / 8;
+    }
 
     WarpStats st;
     detail::planRows(sets, destination, options, &im.views, &im.rows, &st);
     im.transformed.reserve(size_t(st.sourcePixels));
-    detail::DestBuffer dest{im.buffer.data(), dw, dh, detail::rgbaBits(options.clearColor)};
+    detail::DestBuffer dest{im.words, dw, dh, detail::rgbaBits(options.clearColor), stride};
     // Image::resize refills its pixels, so only on a size change; every pixel is written below.
     if (out->color.width() != dw || out->color.height() != dh) out->color.resize(dw, dh);
     if (out->depth.width() != dw || out->depth.height() != dh) out->depth.resize(dw, dh);
@@ -151,11 +160,11 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
     im.rowHoles.assign(size_t(dh), 0);
     im.rowFilled.assign(size_t(dh), 0);
     const auto finish = [&](int y0, int y1) {
-        finishRows(im.buffer.data(), y0, y1, options, out, im.rowHoles.data(),
+        finishRows(im.words, stride, y0, y1, options, out, im.rowHoles.data(),
                    im.rowFilled.data());
     };
     if (options.order == WarpOrder::kOcclusionCompatible) {
-        im.stamp.assign(pixels, 0);
+        im.stamp.assign(stride * size_t(dh), 0);
         detail::warpOcclusionCompatible(im.views, im.rows, destination, options, dest,
                                         im.stamp.data(), &im.transformed);
         im.pool.parallelFor(size_t(dh), 16,

@@ -48,6 +48,7 @@ void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJo
              size_t firstRow, int bandY0, int bandY1, const WarpOptions& options,
              const DestBuffer& dest, const Transformed& t) {
     const Writer writer{dest, kMode, bandY0, bandY1};
+    const auto splat = activeSplatRow();
     for (const RowJob* it = begin; it != end; ++it) {
         const RowJob& row = *it;
         if (row.destY1 <= bandY0 || row.destY0 >= bandY1) continue;
@@ -60,6 +61,25 @@ void runRows(const std::vector<ViewJob>& views, const RowJob* begin, const RowJo
         if (reachY1 <= bandY0 || reachY0 >= bandY1) continue;
         const float* disparity = view.view->disparity.row(row.y);
         const Rgba8* color = view.view->color.row(row.y);
+        if constexpr (kMode == WriteMode::kMax) {
+            // The band's only writer: the per-ISA splat kernel.
+            SplatRowInput in;
+            in.rx0 = t.rx0.data() + row.offset;
+            in.rx1 = t.rx1.data() + row.offset;
+            in.ry0 = t.ry0.data() + row.offset;
+            in.ry1 = t.ry1.data() + row.offset;
+            in.key = t.key.data() + row.offset;
+            in.disparity = disparity + row.x0;
+            in.color = color + row.x0;
+            in.count = row.x1 - row.x0;
+            in.clearBits = dest.clearBits;
+            in.words = dest.words;
+            in.stride = dest.stride;
+            in.bandY0 = bandY0;
+            in.bandY1 = bandY1;
+            splat(in);
+            continue;
+        }
         for (int x = row.x0; x < row.x1; ++x) {
             const size_t i = row.offset + size_t(x - row.x0);
             if (t.rx0[i] >= t.rx1[i] || t.ry1[i] <= bandY0 || t.ry0[i] >= bandY1) continue;

@@ -114,4 +114,20 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
                        "blob", 2);
 }
 
+TEST(WarpCli, DemoQuickHasTheWarpSection) {
+    fs::path dir = scratchDir() / "demo";
+    RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    ASSERT_TRUE(doc.contains("warp"));
+    EXPECT_FALSE(doc["warp"]["rows"].empty());
+    for (const char* file : {"warp_truth.png", "warp_stale.png", "warp_timewarp.png",
+                             "warp_warp2.png", "warp_psnr_vs_rtt_office_8.svg"})
+        EXPECT_TRUE(fs::exists(dir / file)) << file;
+    std::ifstream html(dir / "index.html");
+    std::string text((std::istreambuf_iterator<char>(html)), {});
+    EXPECT_NE(text.find("warp_warp2.png"), std::string::npos);
+    EXPECT_NE(text.find("PSNR against round trip"), std::string::npos);
+}
+
 }  // namespace

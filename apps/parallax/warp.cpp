@@ -175,7 +175,10 @@ Command registerWarp(CLI::App& app) {
     sub->footer("Example: parallax warp office:8 --to-eye 1.3,1.6,1.1 --refs cube4 --splat "
                 "derivative --size 640x480 --out out/warp --json\n"
                 "Writes PREFIX-warped.png, PREFIX-truth.png (the render at the second pose) and "
-                "PREFIX-diff.png (difference x4, magenta > 40; holes red, filled holes blue).");
+                "PREFIX-diff.png (difference x4, magenta > 40; holes red, filled holes blue).\n"
+                "JSON: warp_ms is the median warp, mpix_per_s the source pixels (after row "
+                "clipping) per second, hole_fraction the destination pixels no reference covered "
+                "before the fill, psnr_db the warped frame against the render (99: identical).");
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();
     addViewOptions(sub, &a->view);

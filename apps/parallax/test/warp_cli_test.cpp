@@ -66,6 +66,17 @@ TEST(WarpCli, EveryLayoutAndSplatRuns) {
         }
 }
 
+TEST(WarpCli, FirstPoseFromANamedViewpoint) {
+    fs::path prefix = scratchDir() / "vista";
+    RunResult r = runParallax("warp office:2 --viewpoint vista --size 48x36 --to-eye 0.6,1.6,0.6 "
+                              "--frames 1 --out " + prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_GT(nlohmann::json::parse(r.out)["psnr_db"].get<double>(), 10.0);
+    expectOneLineError(runParallax("warp office:2 --viewpoint nowhere --to-eye 1,1,1 --out " +
+                                   prefix.string()),
+                       "nowhere", 2);
+}
+
 TEST(WarpCli, BadParametersGiveOneLineErrors) {
     std::string out = " --out " + (scratchDir() / "bad").string();
     std::string base = "warp office:1 --size 32x24";

@@ -1,6 +1,6 @@
 // The mesh reconstruction (splat.h; beyond the paper): each 2x2 quad of source pixels is two
-// triangles rasterised in the destination, torn at depth discontinuities. Scalar: the quads
-// share their vertices' warps, computed once per row pair with warpPixel.
+// triangles rasterised in the destination, torn at depth discontinuities. Scalar: the vertices
+// are warped once per frame with warpPixel (transformMeshRow), then the bands draw the quads.
 
 #include <algorithm>
 #include <bit>
@@ -14,17 +14,12 @@ namespace plx::warp::detail {
 
 namespace {
 
-struct Vertex {
-    WarpedPoint p;
-    float sourceDelta;
-    uint32_t color;
-};
+using Vertex = MeshVertex;
 
 // Whether a triangle is drawn: in front of the destination, no depth discontinuity, no
 // background/foreground mix, and no larger than a splat (splat.h).
 bool keepTriangle(const Vertex& a, const Vertex& b, const Vertex& c) {
-    if (!(a.p.denominator > 0.0f && b.p.denominator > 0.0f && c.p.denominator > 0.0f))
-        return false;
+    if (!(a.p.denominator > 0.0f && b.p.denominator > 0.0f && c.p.denominator > 0.0f)) return false;
     const float lo = std::min({a.sourceDelta, b.sourceDelta, c.sourceDelta});
     const float hi = std::max({a.sourceDelta, b.sourceDelta, c.sourceDelta});
     if (hi > 0.0f && (lo <= 0.0f || hi - lo > kMeshTearRatio * hi)) return false;
@@ -42,55 +37,51 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
     if (!(std::fabs(area) > 1e-12f)) return;
     const float inv = 1.0f / area;
     const int x0 = std::max(0, int(std::ceil(std::min({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int x1 = std::min(writer.dest.width - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
-    const int y0 =
-        std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    const int x1 =
+        std::min(writer.dest.width - 1, int(std::floor(std::max({a.p.x, b.p.x, c.p.x}) - 0.5f)));
+    const int y0 = std::max(writer.bandY0, int(std::ceil(std::min({a.p.y, b.p.y, c.p.y}) - 0.5f)));
     const int y1 =
         std::min(writer.bandY1 - 1, int(std::floor(std::max({a.p.y, b.p.y, c.p.y}) - 0.5f)));
+    // Barycentric weights of b and c, affine in the pixel position, taken relative to vertex a
+    // (small numbers, so no cancellation) and advanced by constants along each row.
+    const float bx = b.p.x - a.p.x, by = b.p.y - a.p.y, cx = c.p.x - a.p.x, cy = c.p.y - a.p.y;
+    const float stepB = cy * inv, stepC = -by * inv;
+    const float dB = b.p.delta - a.p.delta, dC = c.p.delta - a.p.delta;
     for (int y = y0; y <= y1; ++y) {
-        const float py = float(y) + 0.5f;
-        for (int x = x0; x <= x1; ++x) {
-            const float px = float(x) + 0.5f;
-            const float wa = ((b.p.x - px) * (c.p.y - py) - (b.p.y - py) * (c.p.x - px)) * inv;
-            const float wb = ((c.p.x - px) * (a.p.y - py) - (c.p.y - py) * (a.p.x - px)) * inv;
-            const float wc = 1.0f - wa - wb;
-            if (wa < 0.0f || wb < 0.0f || wc < 0.0f) continue;
-            const float delta = wa * a.p.delta + wb * b.p.delta + wc * c.p.delta;
+        const float py = float(y) + 0.5f - a.p.y;
+        const float px = float(x0) + 0.5f - a.p.x;
+        float wb = (px * cy - py * cx) * inv;
+        float wc = (bx * py - by * px) * inv;
+        uint64_t* row = writer.dest.words + size_t(y) * writer.dest.stride;
+        for (int x = x0; x <= x1; ++x, wb += stepB, wc += stepC) {
+            const float wa = 1.0f - wb - wc;
+            const bool inside = wa >= 0.0f && wb >= 0.0f && wc >= 0.0f;
+            if (kMode == WriteMode::kPainter && !inside) continue;
+            const float delta = a.p.delta + wb * dB + wc * dC;
             const uint32_t color = wa >= wb ? (wa >= wc ? a.color : c.color)
                                             : (wb >= wc ? b.color : c.color);
             const uint64_t key = uint64_t(std::bit_cast<uint32_t>(std::max(delta, 0.0f)) + 1u);
-            writeWord<kMode>(writer, size_t(y) * writer.dest.stride + size_t(x), key << 32 | color);
+            // Outside: word 0, which a max leaves unchanged; no branch on the edge tests, whose
+            // outcome is a coin toss over a triangle's bounding box.
+            const uint64_t word = inside ? key << 32 | color : 0;
+            writeWord<kMode>(writer, size_t(row - writer.dest.words) + size_t(x), word);
         }
     }
 }
 
 template <WriteMode kMode>
-void meshRowT(const ViewJob& view, const RowJob& row, const Writer& writer,
-              std::vector<Vertex>* rows, std::span<const int32_t> order) {
-    const ReferenceView& v = *view.view;
-    const int width = v.disparity.width();
+void meshRowT(const ViewJob& view, const RowJob& row, const Writer& writer, const Transformed& t,
+              std::span<const int32_t> order) {
+    const int width = view.view->disparity.width();
     const int xEnd = std::min(row.x1 + 1, width);
-    const int n = xEnd - row.x0;
-    rows[0].resize(size_t(std::max(n, 0)));
-    rows[1].resize(size_t(std::max(n, 0)));
-    for (int r = 0; r < 2; ++r) {
-        const int y = row.y + r;
-        const float* disparity = v.disparity.row(y);
-        const Rgba8* color = v.color.row(y);
-        for (int x = row.x0; x < xEnd; ++x) {
-            Vertex& vx = rows[r][size_t(x - row.x0)];
-            warpPixel(view.w, x, y, disparity[x], &vx.p);
-            vx.sourceDelta = disparity[x];
-            vx.color = disparity[x] > 0.0f ? rgbaBits(color[x]) : writer.dest.clearBits;
-        }
-    }
+    const size_t n = size_t(row.x1 - row.x0 + 1);
+    const Vertex* top = t.vertices.data() + row.offset;
+    const Vertex* bottom = top + n;
     auto quad = [&](int x) {
         if (x + 1 >= xEnd) return;
         const size_t i = size_t(x - row.x0);
-        const Vertex &p00 = rows[0][i], &p10 = rows[0][i + 1], &p01 = rows[1][i],
-                     &p11 = rows[1][i + 1];
-        drawTriangle<kMode>(writer, p00, p10, p01);
-        drawTriangle<kMode>(writer, p10, p11, p01);
+        drawTriangle<kMode>(writer, top[i], top[i + 1], bottom[i]);
+        drawTriangle<kMode>(writer, top[i + 1], bottom[i + 1], bottom[i]);
     };
     if (order.empty()) {
         for (int x = row.x0; x < row.x1; ++x) quad(x);
@@ -101,15 +92,43 @@ void meshRowT(const ViewJob& view, const RowJob& row, const Writer& writer,
 
 }  // namespace
 
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
+std::pair<int32_t, int32_t> transformMeshRow(const ViewJob& view, const RowJob& row,
+                                             const DestBuffer& dest, Transformed* out) {
+    const ReferenceView& v = *view.view;
+    const int xEnd = std::min(row.x1 + 1, v.disparity.width());
+    const size_t n = size_t(row.x1 - row.x0 + 1);
+    float lo = float(dest.height), hi = 0.0f;
+    for (int r = 0; r < 2; ++r) {
+        const int y = row.y + r;
+        const float* disparity = v.disparity.row(y);
+        const Rgba8* color = v.color.row(y);
+        Vertex* vertices = out->vertices.data() + row.offset + size_t(r) * n;
+        for (int x = row.x0; x < xEnd; ++x) {
+            Vertex& vx = vertices[x - row.x0];
+            if (warpPixel(view.w, x, y, disparity[x], &vx.p)) {
+                lo = std::min(lo, vx.p.y);
+                hi = std::max(hi, vx.p.y);
+            }
+            vx.sourceDelta = disparity[x];
+            vx.color = disparity[x] > 0.0f ? rgbaBits(color[x]) : dest.clearBits;
+        }
+    }
+    // A drawn triangle's pixel centres lie between its vertices' y (drawTriangle).
+    if (!(lo <= hi)) return {0, 0};
+    const int32_t y0 = int32_t(std::max(0.0f, std::floor(lo)));
+    const int32_t y1 = int32_t(std::min(float(dest.height), std::ceil(hi) + 1.0f));
+    return {y0, y1};
+}
+
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, const Transformed& t,
              std::span<const int32_t> order) {
-    thread_local std::vector<Vertex> rows[2];
     switch (writer.mode) {
-        case WriteMode::kMax: return meshRowT<WriteMode::kMax>(view, row, writer, rows, order);
+        case WriteMode::kMax:
+            return meshRowT<WriteMode::kMax>(view, row, writer, t, order);
         case WriteMode::kAtomicMax:
-            return meshRowT<WriteMode::kAtomicMax>(view, row, writer, rows, order);
+            return meshRowT<WriteMode::kAtomicMax>(view, row, writer, t, order);
         case WriteMode::kPainter:
-            return meshRowT<WriteMode::kPainter>(view, row, writer, rows, order);
+            return meshRowT<WriteMode::kPainter>(view, row, writer, t, order);
     }
 }
 

@@ -71,7 +71,8 @@ void warpOcclusionCompatible(const std::vector<ViewJob>& views, const std::vecto
             const RowJob& row = rows[begin + size_t(jo)];
             if (options.splat == Splat::kMesh) {
                 orderToward(row.x0, std::max(row.x0, row.x1 - 1), ex, toward, &pixelOrder);
-                meshRow(view, row, writer, pixelOrder);
+                (void)transformMeshRow(view, row, dest, transformed);
+                meshRow(view, row, writer, *transformed, pixelOrder);
                 continue;
             }
             (void)transformRowJob(view, row, options.splat, dest, transformed);

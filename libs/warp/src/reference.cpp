@@ -20,9 +20,12 @@ Result<ReferenceLayout> parseReferenceLayout(const std::string& name) {
 
 const char* referenceLayoutName(ReferenceLayout layout) {
     switch (layout) {
-        case ReferenceLayout::kCube4: return "cube4";
-        case ReferenceLayout::kCube6: return "cube6";
-        case ReferenceLayout::kWide: return "wide";
+        case ReferenceLayout::kCube4:
+            return "cube4";
+        case ReferenceLayout::kCube6:
+            return "cube6";
+        case ReferenceLayout::kWide:
+            return "wide";
     }
     return "?";
 }
@@ -47,9 +50,9 @@ Status checkReferenceSetOptions(const ReferenceSetOptions& o) {
                                                  " outside 1.." +
                                                  std::to_string(Camera::kMaxImageSide)};
     if (!(o.wideFovDegrees > 0.0f && o.wideFovDegrees < 180.0f))
-        return {ErrorCode::kInvalidArgument, "wide field of view " +
-                                                 std::to_string(o.wideFovDegrees) +
-                                                 " degrees outside (0, 180)"};
+        return {
+            ErrorCode::kInvalidArgument,
+            "wide field of view " + std::to_string(o.wideFovDegrees) + " degrees outside (0, 180)"};
     if (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect) ||
         std::lround(double(o.faceSize) * o.wideAspect) > Camera::kMaxImageSide)
         return {ErrorCode::kInvalidArgument, "wide aspect " + std::to_string(o.wideAspect) +
@@ -99,6 +102,14 @@ Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSe
         cameras.push_back(std::move(camera).value());
     }
     return cameras;
+}
+
+Pose poseAt(const scene::Viewpoint& viewpoint) {
+    Pose pose;
+    pose.eye = viewpoint.eyePos;
+    pose.forward = glm::normalize(viewpoint.targetPos - viewpoint.eyePos);
+    pose.up = viewpoint.upDir;
+    return pose;
 }
 
 void computeRowDisparityRange(ReferenceView* view) {

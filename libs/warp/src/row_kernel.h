@@ -16,14 +16,14 @@ enum class RowSplat : int { kDerivative = 0, kPoint = 1, kFixed2x2 = 2 };
 struct RowInput {
     WarpCoefficients w;
     int y = 0;
-    int width = 0;                 // source row length (neighbours exist inside it)
-    int x0 = 0, x1 = 0;            // the pixels to transform, [x0, x1)
+    int width = 0;                     // source row length (neighbours exist inside it)
+    int x0 = 0, x1 = 0;                // the pixels to transform, [x0, x1)
     const float* disparity = nullptr;  // the row, width values
-    const float* above = nullptr;  // the row above, or null (first row)
-    const float* below = nullptr;  // the row below, or null (last row)
+    const float* above = nullptr;      // the row above, or null (first row)
+    const float* below = nullptr;      // the row below, or null (last row)
     RowSplat splat = RowSplat::kDerivative;
     float destWidth = 0, destHeight = 0;
-    float maxSplat = 6.0f;         // kMaxSplatSize
+    float maxSplat = 6.0f;  // kMaxSplatSize
 };
 
 // Per transformed pixel i (source x = x0 + i): the destination rectangle [rx0, rx1) x [ry0, ry1),
@@ -39,7 +39,9 @@ struct RowOutput {
 
 PLX_ISA_DECLARE(void transformRow(const RowInput& in, const RowOutput& out))
 
-inline auto activeTransformRow() { return PLX_ISA_PICK_UP_TO_AVX2(transformRow); }
+inline auto activeTransformRow() {
+    return PLX_ISA_PICK_UP_TO_AVX2(transformRow);
+}
 
 // One transformed row's splats written into a band of the destination words (splat_row.inl):
 // each word becomes the max of itself and (key << 32 | colour) inside the splat's rectangle
@@ -54,7 +56,7 @@ struct SplatRowInput {
     const float* disparity;  // the source row's pixels from the span's first
     const Rgba8* color;
     int count = 0;
-    uint32_t clearBits = 0;  // what delta = 0 pixels write
+    uint32_t clearBits = 0;     // what delta = 0 pixels write
     uint64_t* words = nullptr;  // 32-byte aligned; rows `stride` words apart, stride % 4 == 0
     size_t stride = 0;
     int bandY0 = 0, bandY1 = 0;
@@ -62,6 +64,18 @@ struct SplatRowInput {
 
 PLX_ISA_DECLARE(void splatRow(const SplatRowInput& in))
 
-inline auto activeSplatRow() { return PLX_ISA_PICK_UP_TO_AVX2(splatRow); }
+// Unpacks `width` destination words (unpack_row.inl) into colour (the clear colour where no
+// splat wrote), 1/w (0 there) and the hole mask (1 there, else 0), zeroes the words, and returns
+// the row's holes.
+PLX_ISA_DECLARE(int unpackRow(uint64_t* words, int width, uint32_t clearBits, Rgba8* color,
+                              float* depth, uint8_t* holeMask))
+
+inline auto activeUnpackRow() {
+    return PLX_ISA_PICK_UP_TO_AVX2(unpackRow);
+}
+
+inline auto activeSplatRow() {
+    return PLX_ISA_PICK_UP_TO_AVX2(splatRow);
+}
 
 }  // namespace plx::warp::detail

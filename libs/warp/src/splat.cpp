@@ -19,10 +19,14 @@ Result<Splat> parseSplat(const std::string& name) {
 
 const char* splatName(Splat splat) {
     switch (splat) {
-        case Splat::kDerivative: return "derivative";
-        case Splat::kPoint: return "point";
-        case Splat::kFixed2x2: return "fixed";
-        case Splat::kMesh: return "mesh";
+        case Splat::kDerivative:
+            return "derivative";
+        case Splat::kPoint:
+            return "point";
+        case Splat::kFixed2x2:
+            return "fixed";
+        case Splat::kMesh:
+            return "mesh";
     }
     return "?";
 }

@@ -34,8 +34,23 @@ struct RowJob {
     uint32_t offset;         // where its pixels' transforms start in the Transformed arrays
 };
 
+// Transformed entries a row job takes: one per pixel, or (mesh) both rows' vertices, the span
+// plus the pixel right of it.
+inline size_t transformedSize(const RowJob& row, bool mesh) {
+    return mesh ? 2 * size_t(row.x1 - row.x0 + 1) : size_t(row.x1 - row.x0);
+}
+
+// A mesh vertex: a source pixel's warp, its own disparity (for the tear test) and colour bits.
+struct MeshVertex {
+    WarpedPoint p;
+    float sourceDelta;
+    uint32_t color;
+};
+
 // The row transform's output for every planned row (RowJob::offset), kept between frames.
+// Mesh rows hold their two source rows' warped vertices instead (meshVertexCount each).
 struct Transformed {
+    std::vector<MeshVertex> vertices;
     std::vector<int32_t> rx0, rx1, ry0, ry1;
     std::vector<uint32_t> key;
     // Per row job: the destination rows its transformed splats really reach, [first, second)
@@ -50,8 +65,8 @@ struct Transformed {
         key.resize(n);
     }
     RowOutput at(size_t offset) {
-        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset,
-                ry1.data() + offset, key.data() + offset};
+        return {rx0.data() + offset, rx1.data() + offset, ry0.data() + offset, ry1.data() + offset,
+                key.data() + offset};
     }
 };
 
@@ -61,10 +76,12 @@ struct DestBuffer {
     uint64_t* words;  // 32-byte aligned
     int width, height;
     uint32_t clearBits;
-    size_t stride;    // words per row: width rounded up to 4, so 4-word blocks never span rows
+    size_t stride;  // words per row: width rounded up to 4, so 4-word blocks never span rows
 };
 
-inline uint32_t rgbaBits(Rgba8 c) { return std::bit_cast<uint32_t>(c); }
+inline uint32_t rgbaBits(Rgba8 c) {
+    return std::bit_cast<uint32_t>(c);
+}
 
 Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& destination);
 
@@ -100,7 +117,7 @@ struct Writer {
     DestBuffer dest;
     WriteMode mode = WriteMode::kMax;
     int bandY0 = 0, bandY1 = 0;  // the destination rows this writer may write, [bandY0, bandY1)
-    uint8_t* stamp = nullptr;  // kPainter: per destination pixel, the view that wrote it + 1
+    uint8_t* stamp = nullptr;    // kPainter: per destination pixel, the view that wrote it + 1
     uint8_t viewStamp = 0;
 };
 
@@ -145,10 +162,14 @@ inline uint32_t sourceColor(const ReferenceView& view, int x, int y, float delta
     return delta > 0.0f ? rgbaBits(view.color.row(y)[x]) : clearBits;
 }
 
-// Warps and draws the mesh quads of one row job (mesh.cpp). `order`: the quads' x in drawing
-// order, or empty for x0 .. x1 - 2 ascending.
-void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer,
+// Warps the vertices of one mesh row job (both source rows, mesh.cpp) into `out` at its offset
+// and returns the destination rows its triangles can reach ([first, second), empty when none).
+std::pair<int32_t, int32_t> transformMeshRow(const ViewJob& view, const RowJob& row,
+                                             const DestBuffer& dest, Transformed* out);
+
+// Draws the mesh quads of one transformed row job (mesh.cpp). `order`: the quads' x in drawing
+// order, or empty for x0 .. x1 - 1 ascending.
+void meshRow(const ViewJob& view, const RowJob& row, const Writer& writer, const Transformed& t,
              std::span<const int32_t> order = {});
 
 }  // namespace plx::warp::detail
-

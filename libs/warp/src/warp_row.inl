@@ -18,9 +18,15 @@ namespace plx::warp::detail::PLX_ISA_NS {
 namespace {
 
 // max and min with the operand order of _mm256_max_ps / _mm256_min_ps (NaN in `a` gives b).
-inline float maxps(float a, float b) { return a > b ? a : b; }
-inline float minps(float a, float b) { return a < b ? a : b; }
-inline float absf(float v) { return std::fabs(v); }
+inline float maxps(float a, float b) {
+    return a > b ? a : b;
+}
+inline float minps(float a, float b) {
+    return a < b ? a : b;
+}
+inline float absf(float v) {
+    return std::fabs(v);
+}
 
 // One source pixel; the reference the vector loop follows step by step.
 inline void transformPixel(const RowInput& in, float tnx, float tny, float tnd, int x,
@@ -61,10 +67,10 @@ inline void transformPixel(const RowInput& in, float tnx, float tny, float tnd, 
         }
         const float cx = w.c - w.i * xp;
         const float cy = w.f - w.i * yp;
-        const float sx = absf((ddx * cx + (w.a - w.g * xp)) * r) +
-                         absf((ddy * cx + (w.b - w.h * xp)) * r);
-        const float sy = absf((ddx * cy + (w.d - w.g * yp)) * r) +
-                         absf((ddy * cy + (w.e - w.h * yp)) * r);
+        const float sx =
+            absf((ddx * cx + (w.a - w.g * xp)) * r) + absf((ddy * cx + (w.b - w.h * xp)) * r);
+        const float sy =
+            absf((ddx * cy + (w.d - w.g * yp)) * r) + absf((ddy * cy + (w.e - w.h * yp)) * r);
         hx = 0.5f * minps(maxps(sx, 1.0f), in.maxSplat);
         hy = 0.5f * minps(maxps(sy, 1.0f), in.maxSplat);
     }
@@ -84,18 +90,25 @@ inline void transformPixel(const RowInput& in, float tnx, float tny, float tnd, 
 }
 
 #if defined(__AVX2__)
-inline __m256 abs8(__m256 v) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), v); }
+inline __m256 abs8(__m256 v) {
+    return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), v);
+}
 // absf(fwd) < absf(back) ? fwd : back
 inline __m256 smaller8(__m256 back, __m256 fwd) {
     return _mm256_blendv_ps(back, fwd, _mm256_cmp_ps(abs8(fwd), abs8(back), _CMP_LT_OQ));
 }
-inline __m256 ceil8(__m256 v) { return _mm256_round_ps(v, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC); }
+inline __m256 ceil8(__m256 v) {
+    return _mm256_round_ps(v, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+}
 #endif
 
 }  // namespace
 
 void transformRow(const RowInput& in, const RowOutput& out) {
-    const RowTerms t = rowTerms(in.w, in.y);
+    // rowTerms (equation.h), spelled out: an inline function from a header, if the compiler
+    // kept it out of line here, would be an AVX2 copy the linker might give scalar callers.
+    const float fy = float(in.y);
+    const RowTerms t{in.w.b * fy + in.w.k, in.w.e * fy + in.w.l, in.w.h * fy + in.w.m};
     int x = in.x0;
 #if defined(__AVX2__)
     // Vector lanes need both row neighbours inside the row (the derivative's differences).
@@ -104,8 +117,7 @@ void transformRow(const RowInput& in, const RowOutput& out) {
     const WarpCoefficients& w = in.w;
     const __m256 a = _mm256_set1_ps(w.a), c = _mm256_set1_ps(w.c), d = _mm256_set1_ps(w.d),
                  f = _mm256_set1_ps(w.f), g = _mm256_set1_ps(w.g), ii = _mm256_set1_ps(w.i);
-    const __m256 tnx = _mm256_set1_ps(t.nx), tny = _mm256_set1_ps(t.ny),
-                 tnd = _mm256_set1_ps(t.nd);
+    const __m256 tnx = _mm256_set1_ps(t.nx), tny = _mm256_set1_ps(t.ny), tnd = _mm256_set1_ps(t.nd);
     const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f),
                  zero = _mm256_setzero_ps();
     const __m256 dw = _mm256_set1_ps(in.destWidth), dh = _mm256_set1_ps(in.destHeight);
@@ -113,19 +125,18 @@ void transformRow(const RowInput& in, const RowOutput& out) {
     const __m256 fixedHalf = _mm256_set1_ps(in.splat == RowSplat::kFixed2x2 ? 1.0f : 0.5f);
     const __m256 b = _mm256_set1_ps(w.b), e = _mm256_set1_ps(w.e), h = _mm256_set1_ps(w.h);
     // x as float, advancing by 8 per step (exact below 2^24).
-    __m256 fx = _mm256_add_ps(_mm256_set1_ps(float(x)),
-                              _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+    __m256 fx = _mm256_add_ps(_mm256_set1_ps(float(x)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
     const __m256 eight = _mm256_set1_ps(8.0f);
     const int vecEnd = in.x1 < in.width - 1 ? in.x1 : in.width - 1;
     for (; x + 8 <= vecEnd; x += 8, fx = _mm256_add_ps(fx, eight)) {
         const float* row = in.disparity;
         const __m256 delta = _mm256_loadu_ps(row + x);
-        const __m256 nx = _mm256_add_ps(_mm256_add_ps(tnx, _mm256_mul_ps(a, fx)),
-                                        _mm256_mul_ps(c, delta));
-        const __m256 ny = _mm256_add_ps(_mm256_add_ps(tny, _mm256_mul_ps(d, fx)),
-                                        _mm256_mul_ps(f, delta));
-        const __m256 nd = _mm256_add_ps(_mm256_add_ps(tnd, _mm256_mul_ps(g, fx)),
-                                        _mm256_mul_ps(ii, delta));
+        const __m256 nx =
+            _mm256_add_ps(_mm256_add_ps(tnx, _mm256_mul_ps(a, fx)), _mm256_mul_ps(c, delta));
+        const __m256 ny =
+            _mm256_add_ps(_mm256_add_ps(tny, _mm256_mul_ps(d, fx)), _mm256_mul_ps(f, delta));
+        const __m256 nd =
+            _mm256_add_ps(_mm256_add_ps(tnd, _mm256_mul_ps(g, fx)), _mm256_mul_ps(ii, delta));
         const __m256 r = _mm256_div_ps(one, nd);
         const __m256 xp = _mm256_mul_ps(nx, r);
         const __m256 yp = _mm256_mul_ps(ny, r);

@@ -4,14 +4,13 @@
 // filled (holes.h).
 //
 // Parallelism (Mark, Bishop, McMillan, "Speedup techniques": a z-buffer instead of the
-// occlusion-compatible order, for load balance). The destination is cut into bands of 32 rows
-// that the threads take one at a time, so both cores stay busy on any pose; a thread warps
-// every row that reaches its band and writes only inside it, with plain stores, so there are no
-// write conflicts, and unpacks the band while it is in cache. Rows that cross a band boundary
-// are transformed twice; they are few because source rows map to curves that run across the
-// destination. The alternative (WarpOptions::atomicWrites) splits the rows into chunks and
-// writes the packed word with compare-and-swap; both give the maximum word per pixel, so the
-// image is deterministic and equal to the one-thread image.
+// occlusion-compatible order, for load balance). Every clipped row is transformed once, rows
+// split among the threads; then the destination is cut into bands, two per thread, at equal
+// shares of the estimated splat and unpack work, so both cores stay busy on any pose. A thread
+// splats every row that reaches its band and writes only inside it, with plain stores, so there
+// are no write conflicts, then unpacks the band. The alternative (WarpOptions::atomicWrites)
+// splits the rows into chunks and writes the packed word with compare-and-swap; both give the
+// maximum word per pixel, so the image is deterministic and equal to the one-thread image.
 
 #include <algorithm>
 #include <atomic>
@@ -32,38 +31,31 @@
 
 namespace plx::warp {
 
-namespace {
+namespace {}  // namespace
 
-}  // namespace
+namespace {
 
 // Unpacks destination rows [y0, y1) of the buffer into the frame (colour, 1/w, hole mask),
 // clears the words for the next frame, counts each row's holes and, with fillHoles, fills them
 // from the rear surface (rows with no covered pixel wait for fillEmptyRows). Run per band right
-// after the band is warped, while its words are still in cache.
+// after the band is warped, by the thread that warped it.
 void finishRows(uint64_t* words, size_t stride, int y0, int y1, const WarpOptions& options,
                 WarpFrame* out, int* rowHoles, int* rowFilled) {
     const int dw = out->color.width();
     const uint32_t clearBits = detail::rgbaBits(options.clearColor);
+    const auto unpack = detail::activeUnpackRow();
     for (int y = y0; y < y1; ++y) {
-        uint64_t* src = words + size_t(y) * stride;
         Rgba8* c = out->color.row(y);
         float* d = out->depth.row(y);
         uint8_t* m = out->holeMask.row(y);
-        int holes = 0;
-        for (int x = 0; x < dw; ++x) {
-            const uint64_t v = src[x];
-            src[x] = 0;
-            const uint32_t key = uint32_t(v >> 32);
-            const bool hole = key == 0;
-            m[x] = hole;
-            holes += hole;
-            c[x] = std::bit_cast<Rgba8>(hole ? clearBits : uint32_t(v));
-            d[x] = std::bit_cast<float>(hole ? 0u : key - 1u);  // key: bits of 1/w, plus 1
-        }
+        const int holes = unpack(words + size_t(y) * stride, dw, clearBits, c, d, m);
         rowHoles[y] = holes;
-        if (options.fillHoles && holes > 0) rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
+        if (options.fillHoles && holes > 0)
+            rowFilled[y] = std::max(0, fillRowRearSurface(c, d, m, dw));
     }
 }
+
+}  // namespace
 
 struct Warper::Impl {
     explicit Impl(int threads) : pool(threads) {}
@@ -73,9 +65,9 @@ struct Warper::Impl {
     std::vector<uint64_t> buffer;
     uint64_t* words = nullptr;
     size_t stride = 0;
-    std::vector<uint8_t> stamp;    // occlusion-compatible order: which view wrote last (+1)
-    std::vector<int> rowHoles;     // per destination row, its hole pixels before the fill
-    std::vector<int> rowFilled;    // per destination row, holes the row fill filled
+    std::vector<uint8_t> stamp;  // occlusion-compatible order: which view wrote last (+1)
+    std::vector<int> rowHoles;   // per destination row, its hole pixels before the fill
+    std::vector<int> rowFilled;  // per destination row, holes the row fill filled
     std::vector<detail::ViewJob> views;
     std::vector<detail::RowJob> rows;
     detail::Transformed transformed;  // the row transforms of the frame
@@ -91,7 +83,9 @@ Result<std::unique_ptr<Warper>> Warper::create(int threads) {
     return std::unique_ptr<Warper>(new Warper(std::make_unique<Impl>(threads)));
 }
 
-int Warper::threadCount() const { return mImpl->pool.threadCount(); }
+int Warper::threadCount() const {
+    return mImpl->pool.threadCount();
+}
 
 Status Warper::warp(const ReferenceSet& set, const Camera& destination, const WarpOptions& options,
                     WarpFrame* out, WarpStats* stats) {
@@ -126,8 +120,7 @@ Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& 
         }
     }
     if (views == 0) return {ErrorCode::kInvalidArgument, "warp: no reference views"};
-    if (views > 254)
-        return {ErrorCode::kOutOfRange, "warp: more than 254 reference views"};
+    if (views > 254) return {ErrorCode::kOutOfRange, "warp: more than 254 reference views"};
     return {};
 }
 
@@ -151,7 +144,14 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
 
     WarpStats st;
     detail::planRows(sets, destination, options, &im.views, &im.rows, &st);
-    im.transformed.reserve(size_t(st.sourcePixels));
+    const bool mesh = options.splat == Splat::kMesh;
+    const size_t entries =
+        im.rows.empty() ? 0 : im.rows.back().offset + detail::transformedSize(im.rows.back(), mesh);
+    if (mesh) {
+        if (im.transformed.vertices.size() < entries) im.transformed.vertices.resize(entries);
+    } else {
+        im.transformed.reserve(entries);
+    }
     detail::DestBuffer dest{im.words, dw, dh, detail::rgbaBits(options.clearColor), stride};
     // Image::resize refills its pixels, so only on a size change; every pixel is written below.
     if (out->color.width() != dw || out->color.height() != dh) out->color.resize(dw, dh);
@@ -160,8 +160,7 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
     im.rowHoles.assign(size_t(dh), 0);
     im.rowFilled.assign(size_t(dh), 0);
     const auto finish = [&](int y0, int y1) {
-        finishRows(im.words, stride, y0, y1, options, out, im.rowHoles.data(),
-                   im.rowFilled.data());
+        finishRows(im.words, stride, y0, y1, options, out, im.rowHoles.data(), im.rowFilled.data());
     };
     if (options.order == WarpOrder::kOcclusionCompatible) {
         im.stamp.assign(stride * size_t(dh), 0);
@@ -177,8 +176,8 @@ Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& des
         st.holePixelsLeft += im.rowHoles[size_t(y)] - im.rowFilled[size_t(y)];
     }
     if (options.fillHoles && st.holePixelsLeft > 0)
-        st.holePixelsLeft -= fillEmptyRows(&out->color, &out->depth, &out->holeMask,
-                                           options.clearColor);
+        st.holePixelsLeft -=
+            fillEmptyRows(&out->color, &out->depth, &out->holeMask, options.clearColor);
     st.ms = timer.elapsedMs();
     if (stats) *stats = st;
     return {};
@@ -192,8 +191,7 @@ namespace {
 // both rows' spans, widened one pixel left (a quad starts left of its right vertices).
 RowSpan meshSpan(const WarpCoefficients& w, const ReferenceView& view, int y, RowSpan span,
                  const Camera& destination, float margin) {
-    const RowSpan next = clipRow(w, y + 1, view.camera.width(),
-                                 view.rowMinDisparity[size_t(y + 1)],
+    const RowSpan next = clipRow(w, y + 1, view.camera.width(), view.rowMinDisparity[size_t(y + 1)],
                                  view.rowMaxDisparity[size_t(y + 1)], destination.width(),
                                  destination.height(), margin);
     if (next.x0 < next.x1) {
@@ -242,8 +240,11 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
                     }
                     if (span.x0 > 0 || span.x1 < w) ++st->rowsCut;
                 }
-                rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1,
-                                 uint32_t(st->sourcePixels)});
+                const uint32_t offset =
+                    rows->empty()
+                        ? 0
+                        : rows->back().offset + uint32_t(transformedSize(rows->back(), mesh));
+                rows->push_back({vi, y, span.x0, span.x1, span.y0, span.y1, offset});
                 st->sourcePixels += span.x1 - span.x0;
             }
         }
@@ -256,9 +257,9 @@ Status warpStereo(Warper& warper, std::span<const ReferenceSet* const> sets, con
                   float separation, const WarpOptions& options, WarpFrame* left, WarpFrame* right,
                   WarpStats* stats) {
     if (!std::isfinite(separation) || separation < 0.0f)
-        return {ErrorCode::kInvalidArgument,
-                "warp stereo: separation " + std::to_string(separation) +
-                    " is negative or not finite"};
+        return {
+            ErrorCode::kInvalidArgument,
+            "warp stereo: separation " + std::to_string(separation) + " is negative or not finite"};
     // A parallel rig: both eyes keep the centre camera's orientation and projection.
     const Vec3 offset = center.rightDir() * (0.5f * separation);
     WarpStats total;

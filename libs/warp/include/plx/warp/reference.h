@@ -21,6 +21,9 @@ Status checkReferenceSetOptions(const ReferenceSetOptions& options);
 // camera along forward. Errors: as checkPose and checkReferenceSetOptions.
 Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSetOptions& options);
 
+// The pose of a scene viewpoint: its eye, the unit direction to its target, its up.
+Pose poseAt(const scene::Viewpoint& viewpoint);
+
 // Fills view->rowMinDisparity and rowMaxDisparity from view->disparity.
 void computeRowDisparityRange(ReferenceView* view);
 

@@ -61,6 +61,7 @@ namespace {
 
 constexpr double kMaxPsnrDb = 99.0;  // JSON has no infinity: identical images read 99 dB
 constexpr double kPathHz = 30.0;     // builtinWalk's pose rate
+constexpr double kArrivalSlackMs = 0.01;  // far below a frame; above a typed refresh's rounding
 
 double cappedPsnr(const Image<Rgba8>& a, const Image<Rgba8>& b) {
     return std::min(psnr(a, b), kMaxPsnrDb);
@@ -232,9 +233,11 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         return Status::ok();
     };
     for (size_t j = 0; j < mConfig.rttsMs.size(); ++j) {
-        // The newest request whose answer has arrived: r_k + RTT <= t.
-        const int64_t k =
-            int64_t(std::floor((tMs - mConfig.rttsMs[j]) / mConfig.refreshMs + 1e-9));
+        // The newest request whose answer has arrived: r_k + RTT <= t, where an answer due
+        // within kArrivalSlackMs after t counts (a refresh typed as 16.6667 ms then lines up
+        // with the 60 Hz frames instead of always missing them by a rounding error).
+        const int64_t k = int64_t(
+            std::floor((tMs - mConfig.rttsMs[j] + kArrivalSlackMs) / mConfig.refreshMs));
         auto newest = answer(k);
         if (!newest) return newest.status();
         auto older = answer(k - 1);

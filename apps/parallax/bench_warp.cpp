@@ -90,9 +90,10 @@ void printTables(const WarpExperiment& e, const std::string& dir) {
                    r.triangles, fmt::format("{}x{}", r.width, r.height), r.threads, r.faceSize,
                    r.sourcePixels, r.warpMs, r.mpixPerS);
     for (const std::string& note : e.notes) fmt::print("note: {}\n", note);
-    fmt::print("medians over {:g} s of 60 Hz frames per scene; wrote {}latency.csv, "
-               "throughput.csv, warp.json and SVG plots\n",
-               e.config.durationS, dir);
+    fmt::print(
+        "medians over {:g} s of 60 Hz frames per scene; wrote {}latency.csv, "
+        "throughput.csv, warp.json and SVG plots\n",
+        e.config.durationS, dir);
 }
 
 int runWarpBench(const WarpBenchArgs& a) {
@@ -127,8 +128,9 @@ Command addBenchWarp(CLI::App* bench) {
     auto a = std::make_shared<WarpBenchArgs>();
     CLI::App* sub = bench->add_subcommand(
         "warp", "Mark, Bishop, McMillan: stale, timewarp and warped frames against the RTT");
-    sub->footer("Example: parallax bench warp --quick --json\n         parallax bench warp "
-                "--scenes office:8 --rtts 0,100,300 --size 320x240");
+    sub->footer(
+        "Example: parallax bench warp --quick --json\n         parallax bench warp "
+        "--scenes office:8 --rtts 0,100,300 --size 320x240");
     sub->add_option("--scenes", a->scenes, "Walkthrough scenes (default office:8,museum:4)")
         ->delimiter(',');
     sub->add_option("--rtts", a->rttsMs, "Round-trip times in ms (default 0,50,100,200,300,500)")
@@ -136,9 +138,11 @@ Command addBenchWarp(CLI::App* bench) {
     sub->add_option("--size", a->size, "Display size WxH (default 320x240)");
     sub->add_option("--refresh", a->refreshMs, "Reference request interval in ms")
         ->capture_default_str();
-    sub->add_option("--duration", a->durationS, "Measured seconds of display per scene (default 2)");
+    sub->add_option("--duration", a->durationS,
+                    "Measured seconds of display per scene (default 2)");
     sub->add_option("--refs", a->refs, "cube4 | cube6 | wide")->capture_default_str();
-    sub->add_option("--splat", a->splat, "derivative | point | fixed | mesh")->capture_default_str();
+    sub->add_option("--splat", a->splat, "derivative | point | fixed | mesh")
+        ->capture_default_str();
     sub->add_option("--warp-threads", a->warpThreads, "Thread counts of the throughput table")
         ->delimiter(',');
     sub->add_option("--threads", a->threads, "Worker threads elsewhere (0: all cores)")

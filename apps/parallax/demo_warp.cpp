@@ -16,7 +16,8 @@ WarpExperimentConfig demoConfig(const DemoContext& ctx) {
     WarpExperimentConfig c;
     c.scenes = {"office:8"};
     c.threads = ctx.threads;
-    c.rttsMs = ctx.quick ? std::vector<double>{0, 100, 300} : std::vector<double>{0, 50, 100, 200, 300, 500};
+    c.rttsMs = ctx.quick ? std::vector<double>{0, 100, 300}
+                         : std::vector<double>{0, 50, 100, 200, 300, 500};
     c.durationS = ctx.quick ? 0.05 : 0.5;
     c.width = ctx.quick ? 96 : 240;
     c.height = ctx.quick ? 72 : 180;
@@ -57,8 +58,8 @@ Status demoWarpSection(DemoContext& ctx) {
         if (s.method == LatencyMethod::kWarp1) continue;
         std::string file = fmt::format("warp_{}.png", latencyMethodName(s.method));
         PLX_RETURN_IF_ERROR(writePng(dir + file, s.image));
-        row.emplace_back(file, fmt::format("{} at RTT {:g} ms: {:.1f} dB", latencyMethodName(s.method),
-                                           exampleRtt, s.psnrDb));
+        row.emplace_back(file, fmt::format("{} at RTT {:g} ms: {:.1f} dB",
+                                           latencyMethodName(s.method), exampleRtt, s.psnrDb));
     }
     rep.images(row);
 

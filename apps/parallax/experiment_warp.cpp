@@ -24,11 +24,16 @@ namespace plx::cli {
 
 const char* latencyMethodName(LatencyMethod method) {
     switch (method) {
-        case LatencyMethod::kStale: return "stale";
-        case LatencyMethod::kTimewarp: return "timewarp";
-        case LatencyMethod::kWarp1: return "warp1";
-        case LatencyMethod::kWarp2: return "warp2";
-        case LatencyMethod::kWarp2Predicted: return "warp2_predicted";
+        case LatencyMethod::kStale:
+            return "stale";
+        case LatencyMethod::kTimewarp:
+            return "timewarp";
+        case LatencyMethod::kWarp1:
+            return "warp1";
+        case LatencyMethod::kWarp2:
+            return "warp2";
+        case LatencyMethod::kWarp2Predicted:
+            return "warp2_predicted";
     }
     return "?";
 }
@@ -49,8 +54,8 @@ warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const C
         // 20 degrees of margin each way for head turns between references, at the same density.
         o.wideFovDegrees = std::min(display.desc().fovYDegrees + 40.0f, 160.0f);
         o.wideAspect = float(display.width()) / float(display.height());
-        side = int(std::lround(float(display.height()) * std::tan(radians(o.wideFovDegrees) * 0.5f) /
-                               tanHalf));
+        side = int(std::lround(float(display.height()) *
+                               std::tan(radians(o.wideFovDegrees) * 0.5f) / tanHalf));
     }
     o.faceSize = std::clamp(side, 1, Camera::kMaxImageSide);
     scene::clipPlanesFor(scene.bounds(), display.eyePos(), &o.nearPlane, &o.farPlane);
@@ -59,8 +64,8 @@ warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const C
 
 namespace {
 
-constexpr double kMaxPsnrDb = 99.0;  // JSON has no infinity: identical images read 99 dB
-constexpr double kPathHz = 30.0;     // builtinWalk's pose rate
+constexpr double kMaxPsnrDb = 99.0;       // JSON has no infinity: identical images read 99 dB
+constexpr double kPathHz = 30.0;          // builtinWalk's pose rate
 constexpr double kArrivalSlackMs = 0.01;  // far below a frame; above a typed refresh's rounding
 
 double cappedPsnr(const Image<Rgba8>& a, const Image<Rgba8>& b) {
@@ -186,9 +191,9 @@ private:
 Status LatencySimulation::renderAnswer(const scene::Viewpoint& vp, bool withFrame, Answer* out) {
     auto cam = camera(vp);
     if (!cam) return cam.status();
-    PLX_RETURN_IF_ERROR(warp::renderReferenceSet(
-        mRenderer, mScene, poseOf(*cam), referenceOptionsFor(mScene, *cam, mConfig.layout),
-        &out->set));
+    PLX_RETURN_IF_ERROR(warp::renderReferenceSet(mRenderer, mScene, poseOf(*cam),
+                                                 referenceOptionsFor(mScene, *cam, mConfig.layout),
+                                                 &out->set));
     if (withFrame) {
         mFb.resize(cam->width(), cam->height());
         mRenderer.render(mScene, *cam, {}, mFb.targets());
@@ -223,7 +228,8 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
     const double pixels = double(now.width()) * double(now.height());
     warp::WarpOptions options;
     options.splat = mConfig.splat;
-    auto warpAndAdd = [&](size_t rtt, LatencyMethod m, std::vector<const warp::ReferenceSet*> sets) {
+    auto warpAndAdd = [&](size_t rtt, LatencyMethod m,
+                          std::vector<const warp::ReferenceSet*> sets) {
         warp::WarpStats stats;
         Stopwatch clock;
         PLX_RETURN_IF_ERROR(mWarper.warp(sets, now, options, &mWarped, &stats));
@@ -236,8 +242,8 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         // The newest request whose answer has arrived: r_k + RTT <= t, where an answer due
         // within kArrivalSlackMs after t counts (a refresh typed as 16.6667 ms then lines up
         // with the 60 Hz frames instead of always missing them by a rounding error).
-        const int64_t k = int64_t(
-            std::floor((tMs - mConfig.rttsMs[j] + kArrivalSlackMs) / mConfig.refreshMs));
+        const int64_t k =
+            int64_t(std::floor((tMs - mConfig.rttsMs[j] + kArrivalSlackMs) / mConfig.refreshMs));
         auto newest = answer(k);
         if (!newest) return newest.status();
         auto older = answer(k - 1);
@@ -253,8 +259,8 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         int64_t holes = 0;
         for (Rgba8& p : std::span(mTimewarped.data(), mTimewarped.pixelCount()))
             if (p.a == 0) p = clear, ++holes;
-        add(j, LatencyMethod::kTimewarp, cappedPsnr(mTimewarped, truth), double(holes) / pixels,
-            ms, kept(mTimewarped));
+        add(j, LatencyMethod::kTimewarp, cappedPsnr(mTimewarped, truth), double(holes) / pixels, ms,
+            kept(mTimewarped));
         PLX_RETURN_IF_ERROR(warpAndAdd(j, LatencyMethod::kWarp1, {&(*newest)->set}));
         PLX_RETURN_IF_ERROR(
             warpAndAdd(j, LatencyMethod::kWarp2, {&(*newest)->set, &(*older)->set}));
@@ -262,8 +268,8 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         if (!pNewest) return pNewest.status();
         auto pOlder = predictedAnswer(k - 1, j);
         if (!pOlder) return pOlder.status();
-        PLX_RETURN_IF_ERROR(warpAndAdd(j, LatencyMethod::kWarp2Predicted,
-                                       {&(*pNewest)->set, &(*pOlder)->set}));
+        PLX_RETURN_IF_ERROR(
+            warpAndAdd(j, LatencyMethod::kWarp2Predicted, {&(*pNewest)->set, &(*pOlder)->set}));
     }
     return Status::ok();
 }
@@ -376,8 +382,15 @@ Result<ThroughputRow> measureThroughput(const scene::Scene& scene, const std::st
         PLX_RETURN_IF_ERROR((*warper)->warp(set, *to, wo, &frame, &stats));
         if (f >= 0) ms.push_back(clock.elapsedMs());
     }
-    ThroughputRow row{name, scene.triangleCount(), width, height, (*warper)->threadCount(),
-                      options.faceSize, stats.sourcePixels, median(ms), 0.0};
+    ThroughputRow row{name,
+                      scene.triangleCount(),
+                      width,
+                      height,
+                      (*warper)->threadCount(),
+                      options.faceSize,
+                      stats.sourcePixels,
+                      median(ms),
+                      0.0};
     row.mpixPerS = row.warpMs > 0.0 ? double(row.sourcePixels) / (row.warpMs * 1e3) : 0.0;
     return row;
 }
@@ -457,8 +470,8 @@ Result<WarpExperiment> runWarpExperiment(const WarpExperimentConfig& config,
         if (progress) progress(++done, total);
     };
     for (const auto& [spec, isModel] : scenes)
-        PLX_RETURN_IF_ERROR(runLatency(spec, isModel, config, **renderer, **warper, step,
-                                       &e.latency));
+        PLX_RETURN_IF_ERROR(
+            runLatency(spec, isModel, config, **renderer, **warper, step, &e.latency));
     PLX_RETURN_IF_ERROR(runThroughput(config, **renderer, step, &e.throughput));
     return e;
 }
@@ -535,12 +548,12 @@ std::vector<std::pair<std::string, std::string>> warpPlots(const WarpExperiment&
             if (m != LatencyMethod::kStale) holeSeries.push_back(std::move(h));
         }
         std::string file = s;
-        std::replace_if(file.begin(), file.end(), [](char ch) { return !std::isalnum(ch); }, '_');
-        plots.emplace_back(
-            "psnr_vs_rtt_" + file + ".svg",
-            svgLinePlot({fmt::format("{}: median PSNR against round trip", s), "RTT (ms)",
-                         "PSNR (dB)", false, false},
-                        psnrSeries));
+        std::replace_if(
+            file.begin(), file.end(), [](char ch) { return !std::isalnum(ch); }, '_');
+        plots.emplace_back("psnr_vs_rtt_" + file + ".svg",
+                           svgLinePlot({fmt::format("{}: median PSNR against round trip", s),
+                                        "RTT (ms)", "PSNR (dB)", false, false},
+                                       psnrSeries));
         plots.emplace_back("holes_vs_rtt_" + file + ".svg",
                            svgLinePlot({fmt::format("{}: median hole pixels", s), "RTT (ms)",
                                         "holes (% of pixels)", false, true},

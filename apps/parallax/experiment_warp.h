@@ -26,9 +26,9 @@ enum class LatencyMethod {
     kWarp2,           // the newest two reference sets, composited by depth
     kWarp2Predicted,  // two sets requested for constant-velocity predicted poses (now + RTT)
 };
-inline constexpr LatencyMethod kLatencyMethods[] = {
-    LatencyMethod::kStale, LatencyMethod::kTimewarp, LatencyMethod::kWarp1, LatencyMethod::kWarp2,
-    LatencyMethod::kWarp2Predicted};
+inline constexpr LatencyMethod kLatencyMethods[] = {LatencyMethod::kStale, LatencyMethod::kTimewarp,
+                                                    LatencyMethod::kWarp1, LatencyMethod::kWarp2,
+                                                    LatencyMethod::kWarp2Predicted};
 const char* latencyMethodName(LatencyMethod method);  // stale, timewarp, warp1, warp2, ...
 
 struct WarpExperimentConfig {
@@ -39,7 +39,7 @@ struct WarpExperimentConfig {
     std::vector<double> rttsMs{0, 50, 100, 200, 300, 500};
     double refreshMs = 100.0;  // the client requests a new reference set this often
     double displayHz = 60.0;
-    double durationS = 2.0;  // measured display time per scene (after the path's lead-in)
+    double durationS = 2.0;         // measured display time per scene (after the path's lead-in)
     int width = 320, height = 240;  // the display (the paper's 320x240)
     warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;
     warp::Splat splat = warp::Splat::kDerivative;
@@ -59,7 +59,7 @@ struct LatencyRow {
     LatencyMethod method = LatencyMethod::kStale;
     double rttMs = 0.0;
     int frames = 0;
-    double psnrDbMedian = 0.0;  // against the render at the current pose; 99 for identical
+    double psnrDbMedian = 0.0;        // against the render at the current pose; 99 for identical
     double holeFractionMedian = 0.0;  // pixels no source covered (before any fill)
     double warpMsMedian = 0.0;        // client-side cost per frame (0 for the stale frame)
 };

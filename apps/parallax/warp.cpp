@@ -157,10 +157,11 @@ int runWarp(const WarpArgs& a) {
                    a.scene, warp::referenceLayoutName(p->layout), set.views.size(),
                    refOptions.faceSize, to->width(), to->height(),
                    warp::splatName(p->options.splat));
-        fmt::print("warp {:.2f} ms (median of {}), {:.1f} Mpix/s of source; {} of {} rows "
-                   "clipped; holes {:.3f}% before the fill; PSNR {:.1f} dB against the render\n",
-                   warpMs, a.frames, mpix, stats.rowsSkipped + stats.rowsCut, stats.rowsTotal,
-                   100.0 * double(stats.holePixels) / pixels, psnrDb);
+        fmt::print(
+            "warp {:.2f} ms (median of {}), {:.1f} Mpix/s of source; {} of {} rows "
+            "clipped; holes {:.3f}% before the fill; PSNR {:.1f} dB against the render\n",
+            warpMs, a.frames, mpix, stats.rowsSkipped + stats.rowsCut, stats.rowsTotal,
+            100.0 * double(stats.holePixels) / pixels, psnrDb);
         fmt::print("wrote {}, {}, {}\n", written[0], written[1], written[2]);
     }
     return kExitOk;
@@ -172,13 +173,14 @@ Command registerWarp(CLI::App& app) {
     auto a = std::make_shared<WarpArgs>();
     CLI::App* sub = app.add_subcommand(
         "warp", "Warp reference images rendered at one pose to another (post-rendering warp)");
-    sub->footer("Example: parallax warp office:8 --to-eye 1.3,1.6,1.1 --refs cube4 --splat "
-                "derivative --size 640x480 --out out/warp --json\n"
-                "Writes PREFIX-warped.png, PREFIX-truth.png (the render at the second pose) and "
-                "PREFIX-diff.png (difference x4, magenta > 40; holes red, filled holes blue).\n"
-                "JSON: warp_ms is the median warp, mpix_per_s the source pixels (after row "
-                "clipping) per second, hole_fraction the destination pixels no reference covered "
-                "before the fill, psnr_db the warped frame against the render (99: identical).");
+    sub->footer(
+        "Example: parallax warp office:8 --to-eye 1.3,1.6,1.1 --refs cube4 --splat "
+        "derivative --size 640x480 --out out/warp --json\n"
+        "Writes PREFIX-warped.png, PREFIX-truth.png (the render at the second pose) and "
+        "PREFIX-diff.png (difference x4, magenta > 40; holes red, filled holes blue).\n"
+        "JSON: warp_ms is the median warp, mpix_per_s the source pixels (after row "
+        "clipping) per second, hole_fraction the destination pixels no reference covered "
+        "before the fill, psnr_db the warped frame against the render (99: identical).");
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();
     addViewOptions(sub, &a->view);

@@ -272,7 +272,8 @@ TEST(WarpExperiment, ReferenceFacesMatchTheDisplayDensity) {
     ASSERT_TRUE(cam.isOk());
     // The paper's 416-pixel faces for 320x240 at 60 degrees.
     EXPECT_EQ(referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kCube4).faceSize, 416);
-    warp::ReferenceSetOptions wide = referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kWide);
+    warp::ReferenceSetOptions wide =
+        referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kWide);
     EXPECT_GT(wide.wideFovDegrees, 60.0f);
     EXPECT_GT(wide.faceSize, 240);
 }

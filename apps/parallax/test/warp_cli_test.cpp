@@ -9,7 +9,9 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() { return plx::testing::scratchDir("warp_cli"); }
+fs::path scratchDir() {
+    return plx::testing::scratchDir("warp_cli");
+}
 
 // office:2's default viewpoint, written out so the moves below are relative to a known pose.
 const std::string kFrom = " --eye 1.0,1.6,1.0 --target 4.0,1.2,5.0 --size 160x120";
@@ -54,10 +56,10 @@ TEST(WarpCli, EveryLayoutAndSplatRuns) {
     for (const char* refs : {"cube4", "cube6", "wide"})
         for (const char* splat : {"derivative", "point", "fixed", "mesh"}) {
             fs::path prefix = scratchDir() / (std::string(refs) + "_" + splat);
-            RunResult r = runParallax(std::string("warp office:1 --size 48x36 --to-eye 1.1,1.6,1.1 "
-                                                  "--frames 1 --refs ") +
-                                      refs + " --splat " + splat + " --out " + prefix.string() +
-                                      " --json");
+            RunResult r =
+                runParallax(std::string("warp office:1 --size 48x36 --to-eye 1.1,1.6,1.1 "
+                                        "--frames 1 --refs ") +
+                            refs + " --splat " + splat + " --out " + prefix.string() + " --json");
             ASSERT_EQ(r.exitCode, 0) << refs << " " << splat << ": " << r.err;
             auto doc = nlohmann::json::parse(r.out);
             EXPECT_EQ(doc["refs"], refs);
@@ -68,13 +70,15 @@ TEST(WarpCli, EveryLayoutAndSplatRuns) {
 
 TEST(WarpCli, FirstPoseFromANamedViewpoint) {
     fs::path prefix = scratchDir() / "vista";
-    RunResult r = runParallax("warp office:2 --viewpoint vista --size 48x36 --to-eye 0.6,1.6,0.6 "
-                              "--frames 1 --out " + prefix.string() + " --json");
+    RunResult r = runParallax(
+        "warp office:2 --viewpoint vista --size 48x36 --to-eye 0.6,1.6,0.6 "
+        "--frames 1 --out " +
+        prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_GT(nlohmann::json::parse(r.out)["psnr_db"].get<double>(), 10.0);
-    expectOneLineError(runParallax("warp office:2 --viewpoint nowhere --to-eye 1,1,1 --out " +
-                                   prefix.string()),
-                       "nowhere", 2);
+    expectOneLineError(
+        runParallax("warp office:2 --viewpoint nowhere --to-eye 1,1,1 --out " + prefix.string()),
+        "nowhere", 2);
 }
 
 TEST(WarpCli, BadParametersGiveOneLineErrors) {
@@ -109,8 +113,8 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
             for (const auto& row : doc["rows"])
                 if (row["method"] == method && row["rtt_ms"].get<double>() == rtt) {
                     ++found;
-                    for (const char* key : {"scene", "psnr_db_median", "hole_fraction_median",
-                                            "warp_ms_median"})
+                    for (const char* key :
+                         {"scene", "psnr_db_median", "hole_fraction_median", "warp_ms_median"})
                         EXPECT_TRUE(row.contains(key)) << key;
                     EXPECT_GT(row["psnr_db_median"].get<double>(), 5.0);
                 }
@@ -121,8 +125,8 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
     EXPECT_TRUE(fs::exists(dir / "throughput.csv"));
     EXPECT_TRUE(fs::exists(dir / "psnr_vs_rtt_office_2.svg"));
     expectOneLineError(runParallax("bench warp --quick --rtts=-5 --out " + dir.string()), "RTT", 2);
-    expectOneLineError(runParallax("bench warp --quick --splat blob --out " + dir.string()),
-                       "blob", 2);
+    expectOneLineError(runParallax("bench warp --quick --splat blob --out " + dir.string()), "blob",
+                       2);
 }
 
 TEST(WarpCli, DemoQuickHasTheWarpSection) {

@@ -65,8 +65,8 @@ Rgba8 sampleBilinear(const Image<Rgba8>& img, float u, float v) {
 
 }  // namespace
 
-Status rotationTimewarp(const ReferenceView& reference, const Camera& destination,
-                        Rgba8 clearColor, Image<Rgba8>* out) {
+Status rotationTimewarp(const ReferenceView& reference, const Camera& destination, Rgba8 clearColor,
+                        Image<Rgba8>* out) {
     const Image<Rgba8>& src = reference.color;
     if (src.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "timewarp: the reference has no colour");
@@ -77,10 +77,9 @@ Status rotationTimewarp(const ReferenceView& reference, const Camera& destinatio
                                        src.width(), src.height(), reference.camera.width(),
                                        reference.camera.height()));
     // Source pixel from destination pixel: K1 R1^T R2 K2^-1 (R^T = R^-1 for a rotation).
-    const DMat3 srcFromDst = pixelFromCamera(reference.camera) *
-                             glm::transpose(worldFromCamera(reference.camera)) *
-                             worldFromCamera(destination) *
-                             glm::inverse(pixelFromCamera(destination));
+    const DMat3 srcFromDst =
+        pixelFromCamera(reference.camera) * glm::transpose(worldFromCamera(reference.camera)) *
+        worldFromCamera(destination) * glm::inverse(pixelFromCamera(destination));
     const int w = destination.width(), h = destination.height();
     const float srcW = float(src.width()), srcH = float(src.height());
     out->resize(w, h);
@@ -97,8 +96,7 @@ Status rotationTimewarp(const ReferenceView& reference, const Camera& destinatio
             if (s.z > 0.0) {
                 const float inv = 1.0f / float(s.z);
                 const float u = float(s.x) * inv, v = float(s.y) * inv;
-                if (u >= 0.0f && v >= 0.0f && u <= srcW && v <= srcH)
-                    c = sampleBilinear(src, u, v);
+                if (u >= 0.0f && v >= 0.0f && u <= srcW && v <= srcH) c = sampleBilinear(src, u, v);
             }
             row[x] = c;
         }

@@ -12,6 +12,8 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include <plx/warp/warp.h>
 
@@ -63,6 +65,30 @@ Rgba8 sampleBilinear(const Image<Rgba8>& img, float u, float v) {
             uint8_t(blend(a.b, b.b, c.b, d.b, wx, wy)), uint8_t(blend(a.a, b.a, c.a, d.a, wx, wy))};
 }
 
+// One destination row. Along it the homogeneous source point moves by the matrix's first
+// column; it is evaluated from the row start in double (no drift over long rows), divided in
+// float.
+void timewarpRow(const Image<Rgba8>& src, const DMat3& srcFromDst, int y, Rgba8 clearColor,
+                 Rgba8* row, int w) {
+    const float srcW = float(src.width()), srcH = float(src.height());
+    const DVec3 start = srcFromDst * DVec3(0.5, double(y) + 0.5, 1.0);
+    const DVec3 step = srcFromDst[0];
+    for (int x = 0; x < w; ++x) {
+        const DVec3 s = start + double(x) * step;
+        // s.z is the point's depth along the reference's forward axis: <= 0 is behind it.
+        Rgba8 c = clearColor;
+        if (s.z > 0.0) {
+            const float inv = 1.0f / float(s.z);
+            const float u = float(s.x) * inv, v = float(s.y) * inv;
+            if (u >= 0.0f && v >= 0.0f && u <= srcW && v <= srcH) c = sampleBilinear(src, u, v);
+        }
+        row[x] = c;
+    }
+}
+
+// Rows per parallel task: a few thousand pixels, enough to amortise a task's cost.
+constexpr int kRowsPerTask = 8;
+
 }  // namespace
 
 Status rotationTimewarp(const ReferenceView& reference, const Camera& destination, Rgba8 clearColor,
@@ -81,26 +107,14 @@ Status rotationTimewarp(const ReferenceView& reference, const Camera& destinatio
         pixelFromCamera(reference.camera) * glm::transpose(worldFromCamera(reference.camera)) *
         worldFromCamera(destination) * glm::inverse(pixelFromCamera(destination));
     const int w = destination.width(), h = destination.height();
-    const float srcW = float(src.width()), srcH = float(src.height());
     out->resize(w, h);
-    for (int y = 0; y < h; ++y) {
-        Rgba8* row = out->row(y);
-        // Along a row the homogeneous source point moves by the matrix's first column; it is
-        // evaluated from the row start in double (no drift over long rows), divided in float.
-        const DVec3 start = srcFromDst * DVec3(0.5, double(y) + 0.5, 1.0);
-        const DVec3 step = srcFromDst[0];
-        for (int x = 0; x < w; ++x) {
-            const DVec3 s = start + double(x) * step;
-            // s.z is the point's depth along the reference's forward axis: <= 0 is behind it.
-            Rgba8 c = clearColor;
-            if (s.z > 0.0) {
-                const float inv = 1.0f / float(s.z);
-                const float u = float(s.x) * inv, v = float(s.y) * inv;
-                if (u >= 0.0f && v >= 0.0f && u <= srcW && v <= srcH) c = sampleBilinear(src, u, v);
-            }
-            row[x] = c;
-        }
-    }
+    // Rows are independent: they run on the caller's TBB arena (all cores unless the caller
+    // bounds it, as the Warper's pool does for the warp).
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, kRowsPerTask),
+                      [&](const tbb::blocked_range<int>& rows) {
+                          for (int y = rows.begin(); y < rows.end(); ++y)
+                              timewarpRow(src, srcFromDst, y, clearColor, out->row(y), w);
+                      });
     return Status::ok();
 }
 

@@ -38,6 +38,12 @@ const char* latencyMethodName(LatencyMethod method) {
     return "?";
 }
 
+int64_t referencePixels(const warp::ReferenceSet& set) {
+    int64_t n = 0;
+    for (const warp::ReferenceView& v : set.views) n += int64_t(v.color.pixelCount());
+    return n;
+}
+
 warp::Pose poseOf(const Camera& camera) {
     return {camera.eyePos(), camera.forwardDir(), camera.upDir()};
 }
@@ -388,6 +394,7 @@ Result<ThroughputRow> measureThroughput(const scene::Scene& scene, const std::st
                       height,
                       (*warper)->threadCount(),
                       options.faceSize,
+                      referencePixels(set),
                       stats.sourcePixels,
                       median(ms),
                       0.0};
@@ -505,6 +512,7 @@ nlohmann::json warpExperimentJson(const WarpExperiment& e) {
                                      {"threads", r.threads},
                                      {"face_size", r.faceSize},
                                      {"source_pixels", r.sourcePixels},
+                                     {"warped_pixels", r.warpedPixels},
                                      {"warp_ms", r.warpMs},
                                      {"mpix_per_s", r.mpixPerS}});
     return doc;
@@ -522,10 +530,12 @@ std::string latencyCsv(const WarpExperiment& e) {
 
 std::string throughputCsv(const WarpExperiment& e) {
     std::string csv =
-        "scene,triangles,width,height,threads,face_size,source_pixels,warp_ms,mpix_per_s\n";
+        "scene,triangles,width,height,threads,face_size,source_pixels,warped_pixels,warp_ms,"
+        "mpix_per_s\n";
     for (const ThroughputRow& r : e.throughput)
-        csv += fmt::format("{},{},{},{},{},{},{},{:.3f},{:.1f}\n", r.scene, r.triangles, r.width,
-                           r.height, r.threads, r.faceSize, r.sourcePixels, r.warpMs, r.mpixPerS);
+        csv += fmt::format("{},{},{},{},{},{},{},{},{:.3f},{:.1f}\n", r.scene, r.triangles, r.width,
+                           r.height, r.threads, r.faceSize, r.sourcePixels, r.warpedPixels,
+                           r.warpMs, r.mpixPerS);
     return csv;
 }
 

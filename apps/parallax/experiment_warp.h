@@ -68,9 +68,10 @@ struct ThroughputRow {
     std::string scene;
     size_t triangles = 0;
     int width = 0, height = 0, threads = 0, faceSize = 0;
-    int64_t sourcePixels = 0;  // after row clipping
+    int64_t sourcePixels = 0;  // every pixel of the reference set
+    int64_t warpedPixels = 0;  // those left after row clipping
     double warpMs = 0.0;       // median
-    double mpixPerS = 0.0;     // source pixels per second
+    double mpixPerS = 0.0;     // source pixels per second (all of the set: the module's measure)
 };
 
 struct WarpExperiment {
@@ -85,6 +86,9 @@ struct WarpExperiment {
 // scene's bounds.
 warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const Camera& display,
                                               warp::ReferenceLayout layout);
+
+// Pixels of every view of a set: the "source pixels" of Mpix/s figures, clipped rows included.
+int64_t referencePixels(const warp::ReferenceSet& set);
 
 // The pose a display camera looks from.
 warp::Pose poseOf(const Camera& camera);

@@ -124,7 +124,8 @@ int runWarp(const WarpArgs& a) {
     const double warpMs = median(ms);
     const double pixels = double(to->width()) * double(to->height());
     const double psnrDb = std::min(psnr(frame.color, truth.color), 99.0);
-    const double mpix = warpMs > 0.0 ? double(stats.sourcePixels) / (warpMs * 1e3) : 0.0;
+    const int64_t sourcePixels = referencePixels(set);
+    const double mpix = warpMs > 0.0 ? double(sourcePixels) / (warpMs * 1e3) : 0.0;
     std::vector<std::string> written = {a.out + "-warped.png", a.out + "-truth.png",
                                         a.out + "-diff.png"};
     if (Status s = writePng(written[0], frame.color); !s) return fail(s);
@@ -143,7 +144,8 @@ int runWarp(const WarpArgs& a) {
                    {"reference_render_ms", set.renderMs},
                    {"warp_ms", warpMs},
                    {"mpix_per_s", mpix},
-                   {"source_pixels", stats.sourcePixels},
+                   {"source_pixels", sourcePixels},
+                   {"warped_pixels", stats.sourcePixels},
                    {"rows_total", stats.rowsTotal},
                    {"rows_clipped", stats.rowsSkipped + stats.rowsCut},
                    {"rows_skipped", stats.rowsSkipped},
@@ -158,7 +160,7 @@ int runWarp(const WarpArgs& a) {
                    refOptions.faceSize, to->width(), to->height(),
                    warp::splatName(p->options.splat));
         fmt::print(
-            "warp {:.2f} ms (median of {}), {:.1f} Mpix/s of source; {} of {} rows "
+            "warp {:.2f} ms (median of {}), {:.1f} source Mpix/s; {} of {} rows "
             "clipped; holes {:.3f}% before the fill; PSNR {:.1f} dB against the render\n",
             warpMs, a.frames, mpix, stats.rowsSkipped + stats.rowsCut, stats.rowsTotal,
             100.0 * double(stats.holePixels) / pixels, psnrDb);
@@ -178,8 +180,9 @@ Command registerWarp(CLI::App& app) {
         "derivative --size 640x480 --out out/warp --json\n"
         "Writes PREFIX-warped.png, PREFIX-truth.png (the render at the second pose) and "
         "PREFIX-diff.png (difference x4, magenta > 40; holes red, filled holes blue).\n"
-        "JSON: warp_ms is the median warp, mpix_per_s the source pixels (after row "
-        "clipping) per second, hole_fraction the destination pixels no reference covered "
+        "JSON: warp_ms is the median warp, mpix_per_s the reference pixels per second (all "
+        "of them; warped_pixels: those left after row clipping), hole_fraction the destination "
+        "pixels no reference covered "
         "before the fill, psnr_db the warped frame against the render (99: identical).");
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();

@@ -211,7 +211,8 @@ TEST(WarpExperiment, RowsForEveryMethodAndRttAndSerialise) {
               row(LatencyMethod::kWarp1, 200).holeFractionMedian);
     ASSERT_EQ(e->throughput.size(), 2u);
     EXPECT_EQ(e->throughput[1].scene, "office:2");
-    EXPECT_GT(e->throughput[0].sourcePixels, 0);
+    EXPECT_GT(e->throughput[0].warpedPixels, 0);
+    EXPECT_GE(e->throughput[0].sourcePixels, e->throughput[0].warpedPixels);
     nlohmann::json j = warpExperimentJson(*e);
     EXPECT_EQ(j["rows"].size(), e->latency.size());
     EXPECT_EQ(j["rows"][0]["method"], "stale");

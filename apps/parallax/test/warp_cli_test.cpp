@@ -33,13 +33,14 @@ TEST(WarpCli, JsonFieldsAndQualityFallWithTheMove) {
     nlohmann::json large = warpJson("1.8,1.6,1.9", "large");
     ASSERT_FALSE(same.is_null() || small.is_null() || large.is_null());
     for (const char* key : {"warp_ms", "mpix_per_s", "rows_clipped", "hole_fraction", "psnr_db",
-                            "refs", "splat", "size", "source_pixels", "outputs"})
+                            "refs", "splat", "size", "source_pixels", "warped_pixels", "outputs"})
         EXPECT_TRUE(small.contains(key)) << key;
     EXPECT_EQ(small["refs"], "cube4");
     EXPECT_EQ(small["splat"], "derivative");
     EXPECT_EQ(small["size"], "160x120");
     EXPECT_GT(small["warp_ms"].get<double>(), 0.0);
     EXPECT_GT(small["mpix_per_s"].get<double>(), 0.0);
+    EXPECT_LT(small["warped_pixels"].get<int64_t>(), small["source_pixels"].get<int64_t>());
     // cube4 puts three faces at least partly behind or beside the view: rows get clipped.
     EXPECT_GT(small["rows_clipped"].get<int>(), 0);
     for (const auto* doc : {&same, &small, &large}) {

@@ -3,6 +3,7 @@
 //
 //   bench predistort   Bimber et al. Table 1 and Figs. 8-10 (uniform vs adaptive warp meshes)
 //   bench stereo       Heo, Jung, Wohn Table 1 and Fig. 17 (full vs P-buffer stereo pairs)
+//   bench warp         Mark, Bishop, McMillan: stale, timewarp and warp against the RTT
 
 #include "bench.h"
 #include "commands.h"
@@ -12,7 +13,8 @@ namespace plx::cli {
 Command registerBench(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Run the papers' experiments (CSV, JSON, SVG)");
     bench->require_subcommand(1);
-    std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench)};
+    std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench),
+                                    addBenchWarp(bench)};
     return {bench, [children] {
                 for (const Command& c : children)
                     if (c.app->parsed()) return c.run();

@@ -8,5 +8,6 @@ namespace plx::cli {
 
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);
+Command addBenchWarp(CLI::App* bench);
 
 }  // namespace plx::cli

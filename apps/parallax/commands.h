@@ -12,5 +12,6 @@ Command registerPtm(CLI::App& app);
 Command registerPredistort(CLI::App& app);
 Command registerBench(CLI::App& app);
 Command registerStereo(CLI::App& app);
+Command registerWarp(CLI::App& app);
 
 }  // namespace plx::cli

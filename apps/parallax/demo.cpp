@@ -30,7 +30,7 @@ int runDemo(const DemoArgs& a) {
                      "while this page was generated.");
     using Section = Status (*)(DemoContext&);
     for (Section section : {Section(demoRasterSection), Section(demoStereoSection),
-                            Section(demoDisplaySection), Section(demoPtmSection)}) {
+                            Section(demoWarpSection), Section(demoDisplaySection), Section(demoPtmSection)}) {
         if (Status s = section(ctx); !s) return fail(s);
     }
     std::string index = a.out + "/index.html";

@@ -22,6 +22,10 @@ Status demoRasterSection(DemoContext& ctx);
 // Stereo (Heo, Jung, Wohn): the Table 1 / Fig. 17 experiment, an anaglyph, the second-eye diff.
 Status demoStereoSection(DemoContext& ctx);
 
+// Latency compensation (Mark, Bishop, McMillan): a walkthrough frame through a 100 ms round trip
+// (stale, timewarped, warped, the truth) and the PSNR-against-RTT plot. ctx.quick: tiny sizes.
+Status demoWarpSection(DemoContext& ctx);
+
 // Curved displays (Bimber et al.): the cone showcase's adaptive grid, the predistorted frame,
 // uniform against adaptive and the speedup plot. ctx.quick: two thresholds, small sizes.
 Status demoDisplaySection(DemoContext& ctx);

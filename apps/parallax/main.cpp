@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
     std::vector<Command> commands = {
         registerRender(app),
         registerStereo(app),
+        registerWarp(app),
         registerDemo(app),
         registerInfo(app),
         registerPtm(app),

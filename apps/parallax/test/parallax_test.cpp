@@ -16,6 +16,7 @@
 #include "example_displays.h"
 #include "experiment_predistort.h"
 #include "experiment_stereo.h"
+#include "experiment_warp.h"
 
 namespace plx::cli {
 namespace {
@@ -162,6 +163,120 @@ TEST(PredistortExperiment, RejectsBadThresholds) {
     auto e = runPredistortExperiment(d, d.defaultViewerMm, content, config);
     ASSERT_FALSE(e.isOk());
     EXPECT_NE(e.status().message().find("thresholds"), std::string::npos);
+}
+
+WarpExperimentConfig tinyWarpConfig() {
+    WarpExperimentConfig c;
+    c.scenes = {"office:1"};
+    c.rttsMs = {0, 200};
+    c.durationS = 0.05;
+    c.width = 64;
+    c.height = 48;
+    c.threads = 2;
+    c.throughputSizes = {{64, 48}};
+    c.throughputThreads = {1};
+    c.throughputScene = "office:1";
+    c.sizeScenes = {"office:2"};
+    c.throughputFrames = 1;
+    return c;
+}
+
+TEST(WarpExperiment, RowsForEveryMethodAndRttAndSerialise) {
+    WarpExperimentConfig c = tinyWarpConfig();
+    c.modelPath = "/no/such/model.glb";
+    auto e = runWarpExperiment(c);
+    ASSERT_TRUE(e.isOk()) << e.status().toString();
+    ASSERT_EQ(e->latency.size(), std::size(kLatencyMethods) * c.rttsMs.size());
+    for (const LatencyRow& r : e->latency) {
+        EXPECT_EQ(r.scene, "office:1");
+        EXPECT_EQ(r.frames, 3);
+        EXPECT_GT(r.psnrDbMedian, 5.0);
+        EXPECT_LE(r.psnrDbMedian, 99.0);
+        EXPECT_GE(r.holeFractionMedian, 0.0);
+        EXPECT_LE(r.holeFractionMedian, 1.0);
+        if (r.method == LatencyMethod::kStale) {
+            EXPECT_EQ(r.warpMsMedian, 0.0);
+        }
+    }
+    // The model is missing: a note, no rows.
+    ASSERT_EQ(e->notes.size(), 1u);
+    EXPECT_NE(e->notes[0].find("/no/such/model.glb"), std::string::npos);
+    // Two sets cover at least what the newest alone covers.
+    auto row = [&](LatencyMethod m, double rtt) {
+        for (const LatencyRow& r : e->latency)
+            if (r.method == m && r.rttMs == rtt) return r;
+        return LatencyRow{};
+    };
+    EXPECT_LE(row(LatencyMethod::kWarp2, 200).holeFractionMedian,
+              row(LatencyMethod::kWarp1, 200).holeFractionMedian);
+    ASSERT_EQ(e->throughput.size(), 2u);
+    EXPECT_EQ(e->throughput[1].scene, "office:2");
+    EXPECT_GT(e->throughput[0].warpedPixels, 0);
+    EXPECT_GE(e->throughput[0].sourcePixels, e->throughput[0].warpedPixels);
+    nlohmann::json j = warpExperimentJson(*e);
+    EXPECT_EQ(j["rows"].size(), e->latency.size());
+    EXPECT_EQ(j["rows"][0]["method"], "stale");
+    EXPECT_EQ(j["throughput"].size(), 2u);
+    EXPECT_EQ(lineCount(latencyCsv(*e)), e->latency.size() + 1);
+    EXPECT_EQ(lineCount(throughputCsv(*e)), 3u);
+    EXPECT_EQ(warpPlots(*e).size(), 3u);  // PSNR and holes for office:1, throughput
+}
+
+TEST(WarpExperiment, IsDeterministicApartFromTimes) {
+    WarpExperimentConfig c = tinyWarpConfig();
+    c.throughputSizes.clear();
+    c.sizeScenes.clear();
+    auto a = runWarpExperiment(c), b = runWarpExperiment(c);
+    ASSERT_TRUE(a.isOk() && b.isOk());
+    ASSERT_EQ(a->latency.size(), b->latency.size());
+    for (size_t i = 0; i < a->latency.size(); ++i) {
+        EXPECT_EQ(a->latency[i].psnrDbMedian, b->latency[i].psnrDbMedian) << i;
+        EXPECT_EQ(a->latency[i].holeFractionMedian, b->latency[i].holeFractionMedian) << i;
+    }
+}
+
+TEST(WarpExperiment, ExampleKeepsEveryMethodsImage) {
+    auto ex = latencyExample("office:1", tinyWarpConfig(), 100.0, 1);
+    ASSERT_TRUE(ex.isOk()) << ex.status().toString();
+    EXPECT_EQ(ex->truth.width(), 64);
+    ASSERT_EQ(ex->images.size(), std::size(kLatencyMethods));
+    for (size_t i = 0; i < ex->images.size(); ++i) {
+        EXPECT_EQ(ex->images[i].method, kLatencyMethods[i]);
+        EXPECT_EQ(ex->images[i].image.width(), 64);
+        EXPECT_GT(ex->images[i].psnrDb, 5.0);
+    }
+}
+
+TEST(WarpExperiment, RejectsBadConfigs) {
+    WarpExperimentConfig c = tinyWarpConfig();
+    c.rttsMs.clear();
+    EXPECT_FALSE(runWarpExperiment(c).isOk());
+    c = tinyWarpConfig();
+    c.rttsMs = {-1.0};
+    EXPECT_FALSE(runWarpExperiment(c).isOk());
+    c = tinyWarpConfig();
+    c.refreshMs = 0.0;
+    EXPECT_FALSE(runWarpExperiment(c).isOk());
+    c = tinyWarpConfig();
+    c.width = 0;
+    EXPECT_FALSE(runWarpExperiment(c).isOk());
+    c = tinyWarpConfig();
+    c.scenes = {"office:0"};
+    EXPECT_FALSE(runWarpExperiment(c).isOk());
+}
+
+TEST(WarpExperiment, ReferenceFacesMatchTheDisplayDensity) {
+    auto scene = scene::generateOffice(1);
+    scene::Viewpoint vp = scene::defaultViewpoint(*scene);
+    vp.fovYDegrees = 60.0f;
+    auto cam = scene::cameraAt(*scene, vp, 320, 240);
+    ASSERT_TRUE(cam.isOk());
+    // The paper's 416-pixel faces for 320x240 at 60 degrees.
+    EXPECT_EQ(referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kCube4).faceSize, 416);
+    warp::ReferenceSetOptions wide =
+        referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kWide);
+    EXPECT_GT(wide.wideFovDegrees, 60.0f);
+    EXPECT_GT(wide.faceSize, 240);
 }
 
 }  // namespace

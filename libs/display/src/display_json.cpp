@@ -247,7 +247,7 @@ Result<Display> parseDisplayJson(std::string_view text) {
 
 Result<Display> loadDisplayFile(const std::string& path) {
     auto bytes = readFileBytes(path);
-    if (!bytes) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+    if (!bytes) return bytes.status();  // already names the path
     auto display = parseDisplayJson(
         std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
     if (!display) return Status(display.status().code(), path + ": " + display.status().message());

@@ -1,6 +1,7 @@
 #include <plx/core/file.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <cstring>
 
 #include <fcntl.h>
@@ -100,6 +101,17 @@ Result<std::string> readFileChecked(const std::string& path, uint64_t maxBytes) 
     }
     bytes.resize(done);
     return bytes;
+}
+
+std::string lineColumn(std::string_view text, size_t byteOffset) {
+    byteOffset = std::min(byteOffset, text.size());
+    size_t line = 1, lineStart = 0;
+    for (size_t i = 0; i < byteOffset; ++i)
+        if (text[i] == '\n') {
+            ++line;
+            lineStart = i + 1;
+        }
+    return fmt::format("line {}, column {}", line, byteOffset - lineStart + 1);
 }
 
 }  // namespace plx

@@ -67,6 +67,15 @@ TEST(FileChecked, NamesTheCauseOfAFailedOpen) {
     }
 }
 
+TEST(FileChecked, LineColumnOfAnOffset) {
+    const std::string text = "ab\ncde\n\nf";
+    EXPECT_EQ(lineColumn(text, 0), "line 1, column 1");
+    EXPECT_EQ(lineColumn(text, 2), "line 1, column 3");
+    EXPECT_EQ(lineColumn(text, 3), "line 2, column 1");
+    EXPECT_EQ(lineColumn(text, 8), "line 4, column 1");
+    EXPECT_EQ(lineColumn(text, 99), "line 4, column 2");
+}
+
 TEST(FileChecked, RefusesFilesOverTheLimit) {
     fs::path p = tempDir("limit") / "big.bin";
     std::ofstream(p, std::ios::binary) << std::string(100, 'x');

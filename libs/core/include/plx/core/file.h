@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <plx/core/status.h>
@@ -24,5 +25,9 @@ Result<std::string> readFileChecked(const std::string& path,
 // Checks that path names a readable regular file without reading it: the same opening and
 // messages as readFileChecked. Gives the file's size.
 Result<uint64_t> checkRegularFile(const std::string& path);
+
+// "line L, column C" (both from 1) of a byte offset into text, for parse errors: the position
+// tells the user where to look without quoting the text. Offsets past the end give the end.
+std::string lineColumn(std::string_view text, size_t byteOffset);
 
 }  // namespace plx

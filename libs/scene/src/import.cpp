@@ -458,8 +458,12 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
             ai = importer.ApplyPostProcessing(aiProcess_Triangulate |
                                               aiProcess_JoinIdenticalVertices | aiProcess_FlipUVs);
         }
-    } catch (const std::exception& e) {  // assimp catches its own; this guards bad_alloc
-        return named(errorStatus(ErrorCode::kCorruptData, e.what()));
+    } catch (const std::bad_alloc&) {  // assimp catches its own errors, not this one
+        return named(errorStatus(ErrorCode::kOutOfRange,
+                                 "out of memory while reading the file (its contents ask for "
+                                 "more than this machine has)"));
+    } catch (const std::exception&) {  // what() may quote the file: not shown
+        return named(errorStatus(ErrorCode::kCorruptData, "assimp failed while reading the file"));
     }
     // Readers shrug off a file they cannot open (an OBJ's material library); a reference that
     // was refused fails the import whatever the reader made of it.

@@ -14,6 +14,8 @@
 
 #include <plx/scene/import.h>
 
+#include "expect_import_error.h"
+
 #include "../src/normals.h"
 
 namespace plx::scene {
@@ -32,17 +34,6 @@ std::string writeFile(const fs::path& path, const std::string& bytes) {
     fs::create_directories(path.parent_path());
     std::ofstream(path, std::ios::binary) << bytes;
     return path.string();
-}
-
-// A failed import: one line naming the file and containing `problem`, never `secret`.
-void expectError(const std::string& path, const std::string& problem,
-                 const ImportOptions& options = {}) {
-    auto s = importFile(path, options);
-    ASSERT_FALSE(s.isOk()) << path;
-    const std::string& msg = s.status().message();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    EXPECT_NE(msg.find(problem), std::string::npos) << msg;
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
 }
 
 const char* kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";

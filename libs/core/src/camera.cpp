@@ -12,7 +12,9 @@ Result<Camera> Camera::create(const CameraDesc& d) {
     // Lengths square the coordinates: beyond 1e18 they overflow a float, and the checks below
     // would blame the up vector. 1e15 leaves room for differences and products.
     constexpr float kMaxCoordinate = 1e15f;
-    auto huge = [&](const Vec3& v) { return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCoordinate))); };
+    auto huge = [&](const Vec3& v) {
+        return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCoordinate)));
+    };
     for (auto [name, v] : {std::pair{"eye", d.eyePos}, std::pair{"target", d.targetPos},
                            std::pair{"up vector", d.upDir}})
         if (huge(v))

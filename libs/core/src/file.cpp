@@ -1,7 +1,7 @@
 #include <plx/core/file.h>
 
-#include <cerrno>
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 
 #include <fcntl.h>
@@ -19,9 +19,9 @@ Status openError(const std::string& path, int err) {
         case ENOENT:
             return errorStatus(ErrorCode::kNotFound, fmt::format("'{}': file not found", path));
         case ENOTDIR:
-            return errorStatus(ErrorCode::kNotFound,
-                               fmt::format("'{}': a component of the path is not a directory",
-                                           path));
+            return errorStatus(
+                ErrorCode::kNotFound,
+                fmt::format("'{}': a component of the path is not a directory", path));
         case ELOOP:
             return errorStatus(ErrorCode::kIoError,
                                fmt::format("'{}': too many levels of symbolic links (a symlink "
@@ -65,8 +65,8 @@ Status openRegular(const std::string& path, Fd* file, uint64_t* size) {
     struct stat st {};
     if (::fstat(file->fd, &st) != 0) return openError(path, errno);
     if (!S_ISREG(st.st_mode))
-        return errorStatus(ErrorCode::kIoError,
-                           fmt::format("'{}' is {}, not a regular file", path, fileKind(st.st_mode)));
+        return errorStatus(ErrorCode::kIoError, fmt::format("'{}' is {}, not a regular file", path,
+                                                            fileKind(st.st_mode)));
     *size = uint64_t(st.st_size);
     return Status::ok();
 }
@@ -85,9 +85,9 @@ Result<std::string> readFileChecked(const std::string& path, uint64_t maxBytes) 
     uint64_t size = 0;
     PLX_RETURN_IF_ERROR(openRegular(path, &file, &size));
     if (size > maxBytes)
-        return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("'{}' holds {} bytes, more than the limit of {}", path, size,
-                                       maxBytes));
+        return errorStatus(
+            ErrorCode::kOutOfRange,
+            fmt::format("'{}' holds {} bytes, more than the limit of {}", path, size, maxBytes));
     std::string bytes(size_t(size), '\0');
     size_t done = 0;
     while (done < bytes.size()) {

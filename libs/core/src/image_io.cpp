@@ -23,9 +23,10 @@ Status checkDecodedSize(int64_t width, int64_t height, const char* format, int64
                            fmt::format("{} declares {}x{} pixels, more than the {}x{} limit",
                                        format, width, height, kMaxDecodedSide, kMaxDecodedSide));
     if (width * height > std::min(maxPixels, kMaxDecodedPixels))
-        return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("{} declares {}x{} pixels, more than the limit of {} pixels",
-                                       format, width, height, std::min(maxPixels, kMaxDecodedPixels)));
+        return errorStatus(
+            ErrorCode::kOutOfRange,
+            fmt::format("{} declares {}x{} pixels, more than the limit of {} pixels", format, width,
+                        height, std::min(maxPixels, kMaxDecodedPixels)));
     return Status::ok();
 }
 
@@ -85,8 +86,8 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     jpeg_read_header(&info, TRUE);
     if (!checkDecodedSize(info.image_width, info.image_height, "JPEG", maxPixels).isOk()) {
         std::snprintf(err.message, sizeof(err.message),
-                      "declares %ux%u pixels, more than the limit of %lld pixels",
-                      info.image_width, info.image_height,
+                      "declares %ux%u pixels, more than the limit of %lld pixels", info.image_width,
+                      info.image_height,
                       static_cast<long long>(std::min(maxPixels, kMaxDecodedPixels)));
         *error = err.message;
         jpeg_destroy_decompress(&info);
@@ -111,7 +112,8 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
 
 Result<ByteImage> decodeImage(std::span<const uint8_t> bytes, int64_t maxPixels) {
     static const uint8_t kPngSig[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
-    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPngSig, 8) == 0) return decodePng(bytes, maxPixels);
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPngSig, 8) == 0)
+        return decodePng(bytes, maxPixels);
     if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
         ByteImage out;
         std::string error;

@@ -221,8 +221,9 @@ Result<Display> parseDisplayJson(std::string_view text) {
                                        "numbers either)",
                                        lineColumn(text, e.byte > 0 ? e.byte - 1 : 0)));
     } catch (const json::exception&) {  // a number out of range (1e999): no position kept
-        return errorStatus(ErrorCode::kCorruptData, "not valid JSON (a number out of range; NaN "
-                                                    "and Infinity are not JSON numbers either)");
+        return errorStatus(ErrorCode::kCorruptData,
+                           "not valid JSON (a number out of range; NaN "
+                           "and Infinity are not JSON numbers either)");
     }
     if (!root.is_object()) return fieldError("document", "must be a JSON object");
     double scale = 1.0;

@@ -48,9 +48,9 @@ Result<fs::path> RefPolicy::resolve(const std::string& ref, bool relativeToModel
                                        printableRef(ref)));
     auto size = checkRegularFile(real.string());
     if (!size)
-        return errorStatus(size.status().code(),
-                           fmt::format("reference '{}': {}", printableRef(ref),
-                                       size.status().message()));
+        return errorStatus(
+            size.status().code(),
+            fmt::format("reference '{}': {}", printableRef(ref), size.status().message()));
     return real;
 }
 

@@ -170,8 +170,9 @@ std::string percentDecode(const std::string& s) {
 // Decodes an embedded texture: compressed file bytes (PNG/JPEG) or raw BGRA texels.
 Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex, int64_t maxPixels) {
     if (tex.mHeight == 0) {
-        auto image = decodeImage(std::span<const uint8_t>(
-            reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth), maxPixels);
+        auto image = decodeImage(
+            std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth),
+            maxPixels);
         if (!image) return image.status();
         return toRgba8(*image);
     }

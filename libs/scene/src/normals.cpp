@@ -56,7 +56,8 @@ FacesAround groupCorners(const std::vector<Vec3>& pos, const std::vector<Corners
 
 }  // namespace
 
-std::vector<Vec3> smoothCornerNormals(const std::vector<Vec3>& pos, const std::vector<Corners>& tris) {
+std::vector<Vec3> smoothCornerNormals(const std::vector<Vec3>& pos,
+                                      const std::vector<Corners>& tris) {
     const float cosLimit = std::cos(radians(80.0f));
     std::vector<Vec3> faceN(tris.size()), unitN(tris.size());
     for (size_t t = 0; t < tris.size(); ++t) {

@@ -19,6 +19,7 @@ constexpr size_t kMaxPairwiseFaces = 256;
 // Around each position, the sum of the area-weighted normals of the faces within 80 degrees of
 // the corner's own face (box edges stay sharp, curved surfaces look smooth). Returns one
 // unnormalised normal per corner (3 per triangle). Positions are grouped by exact bits.
-std::vector<Vec3> smoothCornerNormals(const std::vector<Vec3>& pos, const std::vector<Corners>& tris);
+std::vector<Vec3> smoothCornerNormals(const std::vector<Vec3>& pos,
+                                      const std::vector<Corners>& tris);
 
 }  // namespace plx::scene

@@ -233,8 +233,8 @@ Status checkOffFile(const std::string& path, uintmax_t fileSize, size_t maxEleme
                                                f, lineNo, corners));
             if (index < 0 || uint64_t(index) >= vertices)
                 return errorStatus(ErrorCode::kCorruptData,
-                                   fmt::format("OFF face {} (line {}) refers to vertex {} of {}",
-                                               f, lineNo, index, vertices));
+                                   fmt::format("OFF face {} (line {}) refers to vertex {} of {}", f,
+                                               lineNo, index, vertices));
         }
     }
     return Status::ok();
@@ -325,7 +325,8 @@ struct GltfExpansion {
         const Json& node = nodes[n];
         uint64_t c = 1, t = 0;
         if (node.is_object() && node.contains("mesh") && doc.contains("meshes") &&
-            node["mesh"].is_number_unsigned() && node["mesh"].get<uint64_t>() < doc["meshes"].size())
+            node["mesh"].is_number_unsigned() &&
+            node["mesh"].get<uint64_t>() < doc["meshes"].size())
             t = gltfMeshTriangles(doc, doc["meshes"][node["mesh"].get<uint64_t>()]);
         if (node.is_object() && node.contains("children") && node["children"].is_array()) {
             for (const Json& child : node["children"]) {

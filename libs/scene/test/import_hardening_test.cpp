@@ -42,7 +42,8 @@ const char* kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
 std::string gltfWithBuffer(const std::string& uri, const std::string& nodes = R"([{"mesh":0}])") {
     return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":)" + nodes +
            R"(,"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
-"buffers":[{"byteLength":36,"uri":")" + uri + R"("}],
+"buffers":[{"byteLength":36,"uri":")" +
+           uri + R"("}],
 "bufferViews":[{"buffer":0,"byteLength":36}],
 "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
 "min":[0,0,0],"max":[1,1,0]}]})";
@@ -57,8 +58,7 @@ TEST(ImportLimits, OffCountsAreCheckedAgainstTheFileSize) {
     const std::string body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     expectError(writeFile(dir / "vertices.off", "OFF\n200000000 1 0\n" + body),
                 "OFF header declares 200000000 vertices");
-    expectError(writeFile(dir / "faces.off", "OFF\n3 200000000 0\n" + body),
-                "200000000 faces");
+    expectError(writeFile(dir / "faces.off", "OFF\n3 200000000 0\n" + body), "200000000 faces");
     ImportOptions small;
     small.maxTriangles = 2;
     expectError(writeFile(dir / "limit.off", "OFF\n3 3 0\n" + body), "limit of 2", small);
@@ -76,8 +76,8 @@ TEST(ImportLimits, OffFaceIndexOutOfRangeIsAnError) {
 TEST(ImportLimits, DoubledGltfChildrenFailFastNamingTheLimit) {
     // 40 levels, each node listing its child twice: 2^40 copies of the leaf in 1.7 KB.
     std::string nodes = "[";
-    for (int i = 0; i < 40; ++i) nodes += "{\"children\":[" + std::to_string(i + 1) + "," +
-                                          std::to_string(i + 1) + "]},";
+    for (int i = 0; i < 40; ++i)
+        nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
     nodes += "{\"mesh\":0}]";
     fs::path dir = tempDir("doubled");
     expectError(writeFile(dir / "doubled.gltf", gltfWithBuffer(kTriangleBase64, nodes)),
@@ -85,29 +85,37 @@ TEST(ImportLimits, DoubledGltfChildrenFailFastNamingTheLimit) {
     ImportOptions few;
     few.maxNodeCopies = 4;
     std::string twice = R"([{"children":[1,1]},{"mesh":0}])";
-    EXPECT_TRUE(importFile(writeFile(dir / "twice.gltf", gltfWithBuffer(kTriangleBase64, twice)))
-                    .isOk());
-    expectError(writeFile(dir / "twice_limit.gltf",
-                          gltfWithBuffer(kTriangleBase64, R"([{"children":[1,1,1,1]},{"mesh":0}])")),
-                "limit of 4 node copies", few);
-    expectError(writeFile(dir / "cycle.gltf",
-                          gltfWithBuffer(kTriangleBase64, R"([{"children":[1]},{"children":[0]}])")),
-                "cycle");
+    EXPECT_TRUE(
+        importFile(writeFile(dir / "twice.gltf", gltfWithBuffer(kTriangleBase64, twice))).isOk());
+    expectError(
+        writeFile(dir / "twice_limit.gltf",
+                  gltfWithBuffer(kTriangleBase64, R"([{"children":[1,1,1,1]},{"mesh":0}])")),
+        "limit of 4 node copies", few);
+    expectError(
+        writeFile(dir / "cycle.gltf",
+                  gltfWithBuffer(kTriangleBase64, R"([{"children":[1]},{"children":[0]}])")),
+        "cycle");
 }
 
 TEST(ImportLimits, PolygonWithTooManyCornersIsRefused) {
     // One polygon of 100,000 corners: assimp's ear clipping would take about a minute.
     std::string obj;
     const int n = 100000;
-    for (int i = 0; i < n; ++i)
-        obj += "v " + std::to_string(std::cos(2 * M_PI * i / n)) + " " +
-               std::to_string(std::sin(2 * M_PI * i / n)) + " 0\n";
+    char line[64];
+    for (int i = 0; i < n; ++i) {
+        std::snprintf(line, sizeof(line), "v %.6f %.6f 0\n", std::cos(2 * M_PI * i / n),
+                      std::sin(2 * M_PI * i / n));
+        obj += line;
+    }
     obj += "f";
-    for (int i = 1; i <= n; ++i) obj += " " + std::to_string(i);
+    for (int i = 1; i <= n; ++i) {
+        std::snprintf(line, sizeof(line), " %d", i);
+        obj += line;
+    }
     obj += "\n";
     fs::path dir = tempDir("polygon");
-    expectError(writeFile(dir / "polygon.obj", obj), "face 0 has 100000 corners, more than the "
-                                                     "limit of 4096");
+    expectError(writeFile(dir / "polygon.obj", obj),
+                "face 0 has 100000 corners, more than the limit of 4096");
 }
 
 // The method before issue 28, kept as the reference: for each corner, every face around its
@@ -158,9 +166,10 @@ TEST(ImportNormals, LinearMethodEqualsTheReference) {
     // A box corner: three faces at right angles (sharp edges stay sharp).
     unsigned b = unsigned(pos.size());
     pos.insert(pos.end(), {Vec3(5, 0, 0), Vec3(6, 0, 0), Vec3(5, 1, 0), Vec3(5, 0, 1)});
-    tris.insert(tris.end(), {Corners{b, b + 2, b + 1}, Corners{b, b + 1, b + 3},
-                             Corners{b, b + 3, b + 2}});
-    std::vector<Vec3> fast = smoothCornerNormals(pos, tris), ref = referenceCornerNormals(pos, tris);
+    tris.insert(tris.end(),
+                {Corners{b, b + 2, b + 1}, Corners{b, b + 1, b + 3}, Corners{b, b + 3, b + 2}});
+    std::vector<Vec3> fast = smoothCornerNormals(pos, tris),
+                      ref = referenceCornerNormals(pos, tris);
     ASSERT_EQ(fast.size(), ref.size());
     for (size_t c = 0; c < fast.size(); ++c) EXPECT_EQ(fast[c], ref[c]) << "corner " << c;
 }
@@ -202,13 +211,13 @@ TEST(ImportRefs, GltfBufferOutsideTheFolderIsRefused) {
     writeFile(dir / "outside.bin", triangleBuffer());
     std::string path = writeFile(dir / "model" / "up.gltf", gltfWithBuffer("../outside.bin"));
     expectError(path, "points outside the model's folder");
-    expectError(writeFile(dir / "model" / "passwd.gltf",
-                          gltfWithBuffer("../../../../../../../etc/passwd")),
-                "points outside the model's folder");
+    expectError(
+        writeFile(dir / "model" / "passwd.gltf", gltfWithBuffer("../../../../../../../etc/passwd")),
+        "points outside the model's folder");
     // assimp joins absolute and file:// URIs to the model's folder, where they name nothing.
-    expectError(writeFile(dir / "model" / "absolute.gltf",
-                          gltfWithBuffer((dir / "outside.bin").string())),
-                "could not open");
+    expectError(
+        writeFile(dir / "model" / "absolute.gltf", gltfWithBuffer((dir / "outside.bin").string())),
+        "could not open");
     expectError(writeFile(dir / "model" / "fileuri.gltf",
                           gltfWithBuffer("file://" + (dir / "outside.bin").string())),
                 "could not open");
@@ -221,16 +230,15 @@ TEST(ImportRefs, GltfBufferOutsideTheFolderIsRefused) {
     EXPECT_TRUE(importFile(path, allow).isOk());
     // Inside the folder, a subfolder is fine.
     writeFile(dir / "model" / "sub" / "in.bin", triangleBuffer());
-    EXPECT_TRUE(importFile(writeFile(dir / "model" / "in.gltf", gltfWithBuffer("sub/in.bin")))
-                    .isOk());
+    EXPECT_TRUE(
+        importFile(writeFile(dir / "model" / "in.gltf", gltfWithBuffer("sub/in.bin"))).isOk());
 }
 
 TEST(ImportRefs, ObjMaterialLibraryOutsideIsRefusedWithoutQuotingIt) {
     fs::path dir = tempDir("obj_mtllib");
     writeFile(dir / "secret.txt", "SECRET-CONTENT line one\nSECRET-CONTENT line two\n");
-    std::string path = writeFile(dir / "model" / "m.obj",
-                                 std::string("mtllib ../secret.txt\n") + kTriangleObj +
-                                     "usemtl x\nf 1 2 3\n");
+    std::string path = writeFile(dir / "model" / "m.obj", std::string("mtllib ../secret.txt\n") +
+                                                              kTriangleObj + "usemtl x\nf 1 2 3\n");
     expectError(path, "points outside the model's folder");
     EXPECT_EQ(importFile(path).status().message().find("SECRET"), std::string::npos);
     expectError(writeFile(dir / "model" / "passwd.obj",
@@ -294,8 +302,8 @@ TEST(ImportTextures, DevicesAndFifosAreNotRead) {
     fs::path dir = tempDir("texture_fifo");
     ASSERT_EQ(mkfifo((dir / "fifo.png").c_str(), 0600), 0);
     writeFile(dir / "m.mtl", "newmtl a\nmap_Kd fifo.png\n");
-    auto s = importFile(writeFile(dir / "m.obj", "mtllib m.mtl\n" + std::string(kTriangleObj) +
-                                                    "usemtl a\nf 1/1 2/2 3/3\n"));
+    auto s = importFile(writeFile(
+        dir / "m.obj", "mtllib m.mtl\n" + std::string(kTriangleObj) + "usemtl a\nf 1/1 2/2 3/3\n"));
     ASSERT_TRUE(s.isOk()) << s.status().message();
     ASSERT_EQ(s->warnings.size(), 1u);
     EXPECT_NE(s->warnings[0].find("FIFO"), std::string::npos) << s->warnings[0];

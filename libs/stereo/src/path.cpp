@@ -35,10 +35,11 @@ Result<std::vector<Pose>> parsePath(const std::string& text) {
     try {
         doc = nlohmann::json::parse(text);
     } catch (const nlohmann::json::parse_error& e) {  // position only: what() quotes the text
-        return errorStatus(ErrorCode::kCorruptData,
-                           "path is not valid JSON at " + lineColumn(text, e.byte ? e.byte - 1 : 0));
+        return errorStatus(ErrorCode::kCorruptData, "path is not valid JSON at " +
+                                                        lineColumn(text, e.byte ? e.byte - 1 : 0));
     } catch (const nlohmann::json::exception&) {  // a number out of range: no position kept
-        return errorStatus(ErrorCode::kCorruptData, "path is not valid JSON (a number out of range)");
+        return errorStatus(ErrorCode::kCorruptData,
+                           "path is not valid JSON (a number out of range)");
     }
     const nlohmann::json* poses = &doc;
     if (doc.is_object()) {

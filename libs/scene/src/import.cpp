@@ -425,6 +425,7 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
     if (ext == ".ply") return checkPlyCounts(path, size, options.maxTriangles);
     if (ext == ".obj") return checkObjCounts(path, options.maxTriangles);
     if (ext == ".off") return checkOffFile(path, size, options.maxTriangles);
+    if (ext == ".x") return checkXFaces(path, size);
     if (ext == ".gltf" || ext == ".glb")
         return checkGltfExpansion(path, size, options.maxNodeCopies, options.maxTriangles);
     return Status::ok();

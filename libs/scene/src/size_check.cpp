@@ -404,3 +404,103 @@ Status checkGltfExpansion(const std::string& path, uintmax_t fileSize, size_t ma
 }
 
 }  // namespace plx::scene
+
+namespace plx::scene {
+namespace {
+
+// Tokens of a text .x file: separators are white space, ';' and ','; comments (# or //) run to
+// the end of the line; '{' and '}' are tokens of their own.
+class XTokens {
+public:
+    explicit XTokens(std::string text) : mText(std::move(text)) {}
+
+    bool next(std::string* token) {
+        token->clear();
+        while (mPos < mText.size()) {
+            char c = mText[mPos];
+            if (c == '#' || (c == '/' && mPos + 1 < mText.size() && mText[mPos + 1] == '/')) {
+                size_t eol = mText.find('\n', mPos);
+                mPos = eol == std::string::npos ? mText.size() : eol;
+            } else if (c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == ';' || c == ',') {
+                ++mPos;
+            } else {
+                break;
+            }
+        }
+        if (mPos >= mText.size()) return false;
+        if (mText[mPos] == '{' || mText[mPos] == '}') {
+            *token = mText[mPos++];
+            return true;
+        }
+        while (mPos < mText.size() && std::strchr(" \t\r\n;,{}", mText[mPos]) == nullptr)
+            token->push_back(mText[mPos++]);
+        return true;
+    }
+
+    bool number(int64_t* value) {
+        std::string t;
+        if (!next(&t)) return false;
+        auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), *value);
+        return ec == std::errc() && end == t.data() + t.size();
+    }
+
+    bool skipNumbers(uint64_t count) {
+        std::string t;
+        for (uint64_t i = 0; i < count; ++i)
+            if (!next(&t) || t == "{" || t == "}") return false;
+        return true;
+    }
+
+private:
+    std::string mText;
+    size_t mPos = 0;
+};
+
+// One "Mesh [name] {" block from just after its brace: the face indices against the vertex
+// count. A block that does not parse (a template) is left to assimp.
+Status checkXMesh(XTokens* tokens, int meshNumber) {
+    int64_t vertices = 0, faces = 0;
+    if (!tokens->number(&vertices) || vertices < 0 || !tokens->skipNumbers(3 * uint64_t(vertices)))
+        return Status::ok();
+    if (!tokens->number(&faces) || faces < 0) return Status::ok();
+    for (int64_t f = 0; f < faces; ++f) {
+        int64_t corners = 0;
+        if (!tokens->number(&corners) || corners < 0) return Status::ok();
+        for (int64_t k = 0; k < corners; ++k) {
+            int64_t index = 0;
+            if (!tokens->number(&index)) return Status::ok();
+            if (index < 0 || index >= vertices)
+                return errorStatus(ErrorCode::kCorruptData,
+                                   fmt::format(".x mesh {} face {} refers to vertex {} of {}",
+                                               meshNumber, f, index, vertices));
+        }
+    }
+    return Status::ok();
+}
+
+}  // namespace
+
+Status checkXFaces(const std::string& path, uintmax_t fileSize) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return errorStatus(ErrorCode::kIoError, "cannot open the file");
+    std::string text(size_t(fileSize), '\0');
+    in.read(text.data(), std::streamsize(text.size()));
+    text.resize(size_t(in.gcount()));
+    // Text files only ("xof 0303txt"); binary and compressed ones are left to assimp.
+    if (text.size() < 16 || text.compare(0, 4, "xof ") != 0 || text.compare(8, 3, "txt") != 0)
+        return Status::ok();
+    XTokens tokens(std::move(text));
+    std::string t, previous, beforePrevious;
+    int meshes = 0;
+    while (tokens.next(&t)) {
+        // "Mesh {" or "Mesh name {", but not "template Mesh {".
+        bool opensMesh = t == "{" && (previous == "Mesh" || beforePrevious == "Mesh") &&
+                         beforePrevious != "template" && previous != "template";
+        if (opensMesh) PLX_RETURN_IF_ERROR(checkXMesh(&tokens, meshes++));
+        beforePrevious = previous;
+        previous = t;
+    }
+    return Status::ok();
+}
+
+}  // namespace plx::scene

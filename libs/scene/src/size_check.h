@@ -24,6 +24,10 @@ Status checkObjCounts(const std::string& path, size_t maxElements);
 // (assimp would clamp it). Streams the file once.
 Status checkOffFile(const std::string& path, uintmax_t fileSize, size_t maxElements);
 
+// DirectX .x (text files): every face index of each Mesh must name one of its vertices
+// (assimp 5.2 silently drops a face that does not). Reads the file whole.
+Status checkXFaces(const std::string& path, uintmax_t fileSize);
+
 // glTF (.gltf or .glb): the node graph expanded as assimp expands it (a node listed twice as a
 // child is copied twice, recursively) must stay within maxNodes node copies and maxTriangles
 // triangles (each mesh counted at each copy), and must have no cycle. Parses the JSON only.

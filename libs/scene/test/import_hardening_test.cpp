@@ -73,6 +73,24 @@ TEST(ImportLimits, OffFaceIndexOutOfRangeIsAnError) {
                 "refers to vertex -1 of 3");
 }
 
+// A text .x file with one mesh of three vertices and the given faces ("3;0,1,2;").
+std::string xFile(const std::string& faces, int count) {
+    return "xof 0303txt 0032\ntemplate Mesh {\n <3D82AB44-62DA-11cf-AB39-0020AF71E433>\n"
+           " DWORD nVertices;\n [...]\n}\nMesh tri {\n 3;\n 0.0;0.0;0.0;,\n 1.0;0.0;0.0;,\n"
+           " 0.0;1.0;0.0;;\n " +
+           std::to_string(count) + ";\n" + faces + ";\n}\n";
+}
+
+TEST(ImportLimits, XFaceIndexOutOfRangeIsAnError) {
+    // assimp dropped the face without a word.
+    fs::path dir = tempDir("x_index");
+    expectError(writeFile(dir / "index.x", xFile(" 3;0,1,2;,\n 3;0,1,2147483647;", 2)),
+                ".x mesh 0 face 1 refers to vertex 2147483647 of 3");
+    auto ok = importFile(writeFile(dir / "fine.x", xFile(" 3;0,1,2;,\n 3;0,2,1;", 2)));
+    ASSERT_TRUE(ok.isOk()) << ok.status().message();
+    EXPECT_EQ(ok->triangleCount(), 2u);
+}
+
 TEST(ImportLimits, DoubledGltfChildrenFailFastNamingTheLimit) {
     // 40 levels, each node listing its child twice: 2^40 copies of the leaf in 1.7 KB.
     std::string nodes = "[";

@@ -9,6 +9,32 @@
 
 namespace plx::cli {
 
+InputPolicy& inputPolicy() {
+    static InputPolicy policy;
+    return policy;
+}
+
+void addInputOptions(CLI::App& app) {
+    // Given anywhere on the command line: subcommands pass options they do not know upwards.
+    app.fallthrough();
+    InputPolicy& p = inputPolicy();
+    app.add_flag("--strict", p.strict,
+                 "Treat every warning as an error (e.g. a texture that fails to load)");
+    app.add_flag("--allow-external-refs", p.allowExternalRefs,
+                 "Let model files refer to files outside their folder");
+    app.add_option("--max-pixels", p.maxPixels,
+                   "Largest decoded image (textures, ptm encode input) in pixels")
+        ->check(CLI::Range(int64_t(1), kMaxDecodedPixels))
+        ->capture_default_str();
+}
+
+Status warn(const std::string& message) {
+    if (inputPolicy().strict)
+        return errorStatus(ErrorCode::kCorruptData, message + " (an error with --strict)");
+    std::fprintf(stderr, "parallax: warning: %s\n", message.c_str());
+    return Status::ok();
+}
+
 int fail(const std::string& message, int code) {
     std::fprintf(stderr, "parallax: error: %s\n", message.c_str());
     return code;

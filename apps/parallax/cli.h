@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <plx/core/core.h>
+#include <plx/core/image_io.h>
 
 namespace plx::cli {
 
@@ -24,6 +25,19 @@ struct Command {
     CLI::App* app = nullptr;
     std::function<int()> run;
 };
+
+// How every command treats its input files, from the options any command accepts (main.cpp):
+// --strict, --allow-external-refs, --max-pixels.
+struct InputPolicy {
+    bool strict = false;                    // every warning is an error
+    bool allowExternalRefs = false;         // models may refer to files outside their folder
+    int64_t maxPixels = kDefaultMaxPixels;  // decoded images: textures, `ptm encode` inputs
+};
+InputPolicy& inputPolicy();
+void addInputOptions(CLI::App& app);
+
+// A warning on stderr ("parallax: warning: <message>"), or with --strict the failure it becomes.
+Status warn(const std::string& message);
 
 // Prints "parallax: error: <message>" on stderr and returns kExitFailure (or the given code).
 int fail(const std::string& message, int code = kExitFailure);

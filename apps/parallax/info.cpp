@@ -7,6 +7,7 @@
 #include <plx/scene/import.h>
 
 #include "commands.h"
+#include "view.h"
 
 namespace plx::cli {
 
@@ -22,7 +23,7 @@ Command registerInfo(CLI::App& app) {
         ->required();
     sub->add_flag("--json", args->json, "Machine-readable output on stdout");
     return {sub, [args]() -> int {
-                auto scene = scene::loadScene(args->scene);
+                auto scene = loadSceneChecked(args->scene);
                 if (!scene) return fail(scene.status());
                 scene::SceneStats s = scene->stats();
                 nlohmann::json doc = {
@@ -33,6 +34,7 @@ Command registerInfo(CLI::App& app) {
                     {"materials", s.materials},
                     {"textures", s.textures},
                     {"texture_bytes", s.textureBytes},
+                    {"textures_failed", s.texturesMissing},
                     {"degenerate_triangles_dropped", s.degenerateTrianglesDropped},
                     {"bounds_min", {s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z}},
                     {"bounds_max", {s.bounds.hi.x, s.bounds.hi.y, s.bounds.hi.z}},
@@ -47,10 +49,14 @@ Command registerInfo(CLI::App& app) {
                 if (args->json) {
                     printJson(doc);
                 } else {
-                    fmt::print("{}: {} meshes, {} vertices, {} triangles, {} materials, "
-                               "{} textures ({:.1f} MiB with mips)\n",
-                               args->scene, s.meshes, s.vertices, s.triangles, s.materials,
-                               s.textures, double(s.textureBytes) / (1 << 20));
+                    fmt::print(
+                        "{}: {} meshes, {} vertices, {} triangles, {} materials, "
+                        "{} textures ({:.1f} MiB with mips){}\n",
+                        args->scene, s.meshes, s.vertices, s.triangles, s.materials, s.textures,
+                        double(s.textureBytes) / (1 << 20),
+                        s.texturesMissing > 0
+                            ? fmt::format(", {} failed to load", s.texturesMissing)
+                            : "");
                     fmt::print("bounds: ({:.3g}, {:.3g}, {:.3g}) .. ({:.3g}, {:.3g}, {:.3g})\n",
                                s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z, s.bounds.hi.x,
                                s.bounds.hi.y, s.bounds.hi.z);

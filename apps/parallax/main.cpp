@@ -3,10 +3,28 @@
 #include "commands.h"
 
 #include <algorithm>
+#include <new>
 
 #include <fmt/format.h>
 
 #include <plx/core/cpu.h>
+
+namespace {
+
+// The input pre-checks should make running out of memory unreachable; should one be missed, the
+// user still gets one line naming the problem instead of a bare "std::bad_alloc" and an abort.
+int runGuarded(const plx::cli::Command& c) {
+    try {
+        return c.run();
+    } catch (const std::bad_alloc&) {
+        return plx::cli::fail(
+            fmt::format("out of memory while running '{}' (the input asks for "
+                        "more memory than this machine has)",
+                        c.app->get_name()));
+    }
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace plx::cli;
@@ -15,6 +33,7 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", "parallax 0.1.0\n" + plx::isaSummary());
     app.require_subcommand(1);
     app.footer("Run 'parallax COMMAND --help' for a command's options and an example.");
+    addInputOptions(app);
 
     std::vector<Command> commands = {
         registerRender(app),
@@ -40,6 +59,6 @@ int main(int argc, char** argv) {
         return fail(e.what(), kExitUsage);
     }
     for (const Command& c : commands)
-        if (c.app->parsed()) return c.run();
+        if (c.app->parsed()) return runGuarded(c);
     return fail("no command given", kExitUsage);
 }

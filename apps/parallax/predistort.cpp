@@ -20,6 +20,7 @@
 #include "commands.h"
 #include "example_displays.h"
 #include "experiment_predistort.h"
+#include "view.h"
 
 namespace plx::cli {
 namespace {
@@ -51,7 +52,7 @@ struct PredistortArgs {
 // The scene in display millimetres: the given one (a file or a generator spec) or the built-in
 // exhibit (the showcase generator), fitted to the display's content sphere.
 Result<scene::Scene> loadContent(const std::string& spec, const display::Display& d) {
-    auto s = spec.empty() ? scene::generateShowcase() : scene::loadScene(spec);
+    auto s = spec.empty() ? scene::generateShowcase() : loadSceneChecked(spec);
     if (!s) return s.status();
     return display::fitSceneToContent(*s, d);
 }
@@ -143,6 +144,12 @@ int run(const PredistortArgs& a) {
             if (r > 0) genMs.push_back(sw.elapsedMs());
         }
     }
+    // An empty mesh measures "0.0000 mm" and renders a blank frame: say why instead.
+    if (mesh.vertexCount() == 0)
+        return fail(
+            fmt::format("the viewer at ({:g}, {:g}, {:g}) mm sees none of the display's "
+                        "content through its optics: no warp mesh to build",
+                        viewer->x, viewer->y, viewer->z));
     display::ErrorMeasurement err =
         display::measureMeshError(*d, plane, mesh, kValidationDivisions, &pool);
 

@@ -20,10 +20,11 @@ struct PtmArgs {
     std::string coder;      // --coder name, overrides --raw
     int shapeEighths = -1;  // --shape-eighths (coder rans)
     bool json = false;
+    bool partial = false;  // ptm info: describe a prefix (a download in progress)
 };
 
 int runEncode(const PtmArgs& a) {
-    auto image = readImage(a.input);
+    auto image = readImage(a.input, inputPolicy().maxPixels);
     if (!image) return fail(image.status());
     ptm::EncodeConfig cfg;
     cfg.lowestMaxSide = a.lowest;
@@ -70,11 +71,30 @@ int runDecode(const PtmArgs& a) {
     return kExitOk;
 }
 
+// "levels 0..k complete" or "no level complete" for a prefix of size bytes.
+std::string completeLevels(const ptm::Header& h, uint64_t size) {
+    int complete = 0;
+    while (complete < h.levelCount) {
+        const ptm::ByteRange r = ptm::levelByteRange(h, complete);
+        if (r.offset + r.size > size) break;
+        ++complete;
+    }
+    return complete == 0
+               ? "no level complete"
+               : fmt::format("levels 0..{} of 0..{} complete", complete - 1, h.levelCount - 1);
+}
+
 int runInfo(const PtmArgs& a) {
     auto bytes = readFileBytes(a.input);
     if (!bytes) return fail(bytes.status());
     auto h = ptm::parseHeader(*bytes);
     if (!h) return fail(h.status());
+    // A prefix is a valid download in progress, but info describes a file: say what is missing.
+    if (bytes->size() < h->fileBytes() && !a.partial)
+        return fail(
+            fmt::format("{} is truncated: {} of the {} bytes its header declares ({}; "
+                        "--partial describes a prefix)",
+                        a.input, bytes->size(), h->fileBytes(), completeLevels(*h, bytes->size())));
     const double raw = double(h->width) * h->height * h->components;
     nlohmann::json levels = nlohmann::json::array();
     uint64_t rawChain = 0;
@@ -83,9 +103,13 @@ int runInfo(const PtmArgs& a) {
         const ptm::ByteRange r = ptm::levelByteRange(*h, k);
         const uint64_t levelRaw = uint64_t(s.width) * s.height * h->components;
         rawChain += levelRaw;
-        nlohmann::json level = {{"level", k},         {"width", s.width},
-                                {"height", s.height}, {"offset", r.offset},
-                                {"bytes", r.size},    {"ratio", double(levelRaw) / double(r.size)}};
+        nlohmann::json level = {{"level", k},
+                                {"width", s.width},
+                                {"height", s.height},
+                                {"offset", r.offset},
+                                {"bytes", r.size},
+                                {"ratio", double(levelRaw) / double(r.size)},
+                                {"complete", r.offset + r.size <= bytes->size()}};
         // Coder rans: how the encoder coded the group (its mode byte), when the file holds it.
         if (h->coder == ptm::Coder::kRans && r.offset < bytes->size()) {
             const uint8_t mode = (*bytes)[r.offset];
@@ -107,9 +131,12 @@ int runInfo(const PtmArgs& a) {
         printJson(doc);
         return kExitOk;
     }
-    fmt::print("{}: {}x{}x{}, {} levels (lowest {}x{}), coder {}, {} bytes\n", a.input, h->width,
+    fmt::print("{}: {}x{}x{}, {} levels (lowest {}x{}), coder {}, {} bytes{}\n", a.input, h->width,
                h->height, h->components, h->levelCount, h->lowest.width, h->lowest.height,
-               ptm::coderName(h->coder), total);
+               ptm::coderName(h->coder), total,
+               bytes->size() < total ? fmt::format(" (a prefix of {} bytes: {})", bytes->size(),
+                                                   completeLevels(*h, bytes->size()))
+                                     : "");
     fmt::print("compression: {:.2f}:1 vs the base level, {:.2f}:1 vs the raw mip chain\n",
                raw / double(total), double(rawChain) / double(total));
     for (const auto& l : levels) {
@@ -118,10 +145,10 @@ int runInfo(const PtmArgs& a) {
                                 : l.contains("shape_eighths")
                                     ? fmt::format(", shape {}/8", int(l["shape_eighths"]))
                                     : ", modelled";
-        fmt::print("  level {:2}: {:5}x{:<5} bytes [{}, {}) {:8} ({:.2f}:1{})\n", int(l["level"]),
+        fmt::print("  level {:2}: {:5}x{:<5} bytes [{}, {}) {:8} ({:.2f}:1{}){}\n", int(l["level"]),
                    int(l["width"]), int(l["height"]), uint64_t(l["offset"]),
                    uint64_t(l["offset"]) + uint64_t(l["bytes"]), uint64_t(l["bytes"]),
-                   double(l["ratio"]), how);
+                   double(l["ratio"]), how, l["complete"].get<bool>() ? "" : ", missing");
     }
     return kExitOk;
 }
@@ -133,7 +160,7 @@ int runVerify(const PtmArgs& a) {
     if (!levels) return fail(levels.status());
     std::string against = "not compared";
     if (!a.against.empty()) {
-        auto original = readImage(a.against);
+        auto original = readImage(a.against, inputPolicy().maxPixels);
         if (!original) return fail(original.status());
         if (!(levels->back() == *original))
             return fail(fmt::format("{} does not decode to {} exactly", a.input, a.against));
@@ -189,6 +216,9 @@ Command registerPtm(CLI::App& app) {
     CLI::App* info = sub->add_subcommand("info", "Levels, byte ranges, coder and ratios");
     info->add_option("input", args->input, "PTM file")->required();
     info->add_flag("--json", args->json, "Machine-readable output on stdout");
+    info->add_flag("--partial", args->partial,
+                   "Describe a prefix of a file (a download in progress) instead of refusing it "
+                   "as truncated");
     info->footer("Example: parallax ptm info wall.ptm --json");
     CLI::App* ver = sub->add_subcommand("verify", "Decode every level and check checksums");
     ver->add_option("input", args->input, "PTM file")->required();

@@ -32,7 +32,7 @@ int runRender(const RenderArgs& a) {
     auto renderer = raster::Renderer::create({a.threads});
     if (!renderer) return fail(renderer.status().message(), kExitUsage);
     if (auto size = parseSize(a.view.size); !size) return fail(size.status().message(), kExitUsage);
-    auto scene = scene::loadScene(a.scene);
+    auto scene = loadSceneChecked(a.scene);
     if (!scene) return fail(scene.status());
     auto camera = cameraFor(*scene, a.view);
     if (!camera) return fail(camera.status().message(), kExitUsage);

@@ -26,7 +26,7 @@ struct StereoArgs {
     std::string format = "pair";
     std::string shading = "flat";
     std::string path;
-    int walk = 0;
+    int walk = -1;  // not given
     int threads = 0;
     std::string out;
     bool json = false;
@@ -52,9 +52,9 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     if (a.firstEye != "left" && a.firstEye != "right")
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--first-eye '{}' must be left or right", a.firstEye));
-    if (a.walk < 0 || a.walk > 100000)
+    if (a.walk != -1 && (a.walk < 1 || a.walk > 100000))
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--walk {} outside 0 .. 100000", a.walk));
+                           fmt::format("--walk {} outside 1 .. 100000", a.walk));
     if (a.walk > 0 && !a.path.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "--walk and --path exclude each other");
     if (auto size = parseSize(a.view.size); !size) return size.status();
@@ -94,7 +94,7 @@ int runStereo(const StereoArgs& a) {
     if (!p) return fail(p.status().message(), kExitUsage);
     auto renderer = stereo::StereoRenderer::create({a.threads});
     if (!renderer) return fail(renderer.status().message(), kExitUsage);
-    auto scene = scene::loadScene(a.scene);
+    auto scene = loadSceneChecked(a.scene);
     if (!scene) return fail(scene.status());
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
@@ -155,6 +155,11 @@ int runStereo(const StereoArgs& a) {
         }
         std::vector<uint32_t> drawn((*renderer)->lastVisibleSet().begin(),
                                     (*renderer)->lastVisibleSet().end());
+        if (last.visibleTriangles == 0)  // only blank images could follow, and a perfect score
+            return fail(
+                fmt::format("frame {}: the first eye sees none of the scene (check "
+                            "--separation, --eye, --target)",
+                            i));
         Eye second = rig->secondEye();
         if (p->options.method == stereo::Method::kFull) {
             quality = stereo::SecondEyeQuality{INFINITY, 0.0, 0, 0, 0};

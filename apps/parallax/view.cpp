@@ -1,4 +1,8 @@
+#include <cmath>
+
 #include <fmt/format.h>
+
+#include <plx/scene/import.h>
 
 #include "view.h"
 
@@ -13,10 +17,28 @@ void addViewOptions(CLI::App* app, ViewArgs* args) {
     app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
 }
 
+Result<scene::Scene> loadSceneChecked(const std::string& spec) {
+    scene::ImportOptions options;
+    options.allowExternalRefs = inputPolicy().allowExternalRefs;
+    options.maxTexturePixels = inputPolicy().maxPixels;
+    auto scene = scene::loadScene(spec, options);
+    if (!scene) return scene.status();
+    for (const std::string& w : scene->warnings) PLX_RETURN_IF_ERROR(warn(spec + ": " + w));
+    return scene;
+}
+
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     auto size = parseSize(args.size);
     if (!size) return size.status();
     scene::Viewpoint vp;
+    if (args.eye.empty() && !args.target.empty())
+        return errorStatus(ErrorCode::kInvalidArgument, "--target needs --eye");
+    // Not given is NaN; any given value must be a usable angle (0 used to mean "default").
+    const bool fovGiven = !std::isnan(args.fovDegrees);
+    if (fovGiven && !(args.fovDegrees > 0.0f && args.fovDegrees < 180.0f))
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("--fov {:g} must lie strictly between 0 and 180 degrees", args.fovDegrees));
     if (!args.eye.empty()) {
         auto eye = parseVec3(args.eye);
         if (!eye) return errorStatus(ErrorCode::kInvalidArgument, "--eye: " + eye.status().message());
@@ -37,7 +59,7 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
         if (!picked) return picked.status();
         vp = *picked;
     }
-    if (args.fovDegrees != 0.0f) vp.fovYDegrees = args.fovDegrees;
+    if (fovGiven) vp.fovYDegrees = args.fovDegrees;
     auto cam = scene::cameraAt(scene, vp, size->x, size->y);
     if (!cam) return cam.status();
     return cam;

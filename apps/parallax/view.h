@@ -12,11 +12,16 @@ namespace plx::cli {
 struct ViewArgs {
     std::string size = "1280x720";
     std::string eye, target, up = "0,1,0";
-    float fovDegrees = 0.0f;  // 0: the viewpoint's own
+    float fovDegrees = kFovNotGiven;  // NaN: the viewpoint's own
+    static constexpr float kFovNotGiven = __builtin_nanf("");
     std::string viewpoint;    // name or index
 };
 
 void addViewOptions(CLI::App* app, ViewArgs* args);
+
+// A scene from a file or generator spec under the input policy (--allow-external-refs,
+// --max-pixels); each import warning is printed, or with --strict fails the load.
+Result<scene::Scene> loadSceneChecked(const std::string& spec);
 
 // The camera the options describe for this scene; errors name the bad option.
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args);

@@ -104,8 +104,17 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
     // A prefix that holds levels 0-2: info says so, level 2 decodes, level 3 does not.
     const fs::path prefix = scratchDir() / "prefix.ptm";
     writeFile(prefix, bytes.substr(0, level2End));
-    auto part = nlohmann::json::parse(runParallax("ptm info " + prefix.string() + " --json").out);
+    auto part =
+        nlohmann::json::parse(runParallax("ptm info " + prefix.string() + " --json --partial").out);
     EXPECT_FALSE(part["file_complete"].get<bool>());
+    EXPECT_TRUE(part["level_groups"][2]["complete"].get<bool>());
+    EXPECT_FALSE(part["level_groups"][3]["complete"].get<bool>());
+    // Without --partial a prefix is a truncated file, and info says so.
+    expectOneLineError(runParallax("ptm info " + prefix.string()),
+                       "is truncated: " + std::to_string(level2End) + " of the " +
+                           std::to_string(bytes.size()) +
+                           " bytes its header declares (levels "
+                           "0..2 of 0..6 complete");
     const fs::path out = scratchDir() / "prefix.png";
     EXPECT_EQ(
         runParallax("ptm decode " + prefix.string() + " --level 2 -o " + out.string()).exitCode, 0);

@@ -8,28 +8,35 @@
 #include <jpeglib.h>
 #include <png.h>
 
+#include <plx/core/file.h>
 #include <plx/core/image_io.h>
 
 namespace plx {
 namespace {
 
-Status checkDecodedSize(int64_t width, int64_t height, const char* format) {
+// Checked on the declared size, before the pixels are allocated.
+Status checkDecodedSize(int64_t width, int64_t height, const char* format, int64_t maxPixels) {
     if (width < 1 || height < 1)
         return errorStatus(ErrorCode::kCorruptData, fmt::format("{} declares an empty image", format));
-    if (width > kMaxDecodedSide || height > kMaxDecodedSide || width * height > kMaxDecodedPixels)
+    if (width > kMaxDecodedSide || height > kMaxDecodedSide)
         return errorStatus(ErrorCode::kOutOfRange,
                            fmt::format("{} declares {}x{} pixels, more than the {}x{} limit",
                                        format, width, height, kMaxDecodedSide, kMaxDecodedSide));
+    if (width * height > std::min(maxPixels, kMaxDecodedPixels))
+        return errorStatus(
+            ErrorCode::kOutOfRange,
+            fmt::format("{} declares {}x{} pixels, more than the limit of {} pixels", format, width,
+                        height, std::min(maxPixels, kMaxDecodedPixels)));
     return Status::ok();
 }
 
-Result<ByteImage> decodePng(std::span<const uint8_t> bytes) {
+Result<ByteImage> decodePng(std::span<const uint8_t> bytes, int64_t maxPixels) {
     png_image image;
     std::memset(&image, 0, sizeof(image));
     image.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
         return errorStatus(ErrorCode::kCorruptData, fmt::format("PNG: {}", image.message));
-    Status sizeOk = checkDecodedSize(image.width, image.height, "PNG");
+    Status sizeOk = checkDecodedSize(image.width, image.height, "PNG", maxPixels);
     if (!sizeOk) {
         png_image_free(&image);
         return sizeOk;
@@ -62,7 +69,8 @@ void jpegErrorExit(j_common_ptr info) {
 void jpegSilence(j_common_ptr, int) {}
 
 // Kept free of C++ objects with destructors between setjmp and longjmp, as the standard requires.
-bool decodeJpegInto(std::span<const uint8_t> bytes, ByteImage* out, std::string* error) {
+bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage* out,
+                    std::string* error) {
     jpeg_decompress_struct info;
     JpegErrorManager err;
     info.err = jpeg_std_error(&err.base);
@@ -76,9 +84,11 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, ByteImage* out, std::string*
     jpeg_create_decompress(&info);
     jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
     jpeg_read_header(&info, TRUE);
-    if (!checkDecodedSize(info.image_width, info.image_height, "JPEG").isOk()) {
-        std::snprintf(err.message, sizeof(err.message), "JPEG declares %ux%u pixels, over the limit",
-                      info.image_width, info.image_height);
+    if (!checkDecodedSize(info.image_width, info.image_height, "JPEG", maxPixels).isOk()) {
+        std::snprintf(err.message, sizeof(err.message),
+                      "declares %ux%u pixels, more than the limit of %lld pixels", info.image_width,
+                      info.image_height,
+                      static_cast<long long>(std::min(maxPixels, kMaxDecodedPixels)));
         *error = err.message;
         jpeg_destroy_decompress(&info);
         return false;
@@ -100,23 +110,24 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, ByteImage* out, std::string*
 
 }  // namespace
 
-Result<ByteImage> decodeImage(std::span<const uint8_t> bytes) {
+Result<ByteImage> decodeImage(std::span<const uint8_t> bytes, int64_t maxPixels) {
     static const uint8_t kPngSig[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
-    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPngSig, 8) == 0) return decodePng(bytes);
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPngSig, 8) == 0)
+        return decodePng(bytes, maxPixels);
     if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
         ByteImage out;
         std::string error;
-        if (!decodeJpegInto(bytes, &out, &error))
+        if (!decodeJpegInto(bytes, maxPixels, &out, &error))
             return errorStatus(ErrorCode::kCorruptData, "JPEG: " + error);
         return out;
     }
     return errorStatus(ErrorCode::kUnsupported, "not a PNG or JPEG image (unknown signature)");
 }
 
-Result<ByteImage> readImage(const std::string& path) {
+Result<ByteImage> readImage(const std::string& path, int64_t maxPixels) {
     auto bytes = readFileBytes(path);
     if (!bytes) return bytes.status();
-    auto image = decodeImage(*bytes);
+    auto image = decodeImage(*bytes, maxPixels);
     if (!image) return errorStatus(image.status().code(), path + ": " + image.status().message());
     return image;
 }
@@ -173,15 +184,9 @@ Status writePng(const std::string& path, const Image<Rgba8>& image, int compress
 }
 
 Result<std::vector<uint8_t>> readFileBytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) return errorStatus(ErrorCode::kNotFound, fmt::format("cannot open '{}'", path));
-    std::streamoff size = in.tellg();
-    if (size < 0) return errorStatus(ErrorCode::kIoError, fmt::format("cannot read '{}'", path));
-    std::vector<uint8_t> bytes(static_cast<size_t>(size));
-    in.seekg(0);
-    if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
-        return errorStatus(ErrorCode::kIoError, fmt::format("cannot read '{}'", path));
-    return bytes;
+    auto text = readFileChecked(path);
+    if (!text) return text.status();
+    return std::vector<uint8_t>(text->begin(), text->end());
 }
 
 Status writeFileBytes(const std::string& path, std::span<const uint8_t> bytes) {

@@ -70,6 +70,20 @@ TEST(Camera, RejectsBadParameters) {
     EXPECT_FALSE(Camera::create(d).isOk());
 }
 
+TEST(Camera, HugeEyeIsNamedNotBlamedOnTheUpVector) {
+    // At 1e38 the view direction's length overflows and the up vector looked parallel.
+    CameraDesc d;
+    d.eyePos = {1e38f, 1.0f, 1.0f};
+    auto cam = Camera::create(d);
+    ASSERT_FALSE(cam.isOk());
+    EXPECT_EQ(cam.status().message(),
+              "camera eye (1e+38, 1, 1) is too far from the origin: coordinates must lie within "
+              "+-1e+15");
+    d = {};
+    d.targetPos = {0.0f, -3e15f, 0.0f};
+    EXPECT_NE(Camera::create(d).status().message().find("camera target"), std::string::npos);
+}
+
 ByteImage randomImage(int w, int h, int channels, uint32_t seed) {
     std::mt19937 rng(seed);
     ByteImage img{w, h, channels, {}};

@@ -2,8 +2,11 @@
 
 #include <plx/display/display_json.h>
 
+#include <plx/core/file.h>
+
 #include <cmath>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <plx/core/image_io.h>
@@ -207,10 +210,21 @@ Status validateDisplay(const Display& d) {
 }
 
 Result<Display> parseDisplayJson(std::string_view text) {
-    json root = json::parse(text, nullptr, false);
-    if (root.is_discarded())
-        return errorStatus(ErrorCode::kCorruptData, "not valid JSON (NaN and Infinity are not "
-                                                    "JSON numbers either)");
+    json root;
+    try {
+        root = json::parse(text);
+    } catch (const json::parse_error& e) {
+        // e.byte is 1-based and points just past the offending character; e.what() would
+        // quote the text, so only the position is given.
+        return errorStatus(ErrorCode::kCorruptData,
+                           fmt::format("not valid JSON at {} (NaN and Infinity are not JSON "
+                                       "numbers either)",
+                                       lineColumn(text, e.byte > 0 ? e.byte - 1 : 0)));
+    } catch (const json::exception&) {  // a number out of range (1e999): no position kept
+        return errorStatus(ErrorCode::kCorruptData,
+                           "not valid JSON (a number out of range; NaN "
+                           "and Infinity are not JSON numbers either)");
+    }
     if (!root.is_object()) return fieldError("document", "must be a JSON object");
     double scale = 1.0;
     if (auto it = root.find("units"); it != root.end()) {
@@ -247,7 +261,7 @@ Result<Display> parseDisplayJson(std::string_view text) {
 
 Result<Display> loadDisplayFile(const std::string& path) {
     auto bytes = readFileBytes(path);
-    if (!bytes) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+    if (!bytes) return bytes.status();  // already names the path
     auto display = parseDisplayJson(
         std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
     if (!display) return Status(display.status().code(), path + ": " + display.status().message());

@@ -18,8 +18,11 @@
 #include <assimp/scene.h>
 #include <fmt/format.h>
 
+#include <plx/core/file.h>
 #include <plx/scene/generators.h>
 
+#include "contained_io.h"
+#include "normals.h"
 #include "size_check.h"
 
 namespace plx::scene {
@@ -52,9 +55,10 @@ struct MeshInstance {
 };
 
 // Collects the mesh instances of the node hierarchy. Depth is bounded so that a corrupt file
-// with an absurdly deep hierarchy cannot exhaust the stack.
+// with an absurdly deep hierarchy cannot exhaust the stack, and the instance count so that
+// instancing cannot multiply a small file into more placements than the limit.
 Status collectInstances(const aiScene& ai, const aiNode* node, const Mat4& parentWorld, int depth,
-                        std::vector<MeshInstance>* out) {
+                        size_t maxInstances, std::vector<MeshInstance>* out) {
     constexpr int kMaxDepth = 1024;
     if (depth > kMaxDepth)
         return errorStatus(ErrorCode::kCorruptData,
@@ -66,10 +70,16 @@ Status collectInstances(const aiScene& ai, const aiNode* node, const Mat4& paren
             return errorStatus(ErrorCode::kCorruptData,
                                fmt::format("node '{}' refers to missing mesh {}",
                                            node->mName.C_Str(), m));
+        if (out->size() >= maxInstances)
+            return errorStatus(ErrorCode::kOutOfRange,
+                               fmt::format("node instancing places meshes more than the limit of "
+                                           "{} times",
+                                           maxInstances));
         out->push_back({m, world, node->mName.C_Str()});
     }
     for (unsigned c = 0; c < node->mNumChildren; ++c)
-        PLX_RETURN_IF_ERROR(collectInstances(ai, node->mChildren[c], world, depth + 1, out));
+        PLX_RETURN_IF_ERROR(
+            collectInstances(ai, node->mChildren[c], world, depth + 1, maxInstances, out));
     return Status::ok();
 }
 
@@ -77,61 +87,6 @@ size_t triangleFaceCount(const aiMesh& mesh) {
     size_t n = 0;
     for (unsigned f = 0; f < mesh.mNumFaces; ++f) n += mesh.mFaces[f].mNumIndices == 3 ? 1 : 0;
     return n;
-}
-
-// Kept triangles of one mesh instance: indices into the source mesh, wound counter-clockwise
-// in world space.
-using Corners = std::array<unsigned, 3>;
-
-// Largest number of faces around one position for which the smoothing angle is honoured
-// pairwise; busier positions (huge fans) get one averaged normal to bound the work.
-constexpr size_t kMaxPairwiseFaces = 256;
-
-// Smooth per-corner normals for a mesh that has none: around each position, the area-weighted
-// normals of the faces within kSmoothingAngle of the corner's own face (so box edges stay sharp
-// and curved surfaces look smooth). Returns one normal per corner.
-std::vector<Vec3> smoothCornerNormals(const std::vector<Vec3>& pos, const std::vector<Corners>& tris) {
-    const float cosLimit = std::cos(radians(80.0f));
-    std::vector<Vec3> faceN(tris.size()), unitN(tris.size());
-    for (size_t t = 0; t < tris.size(); ++t) {
-        const Corners& c = tris[t];
-        faceN[t] = glm::cross(pos[c[1]] - pos[c[0]], pos[c[2]] - pos[c[0]]);
-        float len = glm::length(faceN[t]);
-        unitN[t] = len > 0.0f ? faceN[t] / len : Vec3(0.0f);
-    }
-    // Group corners by exact position (files often repeat a position with other UVs).
-    struct Key {
-        uint32_t x, y, z;
-        bool operator==(const Key&) const = default;
-    };
-    struct KeyHash {
-        size_t operator()(const Key& k) const {
-            return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^
-                   (size_t(k.z) * 83492791u);
-        }
-    };
-    auto keyOf = [](const Vec3& p) {
-        Key k;
-        std::memcpy(&k.x, &p.x, 4);
-        std::memcpy(&k.y, &p.y, 4);
-        std::memcpy(&k.z, &p.z, 4);
-        return k;
-    };
-    std::unordered_map<Key, std::vector<uint32_t>, KeyHash> facesAt;
-    for (size_t t = 0; t < tris.size(); ++t)
-        for (unsigned v : tris[t]) facesAt[keyOf(pos[v])].push_back(uint32_t(t));
-    std::vector<Vec3> out(3 * tris.size());
-    for (size_t t = 0; t < tris.size(); ++t) {
-        for (int k = 0; k < 3; ++k) {
-            const std::vector<uint32_t>& around = facesAt[keyOf(pos[tris[t][k]])];
-            Vec3 n(0.0f);
-            for (uint32_t u : around)
-                if (around.size() > kMaxPairwiseFaces || glm::dot(unitN[u], unitN[t]) >= cosLimit)
-                    n += faceN[u];
-            out[3 * t + k] = n;
-        }
-    }
-    return out;
 }
 
 // Bakes one mesh instance into world space, keeping only triangles that are not degenerate
@@ -213,16 +168,20 @@ std::string percentDecode(const std::string& s) {
 }
 
 // Decodes an embedded texture: compressed file bytes (PNG/JPEG) or raw BGRA texels.
-Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex) {
+Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex, int64_t maxPixels) {
     if (tex.mHeight == 0) {
-        auto image = decodeImage(std::span<const uint8_t>(
-            reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth));
+        auto image = decodeImage(
+            std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth),
+            maxPixels);
         if (!image) return image.status();
         return toRgba8(*image);
     }
     if (tex.mWidth > unsigned(kMaxDecodedSide) || tex.mHeight > unsigned(kMaxDecodedSide) ||
-        int64_t(tex.mWidth) * tex.mHeight > kMaxDecodedPixels)
-        return errorStatus(ErrorCode::kOutOfRange, "embedded texture too large");
+        int64_t(tex.mWidth) * tex.mHeight > maxPixels)
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("embedded texture of {}x{} texels, more than the limit "
+                                       "of {} pixels",
+                                       tex.mWidth, tex.mHeight, maxPixels));
     Image<Rgba8> image(int(tex.mWidth), int(tex.mHeight));
     for (size_t i = 0; i < image.pixelCount(); ++i) {
         const aiTexel& t = tex.pcData[i];
@@ -232,24 +191,28 @@ Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex) {
 }
 
 // Loads a texture referred to by a material: "*N" or a file name matching an embedded texture,
-// else an external file relative to the model's folder.
-Result<Image<Rgba8>> loadTextureImage(const aiScene& ai, const fs::path& modelDir,
-                                      const std::string& ref) {
-    if (const aiTexture* tex = ai.GetEmbeddedTexture(ref.c_str())) return decodeEmbedded(*tex);
+// else an external file the policy allows (relative to the model's folder). A reference outside
+// the folder is kUnsupported (an import error); other failures leave the material untextured.
+Result<Image<Rgba8>> loadTextureImage(const aiScene& ai, const RefPolicy& policy,
+                                      const std::string& ref, int64_t maxPixels) {
+    if (const aiTexture* tex = ai.GetEmbeddedTexture(ref.c_str()))
+        return decodeEmbedded(*tex, maxPixels);
     if (!ref.empty() && ref[0] == '*')
-        return errorStatus(ErrorCode::kNotFound, fmt::format("embedded texture '{}'", ref));
+        return errorStatus(ErrorCode::kNotFound, "no such embedded texture");
     std::string name = ref;
     std::replace(name.begin(), name.end(), '\\', '/');
+    Status firstError;
     for (const std::string& candidate : {name, percentDecode(name)}) {
-        fs::path p(candidate);
-        if (p.is_relative()) p = modelDir / p;
-        if (fileExists(p)) {
-            auto image = readImage(p.string());
+        auto real = policy.resolve(candidate, true);
+        if (real) {
+            auto image = readImage(real->string(), maxPixels);
             if (!image) return image.status();
             return toRgba8(*image);
         }
+        if (real.status().code() == ErrorCode::kUnsupported) return real.status();
+        if (firstError.isOk()) firstError = real.status();
     }
-    return errorStatus(ErrorCode::kNotFound, fmt::format("texture file '{}'", ref));
+    return firstError;
 }
 
 std::optional<std::string> baseColorTexturePath(const aiMaterial& mat) {
@@ -274,9 +237,10 @@ Vec4 baseColorFactor(const aiMaterial& mat) {
     return glm::clamp(out, Vec4(0.0f), Vec4(1.0f));
 }
 
-// Converts the materials; textures shared between materials are decoded once.
-void convertMaterials(const aiScene& ai, const fs::path& modelDir, const ImportOptions& options,
-                      Scene* scene) {
+// Converts the materials; textures shared between materials are decoded once. A texture that
+// cannot be loaded is a warning naming it; one outside the model's folder fails the import.
+Status convertMaterials(const aiScene& ai, const RefPolicy& policy, const ImportOptions& options,
+                        Scene* scene) {
     std::map<std::string, int> textureByRef;
     for (unsigned i = 0; i < ai.mNumMaterials; ++i) {
         const aiMaterial& src = *ai.mMaterials[i];
@@ -288,7 +252,7 @@ void convertMaterials(const aiScene& ai, const fs::path& modelDir, const ImportO
             auto it = textureByRef.find(*ref);
             if (it == textureByRef.end()) {
                 int index = -1;
-                auto image = loadTextureImage(ai, modelDir, *ref);
+                auto image = loadTextureImage(ai, policy, *ref, options.maxTexturePixels);
                 if (image) {
                     Texture tex;
                     tex.name = *ref;
@@ -296,8 +260,13 @@ void convertMaterials(const aiScene& ai, const fs::path& modelDir, const ImportO
                     buildMipChain(&tex);
                     index = int(scene->textures.size());
                     scene->textures.push_back(std::move(tex));
+                } else if (image.status().code() == ErrorCode::kUnsupported) {
+                    return image.status();
                 } else {
                     ++scene->texturesMissing;  // fall back to the base colour
+                    scene->warnings.push_back(fmt::format("texture '{}' not loaded: {}",
+                                                          printableRef(*ref),
+                                                          image.status().message()));
                 }
                 it = textureByRef.emplace(*ref, index).first;
             }
@@ -305,6 +274,7 @@ void convertMaterials(const aiScene& ai, const fs::path& modelDir, const ImportO
         }
         scene->materials.push_back(std::move(mat));
     }
+    return Status::ok();
 }
 
 // glTF cameras (and any other format's cameras) become viewpoints in world space.
@@ -349,11 +319,12 @@ bool isGltfPath(const std::string& path) {
     return ext == ".gltf" || ext == ".glb";
 }
 
-Status convertScene(const aiScene& ai, const std::string& path, const ImportOptions& options,
-                    Scene* scene) {
+Status convertScene(const aiScene& ai, const std::string& path, const RefPolicy& policy,
+                    const ImportOptions& options, Scene* scene) {
     if (!ai.mRootNode) return errorStatus(ErrorCode::kCorruptData, "no node hierarchy");
     std::vector<MeshInstance> instances;
-    PLX_RETURN_IF_ERROR(collectInstances(ai, ai.mRootNode, Mat4(1.0f), 0, &instances));
+    PLX_RETURN_IF_ERROR(
+        collectInstances(ai, ai.mRootNode, Mat4(1.0f), 0, options.maxNodeCopies, &instances));
     // Count before allocating: instancing can multiply a small file into a huge scene.
     size_t triangles = 0, vertices = 0;
     for (const MeshInstance& inst : instances) {
@@ -362,12 +333,13 @@ Status convertScene(const aiScene& ai, const std::string& path, const ImportOpti
     }
     if (triangles > options.maxTriangles || vertices > options.maxTriangles)
         return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("{} triangles and {} vertices exceed the limit of {}",
+                           fmt::format("{} triangles and {} vertices after node instancing "
+                                       "exceed the limit of {}",
                                        triangles, vertices, options.maxTriangles));
     if (triangles == 0)
         return errorStatus(ErrorCode::kCorruptData,
                            "no triangles (the file holds no faces, or only points or lines)");
-    convertMaterials(ai, fs::path(path).parent_path(), options, scene);
+    PLX_RETURN_IF_ERROR(convertMaterials(ai, policy, options, scene));
     for (const MeshInstance& inst : instances) {
         Mesh mesh = bakeInstance(*ai.mMeshes[inst.meshIndex], inst,
                                  &scene->degenerateTrianglesDropped);
@@ -385,7 +357,7 @@ Status convertScene(const aiScene& ai, const std::string& path, const ImportOpti
 // Readers given truncated files can leave flags that disagree with the faces, and assimp 5.2's
 // triangulation then aborts on an assertion instead of failing; it also reads vertices through
 // unchecked indices.
-Status repairMeshes(aiScene* ai) {
+Status repairMeshes(aiScene* ai, size_t maxPolygonCorners) {
     for (unsigned m = 0; m < ai->mNumMeshes; ++m) {
         aiMesh* mesh = ai->mMeshes[m];
         if (!mesh) return errorStatus(ErrorCode::kCorruptData, fmt::format("mesh {} missing", m));
@@ -403,6 +375,12 @@ Status repairMeshes(aiScene* ai) {
         for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
             const aiFace& face = mesh->mFaces[f];
             unsigned n = face.mNumIndices;
+            if (n > maxPolygonCorners)
+                return errorStatus(ErrorCode::kOutOfRange,
+                                   fmt::format("mesh {} face {} has {} corners, more than the "
+                                               "limit of {} (triangulation time grows with the "
+                                               "square of the corners)",
+                                               m, f, n, maxPolygonCorners));
             for (unsigned k = 0; k < n; ++k)
                 if (face.mIndices[k] >= mesh->mNumVertices)
                     return errorStatus(ErrorCode::kCorruptData,
@@ -422,17 +400,34 @@ Status repairMeshes(aiScene* ai) {
     return Status::ok();
 }
 
-Status checkFile(const std::string& path, const ImportOptions& options) {
-    std::error_code ec;
-    fs::file_status st = fs::status(path, ec);
-    if (ec || !fs::exists(st)) return errorStatus(ErrorCode::kNotFound, "file not found");
-    if (!fs::is_regular_file(st)) return errorStatus(ErrorCode::kIoError, "not a regular file");
-    uintmax_t size = fs::file_size(path, ec);
-    if (ec) return errorStatus(ErrorCode::kIoError, "cannot read the file size: " + ec.message());
+// assimp's readers quote the bytes they choke on ("Invalid base64 encoded data: \"...\""):
+// quoted text other than the file's own path is elided, so no message shows file content.
+// One line, at most 200 characters.
+std::string withoutQuotedContent(const std::string& message, const std::string& path) {
+    std::string out;
+    for (size_t i = 0; i < message.size() && out.size() < 200; ++i) {
+        size_t close = message[i] == '"' ? message.find('"', i + 1) : std::string::npos;
+        if (close != std::string::npos) {
+            std::string quoted = message.substr(i + 1, close - i - 1);
+            out += quoted == path ? '"' + quoted + '"' : std::string("(quoted content elided)");
+            i = close;
+        } else {
+            out.push_back(message[i] == '\n' || message[i] == '\r' ? ' ' : message[i]);
+        }
+    }
+    return out;
+}
+
+// Counts declared in the file against its size and the limits, before assimp allocates.
+Status checkFile(const std::string& path, uint64_t size, const ImportOptions& options) {
     if (size == 0) return errorStatus(ErrorCode::kCorruptData, "file is empty");
     std::string ext = lowerExtension(path);
     if (ext == ".ply") return checkPlyCounts(path, size, options.maxTriangles);
     if (ext == ".obj") return checkObjCounts(path, options.maxTriangles);
+    if (ext == ".off") return checkOffFile(path, size, options.maxTriangles);
+    if (ext == ".x") return checkXFaces(path, size);
+    if (ext == ".gltf" || ext == ".glb")
+        return checkGltfExpansion(path, size, options.maxNodeCopies, options.maxTriangles);
     return Status::ok();
 }
 
@@ -440,10 +435,17 @@ Status checkFile(const std::string& path, const ImportOptions& options) {
 
 Result<Scene> importFile(const std::string& path, const ImportOptions& options) {
     auto named = [&](const Status& s) { return errorStatus(s.code(), path + ": " + s.message()); };
-    Status precheck = checkFile(path, options);
+    // A directory, FIFO or device is refused here, without blocking; the message names the path
+    // and the cause (not found, symlink loop, permission).
+    auto size = checkRegularFile(path);
+    if (!size) return size.status();
+    Status precheck = checkFile(path, *size, options);
     if (!precheck) return named(precheck);
 
     Assimp::Importer importer;
+    RefPolicy policy(path, options.allowExternalRefs);
+    auto* io = new ContainedIOSystem(policy);  // owned by the importer
+    importer.SetIOHandler(io);
     // Two passes: read, then repair what the readers can get wrong on truncated input, then
     // post-process. Normals missing from the file are made in bakeInstance (assimp's smoothing
     // ignores its angle limit on shared vertices); validation is ours too (assimp's validator
@@ -452,23 +454,29 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
     try {
         ai = importer.ReadFile(path, 0);
         if (ai) {
-            Status repaired = repairMeshes(const_cast<aiScene*>(ai));
+            Status repaired = repairMeshes(const_cast<aiScene*>(ai), options.maxPolygonCorners);
             if (!repaired) return named(repaired);
             // UV (0,0) is the top-left texel, as in glTF and in plx::Image.
             ai = importer.ApplyPostProcessing(aiProcess_Triangulate |
                                               aiProcess_JoinIdenticalVertices | aiProcess_FlipUVs);
         }
-    } catch (const std::exception& e) {  // assimp catches its own; this guards bad_alloc
-        return named(errorStatus(ErrorCode::kCorruptData, e.what()));
+    } catch (const std::bad_alloc&) {  // assimp catches its own errors, not this one
+        return named(errorStatus(ErrorCode::kOutOfRange,
+                                 "out of memory while reading the file (its contents ask for "
+                                 "more than this machine has)"));
+    } catch (const std::exception&) {  // what() may quote the file: not shown
+        return named(errorStatus(ErrorCode::kCorruptData, "assimp failed while reading the file"));
     }
+    // Readers shrug off a file they cannot open (an OBJ's material library); a reference that
+    // was refused fails the import whatever the reader made of it.
+    if (io->firstRefusal()) return named(*io->firstRefusal());
     if (!ai) {
-        std::string why = importer.GetErrorString();
+        std::string why = withoutQuotedContent(importer.GetErrorString(), path);
         if (why.empty()) why = "assimp could not read the file";
-        std::replace(why.begin(), why.end(), '\n', ' ');
         return named(errorStatus(ErrorCode::kCorruptData, why));
     }
     Scene scene;
-    Status converted = convertScene(*ai, path, options, &scene);
+    Status converted = convertScene(*ai, path, policy, options, &scene);
     if (!converted) return named(converted);
     return scene;
 }

@@ -19,4 +19,19 @@ Status checkPlyCounts(const std::string& path, uintmax_t fileSize, size_t maxEle
 // maxElements. Streams the file once.
 Status checkObjCounts(const std::string& path, size_t maxElements);
 
+// OFF: the vertex and face counts of the header must not exceed maxElements nor need more bytes
+// than the file holds (6 a vertex, 4 a face), and every face index must name a declared vertex
+// (assimp would clamp it). Streams the file once.
+Status checkOffFile(const std::string& path, uintmax_t fileSize, size_t maxElements);
+
+// DirectX .x (text files): every face index of each Mesh must name one of its vertices
+// (assimp 5.2 silently drops a face that does not). Reads the file whole.
+Status checkXFaces(const std::string& path, uintmax_t fileSize);
+
+// glTF (.gltf or .glb): the node graph expanded as assimp expands it (a node listed twice as a
+// child is copied twice, recursively) must stay within maxNodes node copies and maxTriangles
+// triangles (each mesh counted at each copy), and must have no cycle. Parses the JSON only.
+Status checkGltfExpansion(const std::string& path, uintmax_t fileSize, size_t maxNodes,
+                          size_t maxTriangles);
+
 }  // namespace plx::scene

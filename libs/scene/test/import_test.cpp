@@ -5,6 +5,8 @@
 
 #include <plx/scene/import.h>
 
+#include "expect_import_error.h"
+
 namespace plx::scene {
 namespace {
 
@@ -48,17 +50,6 @@ void expectNormalsMatchWinding(const Scene& s) {
             }
         }
     }
-}
-
-// Expects a failed import whose message names the file and contains `problem`.
-void expectError(const std::string& path, const std::string& problem,
-                 const ImportOptions& options = {}) {
-    auto s = importFile(path, options);
-    ASSERT_FALSE(s.isOk()) << path;
-    const std::string& msg = s.status().message();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    EXPECT_NE(msg.find(problem), std::string::npos) << msg;
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
 }
 
 TEST(Import, ObjWithMtlAndExternalTexture) {

@@ -3,6 +3,8 @@
 
 #include <plx/stereo/path.h>
 
+#include <plx/core/file.h>
+
 namespace plx::stereo {
 namespace {
 
@@ -29,8 +31,16 @@ Status readVec3(const nlohmann::json& pose, const char* key, size_t index, bool 
 }  // namespace
 
 Result<std::vector<Pose>> parsePath(const std::string& text) {
-    nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
-    if (doc.is_discarded()) return errorStatus(ErrorCode::kCorruptData, "path is not valid JSON");
+    nlohmann::json doc;
+    try {
+        doc = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {  // position only: what() quotes the text
+        return errorStatus(ErrorCode::kCorruptData, "path is not valid JSON at " +
+                                                        lineColumn(text, e.byte ? e.byte - 1 : 0));
+    } catch (const nlohmann::json::exception&) {  // a number out of range: no position kept
+        return errorStatus(ErrorCode::kCorruptData,
+                           "path is not valid JSON (a number out of range)");
+    }
     const nlohmann::json* poses = &doc;
     if (doc.is_object()) {
         auto it = doc.find("poses");

@@ -10,14 +10,29 @@ namespace plx::scene {
 
 struct ImportOptions {
     bool loadTextures = true;
-    // Files declaring more than this many triangles or vertices are refused before allocation.
+    // Files declaring more than this many triangles or vertices are refused before allocation;
+    // the limit also holds after instancing (each placement of a mesh counts).
     size_t maxTriangles = size_t(1) << 28;
+    // Mesh placements after node instancing (a node listed twice as a child is copied twice):
+    // a few bytes of glTF can otherwise ask for 2^40 nodes.
+    size_t maxNodeCopies = size_t(1) << 20;
+    // Corners of one polygon: assimp's triangulation is quadratic in them (100,000 corners take
+    // about a minute; 4096 about 0.1 s).
+    size_t maxPolygonCorners = 4096;
+    // Pixels of one decoded texture (kDefaultMaxPixels: 64 Mpix).
+    int64_t maxTexturePixels = int64_t(1) << 26;
+    // Files the model refers to (buffers, images, material libraries) are read only from the
+    // model's folder and below, after resolving "..", absolute paths, file:// and symlinks;
+    // true follows references anywhere.
+    bool allowExternalRefs = false;
 };
 
 // Imports a model file: triangles of every mesh instance baked into world space, normals kept
 // (generated where absent, smooth up to 80 degrees), the first UV set, base colour factors and
-// textures (embedded or next to the model; one that cannot be loaded leaves the material
-// untextured and is counted in Scene::texturesMissing), cameras as viewpoints. Errors name the
+// textures (embedded or in the model's folder; one that cannot be loaded leaves the material
+// untextured, is counted in Scene::texturesMissing and named in Scene::warnings), cameras as
+// viewpoints. References outside the model's folder are errors unless
+// options.allowExternalRefs. Errors name the
 // file and the problem (missing, empty, corrupt or truncated, no triangles, non-finite
 // vertices, absurd declared counts: PLY headers and OBJ contents are checked against the file
 // size and options.maxTriangles before assimp allocates anything). Degenerate triangles

@@ -103,6 +103,9 @@ public:
     // Counted during import for statistics; finalize() does not change them.
     size_t degenerateTrianglesDropped = 0;
     size_t texturesMissing = 0;
+    // What the import left out or repaired, one line each, naming the item and the reason
+    // (never quoting file content): e.g. a texture that failed to decode.
+    std::vector<std::string> warnings;
 
 private:
     std::vector<size_t> mFirstTriangle;  // per mesh, prefix sums of triangle counts

@@ -1,5 +1,6 @@
 // parallax stereo SCENE: a stereo pair (or a walkthrough of pairs) with the full or P-buffer
 // method, in any of the output layouts, with the second eye's quality against the full method.
+// Each pose is timed as a display would run it: one warm-up pair, then --frames timed pairs.
 
 #include <fmt/format.h>
 
@@ -28,9 +29,13 @@ struct StereoArgs {
     std::string path;
     int walk = 0;
     int threads = 0;
+    int frames = 9;
     std::string out;
     bool json = false;
 };
+
+// More timed pairs than this per pose is a typo, not a measurement.
+constexpr int kMaxFrames = 10000;
 
 // Everything parsed from the options before any work starts (usage errors exit with 2).
 struct StereoPlan {
@@ -55,6 +60,9 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     if (a.walk < 0 || a.walk > 100000)
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--walk {} outside 0 .. 100000", a.walk));
+    if (a.frames < 1 || a.frames > kMaxFrames)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("--frames {} outside 1 .. {}", a.frames, kMaxFrames));
     if (a.walk > 0 && !a.path.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "--walk and --path exclude each other");
     if (auto size = parseSize(a.view.size); !size) return size.status();
@@ -82,12 +90,61 @@ Status writeFrame(const stereo::StereoFrame& frame, stereo::Layout layout,
         return Status::ok();
     }
     std::string path = prefix + "." + stereo::layoutName(layout) + ".png";
-    PLX_RETURN_IF_ERROR(writePng(path, stereo::composeStereo(frame.left.color, frame.right.color, layout)));
+    PLX_RETURN_IF_ERROR(
+        writePng(path, stereo::composeStereo(frame.left.color, frame.right.color, layout)));
     written->push_back(path);
     return Status::ok();
 }
 
-double jsonDb(double db) { return std::isfinite(db) ? db : 99.0; }
+double jsonDb(double db) {
+    return std::isfinite(db) ? db : 99.0;
+}
+
+// The cameras of a walkthrough: --walk N poses of the built-in walk, or the --path file's.
+Result<std::vector<Camera>> walkCameras(const scene::Scene& scene, const StereoArgs& a,
+                                        IVec2 size) {
+    std::vector<stereo::Pose> poses;
+    if (a.walk > 0) {
+        poses = stereo::builtinWalk(scene, a.walk);
+    } else {
+        auto loaded = stereo::loadPath(a.path);
+        if (!loaded) return loaded.status();
+        poses = std::move(loaded).value();
+    }
+    std::vector<Camera> cameras;
+    for (size_t i = 0; i < poses.size(); ++i) {
+        scene::Viewpoint vp{"path", poses[i].eyePos, poses[i].targetPos, poses[i].upDir,
+                            poses[i].fovYDegrees};
+        auto cam = scene::cameraAt(scene, vp, size.x, size.y);
+        if (!cam)
+            return errorStatus(cam.status().code(),
+                               fmt::format("pose {}: {}", i, cam.status().message()));
+        cameras.push_back(*cam);
+    }
+    return cameras;
+}
+
+// Medians over the timed pairs of one pose. The second eye includes the pbuffer method's
+// collection of the visible set, as `parallax bench stereo` counts it.
+struct PairTimes {
+    double firstMs = 0, secondMs = 0, pairMs = 0;
+};
+
+// One untimed warm-up pair (cold caches, the renderer's first allocations), then `frames` timed
+// pairs of the same pose; `frame` and `last` keep the last of them.
+PairTimes timePairs(stereo::StereoRenderer& renderer, const scene::Scene& scene,
+                    const StereoRig& rig, const stereo::StereoOptions& options, int frames,
+                    stereo::StereoFrame* frame, stereo::StereoFrameStats* last) {
+    renderer.renderPair(scene, rig, options, frame);
+    std::vector<double> first, second, pair;
+    for (int i = 0; i < frames; ++i) {
+        *last = renderer.renderPair(scene, rig, options, frame);
+        first.push_back(last->firstEyeMs);
+        second.push_back(last->secondEyeMs + last->collectMs);
+        pair.push_back(last->pairMs);
+    }
+    return {median(first), median(second), median(pair)};
+}
 
 int runStereo(const StereoArgs& a) {
     auto p = plan(a);
@@ -102,32 +159,20 @@ int runStereo(const StereoArgs& a) {
     std::vector<Camera> cameras;
     auto size = *parseSize(a.view.size);
     if (a.walk > 0 || !a.path.empty()) {
-        std::vector<stereo::Pose> poses;
-        if (a.walk > 0) {
-            poses = stereo::builtinWalk(*scene, a.walk);
-        } else {
-            auto loaded = stereo::loadPath(a.path);
-            if (!loaded) return fail(loaded.status());
-            poses = std::move(loaded).value();
-        }
-        for (size_t i = 0; i < poses.size(); ++i) {
-            scene::Viewpoint vp{"path", poses[i].eyePos, poses[i].targetPos, poses[i].upDir,
-                                poses[i].fovYDegrees};
-            auto cam = scene::cameraAt(*scene, vp, size.x, size.y);
-            if (!cam) return fail(fmt::format("pose {}: {}", i, cam.status().message()));
-            cameras.push_back(*cam);
-        }
+        auto walk = walkCameras(*scene, a, size);
+        if (!walk) return fail(walk.status());
+        cameras = std::move(walk).value();
     } else {
         auto cam = cameraFor(*scene, a.view);
         if (!cam) return fail(cam.status().message(), kExitUsage);
         cameras.push_back(*cam);
     }
 
-    // The timed pair writes colour only, as `parallax bench stereo` times it: the layouts show
+    // The timed pairs write colour only, as `parallax bench stereo` times them: the layouts show
     // nothing else. An untimed pair with depth and IDs (the same images) gives the visible set
     // and, against a full pair, the quality. Not with --conservative: its guard band follows the
-    // previous frame's depth, so a second pair could differ from the one written; that pair
-    // keeps its planes and is measured itself.
+    // previous frame's depth, so a further pair could differ from the one written; its pairs keep
+    // their planes and the last timed one is measured itself.
     const bool colourOnly = !p->options.conservative;
     stereo::StereoFrame frame, withPlanes, reference;
     stereo::StereoOptions timedOptions = p->options;
@@ -136,15 +181,15 @@ int runStereo(const StereoArgs& a) {
     fullOptions.method = stereo::Method::kFull;
     fullOptions.conservative = false;
     nlohmann::json frames = nlohmann::json::array();
-    std::vector<double> firstMs, secondMs, pairMs, psnrs;
+    std::vector<double> firstMs, secondMs, pairMs, psnrs, identical;
     std::vector<std::string> written;
     stereo::StereoFrameStats last;
     stereo::SecondEyeQuality quality;
-    Progress progress("stereo frames", cameras.size());
+    Progress progress("stereo poses", cameras.size());
     for (size_t i = 0; i < cameras.size(); ++i) {
         auto rig = StereoRig::create(cameras[i], p->rig);
         if (!rig) return fail(rig.status());
-        last = (*renderer)->renderPair(*scene, *rig, timedOptions, &frame);
+        PairTimes t = timePairs(**renderer, *scene, *rig, timedOptions, a.frames, &frame, &last);
         // Not part of the timings above: the visible set, and the quality against the full
         // method.
         const stereo::StereoFrame* measured = &frame;
@@ -172,18 +217,22 @@ int runStereo(const StereoArgs& a) {
         }
         std::string prefix = cameras.size() == 1 ? a.out : fmt::format("{}_{:04}", a.out, i);
         if (Status s = writeFrame(frame, p->layout, prefix, &written); !s) return fail(s);
-        firstMs.push_back(last.firstEyeMs);
-        secondMs.push_back(last.secondEyeMs + last.collectMs);
-        pairMs.push_back(last.pairMs);
+        firstMs.push_back(t.firstMs);
+        secondMs.push_back(t.secondMs);
+        pairMs.push_back(t.pairMs);
         psnrs.push_back(jsonDb(quality.psnrDb));
-        frames.push_back({{"frame", i}, {"first_eye_ms", last.firstEyeMs},
-                          {"second_eye_ms", last.secondEyeMs + last.collectMs},
-                          {"pair_ms", last.pairMs}, {"visible_triangles", last.visibleTriangles},
+        identical.push_back(1.0 - quality.differingFraction);
+        frames.push_back({{"pose", i},
+                          {"first_eye_ms", t.firstMs},
+                          {"second_eye_ms", t.secondMs},
+                          {"pair_ms", t.pairMs},
+                          {"visible_triangles", last.visibleTriangles},
                           {"second_eye_psnr_db", jsonDb(quality.psnrDb)},
+                          {"identical_fraction", identical.back()},
                           {"missed_polygons", quality.missedPolygons}});
         progress.step();
     }
-    // Single pairs report the frame; walkthroughs the median over frames.
+    // Times are medians over a pose's timed pairs; walkthroughs report the median over poses.
     nlohmann::json doc = {
         {"scene", a.scene},
         {"method", stereo::methodName(p->options.method)},
@@ -193,7 +242,8 @@ int runStereo(const StereoArgs& a) {
         {"convergence", p->rig.convergence},
         {"width", size.x},
         {"height", size.y},
-        {"frames", cameras.size()},
+        {"frames", a.frames},
+        {"poses", cameras.size()},
         {"triangles", scene->triangleCount()},
         {"visible_triangles", last.visibleTriangles},
         {"second_eye_triangles", last.secondEyeTriangles},
@@ -203,21 +253,25 @@ int runStereo(const StereoArgs& a) {
         {"pair_ms", median(pairMs)},
         {"second_eye_psnr_db", median(psnrs)},
         {"second_eye_differing_fraction", quality.differingFraction},
+        {"identical_fraction", median(identical)},
         {"missed_polygons", quality.missedPolygons},
         {"format", stereo::layoutName(p->layout)},
         {"outputs", cameras.size() == 1 ? nlohmann::json(written) : nlohmann::json(written.size())},
     };
-    if (cameras.size() > 1) doc["per_frame"] = frames;
+    if (cameras.size() > 1) doc["per_pose"] = frames;
     if (a.json) {
         printJson(doc);
     } else {
         fmt::print("{}: {} triangles, {} visible in the first eye, method {}{}\n", a.scene,
                    scene->triangleCount(), last.visibleTriangles, doc["method"].get<std::string>(),
                    p->options.conservative ? " (conservative)" : "");
-        fmt::print("first eye {:.2f} ms, second eye {:.2f} ms, pair {:.2f} ms (median of {} "
-                   "frames); second eye PSNR {:.1f} dB against the full method\n",
-                   median(firstMs), median(secondMs), median(pairMs), cameras.size(),
-                   median(psnrs));
+        fmt::print(
+            "first eye {:.2f} ms, second eye {:.2f} ms, pair {:.2f} ms (median of {} "
+            "timed pairs after a warm-up{}); second eye PSNR {:.1f} dB, {:.4f} of its "
+            "pixels identical to the full method's\n",
+            median(firstMs), median(secondMs), median(pairMs), a.frames,
+            cameras.size() > 1 ? fmt::format(", median over {} poses", cameras.size()) : "",
+            median(psnrs), median(identical));
         fmt::print("wrote {} file(s) starting {}\n", written.size(), written.front());
     }
     return kExitOk;
@@ -227,12 +281,14 @@ int runStereo(const StereoArgs& a) {
 
 Command registerStereo(CLI::App& app) {
     auto a = std::make_shared<StereoArgs>();
-    CLI::App* sub = app.add_subcommand(
-        "stereo", "Render a stereo pair: full pipeline twice, or the second eye from the "
-                  "P-buffer's visible polygons");
-    sub->footer("Example: parallax stereo office:64 --method pbuffer --format anaglyph "
-                "--out out/stereo --json\n         parallax stereo office:16 --walk 60 --out "
-                "out/walk/frame");
+    CLI::App* sub =
+        app.add_subcommand("stereo",
+                           "Render a stereo pair: full pipeline twice, or the second eye from the "
+                           "P-buffer's visible polygons");
+    sub->footer(
+        "Example: parallax stereo office:64 --method pbuffer --format anaglyph "
+        "--out out/stereo --json\n         parallax stereo office:16 --walk 60 --out "
+        "out/walk/frame");
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();
     addViewOptions(sub, &a->view);
@@ -253,6 +309,9 @@ Command registerStereo(CLI::App& app) {
     sub->add_option("--path", a->path, "Walkthrough: a JSON list of poses");
     sub->add_option("--walk", a->walk, "Walkthrough: N poses of the built-in walk");
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)");
+    sub->add_option("--frames", a->frames,
+                    "Timed pairs per pose after one untimed warm-up pair; times are their medians")
+        ->capture_default_str();
     sub->add_option("--out", a->out, "Output prefix")->required();
     sub->add_flag("--json", a->json, "Print a JSON result on stdout");
     return {sub, [a] { return runStereo(*a); }};

@@ -8,11 +8,13 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() { return plx::testing::scratchDir("stereo_cli"); }
+fs::path scratchDir() {
+    return plx::testing::scratchDir("stereo_cli");
+}
 
 TEST(StereoCli, PBufferPairJsonAndLayouts) {
     fs::path prefix = scratchDir() / "pair";
-    RunResult r = runParallax("stereo office:4 --method pbuffer --size 96x72 --out " +
+    RunResult r = runParallax("stereo office:4 --method pbuffer --size 96x72 --frames 2 --out " +
                               prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
@@ -21,34 +23,41 @@ TEST(StereoCli, PBufferPairJsonAndLayouts) {
         EXPECT_TRUE(doc.contains(key)) << key;
     EXPECT_EQ(doc["method"], "pbuffer");
     EXPECT_GT(doc["second_eye_psnr_db"].get<double>(), 20.0);
+    EXPECT_EQ(doc["frames"], 2);
+    EXPECT_GT(doc["identical_fraction"].get<double>(), 0.9);
+    EXPECT_LE(doc["identical_fraction"].get<double>(), 1.0);
     EXPECT_LT(doc["visible_triangles"].get<int>(), doc["triangles"].get<int>());
     EXPECT_TRUE(fs::exists(prefix.string() + ".left.png"));
     EXPECT_TRUE(fs::exists(prefix.string() + ".right.png"));
     EXPECT_TRUE(fs::exists(prefix.string() + ".diff.png"));
     for (const char* format : {"sbs", "tb", "anaglyph", "interleaved"}) {
         fs::path p = scratchDir() / format;
-        RunResult f = runParallax(std::string("stereo office:1 --method full --size 32x24 --format ") +
-                                  format + " --out " + p.string());
+        RunResult f =
+            runParallax(std::string("stereo office:1 --method full --size 32x24 --format ") +
+                        format + " --out " + p.string());
         ASSERT_EQ(f.exitCode, 0) << f.err;
         EXPECT_TRUE(fs::exists(p.string() + "." + format + ".png")) << format;
     }
 }
 
-TEST(StereoCli, WalkthroughReportsPerFrameTimings) {
+TEST(StereoCli, WalkthroughReportsPerPoseTimings) {
     fs::path prefix = scratchDir() / "walk";
     RunResult r = runParallax("stereo office:2 --walk 3 --size 48x32 --conservative --out " +
                               prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
-    EXPECT_EQ(doc["frames"], 3);
-    EXPECT_EQ(doc["per_frame"].size(), 3u);
+    EXPECT_EQ(doc["poses"], 3);
+    EXPECT_EQ(doc["frames"], 9);  // timed pairs per pose, the default
+    EXPECT_EQ(doc["per_pose"].size(), 3u);
     EXPECT_TRUE(fs::exists(prefix.string() + "_0002.left.png"));
     fs::path path = scratchDir() / "path.json";
-    writeFile(path, R"({"poses":[{"eye":[1,1.6,1],"target":[5,1,5]},{"eye":[1.2,1.6,1],"target":[5,1,5]}]})");
+    writeFile(
+        path,
+        R"({"poses":[{"eye":[1,1.6,1],"target":[5,1,5]},{"eye":[1.2,1.6,1],"target":[5,1,5]}]})");
     r = runParallax("stereo office:1 --path " + path.string() + " --size 32x24 --out " +
                     (scratchDir() / "p").string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_EQ(nlohmann::json::parse(r.out)["frames"], 2);
+    EXPECT_EQ(nlohmann::json::parse(r.out)["poses"], 2);
 }
 
 TEST(StereoCli, BadParametersGiveOneLineErrors) {
@@ -58,6 +67,9 @@ TEST(StereoCli, BadParametersGiveOneLineErrors) {
     expectOneLineError(runParallax("stereo office:1 --method magic" + out), "magic", 2);
     expectOneLineError(runParallax("stereo office:1 --format hologram" + out), "hologram", 2);
     expectOneLineError(runParallax("stereo office:1 --rig sideways" + out), "sideways", 2);
+    for (const char* frames : {"0", "-1", "abc", "100001"})
+        expectOneLineError(runParallax(std::string("stereo office:1 --frames ") + frames + out),
+                           "--frames", 2);
     fs::path bad = scratchDir() / "bad_path.json";
     writeFile(bad, R"({"poses":[{"eye":[0,1,0]}]})");
     expectOneLineError(runParallax("stereo office:1 --path " + bad.string() + out), "target");

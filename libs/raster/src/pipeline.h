@@ -213,6 +213,17 @@ PLX_ISA_DECLARE(
     Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
                       float invW))
 
+// The scalar reference's front end for one scene-global triangle: transform, clip, snap and
+// isa_scalar::setupTriangle of each clipped piece that covers a sample. Writes the setups to
+// out[0 .. return value). Shared by renderReference and drawTriangleInSpans (span_fill.h).
+int setupReferenceTriangles(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
+                            const Viewport& vp, const ShadeContext& ctx,
+                            TriangleSetup out[kMaxClippedTriangles]);
+// The reference's pixel loop over row y, columns [x0, x1] clipped to the setup's box: coverage,
+// depth test (unless ctx.colorOnly) and writes. Returns the samples written.
+int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
+                              const RenderTargets& rt, int y, int x0, int x1);
+
 // The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,
                   const ShadeContext& ctx);

@@ -8,9 +8,6 @@ namespace plx::raster {
 namespace {
 
 using namespace detail;
-// The reference takes the scalar path's setup and shading whatever path is active.
-using detail::isa_scalar::setupTriangle;
-using detail::isa_scalar::shadeSample;
 
 int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
     int j = (i + 1) % 3;
@@ -18,43 +15,60 @@ int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
 }
 
 void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt) {
-    for (int y = t.minY; y <= t.maxY; ++y) {
-        float b1Row, b2Row;
-        rowBarycentrics(t, y, &b1Row, &b2Row);
-        for (int x = t.minX; x <= t.maxX; ++x) {
-            int64_t px = int64_t(x) * kSubPixelScale + kSubPixelScale / 2;
-            int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
-            int64_t e[3] = {edgeValue(t, 0, px, py), edgeValue(t, 1, px, py),
-                            edgeValue(t, 2, px, py)};
-            if (e[0] + t.edgeBias[0] < 0 || e[1] + t.edgeBias[1] < 0 || e[2] + t.edgeBias[2] < 0)
-                continue;
-            float k = float(x - t.minX);
-            float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
-            float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
-            if (ctx.colorOnly) {  // no depth test: submission order decides
-                rt.color.at(x, y) = shadeSample(t, ctx, b1, b2, invW);
-                continue;
-            }
-            if (!(invW > rt.depth.at(x, y))) {
-                if (rt.visibility.id2.data && invW > rt.visibility.depth2.at(x, y)) {
-                    rt.visibility.depth2.at(x, y) = invW;
-                    rt.visibility.id2.at(x, y) = t.id;
-                }
-                continue;
-            }
-            if (rt.visibility.id2.data) {
-                rt.visibility.depth2.at(x, y) = rt.depth.at(x, y);
-                rt.visibility.id2.at(x, y) = rt.id.at(x, y);
-            }
-            rt.depth.at(x, y) = invW;
-            rt.id.at(x, y) = t.id;
-            if (rt.color.data) rt.color.at(x, y) = shadeSample(t, ctx, b1, b2, invW);
-        }
-    }
+    for (int y = t.minY; y <= t.maxY; ++y) rasterizeReferenceRow(t, ctx, rt, y, t.minX, t.maxX);
 }
 
-void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
-                  const Viewport& vp, const ShadeContext& ctx, const RenderTargets& rt) {
+}  // namespace
+
+namespace detail {
+
+// The reference takes the scalar path's setup and shading (isa_scalar) whatever path is active.
+int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
+                              const RenderTargets& rt, int y, int x0, int x1) {
+    if (y < t.minY || y > t.maxY) return 0;
+    x0 = std::max(x0, t.minX);
+    x1 = std::min(x1, t.maxX);
+    if (x0 > x1) return 0;
+    // The row's barycentrics start at minX whatever x0 is: the same expression as every path.
+    float b1Row, b2Row;
+    rowBarycentrics(t, y, &b1Row, &b2Row);
+    int64_t written = 0;
+    for (int x = x0; x <= x1; ++x) {
+        int64_t px = int64_t(x) * kSubPixelScale + kSubPixelScale / 2;
+        int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
+        int64_t e[3] = {edgeValue(t, 0, px, py), edgeValue(t, 1, px, py), edgeValue(t, 2, px, py)};
+        if (e[0] + t.edgeBias[0] < 0 || e[1] + t.edgeBias[1] < 0 || e[2] + t.edgeBias[2] < 0)
+            continue;
+        float k = float(x - t.minX);
+        float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
+        float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
+        if (ctx.colorOnly) {  // no depth test: submission order decides
+            rt.color.at(x, y) = isa_scalar::shadeSample(t, ctx, b1, b2, invW);
+            ++written;
+            continue;
+        }
+        if (!(invW > rt.depth.at(x, y))) {
+            if (rt.visibility.id2.data && invW > rt.visibility.depth2.at(x, y)) {
+                rt.visibility.depth2.at(x, y) = invW;
+                rt.visibility.id2.at(x, y) = t.id;
+            }
+            continue;
+        }
+        if (rt.visibility.id2.data) {
+            rt.visibility.depth2.at(x, y) = rt.depth.at(x, y);
+            rt.visibility.id2.at(x, y) = rt.id.at(x, y);
+        }
+        rt.depth.at(x, y) = invW;
+        rt.id.at(x, y) = t.id;
+        if (rt.color.data) rt.color.at(x, y) = isa_scalar::shadeSample(t, ctx, b1, b2, invW);
+        ++written;
+    }
+    return written;
+}
+
+int setupReferenceTriangles(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
+                            const Viewport& vp, const ShadeContext& ctx,
+                            TriangleSetup out[kMaxClippedTriangles]) {
     size_t m = scene.meshOfTriangle(globalTri);
     uint32_t local = uint32_t(globalTri - scene.firstTriangle(m));
     const scene::Mesh& mesh = scene.meshes[m];
@@ -64,7 +78,7 @@ void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& c
         clip[k] = camera.clipFromWorld() * Vec4(mesh.positions[mesh.indices[3 * local + k]], 1.0f);
         codes[k] = outcode(clip[k], vp);
     }
-    if (codes[0] & codes[1] & codes[2] & kOutFrustum) return;
+    if (codes[0] & codes[1] & codes[2] & kOutFrustum) return 0;
     RasterVertex tris[kMaxClippedTriangles][3];
     int count = 1;
     if ((codes[0] | codes[1] | codes[2]) & kOutNeedsClip) {
@@ -73,11 +87,21 @@ void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& c
         for (int k = 0; k < 3; ++k)
             tris[0][k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
     }
-    for (int i = 0; i < count; ++i) {
-        TriangleSetup setup;
-        if (setupTriangle(scene, m, local, tris[i], vp, ctx, &setup))
-            rasterizeReference(setup, ctx, rt);
-    }
+    int setups = 0;
+    for (int i = 0; i < count; ++i)
+        if (isa_scalar::setupTriangle(scene, m, local, tris[i], vp, ctx, &out[setups])) ++setups;
+    return setups;
+}
+
+}  // namespace detail
+
+namespace {
+
+void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
+                  const Viewport& vp, const ShadeContext& ctx, const RenderTargets& rt) {
+    TriangleSetup setups[kMaxClippedTriangles];
+    int count = setupReferenceTriangles(scene, globalTri, camera, vp, ctx, setups);
+    for (int i = 0; i < count; ++i) rasterizeReference(setups[i], ctx, rt);
 }
 
 }  // namespace

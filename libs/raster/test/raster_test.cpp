@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <plx/raster/raster.h>
+#include <plx/raster/span_fill.h>
 
 #include "isa_paths.h"
 
@@ -460,6 +461,49 @@ TEST_P(RasterPath, SubsetOfAllTrianglesReproducesFullRender) {
     expectSameTargets(subset, ref, "partial subset");
     std::set<uint32_t> ids(subset.id.data(), subset.id.data() + subset.id.pixelCount());
     for (uint32_t id : ids) EXPECT_TRUE(id == 0 || (id - 1) % 3 == 0) << id;
+}
+
+// Fu's span-restricted scan conversion: clearing random spans of a full render and drawing every
+// triangle into just those spans gives back the full render there, to the bit, and leaves every
+// other pixel alone; triangles straddling the near plane and the image border included.
+TEST_P(RasterPath, SpanFillEqualsTheFullRenderAtSpanPixels) {
+    Scene s = randomSoup(200, 9, true);
+    std::mt19937 rng(17);
+    for (Shading shading : {Shading::kFlat, Shading::kGouraud, Shading::kTextured}) {
+        for (Vec3 eye : {Vec3(1, 2, 9), Vec3(0.5f, 0.3f, 2.0f)}) {
+            Camera cam = makeCamera(eye, {0, 0, 0}, 96, 64, 60.0f, 0.5f);
+            RenderOptions opt;
+            opt.shading = shading;
+            FrameBuffers full, spans;
+            full.resize(96, 64);
+            makeRenderer(2, 32)->render(s, cam, opt, full.targets());
+            spans = full;
+            std::uniform_int_distribution<int> row(0, 63), col(-4, 99), len(0, 30);
+            std::vector<PixelSpan> list;
+            Image<uint8_t> inSpan(96, 64, 0);
+            for (int i = 0; i < 60; ++i) {
+                PixelSpan p{row(rng), col(rng), 0};
+                p.x1 = p.x0 + len(rng);
+                // Spans are disjoint: a pixel listed twice would be drawn twice.
+                bool overlaps = false;
+                for (int x = std::max(p.x0, 0); x <= std::min(p.x1, 95); ++x)
+                    overlaps |= inSpan.at(x, p.y) != 0;
+                if (overlaps) continue;
+                for (int x = std::max(p.x0, 0); x <= std::min(p.x1, 95); ++x) {
+                    inSpan.at(x, p.y) = 1;
+                    spans.color.at(x, p.y) = opt.clearColor;
+                    spans.depth.at(x, p.y) = 0.0f;
+                    spans.id.at(x, p.y) = 0;
+                }
+                list.push_back(p);
+            }
+            int64_t written = 0;
+            for (uint32_t t = 0; t < s.triangleCount(); ++t)
+                written += drawTriangleInSpans(s, t, cam, opt, spans.targets(), list);
+            EXPECT_GT(written, 0);
+            expectSameTargets(spans, full, std::string("span fill ") + shadingName(shading));
+        }
+    }
 }
 
 // Subsets are binned in equal chunks, a whole number per thread: sizes around the chunk

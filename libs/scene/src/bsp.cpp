@@ -150,13 +150,15 @@ public:
             if (!front.polygons.empty()) stack.push_back(std::move(front));
         }
 
+        computeSubtreeBoxes(&tree);
         BspStats& s = tree.mStats;
         s.fragments = tree.mFragments.size();
         s.nodes = tree.mNodes.size();
         s.vertexCount = tree.mVertices.size();
         s.memoryBytes = tree.mNodes.size() * sizeof(BspNode) +
                         tree.mFragments.size() * (sizeof(BspFragment) + sizeof(uint32_t)) +
-                        tree.mVertices.size() * sizeof(Vec3);
+                        tree.mVertices.size() * sizeof(Vec3) +
+                        tree.mSubtreeBoxes.size() * sizeof(Aabb);
         std::vector<uint8_t> pieces(scene.triangleCount(), 0);
         for (const BspFragment& f : tree.mFragments)
             pieces[f.sourceTriangle] = uint8_t(std::min(2, pieces[f.sourceTriangle] + 1));
@@ -165,6 +167,19 @@ public:
     }
 
 private:
+    // Children are stored after their parent (depth-first build), so one pass from the last node
+    // to the first finishes every subtree before its parent takes it in.
+    static void computeSubtreeBoxes(BspTree* tree) {
+        tree->mSubtreeBoxes.assign(tree->mNodes.size(), Aabb{});
+        for (size_t i = tree->mNodes.size(); i-- > 0;) {
+            const BspNode& n = tree->mNodes[i];
+            Aabb& box = tree->mSubtreeBoxes[i];
+            for (uint32_t f = n.firstFragment; f < n.firstFragment + n.fragmentCount; ++f)
+                for (const Vec3& v : tree->fragmentVertices(f)) box.extend(v);
+            if (n.parent != BspTree::kNoNode) tree->mSubtreeBoxes[size_t(n.parent)].extend(box);
+        }
+    }
+
     // Computes every triangle's plane and makes a work polygon of each non-degenerate one.
     std::vector<uint32_t> collectTriangles(const Scene& scene, size_t* degenerate) {
         size_t count = scene.triangleCount();

@@ -317,6 +317,57 @@ TEST(Bsp, WalkStopsWhenTheCallbackSaysSo) {
     EXPECT_TRUE(std::equal(partial.begin(), partial.end(), full.begin()));
 }
 
+// Subtree boxes enclose their fragments and their children's boxes; the pruned walk accepting
+// everything is the plain walk, and with a box predicate it emits exactly the plain walk's
+// fragments whose node and ancestors pass, in the same order.
+TEST(Bsp, PrunedWalkKeepsThePlainOrderOfTheAcceptedSubtrees) {
+    std::mt19937 rng;
+    BspTree tree = cellTree(9, 4, 0.8f, &rng);
+    ASSERT_GT(tree.nodeCount(), 10u);
+    std::vector<int32_t> fragmentNode(tree.fragmentCount());
+    for (size_t i = 0; i < tree.nodeCount(); ++i) {
+        const BspNode& n = tree.node(i);
+        const Aabb& box = tree.subtreeBox(i);
+        for (uint32_t f = n.firstFragment; f < n.firstFragment + n.fragmentCount; ++f) {
+            fragmentNode[f] = int32_t(i);
+            for (const Vec3& v : tree.fragmentVertices(f))
+                EXPECT_TRUE(glm::all(glm::lessThanEqual(box.lo, v)) &&
+                            glm::all(glm::lessThanEqual(v, box.hi)));
+        }
+        for (int32_t c : {n.front, n.back})
+            if (c != BspTree::kNoNode)
+                EXPECT_TRUE(glm::all(glm::lessThanEqual(box.lo, tree.subtreeBox(size_t(c)).lo)) &&
+                            glm::all(glm::lessThanEqual(tree.subtreeBox(size_t(c)).hi, box.hi)));
+    }
+    for (Vec3 eye : {Vec3(-3.0f, 2.0f, 9.0f), Vec3(1.5f, 1.5f, 1.5f)}) {
+        std::vector<uint32_t> plain, all, pruned, expected;
+        tree.frontToBack(eye, &plain);
+        size_t reached = tree.forEachFrontToBackPruned(
+            eye, [](int32_t, const Aabb&) { return true; },
+            [&](uint32_t f) { all.push_back(f); });
+        EXPECT_EQ(all, plain);
+        EXPECT_EQ(reached, tree.nodeCount());
+        Aabb region{Vec3(0.0f, 0.0f, 0.0f), Vec3(2.0f, 4.0f, 2.5f)};
+        auto passes = [&](const Aabb& b) {
+            return glm::all(glm::lessThanEqual(b.lo, region.hi)) &&
+                   glm::all(glm::lessThanEqual(region.lo, b.hi));
+        };
+        size_t tested = tree.forEachFrontToBackPruned(
+            eye, [&](int32_t, const Aabb& b) { return passes(b); },
+            [&](uint32_t f) { pruned.push_back(f); });
+        for (uint32_t f : plain) {
+            bool keep = true;
+            for (int32_t n = fragmentNode[f]; n != BspTree::kNoNode; n = tree.node(size_t(n)).parent)
+                keep = keep && passes(tree.subtreeBox(size_t(n)));
+            if (keep) expected.push_back(f);
+        }
+        EXPECT_EQ(pruned, expected);
+        EXPECT_LT(pruned.size(), plain.size());
+        EXPECT_GT(pruned.size(), 0u);
+        EXPECT_LT(tested, tree.nodeCount());
+    }
+}
+
 // A convex solid makes every face plane leave all other faces on one side: the tree degenerates
 // into a chain as deep as the solid has face planes. Built and walked without recursion.
 TEST(Bsp, ConvexSolidBuildsAChainAndWalksIt) {

@@ -1,5 +1,5 @@
-// Stereo pair rendering: the full and P-buffer methods of Heo, Jung, Wohn, and the conservative
-// extension.
+// Stereo pair rendering: the full and P-buffer methods of Heo, Jung, Wohn, the conservative
+// extension, and the reproject method of Fu, Bao, Peng (reproject_pair.cpp).
 
 #include <algorithm>
 #include <cmath>
@@ -9,17 +9,29 @@
 #include <plx/stereo/stereo.h>
 
 #include "conservative.h"
+#include "reproject_pair.h"
 
 namespace plx::stereo {
 
 Result<Method> parseMethod(const std::string& name) {
     if (name == "full") return Method::kFull;
     if (name == "pbuffer") return Method::kPBuffer;
+    if (name == "reproject") return Method::kReproject;
     return errorStatus(ErrorCode::kInvalidArgument,
-                       fmt::format("unknown stereo method '{}' (full, pbuffer)", name));
+                       fmt::format("unknown stereo method '{}' (full, pbuffer, reproject)", name));
 }
 
-const char* methodName(Method method) { return method == Method::kFull ? "full" : "pbuffer"; }
+const char* methodName(Method method) {
+    switch (method) {
+        case Method::kFull:
+            return "full";
+        case Method::kPBuffer:
+            return "pbuffer";
+        case Method::kReproject:
+            return "reproject";
+    }
+    return "unknown";
+}
 
 // Screen tiles of 128 pixels for both methods. The P-buffer's second eye draws about a
 // thousand mostly large polygons over the whole image: with 64-pixel tiles each reaches several
@@ -33,6 +45,7 @@ struct StereoRenderer::Impl {
     raster::VisibleSetCollector collector;
     ConservativeScratch conservative;
     std::vector<uint32_t> lastSet;
+    std::unique_ptr<ReprojectPair> reproject;  // made by prepareReprojection
 
     void renderFull(const scene::Scene& scene, const StereoRig& rig, const StereoOptions& options,
                     StereoFrame* frame, StereoFrameStats* stats);
@@ -52,6 +65,16 @@ StereoRenderer::StereoRenderer(std::unique_ptr<Impl> impl) : mImpl(std::move(imp
 StereoRenderer::~StereoRenderer() = default;
 std::span<const uint32_t> StereoRenderer::lastVisibleSet() const { return mImpl->lastSet; }
 raster::Renderer& StereoRenderer::renderer() { return *mImpl->renderer; }
+
+Status StereoRenderer::prepareReprojection(const scene::Scene& scene) {
+    if (!mImpl->reproject)
+        mImpl->reproject = std::make_unique<ReprojectPair>(mImpl->renderer->threadCount());
+    return mImpl->reproject->prepare(scene);
+}
+
+double StereoRenderer::lastPrepareMs() const {
+    return mImpl->reproject ? mImpl->reproject->lastPrepareMs() : 0.0;
+}
 
 namespace {
 
@@ -89,10 +112,15 @@ StereoFrameStats StereoRenderer::renderPair(const scene::Scene& scene, const Ste
                    &frame->eye(e));
     StereoFrameStats stats;
     stats.triangles = scene.triangleCount();
-    if (options.method == Method::kFull)
+    if (options.method != Method::kReproject) frame->holeClass = {};
+    if (options.method == Method::kFull) {
         mImpl->renderFull(scene, rig, options, frame, &stats);
-    else
+    } else if (options.method == Method::kPBuffer) {
         mImpl->renderPBuffer(scene, rig, options, frame, &stats);
+    } else {
+        PLX_CHECK(mImpl->reproject && mImpl->reproject->preparedFor(scene));
+        mImpl->reproject->render(*mImpl->renderer, scene, rig, options, frame, &stats);
+    }
     stats.pairMs = stats.firstEyeMs + stats.collectMs + stats.secondEyeMs;
     return stats;
 }

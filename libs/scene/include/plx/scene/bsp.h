@@ -72,7 +72,7 @@ struct BspStats {
     size_t nodes = 0;
     size_t maxDepth = 0;     // root has depth 1; 0 for an empty tree
     size_t vertexCount = 0;  // fragment vertices stored
-    size_t memoryBytes = 0;  // nodes, fragments and vertices
+    size_t memoryBytes = 0;  // nodes, subtree boxes, fragments and vertices
     // Fragments per tree triangle (sourceTriangles - degenerateSkipped); 0 for an empty tree.
     double fragmentsPerTriangle() const;
 };
@@ -111,6 +111,9 @@ public:
     // Plane (n, d) of the node holding a fragment. Precondition: index < fragmentCount().
     const Vec4& fragmentPlane(size_t index) const { return mNodes[mFragmentNode[index]].plane; }
     const std::vector<Vec3>& vertices() const { return mVertices; }
+    // Box enclosing every fragment vertex of the node's subtree (the node included): what a walk
+    // may test to skip the whole subtree. Precondition: index < nodeCount().
+    const Aabb& subtreeBox(size_t index) const { return mSubtreeBoxes[index]; }
 
     // Calls fn(fragmentIndex) for every fragment, nearest first as seen from eyePos: the
     // modified in-order walk of Fuchs-Kedem-Naylor (near subtree, node's plane, far subtree) in
@@ -126,17 +129,29 @@ public:
     void forEachBackToFront(const Vec3& eyePos, Fn&& fn) const {
         walk<false>(eyePos, fn);
     }
+    // forEachFrontToBack restricted to the subtrees `accept` admits: on reaching a node from its
+    // parent the walk calls accept(nodeIndex, subtreeBox(nodeIndex)) (int32_t, const Aabb&) and,
+    // when it returns false, skips the node and its whole subtree, fragments included. The
+    // fragments emitted are those of the plain walk whose node and every ancestor are accepted,
+    // in the plain walk's order; fn returning false stops the walk as there. Stack-free like the
+    // plain walk. Returns the nodes reached (accept's calls).
+    template <class Accept, class Fn>
+    size_t forEachFrontToBackPruned(const Vec3& eyePos, Accept&& accept, Fn&& fn) const {
+        return walk<true>(eyePos, fn, accept);
+    }
     // Writes every fragment index, nearest first, into *order (resized; its capacity is reused).
     void frontToBack(const Vec3& eyePos, std::vector<uint32_t>* order) const;
 
 private:
-    template <bool kFrontToBack, class Fn>
-    void walk(const Vec3& eyePos, Fn& fn) const;
+    static bool acceptAll(int32_t, const Aabb&) { return true; }
+    template <bool kFrontToBack, class Fn, class Accept = decltype(acceptAll)>
+    size_t walk(const Vec3& eyePos, Fn& fn, Accept& accept = acceptAll) const;
 
     std::vector<BspNode> mNodes;
     std::vector<BspFragment> mFragments;
     std::vector<uint32_t> mFragmentNode;  // node holding each fragment
     std::vector<Vec3> mVertices;
+    std::vector<Aabb> mSubtreeBoxes;  // per node
     BspStats mStats;
     float mEpsilon = 0.0f;
 
@@ -148,12 +163,14 @@ inline float planeDistance(const Vec4& plane, const Vec3& p) {
     return plane.x * p.x + plane.y * p.y + plane.z * p.z + plane.w;
 }
 
-template <bool kFrontToBack, class Fn>
-void BspTree::walk(const Vec3& eyePos, Fn& fn) const {
+template <bool kFrontToBack, class Fn, class Accept>
+size_t BspTree::walk(const Vec3& eyePos, Fn& fn, Accept& accept) const {
     // In-order walk with parent links instead of a stack: arriving at a node from its parent we
     // descend to the near child; returning from the near child we emit the node's fragments and
     // descend to the far child; returning from the far child we climb. "Near" is the child on
-    // the eye's side of the plane (the far one when walking back to front).
+    // the eye's side of the plane (the far one when walking back to front). A node `accept`
+    // rejects on arrival is left at once, as if its subtree had been walked: back at the parent
+    // it reads as a return from that child.
     auto emit = [&](const BspNode& n) {
         for (uint32_t i = n.firstFragment; i < n.firstFragment + n.fragmentCount; ++i) {
             if constexpr (std::is_same_v<std::invoke_result_t<Fn&, uint32_t>, bool>) {
@@ -164,10 +181,19 @@ void BspTree::walk(const Vec3& eyePos, Fn& fn) const {
         }
         return true;
     };
+    size_t reached = 0;
     int32_t current = root();
     int32_t previous = kNoNode;
     while (current != kNoNode) {
         const BspNode& n = mNodes[size_t(current)];
+        if (previous == n.parent) {
+            ++reached;
+            if (!accept(current, mSubtreeBoxes[size_t(current)])) {
+                previous = current;
+                current = n.parent;
+                continue;
+            }
+        }
         bool eyeInFront = planeDistance(n.plane, eyePos) >= 0.0f;
         int32_t nearChild = (eyeInFront == kFrontToBack) ? n.front : n.back;
         int32_t farChild = (eyeInFront == kFrontToBack) ? n.back : n.front;
@@ -176,11 +202,11 @@ void BspTree::walk(const Vec3& eyePos, Fn& fn) const {
             if (nearChild != kNoNode) {
                 next = nearChild;
             } else {
-                if (!emit(n)) return;
+                if (!emit(n)) return reached;
                 next = farChild != kNoNode ? farChild : n.parent;
             }
         } else if (previous == nearChild) {
-            if (!emit(n)) return;
+            if (!emit(n)) return reached;
             next = farChild != kNoNode ? farChild : n.parent;
         } else {
             next = n.parent;
@@ -188,6 +214,7 @@ void BspTree::walk(const Vec3& eyePos, Fn& fn) const {
         previous = current;
         current = next;
     }
+    return reached;
 }
 
 }  // namespace plx::scene

@@ -1,0 +1,116 @@
+#pragma once
+// Filling the holes of a reprojected second eye (Fu, Bao, Peng, section 3 and the algorithm
+// sketch): only the hole pixels are drawn, each from the polygons that can appear there.
+//
+// Expansion holes (a polygon seen more obliquely by the second eye, its pixels spread apart)
+// are drawn from their one polygon (HoleSet's polygonId): drawTriangleInSpans over the hole's
+// segments evaluates it exactly where the paper's linear interpolation (fillExpansionHoles,
+// kept as ExpansionFill::kInterpolate) approximates it in sRGB; docs/stereo-results.md has the
+// measurement that made evaluation the default. Pixels the polygon does not cover (the crack
+// crossed its edge) fall through to the disocclusion search below. As in the paper, a pixel the
+// polygon covers is taken as visible without asking whether something else is nearer there.
+//
+// Disocclusion holes (surfaces the first eye could not see):
+//  1. the box hierarchy flags the triangles whose projected boxes may reach the hole's
+//     enclosing rectangle (BoxHierarchy::markHole, the paper's per-node flags);
+//  2. the BSP tree is walked front to back from the second eye, skipping subtrees whose box
+//     cannot reach the rectangle (BspTree::forEachFrontToBackPruned);
+//  3. a fragment whose source triangle is not flagged is skipped; the rest get the separating
+//     test of their own corners against the rectangle (polygonMayCoverRect);
+//  4. the fragment's source triangle is scan-converted into the hole's still-open segments
+//     (drawTriangleInSpans, the paper's modified scan-line conversion), with the depth test;
+//  5. the pixels it covers leave the segments, and the walk stops once none are left (the
+//     paper's termination: "until the hole is filled").
+// Pixels still open when the walk ends show nothing: clear colour, depth 0, ID 0
+// (PixelSource::kDisocclusionEmpty).
+//
+// Where this differs from the paper:
+//  - The search starts at the root, pruned by subtree boxes, not "from the polygons surrounding
+//    the hole": what fills a hole need not be behind its neighbours. A pole entering at the image
+//    border is in front of everything around the hole it opens, and a surface revealed beside a
+//    foreground edge may lie anywhere in the tree; the pruned root walk finds both, at the cost
+//    of the nodes whose boxes reach the hole's rectangle.
+//  - A split triangle is drawn whole when its first fragment is reached (its pixels equal the
+//    full render's there). Its later fragments may lie behind polygons still to come, so the
+//    pixels it covers stay open (the depth test lets a nearer polygon replace them) until every
+//    fragment of the triangle has been passed, or the walk ends.
+//  - Holes are independent (disjoint pixels) and run in parallel, each thread with its own flags.
+// Result: a disocclusion pixel equals the full render's wherever the BSP order is exact (bsp.h's
+// limits) and the nearest polygon there is in the tree (degenerate triangles are not).
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <plx/core/parallel.h>
+#include <plx/raster/raster.h>
+#include <plx/scene/box_hierarchy.h>
+#include <plx/scene/bsp.h>
+#include <plx/stereo/holes.h>
+#include <plx/stereo/reproject.h>
+
+namespace plx::stereo {
+
+// What the fill reuses for every view of one scene.
+struct FillScene {
+    scene::BspTree bsp;
+    scene::BoxHierarchy boxes;
+    // BSP fragments of each scene-global triangle (0: degenerate, not in the tree), at most
+    // 65535: the tree's fragment bound (BspConfig::maxFragmentsPerTriangle) keeps real counts far
+    // below it, and a saturated count only keeps a triangle's pixels open longer.
+    std::vector<uint16_t> fragmentsOfTriangle;
+};
+
+// Builds the BSP tree and box hierarchy of `scene`. Preconditions: `scene` is finalized.
+// Errors: those of BspTree::build and BoxHierarchy::build.
+Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp = {},
+                                 const scene::BoxHierarchyConfig& boxes = {});
+
+enum class ExpansionFill {
+    kEvaluate,     // draw the hole's polygon over its segments (default)
+    kInterpolate,  // fillExpansionHoles: linear along each segment between its neighbours
+};
+
+struct FillOptions {
+    ExpansionFill expansion = ExpansionFill::kEvaluate;
+    // The first eye's render options (shading, lighting, culling, clear colour): holes are drawn
+    // with them. clearTargets and colorOnly are ignored.
+    raster::RenderOptions render;
+};
+
+struct FillStats {
+    int64_t expansionPixels = 0;     // pixels drawn (or interpolated) from an expansion polygon
+    int64_t disocclusionPixels = 0;  // pixels drawn by the BSP search
+    int64_t emptyPixels = 0;         // hole pixels no polygon covers
+    size_t nodesVisited = 0;         // BSP nodes the searches reached
+    size_t boxNodesTested = 0;       // box-hierarchy nodes markHole tested
+    size_t polygonsTested = 0;       // fragments given the separating test
+    size_t polygonsDrawn = 0;        // triangles scan-converted into a hole
+};
+
+// Working memory of fillHoles, one slot per thread, kept between frames.
+class FillScratch {
+public:
+    FillScratch();
+    ~FillScratch();
+    struct Slot;
+
+private:
+    friend FillStats fillHoles(const scene::Scene&, const FillScene&, const Camera&,
+                               const FillOptions&, const HoleSet&, const SecondEyeTargets&,
+                               ImageView<uint8_t>, FillScratch*, ThreadPool*);
+    std::vector<std::unique_ptr<Slot>> mSlots;
+};
+
+// Fills every hole of `holes` in the second eye's targets and writes the PixelSource of each
+// hole pixel to holeClass (other pixels are left as they are). Runs the holes on `pool` when
+// given; the result does not depend on the thread count. Preconditions: `fill` was built from
+// `scene`; camera is the second eye's; holes were found on second.holeMask and classified on
+// second.id (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject() leaves them);
+// targets and holeClass of the camera's size.
+FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
+                    const FillOptions& options, const HoleSet& holes,
+                    const SecondEyeTargets& second, ImageView<uint8_t> holeClass,
+                    FillScratch* scratch, ThreadPool* pool = nullptr);
+
+}  // namespace plx::stereo

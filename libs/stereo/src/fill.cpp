@@ -1,0 +1,263 @@
+// Hole filling of the reproject method (Fu, Bao, Peng section 3): expansion holes from their
+// polygon, disocclusion holes by the pruned front-to-back BSP search. See fill.h.
+
+#include <plx/stereo/fill.h>
+
+#include <algorithm>
+#include <limits>
+
+#include <plx/raster/span_fill.h>
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+
+using raster::PixelSpan;
+
+Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp,
+                                 const scene::BoxHierarchyConfig& boxes) {
+    FillScene fill;
+    auto tree = scene::BspTree::build(scene, bsp);
+    if (!tree) return tree.status();
+    fill.bsp = std::move(tree).value();
+    auto hierarchy = scene::BoxHierarchy::build(scene, boxes);
+    if (!hierarchy) return hierarchy.status();
+    fill.boxes = std::move(hierarchy).value();
+    fill.fragmentsOfTriangle.assign(scene.triangleCount(), 0);
+    for (size_t f = 0; f < fill.bsp.fragmentCount(); ++f) {
+        uint16_t& n = fill.fragmentsOfTriangle[fill.bsp.fragment(f).sourceTriangle];
+        if (n < std::numeric_limits<uint16_t>::max()) ++n;
+    }
+    return fill;
+}
+
+// A triangle drawn into the current hole, and how many of its fragments the walk has yet to
+// pass; while that is above 0 the pixels it covers stay open (fill.h: split triangles).
+struct DrawnTriangle {
+    uint32_t triangle;
+    uint32_t fragmentsLeft;
+};
+
+struct FillScratch::Slot {
+    scene::HoleFlags flags;
+    std::vector<PixelSpan> spans, next;  // the hole's open segments, and the next list
+    std::vector<DrawnTriangle> drawn;
+    FillStats stats;
+};
+
+FillScratch::FillScratch() = default;
+FillScratch::~FillScratch() = default;
+
+namespace {
+
+// One frame's inputs, shared by every hole.
+struct FillFrame {
+    const scene::Scene& scene;
+    const FillScene& fill;
+    const Camera& camera;
+    const FillOptions& options;
+    const SecondEyeTargets& second;
+    raster::RenderTargets targets;
+    ImageView<uint8_t> holeClass;
+};
+
+class HoleFiller {
+public:
+    HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : f(frame), s(slot) {}
+
+    void fill(const HoleSet& set, const Hole& hole) {
+        s.spans.clear();
+        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
+            const HoleSegment& seg = set.segments[size_t(i)];
+            s.spans.push_back({seg.y, seg.xStart, seg.xEnd});
+        }
+        s.drawn.clear();
+        mOpen = hole.pixelCount;
+        if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
+        if (mOpen > 0) search();
+        classify(set, hole);
+    }
+
+private:
+    // The paper's expansion fill, by evaluation: the hole's one polygon over its segments.
+    void drawExpansion(uint32_t triangle) {
+        int64_t written = raster::drawTriangleInSpans(f.scene, triangle, f.camera,
+                                                      f.options.render, f.targets, s.spans);
+        if (written == 0) return;
+        for (const PixelSpan& p : s.spans)
+            for (int x = p.x0; x <= p.x1; ++x)
+                if (f.targets.id.at(x, p.y) != 0)
+                    f.holeClass.at(x, p.y) = uint8_t(PixelSource::kExpansion);
+        s.stats.expansionPixels += written;
+        shrink();
+    }
+
+    // Steps 1-5 of fill.h over the open segments.
+    void search() {
+        const scene::PixelRect rect = openRect();
+        scene::HoleQueryStats query;
+        f.fill.boxes.markHole(f.camera, rect, &s.flags, &query);
+        s.stats.boxNodesTested += query.nodesTested;
+        const scene::BspTree& bsp = f.fill.bsp;
+        auto acceptSubtree = [&](int32_t, const Aabb& box) {
+            return !box.isEmpty() && scene::boxMayCoverRect(f.camera, box, rect);
+        };
+        auto visit = [&](uint32_t fragment) {
+            const uint32_t tri = bsp.fragment(fragment).sourceTriangle;
+            if (!s.flags.mayCover(tri)) return true;
+            if (DrawnTriangle* d = findDrawn(tri)) {
+                // A later fragment of a triangle already drawn: passed, not drawn again.
+                if (d->fragmentsLeft > 0 && --d->fragmentsLeft == 0) shrink();
+                return mOpen > 0;
+            }
+            ++s.stats.polygonsTested;
+            if (!scene::polygonMayCoverRect(f.camera, bsp.fragmentVertices(fragment), rect))
+                return true;
+            ++s.stats.polygonsDrawn;
+            s.drawn.push_back({tri, uint32_t(f.fill.fragmentsOfTriangle[tri]) - 1});
+            if (raster::drawTriangleInSpans(f.scene, tri, f.camera, f.options.render, f.targets,
+                                            s.spans) > 0)
+                shrink();
+            return mOpen > 0;
+        };
+        s.stats.nodesVisited += bsp.forEachFrontToBackPruned(f.camera.eyePos(), acceptSubtree, visit);
+    }
+
+    DrawnTriangle* findDrawn(uint32_t triangle) {
+        for (DrawnTriangle& d : s.drawn)
+            if (d.triangle == triangle) return &d;
+        return nullptr;
+    }
+
+    // A pixel stays open while nothing covers it, or only a triangle with fragments still to come.
+    bool isOpen(int x, int y) {
+        uint32_t id = f.targets.id.at(x, y);
+        if (id == 0) return true;
+        const DrawnTriangle* d = findDrawn(id - 1);
+        return d && d->fragmentsLeft > 0;
+    }
+
+    // Removes the closed pixels from the open segments, splitting segments where needed.
+    void shrink() {
+        s.next.clear();
+        mOpen = 0;
+        for (const PixelSpan& p : s.spans) {
+            int start = -1;
+            for (int x = p.x0; x <= p.x1 + 1; ++x) {
+                bool open = x <= p.x1 && isOpen(x, p.y);
+                if (open && start < 0) start = x;
+                if (!open && start >= 0) {
+                    s.next.push_back({p.y, start, x - 1});
+                    mOpen += x - start;
+                    start = -1;
+                }
+            }
+        }
+        std::swap(s.spans, s.next);
+    }
+
+    scene::PixelRect openRect() const {
+        scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
+                           std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
+        for (const PixelSpan& p : s.spans) {
+            r.x0 = std::min(r.x0, p.x0);
+            r.x1 = std::max(r.x1, p.x1 + 1);
+            r.y0 = std::min(r.y0, p.y);
+            r.y1 = std::max(r.y1, p.y + 1);
+        }
+        return r;
+    }
+
+    // Gives every hole pixel not drawn as an expansion its PixelSource; empty ones the clear
+    // colour (depth and ID are already 0).
+    void classify(const HoleSet& set, const Hole& hole) {
+        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
+            const HoleSegment& seg = set.segments[size_t(i)];
+            for (int x = seg.xStart; x <= seg.xEnd; ++x) {
+                uint8_t& c = f.holeClass.at(x, seg.y);
+                if (c == uint8_t(PixelSource::kExpansion)) continue;
+                if (f.targets.id.at(x, seg.y) != 0) {
+                    c = uint8_t(PixelSource::kDisocclusion);
+                    ++s.stats.disocclusionPixels;
+                } else {
+                    c = uint8_t(PixelSource::kDisocclusionEmpty);
+                    f.second.color.at(x, seg.y) = f.options.render.clearColor;
+                    ++s.stats.emptyPixels;
+                }
+            }
+        }
+    }
+
+    const FillFrame& f;
+    FillScratch::Slot& s;
+    int64_t mOpen = 0;
+};
+
+void addStats(const FillStats& a, FillStats* sum) {
+    sum->expansionPixels += a.expansionPixels;
+    sum->disocclusionPixels += a.disocclusionPixels;
+    sum->emptyPixels += a.emptyPixels;
+    sum->nodesVisited += a.nodesVisited;
+    sum->boxNodesTested += a.boxNodesTested;
+    sum->polygonsTested += a.polygonsTested;
+    sum->polygonsDrawn += a.polygonsDrawn;
+}
+
+// Marks the pixels of the expansion holes that fillExpansionHoles filled.
+int64_t markInterpolated(const HoleSet& holes, ImageView<uint8_t> holeClass) {
+    int64_t pixels = 0;
+    for (const Hole& hole : holes.holes) {
+        if (hole.holeClass != HoleClass::kExpansion) continue;
+        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
+            const HoleSegment& seg = holes.segments[size_t(i)];
+            for (int x = seg.xStart; x <= seg.xEnd; ++x)
+                holeClass.at(x, seg.y) = uint8_t(PixelSource::kExpansion);
+        }
+        pixels += hole.pixelCount;
+    }
+    return pixels;
+}
+
+}  // namespace
+
+FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
+                    const FillOptions& options, const HoleSet& holes,
+                    const SecondEyeTargets& second, ImageView<uint8_t> holeClass,
+                    FillScratch* scratch, ThreadPool* pool) {
+    PLX_CHECK(second.id.width == camera.width() && second.id.height == camera.height());
+    PLX_CHECK(holeClass.width == camera.width() && holeClass.height == camera.height());
+    PLX_CHECK(fill.fragmentsOfTriangle.size() == scene.triangleCount());
+    FillStats total;
+    const bool interpolate = options.expansion == ExpansionFill::kInterpolate;
+    if (interpolate) {
+        fillExpansionHoles(holes, second);
+        total.expansionPixels = markInterpolated(holes, holeClass);
+    }
+    FillOptions drawOptions = options;
+    drawOptions.render.colorOnly = false;
+    FillFrame frame{scene, fill, camera, drawOptions, second,
+                    {second.color, second.depth, second.id, {}}, holeClass};
+    const size_t slots = pool ? size_t(pool->threadCount()) : 1;
+    while (scratch->mSlots.size() < slots)
+        scratch->mSlots.push_back(std::make_unique<FillScratch::Slot>());
+    for (auto& slot : scratch->mSlots) slot->stats = {};
+    auto body = [&](size_t begin, size_t end) {
+        FillScratch::Slot& slot = *scratch->mSlots[size_t(currentThreadSlot()) % slots];
+        HoleFiller filler(frame, slot);
+        for (size_t h = begin; h < end; ++h) {
+            const Hole& hole = holes.holes[h];
+            if (interpolate && hole.holeClass == HoleClass::kExpansion) continue;
+            filler.fill(holes, hole);
+        }
+    };
+    // Holes differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small
+    // chunks let the threads balance.
+    constexpr size_t kHoleGrain = 8;
+    if (pool)
+        pool->parallelFor(holes.holes.size(), kHoleGrain, body);
+    else
+        body(0, holes.holes.size());
+    for (auto& slot : scratch->mSlots) addStats(slot->stats, &total);
+    return total;
+}
+
+}  // namespace plx::stereo

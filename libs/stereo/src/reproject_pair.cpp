@@ -1,0 +1,144 @@
+// The reproject method's frame (Fu, Bao, Peng, the algorithm sketch): render the first eye with
+// depth and IDs, move its pixels into the second eye, find and classify the holes, fill them.
+
+#include "reproject_pair.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include <plx/core/timing.h>
+
+namespace plx::stereo {
+
+ReprojectPair::SceneKey ReprojectPair::keyOf(const scene::Scene& scene) {
+    SceneKey key;
+    key.address = &scene;
+    key.triangles = scene.triangleCount();
+    // A cheap fingerprint of the content: the same object refilled with other geometry of the
+    // same size most likely moves its first or last vertex.
+    if (!scene.meshes.empty() && !scene.meshes.front().positions.empty())
+        key.firstVertex = scene.meshes.front().positions.front();
+    if (!scene.meshes.empty() && !scene.meshes.back().positions.empty())
+        key.lastVertex = scene.meshes.back().positions.back();
+    return key;
+}
+
+bool ReprojectPair::preparedFor(const scene::Scene& scene) const {
+    return mKey && *mKey == keyOf(scene);
+}
+
+Status ReprojectPair::prepare(const scene::Scene& scene) {
+    if (preparedFor(scene)) return Status();
+    Stopwatch clock;
+    mKey.reset();
+    auto fill = buildFillScene(scene);
+    if (!fill) return fill.status();
+    mFill = std::move(fill).value();
+    mKey = keyOf(scene);
+    mPrepareMs = clock.elapsedMs();
+    return Status();
+}
+
+const OffsetLut& ReprojectPair::lutFor(const DisparityLine& line, const Camera& camera) {
+    // The nearest 1/w a render can hold is that of the near plane. Fitted near planes are close
+    // (scene::clipPlanesFor: far / 20000), so the table gets as many entries as keep its error
+    // (OffsetLut::maxErrorPx) to 1/32 pixel, between the default 4096 and 2^20 entries (4 MiB,
+    // where the error of a 1280-pixel-wide view with a 1 mm near plane is still 0.02 pixel).
+    const float maxInvW = 1.0f / camera.desc().nearPlane;
+    if (!mLut || mLutLine.perInvW != line.perInvW || mLutLine.offsetPx != line.offsetPx ||
+        mLutMaxInvW != maxInvW) {
+        double needed = std::fabs(double(line.perInvW)) * double(maxInvW) * 16.0 + 1.0;
+        int entries = int(std::clamp(needed, 4096.0, double(1 << 20)));
+        auto lut = OffsetLut::create(line, maxInvW, entries);
+        PLX_CHECK(lut.isOk());
+        mLut = std::move(lut).value();
+        mLutLine = line;
+        mLutMaxInvW = maxInvW;
+    }
+    return *mLut;
+}
+
+namespace {
+
+// An eye's targets with depth and IDs, taken from `planes` where the frame has none.
+raster::RenderTargets withPlanes(raster::FrameBuffers& eye, raster::FrameBuffers* planes) {
+    raster::RenderTargets t = eye.targets();
+    if (eye.depth.empty() || eye.id.empty()) {
+        if (planes->depth.width() != eye.color.width() ||
+            planes->depth.height() != eye.color.height()) {
+            planes->depth.resize(eye.color.width(), eye.color.height());
+            planes->id.resize(eye.color.width(), eye.color.height());
+        }
+        t.depth = planes->depth.view();
+        t.id = planes->id.view();
+    }
+    return t;
+}
+
+template <class T>
+ImageView<const T> readOnly(const ImageView<T>& v) {
+    return {v.data, v.width, v.height, v.strideElems};
+}
+
+void countHoles(const HoleSet& holes, StereoFrameStats* stats) {
+    for (const Hole& h : holes.holes) {
+        if (h.holeClass == HoleClass::kExpansion)
+            ++stats->expansionHoles;
+        else
+            ++stats->disocclusionHoles;
+    }
+}
+
+}  // namespace
+
+void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene,
+                           const StereoRig& rig, const StereoOptions& options, StereoFrame* frame,
+                           StereoFrameStats* stats) {
+    PLX_CHECK(preparedFor(scene));
+    const Camera& cam = rig.first();
+    const int w = cam.width(), h = cam.height();
+    raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mFirstPlanes);
+    raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mSecondPlanes);
+    if (mHoleMask.width() != w || mHoleMask.height() != h) mHoleMask.resize(w, h);
+    if (frame->holeClass.width() != w || frame->holeClass.height() != h)
+        frame->holeClass.resize(w, h);
+
+    Stopwatch clock;
+    raster::RenderOptions firstOptions = options.render;
+    firstOptions.colorOnly = false;  // the reprojection needs the first eye's depth and IDs
+    renderer.render(scene, cam, firstOptions, first);
+    stats->firstEyeMs = clock.elapsedMs();
+
+    // Fu section 2: reprojection, hole segments merged into holes; section 3: their classes.
+    clock.restart();
+    FirstEyeTargets from{readOnly(first.color), readOnly(first.depth), readOnly(first.id)};
+    SecondEyeTargets to{second.color, second.depth, second.id, mHoleMask.view()};
+    const DisparityLine line = disparityLine(rig);
+    Status moved = options.reprojectWithLut ? reproject(from, lutFor(line, cam), to, &mPool)
+                                            : reproject(from, line, to, &mPool);
+    PLX_CHECK(moved.isOk());
+    findHoles(std::as_const(mHoleMask).view(), HoleConnectivity::k8, mHoleScratch, mHoles);
+    classifyHoles(readOnly(to.id), mHoles);
+    stats->reprojectMs = clock.elapsedMs();
+
+    clock.restart();
+    frame->holeClass.view().fill(uint8_t(PixelSource::kReprojected));
+    FillOptions fillOptions;
+    fillOptions.render = firstOptions;
+    FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to,
+                                 frame->holeClass.view(), &mFillScratch, &mPool);
+    stats->fillMs = clock.elapsedMs();
+
+    stats->secondEyeMs = stats->reprojectMs + stats->fillMs;
+    stats->holePixels = mHoles.pixelCount;
+    stats->expansionPixels = filled.expansionPixels;
+    stats->disocclusionPixels = filled.disocclusionPixels + filled.emptyPixels;
+    countHoles(mHoles, stats);
+    stats->fillNodesVisited = filled.nodesVisited;
+    stats->fillPolygonsTested = filled.polygonsTested;
+    stats->fillPolygonsDrawn = filled.polygonsDrawn;
+    stats->secondEyeTriangles = filled.polygonsDrawn;
+}
+
+}  // namespace plx::stereo

@@ -1,0 +1,56 @@
+#pragma once
+// The reproject method's frame (Fu, Bao, Peng) inside StereoRenderer: what it keeps per scene
+// (the fill's BSP tree and box hierarchy) and per frame (scratch planes, holes, fill memory).
+
+#include <memory>
+#include <optional>
+
+#include <plx/core/parallel.h>
+#include <plx/stereo/fill.h>
+#include <plx/stereo/holes.h>
+#include <plx/stereo/reproject.h>
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+
+class ReprojectPair {
+public:
+    explicit ReprojectPair(int threads) : mPool(threads) {}
+
+    // StereoRenderer::prepareReprojection.
+    Status prepare(const scene::Scene& scene);
+    double lastPrepareMs() const { return mPrepareMs; }
+    // Whether prepare() ran for this scene (address, size and a fingerprint of its geometry).
+    bool preparedFor(const scene::Scene& scene) const;
+
+    // Renders the pair: first eye with depth and IDs, reprojection, holes found, classified and
+    // filled. Precondition: preparedFor(scene); frame's eyes sized by the caller.
+    void render(raster::Renderer& renderer, const scene::Scene& scene, const StereoRig& rig,
+                const StereoOptions& options, StereoFrame* frame, StereoFrameStats* stats);
+
+private:
+    struct SceneKey {
+        const scene::Scene* address = nullptr;
+        size_t triangles = 0;
+        Vec3 firstVertex{0.0f}, lastVertex{0.0f};
+        bool operator==(const SceneKey&) const = default;
+    };
+    static SceneKey keyOf(const scene::Scene& scene);
+    const OffsetLut& lutFor(const DisparityLine& line, const Camera& camera);
+
+    ThreadPool mPool;
+    std::optional<SceneKey> mKey;
+    FillScene mFill;
+    double mPrepareMs = 0.0;
+    // Depth and ID planes for eyes whose frame planes are not written (writeDepthAndIds false).
+    raster::FrameBuffers mFirstPlanes, mSecondPlanes;
+    Image<uint8_t> mHoleMask;
+    HoleScratch mHoleScratch;
+    HoleSet mHoles;
+    FillScratch mFillScratch;
+    std::optional<OffsetLut> mLut;
+    DisparityLine mLutLine;
+    float mLutMaxInvW = 0.0f;
+};
+
+}  // namespace plx::stereo

@@ -1,0 +1,298 @@
+// The reproject method end to end (Fu, Bao, Peng): holes filled by their polygon or by the BSP
+// search, against the full render of the same eye.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <plx/core/cpu.h>
+#include <plx/scene/generators.h>
+#include <plx/scene/primitives.h>
+#include <plx/stereo/fill.h>
+#include <plx/stereo/stereo.h>
+
+namespace plx::stereo {
+namespace {
+
+Camera lookAt(Vec3 eye, Vec3 target, int w, int h, float nearPlane = 0.1f) {
+    CameraDesc d;
+    d.eyePos = eye;
+    d.targetPos = target;
+    d.width = w;
+    d.height = h;
+    d.fovYDegrees = 60.0f;
+    d.nearPlane = nearPlane;
+    d.farPlane = 100.0f;
+    return *Camera::create(d);
+}
+
+std::vector<StereoRigDesc> allRigs(float separation = 0.065f) {
+    std::vector<StereoRigDesc> rigs;
+    for (StereoRigType type : {StereoRigType::kConverged, StereoRigType::kParallel}) {
+        for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+            StereoRigDesc d;
+            d.type = type;
+            d.separation = separation;
+            d.firstEye = eye;
+            rigs.push_back(d);
+        }
+    }
+    return rigs;
+}
+
+std::string rigName(const StereoRigDesc& d) {
+    return std::string(d.type == StereoRigType::kConverged ? "converged" : "parallel") +
+           (d.firstEye == Eye::kLeft ? " left first" : " right first");
+}
+
+// A reproject pair and the full pair of the same rig, both with depth and IDs.
+struct Pairs {
+    StereoFrame reprojected, full;
+    StereoFrameStats stats;
+    Eye second = Eye::kRight;
+
+    Pairs(const scene::Scene& s, const StereoRig& rig, const StereoOptions& base = {}) {
+        auto r = std::move(StereoRenderer::create({2})).value();
+        StereoOptions options = base;
+        options.method = Method::kFull;
+        r->renderPair(s, rig, options, &full);
+        options.method = Method::kReproject;
+        PLX_CHECK(r->prepareReprojection(s).isOk());
+        stats = r->renderPair(s, rig, options, &reprojected);
+        second = rig.secondEye();
+    }
+    const raster::FrameBuffers& mine() const { return reprojected.eye(second); }
+    const raster::FrameBuffers& theirs() const { return full.eye(second); }
+};
+
+// Every hole pixel got a class; disocclusion pixels (drawn or empty) equal the full render;
+// expansion pixels too when `exactExpansion`. Returns the disocclusion pixels drawn.
+int64_t expectHolesFilledLikeFull(const Pairs& p, bool exactExpansion, const std::string& what) {
+    const Image<uint8_t>& cls = p.reprojected.holeClass;
+    const raster::FrameBuffers &a = p.mine(), &b = p.theirs();
+    int64_t holes = 0, drawn = 0, mismatches = 0;
+    for (int y = 0; y < cls.height(); ++y) {
+        for (int x = 0; x < cls.width(); ++x) {
+            uint8_t c = cls.at(x, y);
+            EXPECT_LE(c, 3) << what;
+            if (c == 0) continue;
+            ++holes;
+            if (c == uint8_t(PixelSource::kExpansion) || c == uint8_t(PixelSource::kDisocclusion)) {
+                EXPECT_NE(a.id.at(x, y), 0u) << what;
+            }
+            if (c == uint8_t(PixelSource::kDisocclusion)) ++drawn;
+            if (c == uint8_t(PixelSource::kDisocclusionEmpty)) {
+                EXPECT_EQ(a.id.at(x, y), 0u) << what;
+            }
+            if (c == uint8_t(PixelSource::kExpansion) && !exactExpansion) continue;
+            bool same = a.id.at(x, y) == b.id.at(x, y) && a.color.at(x, y) == b.color.at(x, y) &&
+                        a.depth.at(x, y) == b.depth.at(x, y);
+            if (!same && mismatches++ < 5)
+                ADD_FAILURE() << what << ": pixel " << x << "," << y << " class " << int(c)
+                              << " id " << a.id.at(x, y) << " full " << b.id.at(x, y);
+        }
+    }
+    EXPECT_EQ(holes, p.stats.holePixels) << what;
+    EXPECT_EQ(p.stats.expansionPixels + p.stats.disocclusionPixels, p.stats.holePixels) << what;
+    return drawn;
+}
+
+TEST(Fill, ZeroSeparationGivesTheFirstEyeExactly) {
+    scene::Scene s = *scene::generateOffice(2);
+    Camera center = *scene::cameraAt(s, s.viewpoints.front(), 160, 120);
+    for (StereoRigDesc desc : allRigs(0.0f)) {
+        StereoRig rig = *StereoRig::create(center, desc);
+        Pairs p(s, rig);
+        const raster::FrameBuffers& first = p.reprojected.eye(desc.firstEye);
+        EXPECT_TRUE(p.mine().color == first.color) << rigName(desc);
+        EXPECT_TRUE(p.mine().depth == first.depth) << rigName(desc);
+        EXPECT_TRUE(p.mine().id == first.id) << rigName(desc);
+        EXPECT_EQ(p.stats.holePixels, 0) << rigName(desc);
+        EXPECT_TRUE(p.reprojected.holeClass == Image<uint8_t>(160, 120, 0));
+    }
+}
+
+// A wall at the convergence distance has zero disparity in the converged rig: nothing moves.
+TEST(Fill, FrontoParallelPlaneAtConvergenceHasNoHole) {
+    scene::Scene s;
+    scene::Mesh m;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&m, {-20, -20, -3}, {40, 0, 0}, {0, 40, 0}, uv);
+    s.meshes.push_back(std::move(m));
+    ASSERT_TRUE(s.finalize().isOk());
+    for (StereoRigDesc desc : allRigs()) {
+        if (desc.type != StereoRigType::kConverged) continue;
+        desc.convergence = 3.0f;
+        StereoRig rig = *StereoRig::create(lookAt({0, 0, 0}, {0, 0, -1}, 96, 64), desc);
+        Pairs p(s, rig);
+        EXPECT_EQ(p.stats.holePixels, 0) << rigName(desc);
+        EXPECT_TRUE(p.mine().id == p.theirs().id) << rigName(desc);
+    }
+}
+
+// Boxes in front of a wall and a floor: the walls' disocclusions beside every box are drawn from
+// the wall and floor behind them, the polygon the full render shows there.
+TEST(Fill, BoxesInFrontOfWallsGetTheFullRendersPolygons) {
+    scene::Scene s;
+    scene::Mesh walls, boxes;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&walls, {-8, -1, -7}, {16, 0, 0}, {0, 8, 0}, uv);
+    scene::appendQuad(&walls, {-8, -1, 0}, {16, 0, 0}, {0, 0, -7}, uv);
+    for (int i = 0; i < 5; ++i)
+        scene::appendBox(&boxes, {-2.0f + 1.0f * i, -0.5f + 0.2f * i, -2.5f - 0.6f * i},
+                         {0.25f, 0.4f, 0.25f}, 0.3f * i);
+    boxes.materialIndex = 1;
+    s.meshes = {walls, boxes};
+    s.materials = {{"wall", {0.7f, 0.7f, 0.6f, 1}, -1}, {"box", {0.8f, 0.3f, 0.2f, 1}, -1}};
+    ASSERT_TRUE(s.finalize().isOk());
+    for (StereoRigDesc desc : allRigs(0.2f)) {
+        StereoRig rig = *StereoRig::create(lookAt({0, 0.5f, 0}, {0, 0, -3}, 160, 120), desc);
+        Pairs p(s, rig);
+        EXPECT_GT(p.stats.disocclusionHoles, 0u) << rigName(desc);
+        EXPECT_GT(expectHolesFilledLikeFull(p, true, rigName(desc)), 0) << rigName(desc);
+    }
+}
+
+// Poles just outside both image borders of the centre view, near the camera: the second eye sees
+// one of them enter at its border, in front of everything there. The root-started search finds it.
+TEST(Fill, PoleEnteringAtTheBorderIsFound) {
+    scene::Scene s;
+    scene::Mesh wall, poles;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&wall, {-10, -5, -8}, {20, 0, 0}, {0, 10, 0}, uv);
+    // The half-width of the centre view at depth z is tan(30 deg) * 96 / 64 * z = 0.866 z; the
+    // eyes' views differ from it by the rig, so poles stand at several depths and offsets.
+    for (float z : {1.0f, 1.7f, 2.5f})
+        for (float side : {-1.0f, 1.0f})
+            for (float beyond : {0.02f, 0.09f, 0.2f})
+                scene::appendCylinder(&poles, {side * (0.866f * z + beyond), -3, -z}, 0.02f, 6, 8);
+    poles.materialIndex = 1;
+    s.meshes = {wall, poles};
+    s.materials = {{"wall", {0.5f, 0.6f, 0.7f, 1}, -1}, {"pole", {0.9f, 0.9f, 0.1f, 1}, -1}};
+    ASSERT_TRUE(s.finalize().isOk());
+    const uint32_t firstPoleId = uint32_t(s.firstTriangle(1)) + 1;
+    for (StereoRigDesc desc : allRigs(0.2f)) {
+        // Convergence nearer than every surface, so that the whole image moves and a hole opens
+        // at the border as in the parallel rig. (Converged at the wall, the wall would not move
+        // and would cover the border columns: a pole entering over a surface that reprojects
+        // there leaves no hole, and no hole fill can find it.)
+        desc.convergence = 0.5f;
+        StereoRig rig = *StereoRig::create(lookAt({0, 0, 0}, {0, 0, -1}, 96, 64), desc);
+        Pairs p(s, rig);
+        expectHolesFilledLikeFull(p, true, rigName(desc));
+        int64_t polePixels = 0;
+        for (size_t i = 0; i < p.mine().id.pixelCount(); ++i)
+            if (p.reprojected.holeClass.data()[i] == uint8_t(PixelSource::kDisocclusion) &&
+                p.mine().id.data()[i] >= firstPoleId)
+                ++polePixels;
+        EXPECT_GT(polePixels, 0) << rigName(desc);
+    }
+}
+
+// The office with every rig, either eye first, direct form and table: holes all filled, the
+// disocclusions as the full render, and 99% of the second eye identical with flat shading.
+TEST(Fill, OfficeSecondEyeIsAlmostTheFullRender) {
+    scene::Scene s = *scene::generateOffice(4);
+    Camera center = *scene::cameraAt(s, s.viewpoints.front(), 640, 480);
+    for (StereoRigDesc desc : allRigs()) {
+        for (bool lut : {false, true}) {
+            StereoRig rig = *StereoRig::create(center, desc);
+            StereoOptions options;
+            options.reprojectWithLut = lut;
+            Pairs p(s, rig, options);
+            std::string what = rigName(desc) + (lut ? " lut" : " direct");
+            EXPECT_GT(p.stats.holePixels, 0) << what;
+            expectHolesFilledLikeFull(p, false, what);
+            SecondEyeQuality q = compareSecondEye(p.mine(), p.theirs(), {});
+            EXPECT_LE(q.differingFraction, 0.01) << what;
+            EXPECT_GE(q.psnrDb, 38.0) << what;
+            EXPECT_EQ(p.stats.secondEyeTriangles, p.stats.fillPolygonsDrawn);
+        }
+    }
+}
+
+// Expansion holes by evaluation or interpolation: both fill every hole pixel; evaluation gives
+// the polygon's exact colour, so it is at least as close to the full render.
+TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
+    scene::Scene s = *scene::generateOffice(2);
+    StereoRig rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 320, 240), {});
+    FillScene fill = *buildFillScene(s);
+    auto r = std::move(raster::Renderer::create({2})).value();
+    raster::FrameBuffers first, full;
+    first.resize(320, 240);
+    full.resize(320, 240);
+    r->render(s, rig.first(), {}, first.targets());
+    r->render(s, rig.second(), {}, full.targets());
+    int64_t differing[2] = {0, 0};
+    for (ExpansionFill mode : {ExpansionFill::kEvaluate, ExpansionFill::kInterpolate}) {
+        raster::FrameBuffers second;
+        second.resize(320, 240);
+        Image<uint8_t> mask(320, 240), cls(320, 240, 0);
+        SecondEyeTargets t{second.color.view(), second.depth.view(), second.id.view(),
+                           mask.view()};
+        const raster::FrameBuffers& from = first;
+        ASSERT_TRUE(reproject({from.color.view(), from.depth.view(), from.id.view()},
+                              disparityLine(rig), t)
+                        .isOk());
+        HoleScratch hs;
+        HoleSet holes;
+        findHoles(std::as_const(mask).view(), HoleConnectivity::k8, hs, holes);
+        classifyHoles(std::as_const(second.id).view(), holes);
+        Image<uint8_t> holeMask = mask;  // fillExpansionHoles clears the mask it fills
+        FillOptions options;
+        options.expansion = mode;
+        FillScratch scratch;
+        FillStats st = fillHoles(s, fill, rig.second(), options, holes, t, cls.view(), &scratch);
+        EXPECT_EQ(st.expansionPixels + st.disocclusionPixels + st.emptyPixels, holes.pixelCount);
+        for (size_t i = 0; i < cls.pixelCount(); ++i) {
+            EXPECT_EQ(cls.data()[i] != 0, holeMask.data()[i] != 0);
+            if (!(second.color.data()[i] == full.color.data()[i]))
+                ++differing[mode == ExpansionFill::kInterpolate];
+        }
+    }
+    EXPECT_LE(differing[0], differing[1]);
+}
+
+// Holes run in parallel with per-thread scratch; the result equals one thread's, on every ISA
+// path of the first eye's renderer.
+TEST(Fill, ThreadsAndIsaPathsGiveTheSameFrame) {
+    scene::Scene s = *scene::generateOffice(3);
+    StereoRig rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 256, 160), {});
+    StereoOptions options;
+    options.method = Method::kReproject;
+    Isa saved = activeIsa();
+    StereoFrame reference;
+    auto one = std::move(StereoRenderer::create({1})).value();
+    ASSERT_TRUE(setActiveIsa(Isa::kScalar).isOk());
+    ASSERT_TRUE(one->prepareReprojection(s).isOk());
+    one->renderPair(s, rig, options, &reference);
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        auto two = std::move(StereoRenderer::create({2})).value();
+        ASSERT_TRUE(two->prepareReprojection(s).isOk());
+        StereoFrame frame;
+        two->renderPair(s, rig, options, &frame);
+        for (Eye e : {Eye::kLeft, Eye::kRight}) {
+            EXPECT_TRUE(frame.eye(e).color == reference.eye(e).color) << isaName(isa);
+            EXPECT_TRUE(frame.eye(e).id == reference.eye(e).id) << isaName(isa);
+        }
+        EXPECT_TRUE(frame.holeClass == reference.holeClass) << isaName(isa);
+    }
+    ASSERT_TRUE(setActiveIsa(saved).isOk());
+}
+
+TEST(Fill, MethodNamesAndPreparation) {
+    EXPECT_EQ(*parseMethod("reproject"), Method::kReproject);
+    EXPECT_STREQ(methodName(Method::kReproject), "reproject");
+    Status bad = parseMethod("warp").status();
+    EXPECT_NE(bad.message().find("full, pbuffer, reproject"), std::string::npos);
+    scene::Scene s = *scene::generateOffice(1);
+    auto r = std::move(StereoRenderer::create({1})).value();
+    ASSERT_TRUE(r->prepareReprojection(s).isOk());
+    EXPECT_GT(r->lastPrepareMs(), 0.0);
+}
+
+}  // namespace
+}  // namespace plx::stereo

@@ -40,6 +40,62 @@ TEST(StereoCli, PBufferPairJsonAndLayouts) {
     }
 }
 
+TEST(StereoCli, ReprojectPairJsonHasHolesAndQuality) {
+    // 640x480: at smaller sizes the half-pixel shifts of reprojected polygon edges alone make
+    // more than 1% of the pixels differ from the full render.
+    fs::path prefix = scratchDir() / "reproject";
+    RunResult r = runParallax(
+        "stereo office:1 --method reproject --shading flat --size 640x480 "
+        "--frames 2 --threads 2 --out " +
+        prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* key :
+         {"hole_pixels", "expansion_holes", "disocclusion_holes", "fill_polygons_tested",
+          "fill_polygons_drawn", "reproject_ms", "fill_ms", "identical_fraction", "frames",
+          "prepare_ms", "second_eye_psnr_db"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["method"], "reproject");
+    EXPECT_EQ(doc["frames"], 2);
+    const double identical = doc["identical_fraction"].get<double>();
+    EXPECT_GE(identical, 0.99);
+    EXPECT_LE(identical, 1.0);
+    EXPECT_GE(doc["hole_pixels"].get<int64_t>(), 0);
+    EXPECT_LE(doc["hole_pixels"].get<int64_t>(), 640 * 480);
+    EXPECT_GE(doc["fill_polygons_tested"].get<int64_t>(),
+              doc["fill_polygons_drawn"].get<int64_t>());
+    EXPECT_GT(doc["second_eye_ms"].get<double>(), 0.0);
+    EXPECT_GE(doc["prepare_ms"].get<double>(), 0.0);
+    EXPECT_GT(doc["visible_triangles"].get<int>(), 0);
+    EXPECT_GT(doc["second_eye_psnr_db"].get<double>(), 30.0);
+    for (const char* suffix : {".left.png", ".right.png", ".diff.png"})
+        EXPECT_TRUE(fs::exists(prefix.string() + suffix)) << suffix;
+}
+
+TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
+    for (const char* format : {"sbs", "anaglyph"}) {
+        fs::path p = scratchDir() / (std::string("reproject_") + format);
+        RunResult f = runParallax(std::string("stereo office:1 --method reproject --size 48x32 "
+                                              "--frames 1 --first-eye right --rig parallel "
+                                              "--format ") +
+                                  format + " --out " + p.string());
+        ASSERT_EQ(f.exitCode, 0) << f.err;
+        EXPECT_TRUE(fs::exists(p.string() + "." + format + ".png")) << format;
+    }
+    fs::path prefix = scratchDir() / "reproject_walk";
+    RunResult r = runParallax(
+        "stereo office:2 --method reproject --reproject-lut --walk 2 "
+        "--size 48x32 --frames 1 --out " +
+        prefix.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["poses"], 2);
+    EXPECT_TRUE(doc["reproject_lut"].get<bool>());
+    ASSERT_EQ(doc["per_pose"].size(), 2u);
+    EXPECT_TRUE(doc["per_pose"][1].contains("hole_pixels"));
+    EXPECT_TRUE(fs::exists(prefix.string() + "_0001.left.png"));
+}
+
 TEST(StereoCli, WalkthroughReportsPerPoseTimings) {
     fs::path prefix = scratchDir() / "walk";
     RunResult r = runParallax("stereo office:2 --walk 3 --size 48x32 --conservative --out " +
@@ -65,6 +121,12 @@ TEST(StereoCli, BadParametersGiveOneLineErrors) {
     expectOneLineError(runParallax("stereo office:1 --separation -0.1" + out), "separation", 2);
     expectOneLineError(runParallax("stereo office:1 --convergence 0" + out), "convergence", 2);
     expectOneLineError(runParallax("stereo office:1 --method magic" + out), "magic", 2);
+    for (const char* method : {"full", "pbuffer", "reproject"})
+        expectOneLineError(runParallax("stereo office:1 --method bogus" + out), method, 2);
+    expectOneLineError(runParallax("stereo office:1 --method reproject --conservative" + out),
+                       "--conservative", 2);
+    expectOneLineError(runParallax("stereo office:1 --method pbuffer --reproject-lut" + out),
+                       "--reproject-lut", 2);
     expectOneLineError(runParallax("stereo office:1 --format hologram" + out), "hologram", 2);
     expectOneLineError(runParallax("stereo office:1 --rig sideways" + out), "sideways", 2);
     for (const char* frames : {"0", "-1", "abc", "100001"})

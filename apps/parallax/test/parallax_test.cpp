@@ -7,6 +7,7 @@
 #include <iterator>
 #include <limits>
 #include <set>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -16,6 +17,7 @@
 #include "example_displays.h"
 #include "experiment_predistort.h"
 #include "experiment_stereo.h"
+#include "hole_classes.h"
 
 namespace plx::cli {
 namespace {
@@ -108,6 +110,31 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     EXPECT_EQ(lineCount(csv), 3u);
     EXPECT_EQ(csv.rfind("rooms,polygons,visible_polygons,", 0), 0u);
     EXPECT_EQ(stereoPlots(*rows).size(), 5u);
+}
+
+TEST(HoleClasses, ImageColoursEachClassAndDimsTheRest) {
+    Image<Rgba8> eye(5, 1, Rgba8{90, 120, 150, 255});
+    Image<uint8_t> classes(5, 1);
+    classes.at(1, 0) = uint8_t(stereo::PixelSource::kExpansion);
+    classes.at(2, 0) = uint8_t(stereo::PixelSource::kDisocclusion);
+    classes.at(3, 0) = uint8_t(stereo::PixelSource::kDisocclusionEmpty);
+    classes.at(4, 0) = 200;  // not a PixelSource: shown as reprojected
+    Image<Rgba8> out = holeClassImage(eye, classes);
+    EXPECT_EQ(out.at(0, 0), (Rgba8{30, 40, 50, 255}));
+    EXPECT_EQ(out.at(4, 0), (Rgba8{30, 40, 50, 255}));
+    std::set<std::tuple<int, int, int>> holeColours;
+    for (int x = 1; x <= 3; ++x)
+        holeColours.insert({out.at(x, 0).r, out.at(x, 0).g, out.at(x, 0).b});
+    EXPECT_EQ(holeColours.size(), 3u);  // three distinct colours
+}
+
+TEST(HoleClasses, TrianglesShownAreTheDistinctIdsLessOne) {
+    Image<uint32_t> ids(4, 2, 0u);
+    ids.at(0, 0) = 7;
+    ids.at(1, 0) = 3;
+    ids.at(2, 1) = 7;
+    EXPECT_EQ(trianglesShown(ids), (std::vector<uint32_t>{2, 6}));
+    EXPECT_TRUE(trianglesShown(Image<uint32_t>(3, 3, 0u)).empty());
 }
 
 TEST(StereoExperiment, RejectsAnEmptyConfig) {

@@ -143,8 +143,20 @@ TEST(StereoCli, BenchStereoWritesTableAndPlots) {
                               dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
-    EXPECT_EQ(doc["rows"].size(), 2u);
+    ASSERT_EQ(doc["rows"].size(), 2u);
+    for (const auto& row : doc["rows"]) {
+        for (const char* key : {"reproject_first_ms", "reproject_second_ms", "reproject_psnr_db"})
+            EXPECT_GT(row[key].get<double>(), 0.0) << key;
+        EXPECT_GT(row["reproject_pair_speedup"].get<double>(), 0.0);
+        for (const char* key : {"reproject_identical_fraction", "reproject_hole_fraction"}) {
+            EXPECT_GE(row[key].get<double>(), 0.0) << key;
+            EXPECT_LE(row[key].get<double>(), 1.0) << key;
+        }
+    }
     EXPECT_TRUE(fs::exists(dir / "table1.csv"));
+    EXPECT_TRUE(fs::exists(dir / "methods.md"));
+    EXPECT_TRUE(fs::exists(dir / "reproject_paper_table.md"));
+    EXPECT_TRUE(fs::exists(dir / "second_eye_methods.svg"));
     EXPECT_TRUE(fs::exists(dir / "fig17c_pair.svg"));
 }
 

@@ -97,6 +97,15 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     EXPECT_LE((*rows)[0].visiblePolygons, (*rows)[0].polygons);
     EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
     EXPECT_GT((*rows)[0].secondEyePsnrDb, 20.0);
+    for (const StereoExperimentRow& r : *rows) {
+        EXPECT_GT(r.reprojectSecondMs, 0.0);
+        EXPECT_GT(r.reprojectPairSpeedup, 0.0);
+        EXPECT_GE(r.reprojectIdenticalFraction, 0.0);
+        EXPECT_LE(r.reprojectIdenticalFraction, 1.0);
+        EXPECT_GE(r.reprojectHoleFraction, 0.0);
+        EXPECT_LE(r.reprojectHoleFraction, 1.0);
+        EXPECT_GT(r.reprojectPsnrDb, 20.0);
+    }
     nlohmann::json j = stereoExperimentJson(config, *rows);
     ASSERT_EQ(j["rows"].size(), 2u);
     EXPECT_EQ(j["width"], 96);
@@ -109,7 +118,30 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     std::string csv = stereoExperimentCsv(*rows);
     EXPECT_EQ(lineCount(csv), 3u);
     EXPECT_EQ(csv.rfind("rooms,polygons,visible_polygons,", 0), 0u);
-    EXPECT_EQ(stereoPlots(*rows).size(), 5u);
+    EXPECT_EQ(j["rows"][0]["reproject_second_ms"].get<double>(), (*rows)[0].reprojectSecondMs);
+    EXPECT_EQ(stereoPlots(*rows).size(), 6u);
+    // Markdown: header, rule, one line a row; the paper's four columns.
+    EXPECT_EQ(lineCount(stereoMethodsMarkdown(*rows)), 4u);
+    std::string paper = reprojectPaperTableMarkdown(*rows);
+    EXPECT_EQ(lineCount(paper), 4u);
+    EXPECT_EQ(paper.rfind("| polygons | left", 0), 0u);
+    EXPECT_NE(paper.find("| 3,632 |"), std::string::npos);
+}
+
+TEST(StereoExperiment, WithoutReprojectHasNoReprojectPlot) {
+    StereoExperimentConfig config;
+    config.rooms = {1};
+    config.width = 48;
+    config.height = 32;
+    config.frames = 1;
+    config.threads = 2;
+    config.conservative = false;
+    config.reproject = false;
+    auto rows = runStereoExperiment(config);
+    ASSERT_TRUE(rows.isOk()) << rows.status().toString();
+    EXPECT_EQ((*rows)[0].reprojectSecondMs, 0.0);
+    EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
+    EXPECT_EQ(stereoPlots(*rows).size(), 6u);
 }
 
 TEST(HoleClasses, ImageColoursEachClassAndDimsTheRest) {

@@ -72,7 +72,8 @@ std::vector<std::pair<std::string, std::string>> stereoPlots(
 
 // Markdown tables for docs/stereo-results.md. The three methods side by side (second eye, pair
 // speedups, quality), and Fu, Bao, Peng's timing table (polygons, left, right, total) for the
-// reproject method, the first eye as "left". Both need rows measured with the reproject method.
+// reproject method, the first eye as "left", plus the once-per-scene preparation. Both need rows
+// measured with the reproject method.
 std::string stereoMethodsMarkdown(const std::vector<StereoExperimentRow>& rows);
 std::string reprojectPaperTableMarkdown(const std::vector<StereoExperimentRow>& rows);
 

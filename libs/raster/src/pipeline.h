@@ -213,12 +213,15 @@ PLX_ISA_DECLARE(
     Rgba8 shadeSample(const TriangleSetup& t, const ShadeContext& ctx, float b1, float b2,
                       float invW))
 
-// The scalar reference's front end for one scene-global triangle: transform, clip, snap and
-// isa_scalar::setupTriangle of each clipped piece that covers a sample. Writes the setups to
-// out[0 .. return value). Shared by renderReference and drawTriangleInSpans (span_fill.h).
-int setupReferenceTriangles(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
-                            const Viewport& vp, const ShadeContext& ctx,
-                            TriangleSetup out[kMaxClippedTriangles]);
+// The scalar reference's front end for one scene-global triangle: transform, outcodes, and the
+// clipped and snapped pieces (none when the triangle lies outside the frustum), written to
+// out[0 .. return value) with the triangle's mesh and local index. Each piece then goes through
+// isa_scalar::setupTriangle (renderReference), or through its steps triangleBox,
+// setTriangleIdentity and setupTriangleInBox (drawTriangleInSpans, which skips a piece whose box
+// misses its spans before the setup).
+int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
+                          const Viewport& vp, RasterVertex out[kMaxClippedTriangles][3],
+                          size_t* meshIndex, uint32_t* localTri);
 // The reference's pixel loop over row y, columns [x0, x1] clipped to the setup's box: coverage,
 // depth test (unless ctx.colorOnly) and writes. Returns the samples written.
 int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,

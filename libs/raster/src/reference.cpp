@@ -66,11 +66,13 @@ int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
     return written;
 }
 
-int setupReferenceTriangles(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
-                            const Viewport& vp, const ShadeContext& ctx,
-                            TriangleSetup out[kMaxClippedTriangles]) {
+int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
+                          const Viewport& vp, RasterVertex out[kMaxClippedTriangles][3],
+                          size_t* meshIndex, uint32_t* localTri) {
     size_t m = scene.meshOfTriangle(globalTri);
     uint32_t local = uint32_t(globalTri - scene.firstTriangle(m));
+    *meshIndex = m;
+    *localTri = local;
     const scene::Mesh& mesh = scene.meshes[m];
     Vec4 clip[3];
     uint32_t codes[3];
@@ -79,18 +81,9 @@ int setupReferenceTriangles(const scene::Scene& scene, uint32_t globalTri, const
         codes[k] = outcode(clip[k], vp);
     }
     if (codes[0] & codes[1] & codes[2] & kOutFrustum) return 0;
-    RasterVertex tris[kMaxClippedTriangles][3];
-    int count = 1;
-    if ((codes[0] | codes[1] | codes[2]) & kOutNeedsClip) {
-        count = clipTriangle(clip, vp, tris);
-    } else {
-        for (int k = 0; k < 3; ++k)
-            tris[0][k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
-    }
-    int setups = 0;
-    for (int i = 0; i < count; ++i)
-        if (isa_scalar::setupTriangle(scene, m, local, tris[i], vp, ctx, &out[setups])) ++setups;
-    return setups;
+    if ((codes[0] | codes[1] | codes[2]) & kOutNeedsClip) return clipTriangle(clip, vp, out);
+    for (int k = 0; k < 3; ++k) out[0][k] = snapVertex(clip[k], vp, Vec3(k == 0, k == 1, k == 2));
+    return 1;
 }
 
 }  // namespace detail
@@ -99,9 +92,15 @@ namespace {
 
 void drawTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
                   const Viewport& vp, const ShadeContext& ctx, const RenderTargets& rt) {
-    TriangleSetup setups[kMaxClippedTriangles];
-    int count = setupReferenceTriangles(scene, globalTri, camera, vp, ctx, setups);
-    for (int i = 0; i < count; ++i) rasterizeReference(setups[i], ctx, rt);
+    RasterVertex tris[kMaxClippedTriangles][3];
+    size_t mesh;
+    uint32_t local;
+    int count = clipReferenceTriangle(scene, globalTri, camera, vp, tris, &mesh, &local);
+    for (int i = 0; i < count; ++i) {
+        TriangleSetup setup;
+        if (isa_scalar::setupTriangle(scene, mesh, local, tris[i], vp, ctx, &setup))
+            rasterizeReference(setup, ctx, rt);
+    }
 }
 
 }  // namespace

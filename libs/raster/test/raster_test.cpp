@@ -497,6 +497,8 @@ TEST_P(RasterPath, SpanFillEqualsTheFullRenderAtSpanPixels) {
                 }
                 list.push_back(p);
             }
+            std::sort(list.begin(), list.end(),
+                      [](const PixelSpan& a, const PixelSpan& b) { return a.y < b.y; });
             int64_t written = 0;
             for (uint32_t t = 0; t < s.triangleCount(); ++t)
                 written += drawTriangleInSpans(s, t, cam, opt, spans.targets(), list);

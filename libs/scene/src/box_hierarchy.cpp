@@ -147,9 +147,36 @@ Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyC
     return h;
 }
 
+RectFrustum::RectFrustum(const Camera& camera, const PixelRect& rect) {
+    PLX_CHECK(!rect.empty());
+    // Camera::pixelFromClip: pixel x = (clip.x / w + 1) W / 2, pixel y = (1 - clip.y / w) H / 2.
+    // For w > 0, x >= X0 is clip.x - (2 X0 / W - 1) w >= 0, and so on; the near plane's
+    // w >= near makes w > 0 hold everywhere inside.
+    const Mat4& m = camera.clipFromWorld();
+    auto row = [&m](int i) { return Vec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
+    const Vec4 rowX = row(0), rowY = row(1), rowW = row(3);
+    const float w = float(camera.width()), h = float(camera.height());
+    const float ax0 = 2.0f * (float(rect.x0) - kMarginPx) / w - 1.0f;
+    const float ax1 = 2.0f * (float(rect.x1) + kMarginPx) / w - 1.0f;
+    const float by0 = 1.0f - 2.0f * (float(rect.y0) - kMarginPx) / h;
+    const float by1 = 1.0f - 2.0f * (float(rect.y1) + kMarginPx) / h;
+    mPlanes = {{rowX - ax0 * rowW, ax1 * rowW - rowX, by0 * rowW - rowY, rowY - by1 * rowW,
+                rowW - Vec4(0.0f, 0.0f, 0.0f, camera.desc().nearPlane)}};
+}
+
 void BoxHierarchy::markHole(const Camera& camera, const PixelRect& rect, HoleFlags* flags,
                             HoleQueryStats* stats) const {
     PLX_CHECK(!rect.empty());
+    mark([&](const Aabb& box) { return boxMayCoverRect(camera, box, rect); }, flags, stats);
+}
+
+void BoxHierarchy::markHole(const RectFrustum& frustum, HoleFlags* flags,
+                            HoleQueryStats* stats) const {
+    mark([&](const Aabb& box) { return frustum.mayCoverBox(box); }, flags, stats);
+}
+
+template <class MayCover>
+void BoxHierarchy::mark(const MayCover& mayCover, HoleFlags* flags, HoleQueryStats* stats) const {
     flags->beginQuery(mNodes.size(), mTriangles.size());
     uint32_t generation = flags->mGeneration;
     HoleQueryStats counts;
@@ -163,7 +190,7 @@ void BoxHierarchy::markHole(const Camera& camera, const PixelRect& rect, HoleFla
             uint32_t index = stack[--top];
             const BoxNode& node = mNodes[index];
             ++counts.nodesTested;
-            if (!boxMayCoverRect(camera, node.box, rect)) {
+            if (!mayCover(node.box)) {
                 ++counts.nodesRejected;  // negative with its subtree: left unstamped
                 continue;
             }

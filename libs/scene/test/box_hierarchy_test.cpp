@@ -217,6 +217,40 @@ TEST(BoxHierarchy, NeverRejectsATriangleThatReachesTheRectangle) {
     EXPECT_GT(rejected, 10000u);
 }
 
+// The frustum's plane tests never reject a triangle whose sampled surface reaches the rectangle,
+// in markHole or on its own, and flag no more than the projected-box tests overall.
+TEST(BoxHierarchy, FrustumTestsAreConservativeAndTighter) {
+    std::mt19937 rng(5);
+    size_t overlapping = 0, frustumPositive = 0, projectedPositive = 0;
+    HoleFlags flags, projected;
+    for (int s = 0; s < 4; ++s) {
+        Scene scene = randomTriangles(&rng, 400);
+        auto h = BoxHierarchy::build(scene);
+        ASSERT_TRUE(h.isOk());
+        for (int q = 0; q < 25; ++q) {
+            Camera camera = randomCamera(&rng);
+            PixelRect rect = randomRect(&rng);
+            RectFrustum frustum(camera, rect);
+            h->markHole(frustum, &flags);
+            h->markHole(camera, rect, &projected);
+            for (uint32_t t = 0; t < scene.triangleCount(); ++t) {
+                auto tri = corners(scene, t);
+                frustumPositive += flags.mayCover(t);
+                projectedPositive += projected.mayCover(t);
+                if (!sampledOverlap(camera, tri, rect)) continue;
+                ++overlapping;
+                EXPECT_TRUE(flags.mayCover(t)) << "scene " << s << " query " << q;
+                EXPECT_TRUE(frustum.mayCoverPoints(tri));
+                Aabb box;
+                for (const Vec3& v : tri) box.extend(v);
+                EXPECT_TRUE(frustum.mayCoverBox(box));
+            }
+        }
+    }
+    EXPECT_GT(overlapping, 1000u);
+    EXPECT_LE(frustumPositive, projectedPositive);
+}
+
 // The office with its box hierarchy, seen from its default viewpoint.
 struct OfficeView {
     Scene scene;

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <span>
+#include <utility>
 
 #include <plx/raster/span_fill.h>
 #include <plx/stereo/stereo.h>
@@ -30,8 +32,9 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
     return fill;
 }
 
-// A triangle drawn into the current hole, and how many of its fragments the walk has yet to
-// pass; while that is above 0 the pixels it covers stay open (fill.h: split triangles).
+// A split triangle drawn into the current piece, and how many of its fragments the walk has yet
+// to pass; while that is above 0 the pixels it covers stay open (fill.h: split triangles). A
+// triangle of one fragment is reached once, so it needs no entry.
 struct DrawnTriangle {
     uint32_t triangle;
     uint32_t fragmentsLeft;
@@ -42,6 +45,20 @@ struct FillScratch::Slot {
     std::vector<PixelSpan> spans, next;  // the hole's open segments, and the next list
     std::vector<DrawnTriangle> drawn;
     FillStats stats;
+};
+
+// The frame's pieces: the pixels of one hole inside one kFillTile tile.
+struct FillPiece {
+    uint32_t hole = 0;
+    uint32_t firstSpan = 0;  // into FillScratch::Frame::spans, row order
+    uint32_t spanCount = 0;
+    int64_t pixels = 0;
+};
+
+struct FillScratch::Frame {
+    std::vector<PixelSpan> spans;
+    std::vector<FillPiece> pieces;
+    std::vector<std::pair<uint32_t, PixelSpan>> tiled;  // (tile, span) of one hole
 };
 
 FillScratch::FillScratch() = default;
@@ -64,17 +81,13 @@ class HoleFiller {
 public:
     HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : f(frame), s(slot) {}
 
-    void fill(const HoleSet& set, const Hole& hole) {
-        s.spans.clear();
-        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
-            const HoleSegment& seg = set.segments[size_t(i)];
-            s.spans.push_back({seg.y, seg.xStart, seg.xEnd});
-        }
+    void fill(const Hole& hole, std::span<const PixelSpan> piece, int64_t pixels) {
+        s.spans.assign(piece.begin(), piece.end());
         s.drawn.clear();
-        mOpen = hole.pixelCount;
+        mOpen = pixels;
         if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
         if (mOpen > 0) search();
-        classify(set, hole);
+        classify(piece);
     }
 
 private:
@@ -93,27 +106,29 @@ private:
 
     // Steps 1-5 of fill.h over the open segments.
     void search() {
-        const scene::PixelRect rect = openRect();
+        const scene::RectFrustum frustum(f.camera, openRect());
         scene::HoleQueryStats query;
-        f.fill.boxes.markHole(f.camera, rect, &s.flags, &query);
+        f.fill.boxes.markHole(frustum, &s.flags, &query);
         s.stats.boxNodesTested += query.nodesTested;
         const scene::BspTree& bsp = f.fill.bsp;
         auto acceptSubtree = [&](int32_t, const Aabb& box) {
-            return !box.isEmpty() && scene::boxMayCoverRect(f.camera, box, rect);
+            return !box.isEmpty() && frustum.mayCoverBox(box);
         };
         auto visit = [&](uint32_t fragment) {
             const uint32_t tri = bsp.fragment(fragment).sourceTriangle;
             if (!s.flags.mayCover(tri)) return true;
-            if (DrawnTriangle* d = findDrawn(tri)) {
-                // A later fragment of a triangle already drawn: passed, not drawn again.
-                if (d->fragmentsLeft > 0 && --d->fragmentsLeft == 0) shrink();
-                return mOpen > 0;
+            const uint32_t fragments = f.fill.fragmentsOfTriangle[tri];
+            if (fragments > 1) {
+                if (DrawnTriangle* d = findDrawn(tri)) {
+                    // A later fragment of a split triangle already drawn: passed, not drawn again.
+                    if (d->fragmentsLeft > 0 && --d->fragmentsLeft == 0) shrink();
+                    return mOpen > 0;
+                }
             }
             ++s.stats.polygonsTested;
-            if (!scene::polygonMayCoverRect(f.camera, bsp.fragmentVertices(fragment), rect))
-                return true;
+            if (!frustum.mayCoverPoints(bsp.fragmentVertices(fragment))) return true;
             ++s.stats.polygonsDrawn;
-            s.drawn.push_back({tri, uint32_t(f.fill.fragmentsOfTriangle[tri]) - 1});
+            if (fragments > 1) s.drawn.push_back({tri, fragments - 1});
             if (raster::drawTriangleInSpans(f.scene, tri, f.camera, f.options.render, f.targets,
                                             s.spans) > 0)
                 shrink();
@@ -132,6 +147,7 @@ private:
     bool isOpen(int x, int y) {
         uint32_t id = f.targets.id.at(x, y);
         if (id == 0) return true;
+        if (s.drawn.empty()) return false;
         const DrawnTriangle* d = findDrawn(id - 1);
         return d && d->fragmentsLeft > 0;
     }
@@ -167,20 +183,19 @@ private:
         return r;
     }
 
-    // Gives every hole pixel not drawn as an expansion its PixelSource; empty ones the clear
-    // colour (depth and ID are already 0).
-    void classify(const HoleSet& set, const Hole& hole) {
-        for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
-            const HoleSegment& seg = set.segments[size_t(i)];
-            for (int x = seg.xStart; x <= seg.xEnd; ++x) {
-                uint8_t& c = f.holeClass.at(x, seg.y);
+    // Gives every pixel of the piece not drawn as an expansion its PixelSource; empty ones the
+    // clear colour (depth and ID are already 0).
+    void classify(std::span<const PixelSpan> piece) {
+        for (const PixelSpan& p : piece) {
+            for (int x = p.x0; x <= p.x1; ++x) {
+                uint8_t& c = f.holeClass.at(x, p.y);
                 if (c == uint8_t(PixelSource::kExpansion)) continue;
-                if (f.targets.id.at(x, seg.y) != 0) {
+                if (f.targets.id.at(x, p.y) != 0) {
                     c = uint8_t(PixelSource::kDisocclusion);
                     ++s.stats.disocclusionPixels;
                 } else {
                     c = uint8_t(PixelSource::kDisocclusionEmpty);
-                    f.second.color.at(x, seg.y) = f.options.render.clearColor;
+                    f.second.color.at(x, p.y) = f.options.render.clearColor;
                     ++s.stats.emptyPixels;
                 }
             }
@@ -200,6 +215,49 @@ void addStats(const FillStats& a, FillStats* sum) {
     sum->boxNodesTested += a.boxNodesTested;
     sum->polygonsTested += a.polygonsTested;
     sum->polygonsDrawn += a.polygonsDrawn;
+}
+
+// Cuts every hole to be drawn into pieces, one per kFillTile tile it touches.
+void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* frame) {
+    frame->spans.clear();
+    frame->pieces.clear();
+    for (size_t h = 0; h < holes.holes.size(); ++h) {
+        const Hole& hole = holes.holes[h];
+        if (skipExpansion && hole.holeClass == HoleClass::kExpansion) continue;
+        const int32_t first = hole.firstSegment, end = first + hole.segmentCount;
+        if (hole.box.x0 / kFillTile == hole.box.x1 / kFillTile &&
+            hole.box.y0 / kFillTile == hole.box.y1 / kFillTile) {
+            FillPiece piece{uint32_t(h), uint32_t(frame->spans.size()), uint32_t(end - first),
+                            hole.pixelCount};
+            for (int32_t i = first; i < end; ++i) {
+                const HoleSegment& seg = holes.segments[size_t(i)];
+                frame->spans.push_back({seg.y, seg.xStart, seg.xEnd});
+            }
+            frame->pieces.push_back(piece);
+            continue;
+        }
+        // Segments cut at tile columns, grouped by tile; the stable sort keeps row order.
+        frame->tiled.clear();
+        for (int32_t i = first; i < end; ++i) {
+            const HoleSegment& seg = holes.segments[size_t(i)];
+            const uint32_t row = uint32_t(seg.y / kFillTile) << 16;
+            for (int x0 = seg.xStart; x0 <= seg.xEnd;) {
+                int x1 = std::min(seg.xEnd, (x0 / kFillTile + 1) * kFillTile - 1);
+                frame->tiled.push_back({row | uint32_t(x0 / kFillTile), {seg.y, x0, x1}});
+                x0 = x1 + 1;
+            }
+        }
+        std::stable_sort(frame->tiled.begin(), frame->tiled.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (size_t i = 0; i < frame->tiled.size(); ++i) {
+            if (i == 0 || frame->tiled[i].first != frame->tiled[i - 1].first)
+                frame->pieces.push_back({uint32_t(h), uint32_t(frame->spans.size()), 0, 0});
+            const PixelSpan& p = frame->tiled[i].second;
+            frame->spans.push_back(p);
+            frame->pieces.back().spanCount++;
+            frame->pieces.back().pixels += p.x1 - p.x0 + 1;
+        }
+    }
 }
 
 // Marks the pixels of the expansion holes that fillExpansionHoles filled.
@@ -236,6 +294,9 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
     drawOptions.render.colorOnly = false;
     FillFrame frame{scene, fill, camera, drawOptions, second,
                     {second.color, second.depth, second.id, {}}, holeClass};
+    if (!scratch->mFrame) scratch->mFrame = std::make_unique<FillScratch::Frame>();
+    FillScratch::Frame& pieces = *scratch->mFrame;
+    makePieces(holes, interpolate, &pieces);
     const size_t slots = pool ? size_t(pool->threadCount()) : 1;
     while (scratch->mSlots.size() < slots)
         scratch->mSlots.push_back(std::make_unique<FillScratch::Slot>());
@@ -243,19 +304,21 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
     auto body = [&](size_t begin, size_t end) {
         FillScratch::Slot& slot = *scratch->mSlots[size_t(currentThreadSlot()) % slots];
         HoleFiller filler(frame, slot);
-        for (size_t h = begin; h < end; ++h) {
-            const Hole& hole = holes.holes[h];
-            if (interpolate && hole.holeClass == HoleClass::kExpansion) continue;
-            filler.fill(holes, hole);
+        for (size_t i = begin; i < end; ++i) {
+            const FillPiece& piece = pieces.pieces[i];
+            filler.fill(holes.holes[piece.hole],
+                        std::span<const PixelSpan>(pieces.spans).subspan(piece.firstSpan,
+                                                                         piece.spanCount),
+                        piece.pixels);
         }
     };
-    // Holes differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small
+    // Pieces differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small
     // chunks let the threads balance.
-    constexpr size_t kHoleGrain = 8;
+    constexpr size_t kPieceGrain = 8;
     if (pool)
-        pool->parallelFor(holes.holes.size(), kHoleGrain, body);
+        pool->parallelFor(pieces.pieces.size(), kPieceGrain, body);
     else
-        body(0, holes.holes.size());
+        body(0, pieces.pieces.size());
     for (auto& slot : scratch->mSlots) addStats(slot->stats, &total);
     return total;
 }

@@ -25,7 +25,9 @@ struct PixelSpan {
 // Draws scene-global triangle `globalTriangle` into the pixels of `spans` (clipped to the image
 // and to the triangle's box): where it covers a pixel's sample and its 1/w is larger than the
 // depth there, it writes colour (when the colour view is set), depth and ID. Returns the pixels
-// written. Spans may come in any order; a pixel listed twice is tested twice. Preconditions:
+// written. Only the spans on the rows the triangle reaches are visited (binary search), so the
+// cost follows the triangle's rows, not the list. A pixel listed twice is tested twice.
+// Preconditions: spans in ascending row order (columns within a row in any order);
 // globalTriangle < scene.triangleCount(); targets of the camera's size with depth and ID views;
 // options.colorOnly false. options.clearTargets is ignored: nothing is cleared.
 int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,

@@ -20,6 +20,7 @@
 // leaves nothing of it on screen.
 
 #include <cstddef>
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -56,6 +57,40 @@ inline bool polygonMayCoverRect(const Camera& camera, std::span<const Vec3> corn
 }
 // pointsMayCoverRect of a box's eight corners. Precondition: the box is not empty.
 bool boxMayCoverRect(const Camera& camera, const Aabb& box, const PixelRect& rect);
+
+// The same question as pointsMayCoverRect, asked of the rectangle's frustum: the four planes
+// through the eye and the rectangle's edges (widened by the rounding margin) and the near
+// plane, in world space. A box or polygon wholly outside one of them cannot reach the
+// rectangle. Against the projected-box test this costs a few multiply-adds per box instead of
+// eight projections, and it also rejects geometry crossing the near plane that lies beside the
+// rectangle (the projected test must say yes to all of it, and the boxes of large subtrees near
+// the eye always cross it).
+class RectFrustum {
+public:
+    // Preconditions: camera is the view the rectangle is in; the rectangle is not empty.
+    RectFrustum(const Camera& camera, const PixelRect& rect);
+    // False only if the box lies wholly outside one plane. Precondition: the box is not empty.
+    bool mayCoverBox(const Aabb& box) const {
+        for (const Vec4& p : mPlanes) {
+            Vec3 far(p.x >= 0.0f ? box.hi.x : box.lo.x, p.y >= 0.0f ? box.hi.y : box.lo.y,
+                     p.z >= 0.0f ? box.hi.z : box.lo.z);
+            if (p.x * far.x + p.y * far.y + p.z * far.z + p.w < 0.0f) return false;
+        }
+        return true;
+    }
+    // False only if every point lies outside one plane (the convex hull misses the frustum).
+    bool mayCoverPoints(std::span<const Vec3> points) const {
+        for (const Vec4& p : mPlanes) {
+            bool inside = false;
+            for (const Vec3& v : points) inside |= p.x * v.x + p.y * v.y + p.z * v.z + p.w >= 0.0f;
+            if (!inside) return false;
+        }
+        return true;
+    }
+
+private:
+    std::array<Vec4, 5> mPlanes;  // (n, d): inside where dot(n, p) + d >= 0
+};
 
 struct BoxHierarchyConfig {
     // Most triangles per leaf bucket. Larger buckets mean fewer nodes to test per hole but more
@@ -138,8 +173,15 @@ public:
     // Preconditions: camera is the view the rectangle is in; the rectangle is not empty.
     void markHole(const Camera& camera, const PixelRect& rect, HoleFlags* flags,
                   HoleQueryStats* stats = nullptr) const;
+    // The same query with the frustum's plane tests (RectFrustum) in place of projected boxes:
+    // flags the same triangles or fewer, never one that reaches the rectangle.
+    void markHole(const RectFrustum& frustum, HoleFlags* flags,
+                  HoleQueryStats* stats = nullptr) const;
 
 private:
+    template <class MayCover>
+    void mark(const MayCover& mayCover, HoleFlags* flags, HoleQueryStats* stats) const;
+
     std::vector<BoxNode> mNodes;
     std::vector<uint32_t> mTriangles;
     size_t mMaxDepth = 0;

@@ -11,12 +11,12 @@
 // polygon covers is taken as visible without asking whether something else is nearer there.
 //
 // Disocclusion holes (surfaces the first eye could not see):
-//  1. the box hierarchy flags the triangles whose projected boxes may reach the hole's
-//     enclosing rectangle (BoxHierarchy::markHole, the paper's per-node flags);
+//  1. the box hierarchy flags the triangles whose boxes may reach the hole's enclosing
+//     rectangle (BoxHierarchy::markHole, the paper's per-node flags);
 //  2. the BSP tree is walked front to back from the second eye, skipping subtrees whose box
 //     cannot reach the rectangle (BspTree::forEachFrontToBackPruned);
 //  3. a fragment whose source triangle is not flagged is skipped; the rest get the separating
-//     test of their own corners against the rectangle (polygonMayCoverRect);
+//     test of their own corners against the rectangle;
 //  4. the fragment's source triangle is scan-converted into the hole's still-open segments
 //     (drawTriangleInSpans, the paper's modified scan-line conversion), with the depth test;
 //  5. the pixels it covers leave the segments, and the walk stops once none are left (the
@@ -25,6 +25,10 @@
 // (PixelSource::kDisocclusionEmpty).
 //
 // Where this differs from the paper:
+//  - The separating tests (steps 1-3) are plane tests against the rectangle's frustum
+//    (scene::RectFrustum) rather than projected enclosing boxes: a few multiply-adds per box,
+//    and they also reject what crosses the near plane beside the hole, such as the boxes of
+//    the large subtrees around the eye, which a projected box must accept.
 //  - The search starts at the root, pruned by subtree boxes, not "from the polygons surrounding
 //    the hole": what fills a hole need not be behind its neighbours. A pole entering at the image
 //    border is in front of everything around the hole it opens, and a surface revealed beside a
@@ -34,7 +38,12 @@
 //    full render's there). Its later fragments may lie behind polygons still to come, so the
 //    pixels it covers stay open (the depth test lets a nearer polygon replace them) until every
 //    fragment of the triangle has been passed, or the walk ends.
-//  - Holes are independent (disjoint pixels) and run in parallel, each thread with its own flags.
+//  - A hole is searched per screen tile it touches (kFillTile): the pixels of one hole in one
+//    tile form a piece with its own rectangle. A tall hole (the strip a converged rig opens at
+//    the image border) would otherwise have one rectangle reaching most of the scene, so every
+//    polygon along the strip would be tested against and drawn over all of its rows. Pieces
+//    are independent (disjoint pixels, and each pixel's result is the nearest polygon there
+//    whatever the grouping) and run in parallel, each thread with its own flags.
 // Result: a disocclusion pixel equals the full render's wherever the BSP order is exact (bsp.h's
 // limits) and the nearest polygon there is in the tree (degenerate triangles are not).
 
@@ -50,6 +59,13 @@
 #include <plx/stereo/reproject.h>
 
 namespace plx::stereo {
+
+// Side in pixels of the screen tiles that cut holes into pieces (see above): small enough that a
+// piece's rectangle stays local, large enough that most holes (cracks and slivers of a few
+// pixels) are one piece. 16 and 8 cost more per frame on office:3 (more pieces, each with
+// its own search from the root).
+constexpr int kFillTile = 32;
+
 
 // What the fill reuses for every view of one scene.
 struct FillScene {
@@ -94,12 +110,14 @@ public:
     FillScratch();
     ~FillScratch();
     struct Slot;
+    struct Frame;
 
 private:
     friend FillStats fillHoles(const scene::Scene&, const FillScene&, const Camera&,
                                const FillOptions&, const HoleSet&, const SecondEyeTargets&,
                                ImageView<uint8_t>, FillScratch*, ThreadPool*);
     std::vector<std::unique_ptr<Slot>> mSlots;
+    std::unique_ptr<Frame> mFrame;
 };
 
 // Fills every hole of `holes` in the second eye's targets and writes the PixelSource of each

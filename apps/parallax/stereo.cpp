@@ -272,10 +272,10 @@ void printText(const StereoArgs& a, const nlohmann::json& doc, size_t poses,
                doc["method"].get<std::string>(), a.conservative ? " (conservative)" : "");
     fmt::print(
         "first eye {:.2f} ms, second eye {:.2f} ms, pair {:.2f} ms (median of {} timed "
-        "pairs after a warm-up{}); second eye PSNR {:.1f} dB, {:.4f} of its pixels "
+        "pair{} after a warm-up{}); second eye PSNR {:.1f} dB, {:.4f} of its pixels "
         "identical to the full method's\n",
         doc["first_eye_ms"].get<double>(), doc["second_eye_ms"].get<double>(),
-        doc["pair_ms"].get<double>(), a.frames,
+        doc["pair_ms"].get<double>(), a.frames, a.frames == 1 ? "" : "s",
         poses > 1 ? fmt::format(", median over {} poses", poses) : "",
         doc["second_eye_psnr_db"].get<double>(), doc["identical_fraction"].get<double>());
     if (doc["method"] == "reproject")
@@ -390,14 +390,15 @@ Command registerStereo(CLI::App& app) {
         app.add_subcommand("stereo",
                            "Render a stereo pair: full pipeline twice, the second eye from the "
                            "P-buffer's visible polygons, or reprojected from the first eye");
-    sub->footer(std::string("Example: parallax stereo office:64 --method pbuffer --format anaglyph "
-                            "--out out/stereo --json\n"
-                            "         parallax stereo office:64 --method reproject --frames 9 "
-                            "--out out/reproject --json\n"
-                            "         parallax stereo office:16 --walk 60 --out out/walk/frame\n"
-                            "PREFIX.diff.png (one pose): the second eye against the full method's "
-                            "(x4, magenta above 40); reproject: ") +
-                kHoleClassLegend);
+    sub->footer(
+        std::string("Example: parallax stereo office:64 --method pbuffer --format anaglyph "
+                    "--out out/stereo --json\n"
+                    "         parallax stereo office:64 --method reproject --frames 9 "
+                    "--out out/reproject --json\n"
+                    "         parallax stereo office:16 --walk 60 --frames 1 --out out/walk/frame\n"
+                    "PREFIX.diff.png (one pose): the second eye against the full method's "
+                    "(x4, magenta above 40); reproject: ") +
+        kHoleClassLegend);
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();
     addViewOptions(sub, &a->view);

@@ -334,10 +334,11 @@ TEST(Bsp, PrunedWalkKeepsThePlainOrderOfTheAcceptedSubtrees) {
                 EXPECT_TRUE(glm::all(glm::lessThanEqual(box.lo, v)) &&
                             glm::all(glm::lessThanEqual(v, box.hi)));
         }
-        for (int32_t c : {n.front, n.back})
-            if (c != BspTree::kNoNode)
-                EXPECT_TRUE(glm::all(glm::lessThanEqual(box.lo, tree.subtreeBox(size_t(c)).lo)) &&
-                            glm::all(glm::lessThanEqual(tree.subtreeBox(size_t(c)).hi, box.hi)));
+        for (int32_t c : {n.front, n.back}) {
+            if (c == BspTree::kNoNode) continue;
+            EXPECT_TRUE(glm::all(glm::lessThanEqual(box.lo, tree.subtreeBox(size_t(c)).lo)) &&
+                        glm::all(glm::lessThanEqual(tree.subtreeBox(size_t(c)).hi, box.hi)));
+        }
     }
     for (Vec3 eye : {Vec3(-3.0f, 2.0f, 9.0f), Vec3(1.5f, 1.5f, 1.5f)}) {
         std::vector<uint32_t> plain, all, pruned, expected;

@@ -79,11 +79,11 @@ struct FillFrame {
 
 class HoleFiller {
 public:
-    HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : f(frame), s(slot) {}
+    HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : mFrame(frame), mSlot(slot) {}
 
     void fill(const Hole& hole, std::span<const PixelSpan> piece, int64_t pixels) {
-        s.spans.assign(piece.begin(), piece.end());
-        s.drawn.clear();
+        mSlot.spans.assign(piece.begin(), piece.end());
+        mSlot.drawn.clear();
         mOpen = pixels;
         if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
         if (mOpen > 0) search();
@@ -93,31 +93,31 @@ public:
 private:
     // The paper's expansion fill, by evaluation: the hole's one polygon over its segments.
     void drawExpansion(uint32_t triangle) {
-        int64_t written = raster::drawTriangleInSpans(f.scene, triangle, f.camera,
-                                                      f.options.render, f.targets, s.spans);
+        int64_t written = raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
+                                                      mFrame.options.render, mFrame.targets, mSlot.spans);
         if (written == 0) return;
-        for (const PixelSpan& p : s.spans)
+        for (const PixelSpan& p : mSlot.spans)
             for (int x = p.x0; x <= p.x1; ++x)
-                if (f.targets.id.at(x, p.y) != 0)
-                    f.holeClass.at(x, p.y) = uint8_t(PixelSource::kExpansion);
-        s.stats.expansionPixels += written;
+                if (mFrame.targets.id.at(x, p.y) != 0)
+                    mFrame.holeClass.at(x, p.y) = uint8_t(PixelSource::kExpansion);
+        mSlot.stats.expansionPixels += written;
         shrink();
     }
 
     // Steps 1-5 of fill.h over the open segments.
     void search() {
-        const scene::RectFrustum frustum(f.camera, openRect());
+        const scene::RectFrustum frustum(mFrame.camera, openRect());
         scene::HoleQueryStats query;
-        f.fill.boxes.markHole(frustum, &s.flags, &query);
-        s.stats.boxNodesTested += query.nodesTested;
-        const scene::BspTree& bsp = f.fill.bsp;
+        mFrame.fill.boxes.markHole(frustum, &mSlot.flags, &query);
+        mSlot.stats.boxNodesTested += query.nodesTested;
+        const scene::BspTree& bsp = mFrame.fill.bsp;
         auto acceptSubtree = [&](int32_t, const Aabb& box) {
             return !box.isEmpty() && frustum.mayCoverBox(box);
         };
         auto visit = [&](uint32_t fragment) {
             const uint32_t tri = bsp.fragment(fragment).sourceTriangle;
-            if (!s.flags.mayCover(tri)) return true;
-            const uint32_t fragments = f.fill.fragmentsOfTriangle[tri];
+            if (!mSlot.flags.mayCover(tri)) return true;
+            const uint32_t fragments = mFrame.fill.fragmentsOfTriangle[tri];
             if (fragments > 1) {
                 if (DrawnTriangle* d = findDrawn(tri)) {
                     // A later fragment of a split triangle already drawn: passed, not drawn again.
@@ -125,56 +125,56 @@ private:
                     return mOpen > 0;
                 }
             }
-            ++s.stats.polygonsTested;
+            ++mSlot.stats.polygonsTested;
             if (!frustum.mayCoverPoints(bsp.fragmentVertices(fragment))) return true;
-            ++s.stats.polygonsDrawn;
-            if (fragments > 1) s.drawn.push_back({tri, fragments - 1});
-            if (raster::drawTriangleInSpans(f.scene, tri, f.camera, f.options.render, f.targets,
-                                            s.spans) > 0)
+            ++mSlot.stats.polygonsDrawn;
+            if (fragments > 1) mSlot.drawn.push_back({tri, fragments - 1});
+            if (raster::drawTriangleInSpans(mFrame.scene, tri, mFrame.camera, mFrame.options.render, mFrame.targets,
+                                            mSlot.spans) > 0)
                 shrink();
             return mOpen > 0;
         };
-        s.stats.nodesVisited += bsp.forEachFrontToBackPruned(f.camera.eyePos(), acceptSubtree, visit);
+        mSlot.stats.nodesVisited += bsp.forEachFrontToBackPruned(mFrame.camera.eyePos(), acceptSubtree, visit);
     }
 
     DrawnTriangle* findDrawn(uint32_t triangle) {
-        for (DrawnTriangle& d : s.drawn)
+        for (DrawnTriangle& d : mSlot.drawn)
             if (d.triangle == triangle) return &d;
         return nullptr;
     }
 
     // A pixel stays open while nothing covers it, or only a triangle with fragments still to come.
     bool isOpen(int x, int y) {
-        uint32_t id = f.targets.id.at(x, y);
+        uint32_t id = mFrame.targets.id.at(x, y);
         if (id == 0) return true;
-        if (s.drawn.empty()) return false;
+        if (mSlot.drawn.empty()) return false;
         const DrawnTriangle* d = findDrawn(id - 1);
         return d && d->fragmentsLeft > 0;
     }
 
     // Removes the closed pixels from the open segments, splitting segments where needed.
     void shrink() {
-        s.next.clear();
+        mSlot.next.clear();
         mOpen = 0;
-        for (const PixelSpan& p : s.spans) {
+        for (const PixelSpan& p : mSlot.spans) {
             int start = -1;
             for (int x = p.x0; x <= p.x1 + 1; ++x) {
                 bool open = x <= p.x1 && isOpen(x, p.y);
                 if (open && start < 0) start = x;
                 if (!open && start >= 0) {
-                    s.next.push_back({p.y, start, x - 1});
+                    mSlot.next.push_back({p.y, start, x - 1});
                     mOpen += x - start;
                     start = -1;
                 }
             }
         }
-        std::swap(s.spans, s.next);
+        std::swap(mSlot.spans, mSlot.next);
     }
 
     scene::PixelRect openRect() const {
         scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
                            std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
-        for (const PixelSpan& p : s.spans) {
+        for (const PixelSpan& p : mSlot.spans) {
             r.x0 = std::min(r.x0, p.x0);
             r.x1 = std::max(r.x1, p.x1 + 1);
             r.y0 = std::min(r.y0, p.y);
@@ -188,22 +188,22 @@ private:
     void classify(std::span<const PixelSpan> piece) {
         for (const PixelSpan& p : piece) {
             for (int x = p.x0; x <= p.x1; ++x) {
-                uint8_t& c = f.holeClass.at(x, p.y);
+                uint8_t& c = mFrame.holeClass.at(x, p.y);
                 if (c == uint8_t(PixelSource::kExpansion)) continue;
-                if (f.targets.id.at(x, p.y) != 0) {
+                if (mFrame.targets.id.at(x, p.y) != 0) {
                     c = uint8_t(PixelSource::kDisocclusion);
-                    ++s.stats.disocclusionPixels;
+                    ++mSlot.stats.disocclusionPixels;
                 } else {
                     c = uint8_t(PixelSource::kDisocclusionEmpty);
-                    f.second.color.at(x, p.y) = f.options.render.clearColor;
-                    ++s.stats.emptyPixels;
+                    mFrame.second.color.at(x, p.y) = mFrame.options.render.clearColor;
+                    ++mSlot.stats.emptyPixels;
                 }
             }
         }
     }
 
-    const FillFrame& f;
-    FillScratch::Slot& s;
+    const FillFrame& mFrame;
+    FillScratch::Slot& mSlot;
     int64_t mOpen = 0;
 };
 

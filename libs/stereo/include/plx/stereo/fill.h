@@ -5,8 +5,9 @@
 // Expansion holes (a polygon seen more obliquely by the second eye, its pixels spread apart)
 // are drawn from their one polygon (HoleSet's polygonId): drawTriangleInSpans over the hole's
 // segments evaluates it exactly where the paper's linear interpolation (fillExpansionHoles,
-// kept as ExpansionFill::kInterpolate) approximates it in sRGB; docs/stereo-results.md has the
-// measurement that made evaluation the default. Pixels the polygon does not cover (the crack
+// kept as ExpansionFill::kInterpolate) approximates it in sRGB. Evaluation is the default: with
+// Gouraud shading it gives every expansion pixel the full render's colour where interpolation
+// gives 90% of them, for the same fill time (docs/stereo-results.md, reprojection section). Pixels the polygon does not cover (the crack
 // crossed its edge) fall through to the disocclusion search below. As in the paper, a pixel the
 // polygon covers is taken as visible without asking whether something else is nearer there.
 //

@@ -73,13 +73,15 @@ struct StereoFrameStats {
     double reprojectMs = 0.0;       // moving the pixels, finding and classifying the holes
     double fillMs = 0.0;            // drawing the expansion and disocclusion holes
     int64_t holePixels = 0;         // second-eye pixels no first-eye pixel landed on
-    int64_t expansionPixels = 0;
+    int64_t expansionPixels = 0;     // drawn from an expansion hole's polygon (PixelSource 1)
+    // The rest of the hole pixels (PixelSource 2 and 3): disocclusion holes, and the pixels of
+    // expansion holes their polygon does not cover, which fall through to the search.
     int64_t disocclusionPixels = 0;
     size_t expansionHoles = 0;
     size_t disocclusionHoles = 0;
     size_t fillNodesVisited = 0;      // BSP nodes the disocclusion searches reached
     size_t fillPolygonsTested = 0;    // fragments given the separating test
-    size_t fillPolygonsDrawn = 0;     // fragments scan-converted into a hole
+    size_t fillPolygonsDrawn = 0;     // fragments whose triangle was scan-converted into a hole
 };
 
 // Colour, depth and IDs of both eyes.

@@ -17,7 +17,8 @@
 //  2. the BSP tree is walked front to back from the second eye, skipping subtrees whose box
 //     cannot reach the rectangle (BspTree::forEachFrontToBackPruned);
 //  3. a fragment whose source triangle is not flagged is skipped; the rest get the separating
-//     test of their own corners against the rectangle;
+//     test of their own corners against the rectangle, then a test of their projection against
+//     the open segments' end samples;
 //  4. the fragment's source triangle is scan-converted into the hole's still-open segments
 //     (drawTriangleInSpans, the paper's modified scan-line conversion), with the depth test;
 //  5. the pixels it covers leave the segments, and the walk stops once none are left (the

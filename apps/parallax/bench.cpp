@@ -2,7 +2,8 @@
 // dispatcher; each experiment lives in its own bench_<name>.cpp.
 //
 //   bench predistort   Bimber et al. Table 1 and Figs. 8-10 (uniform vs adaptive warp meshes)
-//   bench stereo       Heo, Jung, Wohn Table 1 and Fig. 17 (full vs P-buffer stereo pairs)
+//   bench stereo       Heo, Jung, Wohn Table 1 and Fig. 17 (full vs P-buffer stereo pairs), with
+//                      the reproject method of Fu, Bao, Peng and its paper's timing table
 //   bench warp         Mark, Bishop, McMillan: stale, timewarp and warp against the RTT
 
 #include "bench.h"

@@ -1,5 +1,6 @@
 // parallax bench stereo: Heo, Jung, Wohn Table 1 and Fig. 17 (full pipeline against the P-buffer
-// method on office:N) as CSV, JSON and SVG plots.
+// method on office:N), with the reproject method of Fu, Bao, Peng beside them and its paper's
+// timing table, as CSV, JSON, markdown and SVG plots.
 
 #include <filesystem>
 
@@ -20,14 +21,34 @@ struct StereoBenchArgs {
     int threads = 0;
     float separation = 0.065f, convergence = 3.0f;
     bool noConservative = false;
+    bool noReproject = false;
     bool json = false;
 };
+
+double finiteDb(double db) {
+    return std::isfinite(db) ? db : 99.0;
+}
+
+void printTable(const std::vector<StereoExperimentRow>& rows) {
+    fmt::print("{:>6} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>6} {:>9} {:>9} {:>8} {:>6}\n",
+               "rooms", "polygons", "visible", "full 1st", "full 2nd", "pbuf 1st", "pbuf 2nd",
+               "speedup", "PSNR", "repr 1st", "repr 2nd", "speedup", "PSNR");
+    for (const auto& r : rows)
+        fmt::print(
+            "{:>6} {:>9} {:>8} {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f} "
+            "{:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f}\n",
+            r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs, r.pbufferFirstMs,
+            r.pbufferSecondMs + r.collectMs, r.pairSpeedup, finiteDb(r.secondEyePsnrDb),
+            r.reprojectFirstMs, r.reprojectSecondMs, r.reprojectPairSpeedup,
+            finiteDb(r.reprojectPsnrDb));
+}
 
 int runStereoBench(const StereoBenchArgs& a) {
     auto size = parseSize(a.size);
     if (!size) return fail(size.status().message(), kExitUsage);
     for (int n : a.rooms)
-        if (n < 1 || n > 4096) return fail(fmt::format("--rooms {} outside 1 .. 4096", n), kExitUsage);
+        if (n < 1 || n > 4096)
+            return fail(fmt::format("--rooms {} outside 1 .. 4096", n), kExitUsage);
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
@@ -40,6 +61,7 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.rig.separation = a.separation;
     config.rig.convergence = a.convergence;
     config.conservative = !a.noConservative;
+    config.reproject = !a.noReproject;
     Progress progress("bench stereo", a.rooms.size());
     auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return fail(rows.status());
@@ -50,19 +72,23 @@ int runStereoBench(const StereoBenchArgs& a) {
     if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);
     for (const auto& [file, svg] : stereoPlots(*rows))
         if (Status s = writeText(dir + file, svg); !s) return fail(s);
+    if (config.reproject) {
+        if (Status s = writeText(dir + "methods.md", stereoMethodsMarkdown(*rows)); !s)
+            return fail(s);
+        if (Status s =
+                writeText(dir + "reproject_paper_table.md", reprojectPaperTableMarkdown(*rows));
+            !s)
+            return fail(s);
+    }
     if (a.json) {
         printJson(doc);
         return kExitOk;
     }
-    fmt::print("{:>6} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}\n", "rooms", "polygons",
-               "visible", "full 1st", "full 2nd", "pbuf 1st", "pbuf 2nd", "speedup", "PSNR");
-    for (const auto& r : *rows)
-        fmt::print("{:>6} {:>9} {:>8} {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>7.2f}x {:>7.1f}\n",
-                   r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs,
-                   r.pbufferFirstMs, r.pbufferSecondMs + r.collectMs, r.pairSpeedup,
-                   std::isfinite(r.secondEyePsnrDb) ? r.secondEyePsnrDb : 99.0);
-    fmt::print("times in ms per eye (median of {} frames); wrote {}table1.{{csv,json}} and "
-               "Fig. 17 SVG plots\n", a.frames, dir);
+    printTable(*rows);
+    fmt::print(
+        "times in ms per eye (median of {} frames); wrote {}table1.{{csv,json}}{} and "
+        "Fig. 17 SVG plots\n",
+        a.frames, dir, config.reproject ? ", methods.md, reproject_paper_table.md" : "");
     return kExitOk;
 }
 
@@ -71,18 +97,25 @@ int runStereoBench(const StereoBenchArgs& a) {
 Command addBenchStereo(CLI::App* bench) {
     auto a = std::make_shared<StereoBenchArgs>();
     CLI::App* sub = bench->add_subcommand(
-        "stereo", "Heo, Jung, Wohn Table 1 and Fig. 17: full vs P-buffer stereo on office:N");
-    sub->footer("Example: parallax bench stereo --rooms 1,4,16,64,280 --size 640x480");
+        "stereo",
+        "Heo, Jung, Wohn Table 1 and Fig. 17: full vs P-buffer vs reproject stereo on "
+        "office:N");
+    sub->footer(
+        "Example: parallax bench stereo --rooms 1,4,16,64,280 --size 640x480\n"
+        "         parallax bench stereo --rooms 3,8,32,128,280 --size 1280x720 --threads 2 "
+        "--frames 9 --out out/bench_stereo_720");
     sub->add_option("--rooms", a->rooms, "Office rooms per row of the table")->delimiter(',');
     sub->add_option("--size", a->size, "Image size WxH")->capture_default_str();
     sub->add_option("--frames", a->frames, "Timed frames per method (median)")
-        ->check(CLI::Range(1, 1000))->capture_default_str();
+        ->check(CLI::Range(1, 1000))
+        ->capture_default_str();
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")
         ->check(CLI::Range(0, 1024));
     sub->add_option("--separation", a->separation, "Eye separation e (m)")->capture_default_str();
     sub->add_option("--convergence", a->convergence, "Convergence distance c (m)")
         ->capture_default_str();
     sub->add_flag("--no-conservative", a->noConservative, "Skip the conservative-set columns");
+    sub->add_flag("--no-reproject", a->noReproject, "Skip the reproject-method columns");
     sub->add_option("--out", a->out, "Output folder")->capture_default_str();
     sub->add_flag("--json", a->json, "Print the table as JSON");
     return {sub, [a] { return runStereoBench(*a); }};

@@ -1,5 +1,7 @@
 // The demo's stereo section: Heo, Jung, Wohn's experiment (Table 1, Fig. 17) on office:N, the
-// pair as an anaglyph and side by side, and the second eye's difference from the full method.
+// pair as an anaglyph and side by side, and the second eye's difference from the full method;
+// then the reproject method of Fu, Bao, Peng: a reprojected pair, its hole classes, and the
+// second eye of the three methods against the polygon count.
 
 #include <cmath>
 
@@ -11,9 +13,62 @@
 #include "cli.h"
 #include "demo.h"
 #include "experiment_stereo.h"
+#include "hole_classes.h"
 #include "view.h"
 
 namespace plx::cli {
+namespace {
+
+// The reproject method's part: one pair of the largest scene, its hole classes, and the table of
+// the three methods (the plot of their second eyes is among stereoPlots).
+Status reprojectPart(DemoContext& ctx, const std::vector<StereoExperimentRow>& rows,
+                     const scene::Scene& scene, const StereoRig& rig,
+                     stereo::StereoRenderer& renderer) {
+    HtmlReport& rep = *ctx.report;
+    PLX_RETURN_IF_ERROR(renderer.prepareReprojection(scene));
+    stereo::StereoOptions options;
+    options.method = stereo::Method::kReproject;
+    stereo::StereoFrame frame;
+    stereo::StereoFrameStats st = renderer.renderPair(scene, rig, options, &frame);
+    std::string dir = ctx.outDir + "/";
+    PLX_RETURN_IF_ERROR(writePng(
+        dir + "reproject_sbs.png",
+        stereo::composeStereo(frame.left.color, frame.right.color, stereo::Layout::kSideBySide)));
+    std::vector<std::pair<std::string, std::string>> images = {
+        {"reproject_sbs.png", "side by side: left | right (reproject method)"}};
+    if (!frame.holeClass.empty()) {
+        PLX_RETURN_IF_ERROR(
+            writePng(dir + "reproject_holes.png",
+                     holeClassImage(frame.eye(rig.secondEye()).color, frame.holeClass)));
+        images.emplace_back("reproject_holes.png", "second eye: hole classes");
+    }
+    rep.heading("Stereo by reprojection (Fu, Bao, Peng)", 3);
+    rep.paragraph(fmt::format(
+        "The second eye is made by moving each first-eye pixel by its disparity; the pixels no "
+        "first-eye pixel lands on form holes, classified by the polygon IDs around them and "
+        "filled by drawing only the polygons behind each hole. In the pair below, {} of {} "
+        "second-eye pixels were holes ({} expansion and {} disocclusion holes, {} polygon "
+        "fragments drawn). Hole classes: {}.",
+        st.holePixels, frame.right.color.pixelCount(), st.expansionHoles, st.disocclusionHoles,
+        st.fillPolygonsDrawn, kHoleClassLegend));
+    rep.images(images);
+    std::vector<std::vector<std::string>> table;
+    for (const auto& r : rows)
+        table.push_back(
+            {fmt::format("{}", r.polygons), fmt::format("{:.2f}", r.fullSecondMs),
+             fmt::format("{:.2f}", r.pbufferSecondMs + r.collectMs),
+             fmt::format("{:.2f}", r.reprojectSecondMs),
+             fmt::format("{:.2f}x", r.reprojectPairSpeedup),
+             fmt::format("{:.1f}", std::isfinite(r.reprojectPsnrDb) ? r.reprojectPsnrDb : 99.0),
+             fmt::format("{:.4f}", r.reprojectIdenticalFraction),
+             fmt::format("{:.4f}", r.reprojectHoleFraction)});
+    rep.table({"polygons", "full 2nd ms", "p-buf 2nd ms", "reproject 2nd ms",
+               "reproject pair speedup", "reproject PSNR dB", "identical", "holes"},
+              table);
+    return Status::ok();
+}
+
+}  // namespace
 
 Status demoStereoSection(DemoContext& ctx) {
     HtmlReport& rep = *ctx.report;
@@ -56,38 +111,41 @@ Status demoStereoSection(DemoContext& ctx) {
     (*renderer)->renderPair(*scene, *rig, fullOptions, &full);
     std::string dir = ctx.outDir + "/";
     Eye second = rig->secondEye();
-    PLX_RETURN_IF_ERROR(writePng(dir + "stereo_anaglyph.png",
-                                 stereo::composeStereo(pbuf.left.color, pbuf.right.color,
-                                                       stereo::Layout::kAnaglyph)));
-    PLX_RETURN_IF_ERROR(writePng(dir + "stereo_sbs.png",
-                                 stereo::composeStereo(pbuf.left.color, pbuf.right.color,
-                                                       stereo::Layout::kSideBySide)));
-    PLX_RETURN_IF_ERROR(writePng(dir + "stereo_diff.png",
-                                 diffImage(pbuf.eye(second).color, full.eye(second).color, 4.0f, 40)));
+    PLX_RETURN_IF_ERROR(writePng(
+        dir + "stereo_anaglyph.png",
+        stereo::composeStereo(pbuf.left.color, pbuf.right.color, stereo::Layout::kAnaglyph)));
+    PLX_RETURN_IF_ERROR(writePng(
+        dir + "stereo_sbs.png",
+        stereo::composeStereo(pbuf.left.color, pbuf.right.color, stereo::Layout::kSideBySide)));
+    PLX_RETURN_IF_ERROR(
+        writePng(dir + "stereo_diff.png",
+                 diffImage(pbuf.eye(second).color, full.eye(second).color, 4.0f, 40)));
     rep.images({{"stereo_anaglyph.png", "red-cyan anaglyph (p-buffer method)"},
                 {"stereo_sbs.png", "side by side: left | right"},
                 {"stereo_diff.png", "second eye: p-buffer vs full (x4, magenta > 40)"}});
 
-    std::string plots;
+    std::string plots, methodsPlot;
     for (const auto& [file, svg] : stereoPlots(*rows)) {
         PLX_RETURN_IF_ERROR(writeText(dir + "stereo_" + file, svg));
-        plots += svg;
+        (file == "second_eye_methods.svg" ? methodsPlot : plots) += svg;
     }
     rep.raw("<div class='row'>" + plots + "</div>");
     std::vector<std::vector<std::string>> table;
     for (const auto& r : *rows)
-        table.push_back({fmt::format("{}", r.rooms), fmt::format("{}", r.polygons),
-                         fmt::format("{}", r.visiblePolygons), fmt::format("{:.2f}", r.fullFirstMs),
-                         fmt::format("{:.2f}", r.fullSecondMs), fmt::format("{:.2f}", r.pbufferFirstMs),
-                         fmt::format("{:.2f}", r.pbufferSecondMs + r.collectMs),
-                         fmt::format("{:.2f}x", r.pairSpeedup),
-                         fmt::format("{:.1f}", std::isfinite(r.secondEyePsnrDb) ? r.secondEyePsnrDb : 99.0),
-                         fmt::format("{}", r.missedPolygons),
-                         fmt::format("{}", r.conservativeMissedPolygons)});
+        table.push_back(
+            {fmt::format("{}", r.rooms), fmt::format("{}", r.polygons),
+             fmt::format("{}", r.visiblePolygons), fmt::format("{:.2f}", r.fullFirstMs),
+             fmt::format("{:.2f}", r.fullSecondMs), fmt::format("{:.2f}", r.pbufferFirstMs),
+             fmt::format("{:.2f}", r.pbufferSecondMs + r.collectMs),
+             fmt::format("{:.2f}x", r.pairSpeedup),
+             fmt::format("{:.1f}", std::isfinite(r.secondEyePsnrDb) ? r.secondEyePsnrDb : 99.0),
+             fmt::format("{}", r.missedPolygons), fmt::format("{}", r.conservativeMissedPolygons)});
     rep.table({"rooms", "polygons", "visible", "full 1st ms", "full 2nd ms", "p-buf 1st ms",
                "p-buf 2nd ms", "pair speedup", "2nd-eye PSNR dB", "missed polygons",
                "missed (conservative)"},
               table);
+    PLX_RETURN_IF_ERROR(reprojectPart(ctx, *rows, *scene, *rig, **renderer));
+    rep.raw("<div class='row'>" + methodsPlot + "</div>");
     (*ctx.summary)["stereo"] = stereoExperimentJson(config, *rows);
     return Status::ok();
 }

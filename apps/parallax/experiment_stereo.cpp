@@ -1,5 +1,5 @@
 // The experiment of Heo, Jung, Wohn (Table 1, Fig. 17): full pipeline against the P-buffer
-// method on office:N, timed pair by pair.
+// method on office:N, and the reproject method of Fu, Bao, Peng beside them, timed pair by pair.
 
 #include "experiment_stereo.h"
 
@@ -9,6 +9,7 @@
 
 #include <plx/scene/generators.h>
 
+#include "hole_classes.h"
 #include "report.h"
 
 namespace plx::cli {
@@ -16,26 +17,28 @@ namespace plx::cli {
 namespace {
 
 struct MethodTiming {
-    std::vector<double> first, second, collect;
+    std::vector<double> first, second, collect, reproject, fill;
     stereo::StereoFrameStats last;
-    std::vector<uint32_t> drawn;  // the set the quality frame drew (pbuffer methods)
+    std::vector<uint32_t> drawn;  // drawnSet of the quality frame
 
     void add(const stereo::StereoFrameStats& st) {
         last = st;
         first.push_back(st.firstEyeMs);
         second.push_back(st.secondEyeMs);
         collect.push_back(st.collectMs);
+        reproject.push_back(st.reprojectMs);
+        fill.push_back(st.fillMs);
     }
 };
 
 // Times the methods frame by frame in turn after one warm-up pair each, so that load from other
 // processes falls on all of them alike. The order rotates every frame (full, pbuffer,
-// conservative; then pbuffer, conservative, full; ...): a method's first eye finds the caches
-// as the method before it left them (a full pass over the scene, or a small subset), and a
-// fixed order gave the method after the full one a first eye up to 0.5 ms slower at 1M
-// triangles, with the same renderer and the same scene.
-// The timed frames write colour only (StereoOptions::writeDepthAndIds): what a display shows,
-// and neither method then pays for 2.5 MB of depth and IDs per eye that nobody reads.
+// conservative, reproject; then pbuffer, conservative, reproject, full; ...): a method's first eye
+// finds the caches as the method before it left them (a full pass over the scene, or a small
+// subset), and a fixed order gave the method after the full one a first eye up to 0.5 ms slower at
+// 1M triangles, with the same renderer and the same scene. The timed frames write colour only
+// (StereoOptions::writeDepthAndIds): what a display shows, and neither method then pays for 2.5 MB
+// of depth and IDs per eye that nobody reads.
 void timeMethods(stereo::StereoRenderer& renderer, const scene::Scene& scene, const StereoRig& rig,
                  const std::vector<stereo::StereoOptions>& options, int frames,
                  std::vector<stereo::StereoFrame>* out, std::vector<MethodTiming>* timings) {
@@ -58,9 +61,112 @@ void renderForQuality(stereo::StereoRenderer& renderer, const scene::Scene& scen
                       std::vector<stereo::StereoFrame>* out, std::vector<MethodTiming>* timings) {
     for (size_t m = 0; m < options.size(); ++m) {
         renderer.renderPair(scene, rig, options[m], &(*out)[m]);
-        (*timings)[m].drawn.assign(renderer.lastVisibleSet().begin(),
-                                   renderer.lastVisibleSet().end());
+        (*timings)[m].drawn = drawnSet(renderer, options[m].method, (*out)[m].eye(rig.secondEye()));
     }
+}
+
+// Where each method sits in the options, frames and timings of one row; -1: not measured.
+struct MethodSlots {
+    int full = 0, pbuffer = 1, conservative = -1, reproject = -1;
+};
+
+std::vector<stereo::StereoOptions> methodOptions(const StereoExperimentConfig& config,
+                                                 MethodSlots* slots) {
+    std::vector<stereo::StereoOptions> options(2);
+    options[0].method = stereo::Method::kFull;
+    options[1].method = stereo::Method::kPBuffer;
+    if (config.conservative) {
+        slots->conservative = int(options.size());
+        options.emplace_back().method = stereo::Method::kPBuffer;
+        options.back().conservative = true;
+    }
+    if (config.reproject) {
+        slots->reproject = int(options.size());
+        options.emplace_back().method = stereo::Method::kReproject;
+    }
+    for (auto& o : options) o.render.shading = config.shading;
+    return options;
+}
+
+void fillPbufferColumns(const MethodTiming& full, const MethodTiming& t,
+                        const stereo::SecondEyeQuality& q, StereoExperimentRow* row) {
+    row->visiblePolygons = t.last.visibleTriangles;
+    row->fullFirstMs = median(full.first);
+    row->fullSecondMs = median(full.second);
+    row->pbufferFirstMs = median(t.first);
+    row->pbufferSecondMs = median(t.second);
+    row->collectMs = median(t.collect);
+    row->pairSpeedup = (row->fullFirstMs + row->fullSecondMs) /
+                       (row->pbufferFirstMs + row->collectMs + row->pbufferSecondMs);
+    row->secondEyePsnrDb = q.psnrDb;
+    row->differingFraction = q.differingFraction;
+    row->missedPolygons = q.missedPolygons;
+    row->missedPixels = q.missedPixels;
+}
+
+void fillConservativeColumns(const MethodTiming& t, const stereo::SecondEyeQuality& q,
+                             StereoExperimentRow* row) {
+    row->conservativeExtra = t.last.conservativeExtra;
+    row->conservativeFirstMs = median(t.first);
+    row->conservativeSecondMs = median(t.second) + median(t.collect);
+    row->conservativePsnrDb = q.psnrDb;
+    row->conservativeMissedPolygons = q.missedPolygons;
+    row->conservativeMissedPixels = q.missedPixels;
+}
+
+// After fillPbufferColumns (the full method's times).
+void fillReprojectColumns(const MethodTiming& t, const stereo::SecondEyeQuality& q, int pixels,
+                          StereoExperimentRow* row) {
+    row->reprojectFirstMs = median(t.first);
+    row->reprojectSecondMs = median(t.second);
+    row->reprojectMs = median(t.reproject);
+    row->fillMs = median(t.fill);
+    row->reprojectPairSpeedup =
+        (row->fullFirstMs + row->fullSecondMs) / (row->reprojectFirstMs + row->reprojectSecondMs);
+    row->reprojectPsnrDb = q.psnrDb;
+    row->reprojectIdenticalFraction = 1.0 - q.differingFraction;
+    row->reprojectHoleFraction = double(t.last.holePixels) / double(std::max(1, pixels));
+    row->reprojectExpansionHoles = t.last.expansionHoles;
+    row->reprojectDisocclusionHoles = t.last.disocclusionHoles;
+    row->reprojectFillPolygonsDrawn = t.last.fillPolygonsDrawn;
+    row->reprojectMissedPixels = q.missedPixels;
+}
+
+// One row: office:n timed with every method, then its quality against the full method.
+Result<StereoExperimentRow> measureRow(stereo::StereoRenderer& renderer,
+                                       const StereoExperimentConfig& config, int n) {
+    auto scene = scene::generateOffice(n);
+    if (!scene) return scene.status();
+    auto center =
+        scene::cameraAt(*scene, scene::defaultViewpoint(*scene), config.width, config.height);
+    if (!center) return center.status();
+    auto rig = StereoRig::create(*center, config.rig);
+    if (!rig) return rig.status();
+    StereoExperimentRow row;
+    row.rooms = n;
+    row.polygons = scene->triangleCount();
+    MethodSlots slot;
+    std::vector<stereo::StereoOptions> options = methodOptions(config, &slot);
+    if (slot.reproject >= 0) {
+        PLX_RETURN_IF_ERROR(renderer.prepareReprojection(*scene));
+        row.reprojectPrepareMs = renderer.lastPrepareMs();
+    }
+    std::vector<stereo::StereoFrame> frames(options.size());
+    std::vector<MethodTiming> t;
+    timeMethods(renderer, *scene, *rig, options, config.frames, &frames, &t);
+    renderForQuality(renderer, *scene, *rig, options, &frames, &t);
+    Eye second = rig->secondEye();
+    auto quality = [&](int m) {
+        return stereo::compareSecondEye(frames[size_t(m)].eye(second),
+                                        frames[size_t(slot.full)].eye(second), t[size_t(m)].drawn);
+    };
+    fillPbufferColumns(t[size_t(slot.full)], t[size_t(slot.pbuffer)], quality(slot.pbuffer), &row);
+    if (slot.conservative >= 0)
+        fillConservativeColumns(t[size_t(slot.conservative)], quality(slot.conservative), &row);
+    if (slot.reproject >= 0)
+        fillReprojectColumns(t[size_t(slot.reproject)], quality(slot.reproject),
+                             config.width * config.height, &row);
+    return row;
 }
 
 }  // namespace
@@ -75,57 +181,9 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     if (!renderer) return renderer.status();
     std::vector<StereoExperimentRow> rows;
     for (size_t i = 0; i < config.rooms.size(); ++i) {
-        int n = config.rooms[i];
-        auto scene = scene::generateOffice(n);
-        if (!scene) return scene.status();
-        auto center =
-            scene::cameraAt(*scene, scene::defaultViewpoint(*scene), config.width, config.height);
-        if (!center) return center.status();
-        auto rig = StereoRig::create(*center, config.rig);
-        if (!rig) return rig.status();
-
-        std::vector<stereo::StereoOptions> options(config.conservative ? 3 : 2);
-        for (auto& o : options) o.render.shading = config.shading;
-        options[0].method = stereo::Method::kFull;
-        options[1].method = stereo::Method::kPBuffer;
-        if (config.conservative) {
-            options[2].method = stereo::Method::kPBuffer;
-            options[2].conservative = true;
-        }
-        std::vector<stereo::StereoFrame> frames(options.size());
-        std::vector<MethodTiming> t;
-        timeMethods(**renderer, *scene, *rig, options, config.frames, &frames, &t);
-        renderForQuality(**renderer, *scene, *rig, options, &frames, &t);
-        Eye second = rig->secondEye();
-        const stereo::StereoFrame& fullFrame = frames[0];
-        stereo::SecondEyeQuality q =
-            stereo::compareSecondEye(frames[1].eye(second), fullFrame.eye(second), t[1].drawn);
-        StereoExperimentRow row;
-        row.rooms = n;
-        row.polygons = scene->triangleCount();
-        row.visiblePolygons = t[1].last.visibleTriangles;
-        row.fullFirstMs = median(t[0].first);
-        row.fullSecondMs = median(t[0].second);
-        row.pbufferFirstMs = median(t[1].first);
-        row.pbufferSecondMs = median(t[1].second);
-        row.collectMs = median(t[1].collect);
-        row.pairSpeedup = (row.fullFirstMs + row.fullSecondMs) /
-                          (row.pbufferFirstMs + row.collectMs + row.pbufferSecondMs);
-        row.secondEyePsnrDb = q.psnrDb;
-        row.differingFraction = q.differingFraction;
-        row.missedPolygons = q.missedPolygons;
-        row.missedPixels = q.missedPixels;
-        if (config.conservative) {
-            stereo::SecondEyeQuality cq =
-                stereo::compareSecondEye(frames[2].eye(second), fullFrame.eye(second), t[2].drawn);
-            row.conservativeExtra = t[2].last.conservativeExtra;
-            row.conservativeFirstMs = median(t[2].first);
-            row.conservativeSecondMs = median(t[2].second) + median(t[2].collect);
-            row.conservativePsnrDb = cq.psnrDb;
-            row.conservativeMissedPolygons = cq.missedPolygons;
-            row.conservativeMissedPixels = cq.missedPixels;
-        }
-        rows.push_back(row);
+        auto row = measureRow(**renderer, config, config.rooms[i]);
+        if (!row) return row.status();
+        rows.push_back(*row);
         if (progress) progress(i + 1, config.rooms.size());
     }
     return rows;
@@ -144,6 +202,9 @@ nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
                           {"frames", config.frames},
                           {"separation", config.rig.separation},
                           {"convergence", config.rig.convergence},
+                          {"threads", config.threads},
+                          {"conservative", config.conservative},
+                          {"reproject", config.reproject},
                           {"rows", nlohmann::json::array()}};
     for (const auto& r : rows) {
         // PSNR of identical images is infinite; JSON has no infinity, so report 99 dB (and say
@@ -166,7 +227,20 @@ nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
                                {"conservative_second_ms", r.conservativeSecondMs},
                                {"conservative_psnr_db", finiteOr(r.conservativePsnrDb, 99.0)},
                                {"conservative_missed_polygons", r.conservativeMissedPolygons},
-                               {"conservative_missed_pixels", r.conservativeMissedPixels}});
+                               {"conservative_missed_pixels", r.conservativeMissedPixels},
+                               {"reproject_prepare_ms", r.reprojectPrepareMs},
+                               {"reproject_first_ms", r.reprojectFirstMs},
+                               {"reproject_second_ms", r.reprojectSecondMs},
+                               {"reproject_ms", r.reprojectMs},
+                               {"fill_ms", r.fillMs},
+                               {"reproject_pair_speedup", r.reprojectPairSpeedup},
+                               {"reproject_psnr_db", finiteOr(r.reprojectPsnrDb, 99.0)},
+                               {"reproject_identical_fraction", r.reprojectIdenticalFraction},
+                               {"reproject_hole_fraction", r.reprojectHoleFraction},
+                               {"reproject_expansion_holes", r.reprojectExpansionHoles},
+                               {"reproject_disocclusion_holes", r.reprojectDisocclusionHoles},
+                               {"reproject_fill_polygons_drawn", r.reprojectFillPolygonsDrawn},
+                               {"reproject_missed_pixels", r.reprojectMissedPixels}});
     }
     return out;
 }
@@ -177,16 +251,25 @@ std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows) {
         "pbuffer_collect_ms,pbuffer_second_ms,pair_speedup,second_eye_psnr_db,differing_fraction,"
         "missed_polygons,missed_pixels,conservative_extra_polygons,conservative_first_ms,"
         "conservative_second_ms,conservative_psnr_db,conservative_missed_polygons,"
-        "conservative_missed_pixels\n";
+        "conservative_missed_pixels,reproject_prepare_ms,reproject_first_ms,reproject_second_ms,"
+        "reproject_ms,fill_ms,reproject_pair_speedup,reproject_psnr_db,reproject_identical_"
+        "fraction,"
+        "reproject_hole_fraction,reproject_expansion_holes,reproject_disocclusion_holes,"
+        "reproject_fill_polygons_drawn,reproject_missed_pixels\n";
     for (const auto& r : rows)
         csv += fmt::format(
             "{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{},{},"
-            "{},{:.3f},{:.3f},{:.2f},{},{}\n",
+            "{},{:.3f},{:.3f},{:.2f},{},{},"
+            "{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{:.6f},{},{},{},{}\n",
             r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs, r.pbufferFirstMs,
             r.collectMs, r.pbufferSecondMs, r.pairSpeedup, finiteOr(r.secondEyePsnrDb, 99.0),
             r.differingFraction, r.missedPolygons, r.missedPixels, r.conservativeExtra,
             r.conservativeFirstMs, r.conservativeSecondMs, finiteOr(r.conservativePsnrDb, 99.0),
-            r.conservativeMissedPolygons, r.conservativeMissedPixels);
+            r.conservativeMissedPolygons, r.conservativeMissedPixels, r.reprojectPrepareMs,
+            r.reprojectFirstMs, r.reprojectSecondMs, r.reprojectMs, r.fillMs,
+            r.reprojectPairSpeedup, finiteOr(r.reprojectPsnrDb, 99.0), r.reprojectIdenticalFraction,
+            r.reprojectHoleFraction, r.reprojectExpansionHoles, r.reprojectDisocclusionHoles,
+            r.reprojectFillPolygonsDrawn, r.reprojectMissedPixels);
     return csv;
 }
 
@@ -196,6 +279,8 @@ std::vector<std::pair<std::string, std::string>> stereoPlots(
     PlotSeries fullSecond{"full pipeline", {}}, pbufSecond{"p-buffer method", {}};
     PlotSeries fullPair{"full pipeline", {}}, pbufPair{"p-buffer method", {}};
     PlotSeries speedup{"pair speedup (full / p-buffer)", {}}, visible{"visible polygons", {}};
+    PlotSeries reprojectSecond{"reproject method", {}};
+    const bool withReproject = !rows.empty() && rows.front().reprojectSecondMs > 0.0;
     for (const auto& r : rows) {
         double n = double(r.polygons);
         fullFirst.points.emplace_back(n, r.fullFirstMs);
@@ -206,11 +291,17 @@ std::vector<std::pair<std::string, std::string>> stereoPlots(
         pbufPair.points.emplace_back(n, r.pbufferFirstMs + r.collectMs + r.pbufferSecondMs);
         speedup.points.emplace_back(n, r.pairSpeedup);
         visible.points.emplace_back(n, double(r.visiblePolygons));
+        reprojectSecond.points.emplace_back(n, r.reprojectSecondMs);
     }
     auto spec = [](const char* title, const char* y) {
         return PlotSpec{title, "polygons (log scale)", y, true, true};
     };
+    std::vector<PlotSeries> secondEyes = {fullSecond, pbufSecond};
+    if (withReproject) secondEyes.push_back(reprojectSecond);
     return {
+        {"second_eye_methods.svg",
+         svgLinePlot(spec("Second eye of each method (reproject: reproject + fill)", "ms"),
+                     secondEyes)},
         {"fig17a_first_eye.svg",
          svgLinePlot(spec("Fig. 17(a): first eye", "ms"), {fullFirst, pbufFirst})},
         {"fig17b_second_eye.svg",
@@ -220,6 +311,67 @@ std::vector<std::pair<std::string, std::string>> stereoPlots(
         {"speedup.svg", svgLinePlot(spec("Pair speedup of the p-buffer method", "x"), {speedup})},
         {"visible.svg", svgLinePlot(spec("Visible polygons (first eye)", "polygons"), {visible})},
     };
+}
+
+namespace {
+// 1016960 -> "1,016,960", as the results pages write counts.
+std::string withCommas(size_t n) {
+    std::string digits = std::to_string(n), out;
+    for (size_t i = 0; i < digits.size(); ++i) {
+        if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+        out += digits[i];
+    }
+    return out;
+}
+
+std::string markdownTable(const std::vector<std::string>& header,
+                          const std::vector<std::vector<std::string>>& rows) {
+    std::string out = "|", rule = "|";
+    for (const std::string& h : header) {
+        out += " " + h + " |";
+        rule += " ---: |";
+    }
+    out += "\n" + rule + "\n";
+    for (const auto& row : rows) {
+        out += "|";
+        for (const std::string& cell : row) out += " " + cell + " |";
+        out += "\n";
+    }
+    return out;
+}
+}  // namespace
+
+std::string stereoMethodsMarkdown(const std::vector<StereoExperimentRow>& rows) {
+    std::vector<std::vector<std::string>> cells;
+    for (const auto& r : rows)
+        cells.push_back(
+            {fmt::format("{}", r.rooms), withCommas(r.polygons),
+             fmt::format("{:.2f}", r.fullSecondMs),
+             fmt::format("{:.2f}", r.pbufferSecondMs + r.collectMs),
+             fmt::format("{:.2f} ({:.2f} + {:.2f})", r.reprojectSecondMs, r.reprojectMs, r.fillMs),
+             fmt::format("{:.2f}x", r.pairSpeedup), fmt::format("{:.2f}x", r.reprojectPairSpeedup),
+             fmt::format("{:.1f}", finiteOr(r.secondEyePsnrDb, 99.0)),
+             fmt::format("{:.1f}", finiteOr(r.reprojectPsnrDb, 99.0)),
+             fmt::format("{:.4f}", r.reprojectIdenticalFraction),
+             fmt::format("{:.4f}", r.reprojectHoleFraction),
+             withCommas(r.reprojectFillPolygonsDrawn)});
+    return markdownTable({"rooms", "polygons", "full 2nd ms", "p-buffer 2nd ms",
+                          "reproject 2nd ms (reproject + fill)", "p-buffer pair speedup",
+                          "reproject pair speedup", "p-buffer PSNR dB", "reproject PSNR dB",
+                          "reproject identical", "reproject holes", "fill polygons drawn"},
+                         cells);
+}
+
+std::string reprojectPaperTableMarkdown(const std::vector<StereoExperimentRow>& rows) {
+    std::vector<std::vector<std::string>> cells;
+    for (const auto& r : rows)
+        cells.push_back({withCommas(r.polygons), fmt::format("{:.2f}", r.reprojectFirstMs),
+                         fmt::format("{:.2f}", r.reprojectSecondMs),
+                         fmt::format("{:.2f}", r.reprojectFirstMs + r.reprojectSecondMs),
+                         fmt::format("{:.0f}", r.reprojectPrepareMs)});
+    return markdownTable({"polygons", "left image ms (first eye)",
+                          "right image ms (reproject + fill)", "total ms", "BSP + boxes ms (once)"},
+                         cells);
 }
 
 }  // namespace plx::cli

@@ -1,7 +1,8 @@
 #pragma once
-// The experiment of Heo, Jung, Wohn Table 1 and Fig. 17: office:N for growing N, both methods,
-// per N the polygon counts, the time of each eye, the pair speedup and the second eye's quality.
-// Typed rows; JSON, CSV and plots are made from them.
+// The experiment of Heo, Jung, Wohn Table 1 and Fig. 17, with the reproject method of Fu, Bao,
+// Peng beside it: office:N for growing N, every method, per N the polygon counts, the time of
+// each eye, the pair speedups and the second eye's quality. Typed rows; JSON, CSV, markdown tables
+// and plots are made from them.
 
 #include <functional>
 #include <string>
@@ -22,6 +23,7 @@ struct StereoExperimentConfig {
     StereoRigDesc rig;                                 // default separation and convergence
     raster::Shading shading = raster::Shading::kFlat;  // the paper's constant shading
     bool conservative = true;                          // also measure the conservative option
+    bool reproject = true;                             // also measure the reproject method
 };
 
 struct StereoExperimentRow {
@@ -38,6 +40,15 @@ struct StereoExperimentRow {
     double conservativeFirstMs = 0, conservativeSecondMs = 0, conservativePsnrDb = 0;
     size_t conservativeMissedPolygons = 0;
     int64_t conservativeMissedPixels = 0;
+    // Reproject method (zero when not measured); second = reproject + fill.
+    double reprojectPrepareMs = 0;  // BSP tree and box hierarchy, once per scene, untimed pairs
+    double reprojectFirstMs = 0, reprojectSecondMs = 0, reprojectMs = 0, fillMs = 0;
+    double reprojectPairSpeedup = 0;  // full pair / reproject pair
+    double reprojectPsnrDb = 0, reprojectIdenticalFraction = 0;
+    double reprojectHoleFraction = 0;  // second-eye pixels no first-eye pixel landed on
+    size_t reprojectExpansionHoles = 0, reprojectDisocclusionHoles = 0;
+    size_t reprojectFillPolygonsDrawn = 0;
+    int64_t reprojectMissedPixels = 0;
 };
 
 // Runs the experiment; progress(i, n) is called after each row. Errors: bad config or scenes.
@@ -53,9 +64,17 @@ nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
 std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows);
 
 // Fig. 17 of Heo, Jung, Wohn from an experiment: (a) first-eye time, (b) second-eye time,
-// (c) pair time, each for both methods against the polygon count; plus the pair speedup and the
-// visible polygons. Returns (file name, SVG) pairs.
+// (c) pair time, each for both methods against the polygon count; plus the pair speedup, the
+// visible polygons and the second-eye time of all three methods (second_eye_methods.svg, with the
+// reproject method when measured). Returns (file name, SVG) pairs.
 std::vector<std::pair<std::string, std::string>> stereoPlots(
     const std::vector<StereoExperimentRow>& rows);
+
+// Markdown tables for docs/stereo-results.md. The three methods side by side (second eye, pair
+// speedups, quality), and Fu, Bao, Peng's timing table (polygons, left, right, total) for the
+// reproject method, the first eye as "left", plus the once-per-scene preparation. Both need rows
+// measured with the reproject method.
+std::string stereoMethodsMarkdown(const std::vector<StereoExperimentRow>& rows);
+std::string reprojectPaperTableMarkdown(const std::vector<StereoExperimentRow>& rows);
 
 }  // namespace plx::cli

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <limits>
 #include <set>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,7 @@
 #include "experiment_predistort.h"
 #include "experiment_stereo.h"
 #include "experiment_warp.h"
+#include "hole_classes.h"
 
 namespace plx::cli {
 namespace {
@@ -96,6 +98,15 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     EXPECT_LE((*rows)[0].visiblePolygons, (*rows)[0].polygons);
     EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
     EXPECT_GT((*rows)[0].secondEyePsnrDb, 20.0);
+    for (const StereoExperimentRow& r : *rows) {
+        EXPECT_GT(r.reprojectSecondMs, 0.0);
+        EXPECT_GT(r.reprojectPairSpeedup, 0.0);
+        EXPECT_GE(r.reprojectIdenticalFraction, 0.0);
+        EXPECT_LE(r.reprojectIdenticalFraction, 1.0);
+        EXPECT_GE(r.reprojectHoleFraction, 0.0);
+        EXPECT_LE(r.reprojectHoleFraction, 1.0);
+        EXPECT_GT(r.reprojectPsnrDb, 20.0);
+    }
     nlohmann::json j = stereoExperimentJson(config, *rows);
     ASSERT_EQ(j["rows"].size(), 2u);
     EXPECT_EQ(j["width"], 96);
@@ -108,7 +119,55 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     std::string csv = stereoExperimentCsv(*rows);
     EXPECT_EQ(lineCount(csv), 3u);
     EXPECT_EQ(csv.rfind("rooms,polygons,visible_polygons,", 0), 0u);
-    EXPECT_EQ(stereoPlots(*rows).size(), 5u);
+    EXPECT_EQ(j["rows"][0]["reproject_second_ms"].get<double>(), (*rows)[0].reprojectSecondMs);
+    EXPECT_EQ(stereoPlots(*rows).size(), 6u);
+    // Markdown: header, rule, one line a row; the paper's four columns.
+    EXPECT_EQ(lineCount(stereoMethodsMarkdown(*rows)), 4u);
+    std::string paper = reprojectPaperTableMarkdown(*rows);
+    EXPECT_EQ(lineCount(paper), 4u);
+    EXPECT_EQ(paper.rfind("| polygons | left", 0), 0u);
+    EXPECT_NE(paper.find("| 3,632 |"), std::string::npos);
+}
+
+TEST(StereoExperiment, WithoutReprojectHasNoReprojectPlot) {
+    StereoExperimentConfig config;
+    config.rooms = {1};
+    config.width = 48;
+    config.height = 32;
+    config.frames = 1;
+    config.threads = 2;
+    config.conservative = false;
+    config.reproject = false;
+    auto rows = runStereoExperiment(config);
+    ASSERT_TRUE(rows.isOk()) << rows.status().toString();
+    EXPECT_EQ((*rows)[0].reprojectSecondMs, 0.0);
+    EXPECT_GT((*rows)[0].pairSpeedup, 0.0);
+    EXPECT_EQ(stereoPlots(*rows).size(), 6u);
+}
+
+TEST(HoleClasses, ImageColoursEachClassAndDimsTheRest) {
+    Image<Rgba8> eye(5, 1, Rgba8{90, 120, 150, 255});
+    Image<uint8_t> classes(5, 1);
+    classes.at(1, 0) = uint8_t(stereo::PixelSource::kExpansion);
+    classes.at(2, 0) = uint8_t(stereo::PixelSource::kDisocclusion);
+    classes.at(3, 0) = uint8_t(stereo::PixelSource::kDisocclusionEmpty);
+    classes.at(4, 0) = 200;  // not a PixelSource: shown as reprojected
+    Image<Rgba8> out = holeClassImage(eye, classes);
+    EXPECT_EQ(out.at(0, 0), (Rgba8{30, 40, 50, 255}));
+    EXPECT_EQ(out.at(4, 0), (Rgba8{30, 40, 50, 255}));
+    std::set<std::tuple<int, int, int>> holeColours;
+    for (int x = 1; x <= 3; ++x)
+        holeColours.insert({out.at(x, 0).r, out.at(x, 0).g, out.at(x, 0).b});
+    EXPECT_EQ(holeColours.size(), 3u);  // three distinct colours
+}
+
+TEST(HoleClasses, TrianglesShownAreTheDistinctIdsLessOne) {
+    Image<uint32_t> ids(4, 2, 0u);
+    ids.at(0, 0) = 7;
+    ids.at(1, 0) = 3;
+    ids.at(2, 1) = 7;
+    EXPECT_EQ(trianglesShown(ids), (std::vector<uint32_t>{2, 6}));
+    EXPECT_TRUE(trianglesShown(Image<uint32_t>(3, 3, 0u)).empty());
 }
 
 TEST(StereoExperiment, RejectsAnEmptyConfig) {

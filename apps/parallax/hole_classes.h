@@ -1,0 +1,30 @@
+#pragma once
+// What the CLI shows of the reproject method (Fu, Bao, Peng): the second eye with each pixel
+// coloured by how it was produced (stereo::PixelSource), and the polygons an eye shows.
+
+#include <cstdint>
+#include <vector>
+
+#include <plx/stereo/stereo.h>
+
+namespace plx::cli {
+
+// The colours of holeClassImage, for legends in --help, the demo and the docs.
+inline constexpr const char* kHoleClassLegend =
+    "reprojected pixels dimmed; expansion holes yellow, disocclusion holes cyan, disocclusion "
+    "holes no polygon covers red";
+
+// The second eye dimmed to a third where its pixels were reprojected, and the holes painted in
+// their class's colour (kHoleClassLegend). Precondition: both images have the same size.
+Image<Rgba8> holeClassImage(const Image<Rgba8>& secondEye, const Image<uint8_t>& holeClass);
+
+// The distinct triangle indices (ID - 1) an ID target shows, ascending.
+std::vector<uint32_t> trianglesShown(const Image<uint32_t>& ids);
+
+// The set compareSecondEye takes as `drawn` for the frame `renderer` rendered last: the visible
+// set of the pbuffer method; the reproject method draws from no set, so the triangles its second
+// eye shows (reprojected or filled): a polygon of the full render it lacks is then missed.
+std::vector<uint32_t> drawnSet(const stereo::StereoRenderer& renderer, stereo::Method method,
+                               const raster::FrameBuffers& secondEye);
+
+}  // namespace plx::cli

@@ -126,6 +126,7 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     frame->holeClass.view().fill(uint8_t(PixelSource::kReprojected));
     FillOptions fillOptions;
     fillOptions.render = firstOptions;
+    fillOptions.search = options.fillSearch;
     FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to,
                                  frame->holeClass.view(), &mFillScratch, &mPool);
     stats->fillMs = clock.elapsedMs();

@@ -52,7 +52,7 @@ struct StereoOptions {
 enum class PixelSource : uint8_t {
     kReprojected = 0,        // moved from the first eye
     kExpansion = 1,          // expansion hole, drawn from its polygon
-    kDisocclusion = 2,       // disocclusion hole, drawn from the polygon the BSP search found
+    kDisocclusion = 2,       // disocclusion hole, drawn from the polygon the search found
     kDisocclusionEmpty = 3,  // disocclusion hole no polygon covers: clear colour, depth 0
 };
 

@@ -136,7 +136,8 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     stats->expansionPixels = filled.expansionPixels;
     stats->disocclusionPixels = filled.disocclusionPixels + filled.emptyPixels;
     countHoles(mHoles, stats);
-    stats->fillNodesVisited = filled.nodesVisited;
+    stats->fillNodesVisited =
+        options.fillSearch == FillSearch::kBspOrder ? filled.nodesVisited : filled.boxNodesTested;
     stats->fillPolygonsTested = filled.polygonsTested;
     stats->fillPolygonsDrawn = filled.polygonsDrawn;
     stats->secondEyeTriangles = filled.polygonsDrawn;

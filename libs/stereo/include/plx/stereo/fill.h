@@ -125,7 +125,7 @@ struct FillStats {
     int64_t disocclusionPixels = 0;  // pixels drawn by the BSP search
     int64_t emptyPixels = 0;         // hole pixels no polygon covers
     size_t nodesVisited = 0;         // BSP nodes the searches reached
-    size_t boxNodesTested = 0;       // box-hierarchy nodes markHole tested
+    size_t boxNodesTested = 0;       // box-hierarchy nodes tested (markHole, or the box search)
     size_t polygonsTested = 0;       // fragments given the separating test
     size_t polygonsDrawn = 0;        // triangles scan-converted into a hole
 };

@@ -82,7 +82,7 @@ struct StereoFrameStats {
     int64_t disocclusionPixels = 0;
     size_t expansionHoles = 0;
     size_t disocclusionHoles = 0;
-    size_t fillNodesVisited = 0;    // BSP nodes the disocclusion searches reached
+    size_t fillNodesVisited = 0;    // nodes of FillSearch's tree the searches reached
     size_t fillPolygonsTested = 0;  // fragments given the separating test
     size_t fillPolygonsDrawn = 0;   // fragments whose triangle was scan-converted into a hole
 };

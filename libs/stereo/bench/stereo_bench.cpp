@@ -31,8 +31,12 @@ void BM_Pair(benchmark::State& state, stereo::Method method) {
     state.counters["triangles"] = double(s.triangleCount());
 }
 
-void BM_PairFull(benchmark::State& state) { BM_Pair(state, stereo::Method::kFull); }
-void BM_PairPBuffer(benchmark::State& state) { BM_Pair(state, stereo::Method::kPBuffer); }
+void BM_PairFull(benchmark::State& state) {
+    BM_Pair(state, stereo::Method::kFull);
+}
+void BM_PairPBuffer(benchmark::State& state) {
+    BM_Pair(state, stereo::Method::kPBuffer);
+}
 BENCHMARK(BM_PairFull)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PairPBuffer)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -339,9 +343,10 @@ BENCHMARK(BM_FillExpansionHoles)->Unit(benchmark::kMicrosecond)->UseManualTime()
 // The comparison (Fu, Bao, Peng against Heo, Jung, Wohn): office:N at 1280x720 with the
 // default converged rig and 2 threads; each iteration renders the full, the P-buffer and the
 // reproject pair in turn (alternated in one process, colour only as a display needs), and the
-// manual time is the reproject second eye. Counters: each method's eye times in ms, the
-// reproject parts, the holes, and, from one extra frame with depth and IDs, the reproject second
-// eye's PSNR and identical-pixel fraction against the full render of that eye.
+// manual time is the reproject second eye; Arg(1) == 1 fills by the BSP search (fill.h). Counters:
+// each method's eye times in ms, the reproject parts, the holes, and, from one extra frame with
+// depth and IDs, the reproject second eye's PSNR and identical-pixel fraction against the full
+// render of that eye.
 struct PairFixture {
     scene::Scene scene;
     StereoRig rig;
@@ -351,15 +356,16 @@ struct PairFixture {
 
     explicit PairFixture(int rooms)
         : scene(*scene::generateOffice(rooms)),
-          rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 1280, 720),
-                                 {})),
+          rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 1280, 720), {})),
           renderer(std::move(stereo::StereoRenderer::create({2})).value()) {
         PLX_CHECK(renderer->prepareReprojection(scene).isOk());
         prepareMs = renderer->lastPrepareMs();
     }
+    stereo::FillSearch search = stereo::FillSearch::kBoxHierarchy;
     stereo::StereoFrameStats pair(stereo::Method method, bool planes = false) {
         stereo::StereoOptions options;
         options.method = method;
+        options.fillSearch = search;
         options.writeDepthAndIds = planes;
         return renderer->renderPair(scene, rig, options, &frame);
     }
@@ -367,6 +373,7 @@ struct PairFixture {
 
 void BM_SecondEyeMethods(benchmark::State& state) {
     PairFixture f(int(state.range(0)));
+    if (state.range(1) == 1) f.search = stereo::FillSearch::kBspOrder;
     double fullFirst = 0, fullSecond = 0, pbufferSecond = 0, reprojectSecond = 0;
     double reprojectMs = 0, fillMs = 0, reprojectFirst = 0, fullPair = 0, reprojectPair = 0;
     stereo::StereoFrameStats last;
@@ -407,15 +414,13 @@ void BM_SecondEyeMethods(benchmark::State& state) {
     f.pair(stereo::Method::kFull, true);
     raster::FrameBuffers full = f.frame.eye(f.rig.secondEye());
     f.pair(stereo::Method::kReproject, true);
-    stereo::SecondEyeQuality q =
-        stereo::compareSecondEye(f.frame.eye(f.rig.secondEye()), full, {});
+    stereo::SecondEyeQuality q = stereo::compareSecondEye(f.frame.eye(f.rig.secondEye()), full, {});
     state.counters["psnr_db"] = q.psnrDb;
     state.counters["identical"] = 1.0 - q.differingFraction;
 }
 BENCHMARK(BM_SecondEyeMethods)
-    ->Arg(3)
-    ->Arg(28)
-    ->Arg(280)
+    ->ArgsProduct({{3, 28, 280}, {0, 1}})
+    ->ArgNames({"rooms", "bsp"})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime();
 
@@ -442,8 +447,8 @@ void BM_FillHoles(benchmark::State& state) {
     stereo::HoleSet holes;
     stereo::FillScratch scratch;
     stereo::FillOptions options;
-    options.expansion = interpolate ? stereo::ExpansionFill::kInterpolate
-                                    : stereo::ExpansionFill::kEvaluate;
+    options.expansion =
+        interpolate ? stereo::ExpansionFill::kInterpolate : stereo::ExpansionFill::kEvaluate;
     options.render = render;
     ThreadPool pool(2);
     ThreadPool* fillPool = state.range(2) == 1 ? nullptr : &pool;
@@ -454,8 +459,7 @@ void BM_FillHoles(benchmark::State& state) {
         stereo::SecondEyeTargets t{second.color.view(), second.depth.view(), second.id.view(),
                                    mask.view()};
         (void)stereo::reproject({std::as_const(first).color.view(),
-                                 std::as_const(first).depth.view(),
-                                 std::as_const(first).id.view()},
+                                 std::as_const(first).depth.view(), std::as_const(first).id.view()},
                                 stereo::disparityLine(f.rig), t, &pool);
         stereo::findHoles(std::as_const(mask).view(), stereo::HoleConnectivity::k8, holeScratch,
                           holes);
@@ -478,7 +482,8 @@ void BM_FillHoles(benchmark::State& state) {
     }
     const double perFrameNs = ms * 1e6 / double(state.iterations());
     state.counters["hole_pixels"] = double(holes.pixelCount);
-    state.counters["ns_per_hole_pixel"] = perFrameNs / double(std::max<int64_t>(holes.pixelCount, 1));
+    state.counters["ns_per_hole_pixel"] =
+        perFrameNs / double(std::max<int64_t>(holes.pixelCount, 1));
     state.counters["ns_per_polygon_tested"] =
         perFrameNs / double(std::max<size_t>(st.polygonsTested, 1));
     state.counters["polygons_tested"] = double(st.polygonsTested);

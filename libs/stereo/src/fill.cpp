@@ -13,6 +13,9 @@
 #include <plx/raster/span_fill.h>
 #include <plx/stereo/stereo.h>
 
+#include "box_search.h"
+#include "polygon_spans.h"
+
 namespace plx::stereo {
 
 using raster::PixelSpan;
@@ -30,6 +33,15 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
     for (size_t f = 0; f < fill.bsp.fragmentCount(); ++f) {
         uint16_t& n = fill.fragmentsOfTriangle[fill.bsp.fragment(f).sourceTriangle];
         if (n < std::numeric_limits<uint16_t>::max()) ++n;
+    }
+    const std::vector<uint32_t>& order = fill.boxes.triangles();
+    fill.boxCorners.resize(3 * order.size());
+    for (size_t i = 0; i < order.size(); ++i) {
+        const size_t mesh = scene.meshOfTriangle(order[i]);
+        const scene::Mesh& m = scene.meshes[mesh];
+        const size_t local = order[i] - scene.firstTriangle(mesh);
+        for (size_t k = 0; k < 3; ++k)
+            fill.boxCorners[3 * i + k] = m.positions[m.indices[3 * local + k]];
     }
     return fill;
 }
@@ -79,53 +91,6 @@ struct FillFrame {
     ImageView<uint8_t> holeClass;
 };
 
-// Whether the projection of a fragment (convex, its corners in order) may cover the sample of
-// a pixel in `spans` (row order): a cheaper test than setting up its triangle, on corners the
-// frustum test has just read. A span whose two end samples lie outside the same edge, by more
-// than kEdgeMarginPx, is missed whole (the edge function is linear along the row). Corners
-// nearer than the near plane, or a polygon of no area, answer yes. The margin covers the float
-// projection's rounding and the rasterizer's snapping to 1/256 pixel.
-bool fragmentMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
-                           std::span<const PixelSpan> spans) {
-    constexpr float kEdgeMarginPx = 1.0f / 16.0f;
-    constexpr size_t kMaxCorners = 32;
-    if (corners.size() > kMaxCorners) return true;
-    std::array<Vec2, kMaxCorners> p;
-    float minY = std::numeric_limits<float>::infinity(), maxY = -minY;
-    for (size_t i = 0; i < corners.size(); ++i) {
-        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
-        if (!(clip.w >= camera.desc().nearPlane)) return true;
-        p[i] = camera.pixelFromClip(clip);
-        minY = std::min(minY, p[i].y);
-        maxY = std::max(maxY, p[i].y);
-    }
-    float area2 = 0.0f;
-    const size_t n = corners.size();
-    for (size_t i = 0; i < n; ++i) {
-        const Vec2 &a = p[i], &b = p[(i + 1) % n];
-        area2 += a.x * b.y - b.x * a.y;
-    }
-    if (!(std::fabs(area2) > 1e-6f)) return true;
-    const float orientation = area2 > 0.0f ? 1.0f : -1.0f;
-    auto first = std::lower_bound(spans.begin(), spans.end(), int(std::floor(minY - 1.0f)),
-                                  [](const PixelSpan& s, int y) { return s.y < y; });
-    for (auto s = first; s != spans.end() && float(s->y) <= maxY + 1.0f; ++s) {
-        const float sy = float(s->y) + 0.5f, sx0 = float(s->x0) + 0.5f, sx1 = float(s->x1) + 0.5f;
-        bool missed = false;
-        for (size_t i = 0; i < n && !missed; ++i) {
-            const Vec2 &a = p[i], &b = p[(i + 1) % n];
-            const Vec2 edge = b - a;
-            // Inside where orientation * cross(edge, sample - a) >= 0.
-            const float limit = -kEdgeMarginPx * glm::length(edge);
-            float e0 = orientation * (edge.x * (sy - a.y) - edge.y * (sx0 - a.x));
-            float e1 = orientation * (edge.x * (sy - a.y) - edge.y * (sx1 - a.x));
-            missed = e0 < limit && e1 < limit;
-        }
-        if (!missed) return true;
-    }
-    return false;
-}
-
 class HoleFiller {
 public:
     HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : mFrame(frame), mSlot(slot) {}
@@ -135,15 +100,24 @@ public:
         mSlot.drawn.clear();
         mOpen = pixels;
         if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
-        if (mOpen > 0) search();
+        if (mOpen > 0) {
+            if (mFrame.options.search == FillSearch::kBspOrder) {
+                search();
+            } else {
+                const BoxSearchFrame frame{mFrame.scene, mFrame.fill, mFrame.camera,
+                                           mFrame.options.render, mFrame.targets};
+                searchBoxHierarchy(frame, mSlot.spans, &mSlot.stats);
+            }
+        }
         classify(piece);
     }
 
 private:
     // The paper's expansion fill, by evaluation: the hole's one polygon over its segments.
     void drawExpansion(uint32_t triangle) {
-        int64_t written = raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
-                                                      mFrame.options.render, mFrame.targets, mSlot.spans);
+        int64_t written =
+            raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
+                                        mFrame.options.render, mFrame.targets, mSlot.spans);
         if (written == 0) return;
         for (const PixelSpan& p : mSlot.spans)
             for (int x = p.x0; x <= p.x1; ++x)
@@ -176,16 +150,17 @@ private:
             }
             ++mSlot.stats.polygonsTested;
             if (!frustum.mayCoverPoints(bsp.fragmentVertices(fragment))) return true;
-            if (!fragmentMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans))
+            if (!polygonMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans))
                 return true;
             ++mSlot.stats.polygonsDrawn;
             if (fragments > 1) mSlot.drawn.push_back({tri, fragments - 1});
-            if (raster::drawTriangleInSpans(mFrame.scene, tri, mFrame.camera, mFrame.options.render, mFrame.targets,
-                                            mSlot.spans) > 0)
+            if (raster::drawTriangleInSpans(mFrame.scene, tri, mFrame.camera, mFrame.options.render,
+                                            mFrame.targets, mSlot.spans) > 0)
                 shrink();
             return mOpen > 0;
         };
-        mSlot.stats.nodesVisited += bsp.forEachFrontToBackPruned(mFrame.camera.eyePos(), acceptSubtree, visit);
+        mSlot.stats.nodesVisited +=
+            bsp.forEachFrontToBackPruned(mFrame.camera.eyePos(), acceptSubtree, visit);
     }
 
     DrawnTriangle* findDrawn(uint32_t triangle) {
@@ -343,8 +318,9 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
     }
     FillOptions drawOptions = options;
     drawOptions.render.colorOnly = false;
-    FillFrame frame{scene, fill, camera, drawOptions, second,
-                    {second.color, second.depth, second.id, {}}, holeClass};
+    FillFrame frame{scene,       fill,   camera,
+                    drawOptions, second, {second.color, second.depth, second.id, {}},
+                    holeClass};
     if (!scratch->mFrame) scratch->mFrame = std::make_unique<FillScratch::Frame>();
     FillScratch::Frame& pieces = *scratch->mFrame;
     makePieces(holes, interpolate, &pieces);
@@ -357,10 +333,10 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
         HoleFiller filler(frame, slot);
         for (size_t i = begin; i < end; ++i) {
             const FillPiece& piece = pieces.pieces[i];
-            filler.fill(holes.holes[piece.hole],
-                        std::span<const PixelSpan>(pieces.spans).subspan(piece.firstSpan,
-                                                                         piece.spanCount),
-                        piece.pixels);
+            filler.fill(
+                holes.holes[piece.hole],
+                std::span<const PixelSpan>(pieces.spans).subspan(piece.firstSpan, piece.spanCount),
+                piece.pixels);
         }
     };
     // Pieces differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small

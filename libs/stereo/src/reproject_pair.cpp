@@ -126,6 +126,7 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     frame->holeClass.view().fill(uint8_t(PixelSource::kReprojected));
     FillOptions fillOptions;
     fillOptions.render = firstOptions;
+    fillOptions.search = options.fillSearch;
     FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to,
                                  frame->holeClass.view(), &mFillScratch, &mPool);
     stats->fillMs = clock.elapsedMs();
@@ -135,7 +136,8 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     stats->expansionPixels = filled.expansionPixels;
     stats->disocclusionPixels = filled.disocclusionPixels + filled.emptyPixels;
     countHoles(mHoles, stats);
-    stats->fillNodesVisited = filled.nodesVisited;
+    stats->fillNodesVisited =
+        options.fillSearch == FillSearch::kBspOrder ? filled.nodesVisited : filled.boxNodesTested;
     stats->fillPolygonsTested = filled.polygonsTested;
     stats->fillPolygonsDrawn = filled.polygonsDrawn;
     stats->secondEyeTriangles = filled.polygonsDrawn;

@@ -230,12 +230,11 @@ TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
         raster::FrameBuffers second;
         second.resize(320, 240);
         Image<uint8_t> mask(320, 240), cls(320, 240, 0);
-        SecondEyeTargets t{second.color.view(), second.depth.view(), second.id.view(),
-                           mask.view()};
+        SecondEyeTargets t{second.color.view(), second.depth.view(), second.id.view(), mask.view()};
         const raster::FrameBuffers& from = first;
-        ASSERT_TRUE(reproject({from.color.view(), from.depth.view(), from.id.view()},
-                              disparityLine(rig), t)
-                        .isOk());
+        ASSERT_TRUE(
+            reproject({from.color.view(), from.depth.view(), from.id.view()}, disparityLine(rig), t)
+                .isOk());
         HoleScratch hs;
         HoleSet holes;
         findHoles(std::as_const(mask).view(), HoleConnectivity::k8, hs, holes);
@@ -253,6 +252,36 @@ TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
         }
     }
     EXPECT_LE(differing[0], differing[1]);
+}
+
+// The two disocclusion searches (fill.h) fill every hole pixel alike: whole second eyes and hole
+// classes identical, on office scenes for every rig.
+TEST(Fill, BoxHierarchySearchGivesTheBspSearchsFrame) {
+    for (int rooms : {2, 6}) {
+        scene::Scene s = *scene::generateOffice(rooms);
+        auto r = std::move(StereoRenderer::create({2})).value();
+        ASSERT_TRUE(r->prepareReprojection(s).isOk());
+        for (const StereoRigDesc& desc : allRigs()) {
+            StereoRig rig =
+                *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 320, 240), desc);
+            StereoOptions options;
+            options.method = Method::kReproject;
+            StereoFrame frames[2];
+            StereoFrameStats stats[2];
+            for (int i = 0; i < 2; ++i) {
+                options.fillSearch = i == 0 ? FillSearch::kBspOrder : FillSearch::kBoxHierarchy;
+                stats[i] = r->renderPair(s, rig, options, &frames[i]);
+            }
+            const std::string what = std::to_string(rooms) + " rooms, " + rigName(desc);
+            EXPECT_GT(stats[0].disocclusionHoles, 0u) << what;
+            for (Eye e : {Eye::kLeft, Eye::kRight}) {
+                EXPECT_TRUE(frames[0].eye(e).color == frames[1].eye(e).color) << what;
+                EXPECT_TRUE(frames[0].eye(e).depth == frames[1].eye(e).depth) << what;
+                EXPECT_TRUE(frames[0].eye(e).id == frames[1].eye(e).id) << what;
+            }
+            EXPECT_TRUE(frames[0].holeClass == frames[1].holeClass) << what;
+        }
+    }
 }
 
 // Holes run in parallel with per-thread scratch; the result equals one thread's, on every ISA

@@ -24,6 +24,7 @@
 
 #include <plx/raster/raster.h>
 #include <plx/raster/visible_set.h>
+#include <plx/stereo/fill.h>
 
 namespace plx::stereo {
 
@@ -43,14 +44,16 @@ struct StereoOptions {
     raster::RenderOptions render;
     // reproject method: the offset look-up table instead of the direct form (reproject.h).
     bool reprojectWithLut = false;
+    // reproject method: the disocclusion search (fill.h); the BSP order is the paper's.
+    FillSearch fillSearch = FillSearch::kBoxHierarchy;
 };
 
 // Per second-eye pixel, how the reproject method produced it (StereoFrame::holeClass).
 enum class PixelSource : uint8_t {
-    kReprojected = 0,         // moved from the first eye
-    kExpansion = 1,           // expansion hole, drawn from its polygon
-    kDisocclusion = 2,        // disocclusion hole, drawn from the polygon the BSP search found
-    kDisocclusionEmpty = 3,   // disocclusion hole no polygon covers: clear colour, depth 0
+    kReprojected = 0,        // moved from the first eye
+    kExpansion = 1,          // expansion hole, drawn from its polygon
+    kDisocclusion = 2,       // disocclusion hole, drawn from the polygon the search found
+    kDisocclusionEmpty = 3,  // disocclusion hole no polygon covers: clear colour, depth 0
 };
 
 struct StereoFrameStats {
@@ -60,28 +63,28 @@ struct StereoFrameStats {
     // The rest of the visible-set collection (pbuffer method): gathering the threads' finds and
     // sorting them; with --conservative, the pass over the cropped P-buffer and the extra sets.
     double collectMs = 0.0;
-    double secondEyeMs = 0.0;   // second eye (full render, or the visible subset)
-    double pairMs = 0.0;        // first + collect + second
-    size_t triangles = 0;               // scene triangles
+    double secondEyeMs = 0.0;  // second eye (full render, or the visible subset)
+    double pairMs = 0.0;       // first + collect + second
+    size_t triangles = 0;      // scene triangles
     // Distinct IDs in the first eye's P-buffer (full method: 0 when its IDs are not written).
     size_t visibleTriangles = 0;
-    size_t secondEyeTriangles = 0;      // triangles submitted for the second eye
-    size_t conservativeExtra = 0;       // triangles the conservative option added
-    int guardBandPx = 0;                // extra first-eye columns on each side (conservative)
+    size_t secondEyeTriangles = 0;  // triangles submitted for the second eye
+    size_t conservativeExtra = 0;   // triangles the conservative option added
+    int guardBandPx = 0;            // extra first-eye columns on each side (conservative)
 
     // reproject method; secondEyeMs = reprojectMs + fillMs.
-    double reprojectMs = 0.0;       // moving the pixels, finding and classifying the holes
-    double fillMs = 0.0;            // drawing the expansion and disocclusion holes
-    int64_t holePixels = 0;         // second-eye pixels no first-eye pixel landed on
-    int64_t expansionPixels = 0;     // drawn from an expansion hole's polygon (PixelSource 1)
+    double reprojectMs = 0.0;     // moving the pixels, finding and classifying the holes
+    double fillMs = 0.0;          // drawing the expansion and disocclusion holes
+    int64_t holePixels = 0;       // second-eye pixels no first-eye pixel landed on
+    int64_t expansionPixels = 0;  // drawn from an expansion hole's polygon (PixelSource 1)
     // The rest of the hole pixels (PixelSource 2 and 3): disocclusion holes, and the pixels of
     // expansion holes their polygon does not cover, which fall through to the search.
     int64_t disocclusionPixels = 0;
     size_t expansionHoles = 0;
     size_t disocclusionHoles = 0;
-    size_t fillNodesVisited = 0;      // BSP nodes the disocclusion searches reached
-    size_t fillPolygonsTested = 0;    // fragments given the separating test
-    size_t fillPolygonsDrawn = 0;     // fragments whose triangle was scan-converted into a hole
+    size_t fillNodesVisited = 0;    // nodes of FillSearch's tree the searches reached
+    size_t fillPolygonsTested = 0;  // fragments given the separating test
+    size_t fillPolygonsDrawn = 0;   // fragments whose triangle was scan-converted into a hole
 };
 
 // Colour, depth and IDs of both eyes.
@@ -125,11 +128,11 @@ private:
 
 // Quality of an approximate second eye against the full render of the same eye.
 struct SecondEyeQuality {
-    double psnrDb = 0.0;              // RGB, +infinity when identical
-    double differingFraction = 0.0;   // pixels whose colour differs at all
+    double psnrDb = 0.0;             // RGB, +infinity when identical
+    double differingFraction = 0.0;  // pixels whose colour differs at all
     int64_t differingPixels = 0;
-    size_t missedPolygons = 0;        // polygons visible in the full render but not drawn
-    int64_t missedPixels = 0;         // pixels whose ID differs from the full render
+    size_t missedPolygons = 0;  // polygons visible in the full render but not drawn
+    int64_t missedPixels = 0;   // pixels whose ID differs from the full render
 };
 
 // drawn: the triangle set the approximation was rendered from (sorted ascending). Both frames

@@ -215,6 +215,14 @@ Status decodeReferenceView(std::span<const uint8_t> bytes, const DecodeLimits& l
     const std::span<const uint8_t> disparity = readSized(r, "disparityBytes");
     r.expectEnd();
     if (!r.ok()) return r.status();
+    // The payloads' own headers agree with the view's size before the images are allocated.
+    const size_t pixels = size_t(h.camera.width) * size_t(h.camera.height);
+    PLX_RETURN_IF_ERROR(withContext(
+        checkColorHeader(h.color, color, h.camera.width, h.camera.height), "reference view"));
+    PLX_RETURN_IF_ERROR(withContext(
+        checkZstdFrame(disparity, pixels * (h.disparity == DisparityCodec::kQuantized16 ? 2 : 4),
+                       "disparity"),
+        "reference view"));
     out->camera = *camera;
     out->color.resize(h.camera.width, h.camera.height);
     out->disparity.resize(h.camera.width, h.camera.height);

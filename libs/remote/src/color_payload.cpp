@@ -35,20 +35,26 @@ Status encodeJpeg(const Image<Rgba8>& color, const CodecOptions& o, std::vector<
     return {};
 }
 
-// Checks the header's size before decompressing; warnings (truncated data) are errors, and at
-// most TurboJPEG's scan limit of progressive scans is decoded (a bound on decoding time).
+// The JPEG header's size against the view's.
+Status checkJpegHeader(void* tj, std::span<const uint8_t> in, int width, int height) {
+    int w = 0, h = 0, samp = 0, colorspace = 0;
+    if (tjDecompressHeader3(tj, in.data(), in.size(), &w, &h, &samp, &colorspace) != 0) {
+        return {ErrorCode::kCorruptData, fmt::format("colour JPEG header: {}", tjGetErrorStr2(tj))};
+    }
+    if (w != width || h != height) {
+        return {ErrorCode::kCorruptData,
+                fmt::format("colour JPEG is {}x{}, the view {}x{}", w, h, width, height)};
+    }
+    return {};
+}
+
+// Warnings (truncated data) are errors, and at most TurboJPEG's scan limit of progressive scans
+// is decoded (a bound on decoding time).
 Status decodeJpeg(std::span<const uint8_t> in, Image<Rgba8>* color) {
     TjHandle tj(tjInitDecompress());
     if (!tj) return {ErrorCode::kInternal, "TurboJPEG: cannot create a decompressor"};
-    int w = 0, h = 0, samp = 0, colorspace = 0;
-    if (tjDecompressHeader3(tj.get(), in.data(), in.size(), &w, &h, &samp, &colorspace) != 0) {
-        return {ErrorCode::kCorruptData,
-                fmt::format("colour JPEG header: {}", tjGetErrorStr2(tj.get()))};
-    }
-    if (w != color->width() || h != color->height()) {
-        return {ErrorCode::kCorruptData, fmt::format("colour JPEG is {}x{}, the view {}x{}", w, h,
-                                                     color->width(), color->height())};
-    }
+    const int w = color->width(), h = color->height();
+    PLX_RETURN_IF_ERROR(checkJpegHeader(tj.get(), in, w, h));
     if (tjDecompress2(tj.get(), in.data(), in.size(),
                       reinterpret_cast<unsigned char*>(color->data()), w, 0, h, TJPF_RGBA,
                       TJFLAG_STOPONWARNING | TJFLAG_LIMITSCANS) != 0) {
@@ -69,6 +75,13 @@ Status encodeColor(const Image<Rgba8>& color, const CodecOptions& options,
         rgb[3 * i + 2] = color.data()[i].b;
     }
     return zstdCompress(rgb, options.zstdLevel, out);
+}
+
+Status checkColorHeader(ColorCodec codec, std::span<const uint8_t> in, int width, int height) {
+    if (codec == ColorCodec::kZstd) return checkZstdFrame(in, size_t(width) * height * 3, "colour");
+    TjHandle tj(tjInitDecompress());
+    if (!tj) return {ErrorCode::kInternal, "TurboJPEG: cannot create a decompressor"};
+    return checkJpegHeader(tj.get(), in, width, height);
 }
 
 Status decodeColor(ColorCodec codec, std::span<const uint8_t> in, Image<Rgba8>* color) {

@@ -15,6 +15,9 @@ namespace plx::remote {
 
 // zstd: compresses `in` as one frame with its content size recorded.
 Status zstdCompress(std::span<const uint8_t> in, int level, std::vector<uint8_t>* out);
+// Checks, without decompressing, that `in` is exactly one zstd frame whose recorded content size
+// is `expected`.
+Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* field);
 // Decompresses one zstd frame whose recorded content size must be exactly out.size(). field
 // names the payload in errors.
 Status zstdDecompressExact(std::span<const uint8_t> in, std::span<uint8_t> out, const char* field);
@@ -22,6 +25,9 @@ Status zstdDecompressExact(std::span<const uint8_t> in, std::span<uint8_t> out, 
 // Colour as JPEG (TurboJPEG, alpha dropped) or zstd of raw RGB.
 Status encodeColor(const Image<Rgba8>& color, const CodecOptions& options,
                    std::vector<uint8_t>* out);
+// Checks a colour payload's header (JPEG size, zstd content size) against the view's size before
+// anything is allocated for it.
+Status checkColorHeader(ColorCodec codec, std::span<const uint8_t> in, int width, int height);
 // Decodes into *color, already of the view's size; alpha becomes 255.
 Status decodeColor(ColorCodec codec, std::span<const uint8_t> in, Image<Rgba8>* color);
 

@@ -84,12 +84,16 @@ struct ViewHeader {
     DisparityRange range;
 };
 
-ViewHeader readViewHeader(ByteReader& r, const DecodeLimits& limits) {
-    ViewHeader h;
+void readVersion(ByteReader& r) {
     if (const uint8_t v = r.u8("version"); r.ok() && v != kCodecVersion) {
         r.fail(ErrorCode::kUnsupported, "codec version {} (this decoder reads {})", v,
                kCodecVersion);
     }
+}
+
+// Version, codecs and the reserved byte.
+void readCodecs(ByteReader& r, ViewHeader* h) {
+    readVersion(r);
     const uint8_t color = r.u8("colorCodec"), disparity = r.u8("disparityCodec");
     const uint8_t reserved = r.u8("reserved");
     if (r.ok() && color != uint8_t(ColorCodec::kJpeg) && color != uint8_t(ColorCodec::kZstd)) {
@@ -100,34 +104,49 @@ ViewHeader readViewHeader(ByteReader& r, const DecodeLimits& limits) {
         r.fail(ErrorCode::kCorruptData, "unknown disparityCodec {}", disparity);
     }
     if (r.ok() && reserved != 0) r.fail(ErrorCode::kCorruptData, "reserved byte is {}", reserved);
-    h.color = ColorCodec(color);
-    h.disparity = DisparityCodec(disparity);
-    const int width = r.u16("width"), height = r.u16("height");
-    if (r.ok() && (width < 1 || height < 1 || width > limits.maxViewSide ||
-                   height > limits.maxViewSide || int64_t(width) * height > limits.maxViewPixels)) {
-        r.fail(ErrorCode::kOutOfRange, "size {}x{} outside 1..{} a side and {} pixels", width,
-               height, limits.maxViewSide, limits.maxViewPixels);
+    h->color = ColorCodec(color);
+    h->disparity = DisparityCodec(disparity);
+}
+
+// Size (against the limits) and the camera's fields; Camera::create checks the rest.
+void readCamera(ByteReader& r, const DecodeLimits& limits, CameraDesc* c) {
+    c->width = r.u16("width");
+    c->height = r.u16("height");
+    if (r.ok() &&
+        (c->width < 1 || c->height < 1 || c->width > limits.maxViewSide ||
+         c->height > limits.maxViewSide || int64_t(c->width) * c->height > limits.maxViewPixels)) {
+        r.fail(ErrorCode::kOutOfRange, "size {}x{} outside 1..{} a side and {} pixels", c->width,
+               c->height, limits.maxViewSide, limits.maxViewPixels);
     }
-    h.camera.width = width;
-    h.camera.height = height;
-    h.camera.eyePos = r.vec3("eyePos");
-    h.camera.targetPos = r.vec3("targetPos");
-    h.camera.upDir = r.vec3("upDir");
-    h.camera.fovYDegrees = r.f32("fovYDegrees");
-    h.camera.nearPlane = r.f32("nearPlane");
-    h.camera.farPlane = r.f32("farPlane");
-    h.camera.principalShiftPx.x = r.f32("principalShiftPx");
-    h.camera.principalShiftPx.y = r.f32("principalShiftPx");
-    h.range.dmin = r.f32("dmin");
-    h.range.dmax = r.f32("dmax");
-    const bool q16 = h.disparity == DisparityCodec::kQuantized16;
-    const bool rangeOk = q16 ? (h.range.dmin > 0.0f && h.range.dmax >= h.range.dmin) ||
-                                   (h.range.dmin == 0.0f && h.range.dmax == 0.0f)
-                             : h.range.dmin == 0.0f && h.range.dmax == 0.0f;
-    if (r.ok() && !rangeOk) {
+    c->eyePos = r.vec3("eyePos");
+    c->targetPos = r.vec3("targetPos");
+    c->upDir = r.vec3("upDir");
+    c->fovYDegrees = r.f32("fovYDegrees");
+    c->nearPlane = r.f32("nearPlane");
+    c->farPlane = r.f32("farPlane");
+    c->principalShiftPx.x = r.f32("principalShiftPx");
+    c->principalShiftPx.y = r.f32("principalShiftPx");
+}
+
+// The q16 range: 0 < dmin <= dmax, or both 0 (nothing drawn); both 0 for the raw codec.
+void readDisparityRange(ByteReader& r, DisparityCodec codec, DisparityRange* range) {
+    range->dmin = r.f32("dmin");
+    range->dmax = r.f32("dmax");
+    const bool empty = range->dmin == 0.0f && range->dmax == 0.0f;
+    const bool valid = codec == DisparityCodec::kQuantized16
+                           ? empty || (range->dmin > 0.0f && range->dmax >= range->dmin)
+                           : empty;
+    if (r.ok() && !valid) {
         r.fail(ErrorCode::kCorruptData, "disparity range [{}, {}] invalid for its codec",
-               h.range.dmin, h.range.dmax);
+               range->dmin, range->dmax);
     }
+}
+
+ViewHeader readViewHeader(ByteReader& r, const DecodeLimits& limits) {
+    ViewHeader h;
+    readCodecs(r, &h);
+    readCamera(r, limits, &h.camera);
+    readDisparityRange(r, h.disparity, &h.range);
     return h;
 }
 
@@ -161,6 +180,48 @@ std::span<const uint8_t> readSized(ByteReader& r, const char* field) {
 
 Status withContext(const Status& s, const std::string& context) {
     return s.isOk() ? s : Status(s.code(), context + ": " + s.message());
+}
+
+// The set's fixed header: version, view count, pose and render time; returns the view count.
+int readSetHeader(ByteReader& r, const DecodeLimits& limits, warp::ReferenceSet* header) {
+    readVersion(r);
+    const int count = r.u8("viewCount");
+    const int maxViews = std::min(6, limits.maxViews);
+    if (r.ok() && (count < 1 || count > maxViews)) {
+        r.fail(ErrorCode::kOutOfRange, "viewCount {} outside 1..{}", count, maxViews);
+    }
+    if (const uint16_t reserved = r.u16("reserved"); r.ok() && reserved != 0) {
+        r.fail(ErrorCode::kCorruptData, "reserved field is {}", reserved);
+    }
+    header->pose.eye = r.vec3("eye");
+    header->pose.forward = r.vec3("forward");
+    header->pose.up = r.vec3("up");
+    const float renderMs = r.f32("renderMs");
+    if (r.ok() && !(renderMs >= 0.0f && renderMs < 1e6f)) {
+        r.fail(ErrorCode::kCorruptData, "renderMs {} outside [0, 1e6)", renderMs);
+    }
+    header->renderMs = renderMs;
+    return count;
+}
+
+// Every view's bytes, read before any is decoded so that the set's pixel budget (from the views'
+// width and height fields) is checked before the bulk of the allocation.
+std::vector<std::span<const uint8_t>> readViewSpans(ByteReader& r, int count,
+                                                    const DecodeLimits& limits) {
+    std::vector<std::span<const uint8_t>> views;
+    int64_t pixels = 0;
+    for (int i = 0; i < count && r.ok(); ++i) {
+        views.push_back(readSized(r, "viewBytes"));
+        if (r.ok() && views.back().size() >= 8) {
+            const auto& v = views.back();
+            pixels += int64_t(v[4] | (v[5] << 8)) * int64_t(v[6] | (v[7] << 8));
+        }
+    }
+    r.expectEnd();
+    if (r.ok() && pixels > limits.maxSetPixels) {
+        r.fail(ErrorCode::kOutOfRange, "{} pixels over the limit {}", pixels, limits.maxSetPixels);
+    }
+    return views;
 }
 
 }  // namespace
@@ -262,46 +323,14 @@ Result<std::vector<uint8_t>> encodeReferenceSet(const warp::ReferenceSet& set,
 Status decodeReferenceSet(std::span<const uint8_t> bytes, const DecodeLimits& limits,
                           warp::ReferenceSet* out) {
     ByteReader r(bytes, "reference set");
-    if (const uint8_t v = r.u8("version"); r.ok() && v != kCodecVersion) {
-        r.fail(ErrorCode::kUnsupported, "codec version {} (this decoder reads {})", v,
-               kCodecVersion);
-    }
-    const int count = r.u8("viewCount");
-    if (r.ok() && (count < 1 || count > std::min(6, limits.maxViews))) {
-        r.fail(ErrorCode::kOutOfRange, "viewCount {} outside 1..{}", count,
-               std::min(6, limits.maxViews));
-    }
-    if (const uint16_t reserved = r.u16("reserved"); r.ok() && reserved != 0) {
-        r.fail(ErrorCode::kCorruptData, "reserved field is {}", reserved);
-    }
-    warp::Pose pose;
-    pose.eye = r.vec3("eye");
-    pose.forward = r.vec3("forward");
-    pose.up = r.vec3("up");
-    const float renderMs = r.f32("renderMs");
-    if (r.ok() && !(renderMs >= 0.0f && renderMs < 1e6f)) {
-        r.fail(ErrorCode::kCorruptData, "renderMs {} outside [0, 1e6)", renderMs);
-    }
+    warp::ReferenceSet header;
+    const int count = readSetHeader(r, limits, &header);
     if (!r.ok()) return r.status();
-    if (Status s = warp::checkPose(pose); !s.isOk()) return withContext(s, "reference set");
-    // Every view's size is read before any is decoded, so the set's pixel budget is checked
-    // before the bulk of the allocation.
-    std::vector<std::span<const uint8_t>> views;
-    int64_t pixels = 0;
-    for (int i = 0; i < count && r.ok(); ++i) {
-        views.push_back(readSized(r, "viewBytes"));
-        if (r.ok() && views.back().size() >= 8) {
-            const auto& v = views.back();
-            pixels += int64_t(v[4] | (v[5] << 8)) * int64_t(v[6] | (v[7] << 8));
-        }
-    }
-    r.expectEnd();
-    if (r.ok() && pixels > limits.maxSetPixels) {
-        r.fail(ErrorCode::kOutOfRange, "{} pixels over the limit {}", pixels, limits.maxSetPixels);
-    }
+    if (Status s = warp::checkPose(header.pose); !s.isOk()) return withContext(s, "reference set");
+    const std::vector<std::span<const uint8_t>> views = readViewSpans(r, count, limits);
     if (!r.ok()) return r.status();
-    out->pose = pose;
-    out->renderMs = renderMs;
+    out->pose = header.pose;
+    out->renderMs = header.renderMs;
     out->views.resize(size_t(count));
     for (int i = 0; i < count; ++i) {
         const Status s = decodeReferenceView(views[size_t(i)], limits, &out->views[size_t(i)]);

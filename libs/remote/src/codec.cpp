@@ -47,12 +47,23 @@ Status checkView(const warp::ReferenceView& v) {
         return {ErrorCode::kInvalidArgument,
                 "reference view: colour, disparity or row ranges differ from the camera's size"};
     }
-    for (size_t i = 0; i < v.disparity.pixelCount(); ++i) {
-        const float d = v.disparity.data()[i];
-        if (!(std::isfinite(d) && d >= 0.0f)) {
-            return {ErrorCode::kInvalidArgument,
-                    fmt::format("reference view: disparity {} at pixel {} is not finite and >= 0",
-                                d, i)};
+    // Each pixel finite and within its row's range (which implies >= 0 for a valid range): what
+    // the decoder will hold the decoded pixels to.
+    for (int y = 0; y < h; ++y) {
+        const float lo = v.rowMinDisparity[size_t(y)], hi = v.rowMaxDisparity[size_t(y)];
+        if (!(lo >= 0.0f && hi >= lo && std::isfinite(hi))) {
+            return {
+                ErrorCode::kInvalidArgument,
+                fmt::format("reference view: row {} disparity range [{}, {}] invalid", y, lo, hi)};
+        }
+        for (int x = 0; x < w; ++x) {
+            const float d = v.disparity.at(x, y);
+            if (!(d >= lo && d <= hi)) {
+                return {ErrorCode::kInvalidArgument,
+                        fmt::format("reference view: disparity {} at ({}, {}) outside its row's "
+                                    "range [{}, {}]",
+                                    d, x, y, lo, hi)};
+            }
         }
     }
     return {};

@@ -248,7 +248,13 @@ TEST(Codec, BadOptionsAndViewsAreInvalidArguments) {
     expectOneLineError(encodeReferenceView(view, o).status(), "JPEG quality 0");
     warp::ReferenceView bad = view;
     bad.disparity.at(3, 3) = -1.0f;
-    expectOneLineError(encodeReferenceView(bad, {}).status(), "disparity -1");
+    expectOneLineError(encodeReferenceView(bad, {}).status(), "disparity -1 at (3, 3)");
+    bad = view;
+    bad.rowMaxDisparity[5] = bad.rowMinDisparity[5] - 1.0f;
+    expectOneLineError(encodeReferenceView(bad, {}).status(), "row 5 disparity range");
+    bad = view;
+    bad.disparity.at(2, 7) = bad.rowMaxDisparity[7] * 2.0f + 1.0f;
+    expectOneLineError(encodeReferenceView(bad, {}).status(), "outside its row's range");
     bad = view;
     bad.rowMinDisparity.pop_back();
     expectOneLineError(encodeReferenceView(bad, {}).status(), "row ranges");

@@ -42,8 +42,9 @@ struct DecodeLimits {
 constexpr uint8_t kCodecVersion = 1;
 
 // Encodes one view. Preconditions (errors otherwise, kInvalidArgument): colour and disparity of
-// the camera's size, row ranges of its height, sides <= 65535, disparities finite and >= 0,
-// options in range.
+// the camera's size, row ranges of its height with 0 <= min <= max, finite, every disparity
+// within its row's range (computeRowDisparityRange makes them so), sides <= 65535, options in
+// range.
 Result<std::vector<uint8_t>> encodeReferenceView(const warp::ReferenceView& view,
                                                  const CodecOptions& options);
 

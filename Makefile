@@ -4,7 +4,7 @@ PRESET ?= release
 BUILD_DIR := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps configure build demo test test-one test-release test-scalar test-asan bench format clean
+.PHONY: deps configure build demo test test-one test-release test-scalar test-asan fuzz bench format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -34,6 +34,13 @@ test-scalar:
 
 test-asan:
 	$(MAKE) test-one PRESET=asan
+
+# Bounded libFuzzer runs (clang, ASan + UBSan) of every decoder of untrusted bytes: PTM files,
+# remote protocol messages and reference views. FUZZ_SECONDS per target.
+FUZZ_SECONDS ?= 60
+fuzz:
+	scripts/fuzz-ptm.sh $(FUZZ_SECONDS)
+	scripts/fuzz-remote.sh $(FUZZ_SECONDS)
 
 bench: build
 	scripts/run-benchmarks.sh $(BUILD_DIR)

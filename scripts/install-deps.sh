@@ -7,7 +7,7 @@ packages=(
     # build, tests, benchmarks
     cmake ninja-build g++ make pkg-config libgtest-dev libgmock-dev libbenchmark-dev
     # libraries the toolkit links
-    libglm-dev libtbb-dev libassimp-dev libpng-dev libjpeg-dev libzstd-dev
+    libglm-dev libtbb-dev libassimp-dev libpng-dev libjpeg-dev libturbojpeg0-dev libzstd-dev
     libcli11-dev nlohmann-json3-dev libfmt-dev
     # OpenGL peer (Mesa llvmpipe through EGL, no display needed)
     libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri mesa-common-dev

@@ -28,4 +28,7 @@ if [ ${#textures[@]} -gt 0 ]; then
 else
     echo "(../shared/data/textures/sponza absent: skipped)"
 fi
+echo "== remote rendering: reference-set codec (docs/remote-results.md)"
+"$build/libs/remote/plx_remote_bench" --benchmark_out="$out/remote_bench.json" \
+    --benchmark_out_format=json
 echo "results in $out"

@@ -1,0 +1,116 @@
+#pragma once
+// The remote rendering wire protocol, version 1 (docs/remote-protocol.md): one WebSocket binary
+// message = one protocol message = a type byte, the type's fixed header, its payload; all
+// little-endian. Encoders take well-formed messages (preconditions below); decoders take
+// untrusted bytes and return one-line errors naming the field.
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <plx/core/status.h>
+#include <plx/remote/codec.h>
+#include <plx/warp/warp.h>
+
+namespace plx::remote {
+
+constexpr uint16_t kProtocolVersion = 1;
+
+enum class MessageType : uint8_t {
+    kClientHello = 1,
+    kServerHello = 2,
+    kPose = 3,
+    kReferenceSet = 4,
+    kPing = 5,
+    kPong = 6,
+    kError = 7,
+    kBye = 8,
+};
+
+// Limits of docs/remote-protocol.md.
+constexpr int kMaxTokenBytes = 256;
+constexpr int kMaxTextBytes = 1024;  // refusal reasons, error and bye texts
+constexpr int kMinFaceSize = 16;
+constexpr int kMaxFaceSize = 4096;
+constexpr size_t kMaxPoseMessageBytes = 256;
+constexpr size_t kMaxReferenceSetMessageBytes = size_t(64) << 20;
+
+// The first message of a session, client to server.
+struct ClientHello {
+    uint16_t version = kProtocolVersion;                           // the client's protocol version
+    warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;  // requested
+    int faceSize = 512;  // requested pixels per face side, kMinFaceSize..kMaxFaceSize
+    std::string token;   // opaque credential, at most kMaxTokenBytes
+};
+
+// The server's answer: accepted with what it will send, or refused with a reason.
+struct ServerHello {
+    uint16_t version = kProtocolVersion;
+    bool accepted = true;
+    warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;
+    int faceSize = 512;    // kMinFaceSize..kMaxFaceSize
+    int poseRateHz = 120;  // Pose messages per second it reads, 1..1000
+    std::string reason;    // empty when accepted, 1..kMaxTextBytes when refused
+};
+
+// A tracked head pose, client to server.
+struct PoseMessage {
+    uint64_t timestampUs = 0;  // tracker sample time, client clock
+    warp::Pose pose;           // eye within +-1e6 m; forward, up unit within 1e-3, not parallel
+    bool hasVelocity = false;
+    Vec3 velocity{0.0f};  // metres per second, each component within +-1000; 0 without velocity
+};
+
+// A reference set rendered for a pose, server to client.
+struct ReferenceSetMessage {
+    uint32_t sequence = 0;            // 0, 1, 2, ... per session
+    uint64_t requestTimestampUs = 0;  // the pose's timestampUs, echoed
+    warp::ReferenceSet set;
+};
+
+struct Ping {
+    uint64_t timestampUs = 0;  // sender's clock
+    uint32_t nonce = 0;
+};
+struct Pong {
+    uint64_t timestampUs = 0;  // copied from the Ping
+    uint32_t nonce = 0;
+};
+
+enum class ErrorKind : uint16_t {
+    kProtocol = 1,
+    kTooLarge = 2,
+    kUnauthorized = 3,
+    kOverloaded = 4,
+    kInternal = 5,
+};
+struct ErrorMessage {
+    ErrorKind kind = ErrorKind::kProtocol;
+    std::string text;  // one line, at most kMaxTextBytes
+};
+
+enum class ByeReason : uint16_t { kNormal = 0, kGoingAway = 1, kIdleTimeout = 2 };
+struct Bye {
+    ByeReason reason = ByeReason::kNormal;
+    std::string text;  // at most kMaxTextBytes
+};
+
+using Message = std::variant<ClientHello, ServerHello, PoseMessage, ReferenceSetMessage, Ping, Pong,
+                             ErrorMessage, Bye>;
+
+MessageType messageType(const Message& message);
+const char* messageTypeName(MessageType type);
+
+// Encodes one message. codec applies to reference sets only. Errors (kInvalidArgument): a field
+// outside its documented range (the decoder would refuse it), a set the codec refuses.
+Result<std::vector<uint8_t>> encodeMessage(const Message& message, const CodecOptions& codec = {});
+
+// Decodes one message from untrusted bytes: sizes checked before allocation (reference sets
+// against `limits`), floats finite and in range, unknown types and versions and trailing bytes
+// refused. A ClientHello of another version decodes (the server answers it with a refusal);
+// every other message is version 1 by the session's handshake.
+Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits = {});
+
+}  // namespace plx::remote

@@ -1,0 +1,56 @@
+#pragma once
+// The colour and disparity payloads of an encoded reference view (docs/remote-protocol.md,
+// "Encoded reference view"). Decoders take untrusted bytes and an output already sized by the
+// view header (whose limits were checked before it was allocated).
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <plx/core/image.h>
+#include <plx/core/status.h>
+#include <plx/remote/codec.h>
+
+namespace plx::remote {
+
+// zstd: compresses `in` as one frame with its content size recorded.
+Status zstdCompress(std::span<const uint8_t> in, int level, std::vector<uint8_t>* out);
+// Checks, without decompressing, that `in` is exactly one zstd frame whose recorded content size
+// is `expected`.
+Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* field);
+// Decompresses one zstd frame whose recorded content size must be exactly out.size(). field
+// names the payload in errors.
+Status zstdDecompressExact(std::span<const uint8_t> in, std::span<uint8_t> out, const char* field);
+
+// Colour as JPEG (TurboJPEG, alpha dropped) or zstd of raw RGB.
+Status encodeColor(const Image<Rgba8>& color, const CodecOptions& options,
+                   std::vector<uint8_t>* out);
+// Checks a colour payload's header (JPEG size, zstd content size) against the view's size before
+// anything is allocated for it.
+Status checkColorHeader(ColorCodec codec, std::span<const uint8_t> in, int width, int height);
+// Decodes into *color, already of the view's size; alpha becomes 255.
+Status decodeColor(ColorCodec codec, std::span<const uint8_t> in, Image<Rgba8>* color);
+
+// The smallest non-zero and the largest disparity of a view (both 0 when nothing is drawn).
+struct DisparityRange {
+    float dmin = 0.0f;
+    float dmax = 0.0f;
+};
+DisparityRange disparityRange(const Image<float>& disparity);
+
+// q16: quantised, row-predicted residual planes, zstd (docs/remote-protocol.md, "Disparity, q16").
+Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, int level,
+                          std::vector<uint8_t>* out);
+// Decodes into *disparity, already of the view's size, clamping each drawn pixel to its row's
+// range (rowMin, rowMax: one entry per row).
+Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityRange range,
+                          std::span<const float> rowMin, std::span<const float> rowMax,
+                          Image<float>* disparity);
+
+// Raw: zstd of the little-endian floats; decoding checks each is finite, >= 0 and in its row's
+// range.
+Status encodeDisparityRaw(const Image<float>& disparity, int level, std::vector<uint8_t>* out);
+Status decodeDisparityRaw(std::span<const uint8_t> in, std::span<const float> rowMin,
+                          std::span<const float> rowMax, Image<float>* disparity);
+
+}  // namespace plx::remote

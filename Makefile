@@ -4,7 +4,8 @@ PRESET ?= release
 BUILD_DIR := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps configure build demo test test-one test-release test-scalar test-asan fuzz bench format clean
+.PHONY: deps configure build demo test test-one test-release test-scalar test-asan test-fuzz fuzz bench \
+	format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -19,8 +20,8 @@ demo: build
 	$(BUILD_DIR)/apps/parallax/parallax demo
 
 # The whole suite: the dispatched release build (every kernel path the CPU has), the scalar-only
-# build (PLX_NO_SIMD) and ASan + UBSan.
-test: test-release test-scalar test-asan
+# build (PLX_NO_SIMD), ASan + UBSan, and a bounded fuzz run of every decoder of untrusted bytes.
+test: test-release test-scalar test-asan test-fuzz
 
 # One preset's build and tests.
 test-one: build
@@ -41,6 +42,10 @@ FUZZ_SECONDS ?= 60
 fuzz:
 	scripts/fuzz-ptm.sh $(FUZZ_SECONDS)
 	scripts/fuzz-remote.sh $(FUZZ_SECONDS)
+
+# The fuzz run inside `make test`: 30 s per target keeps the suite well inside CI's budget.
+test-fuzz:
+	$(MAKE) fuzz FUZZ_SECONDS=30
 
 bench: build
 	scripts/run-benchmarks.sh $(BUILD_DIR)

@@ -8,10 +8,34 @@
 // row's pixel above or below (or the clear colour when nothing at all was covered).
 
 #include <cstdint>
+#include <span>
+#include <vector>
 
+#include <plx/core/camera.h>
 #include <plx/core/image.h>
 
 namespace plx::warp {
+
+struct ReferenceSet;
+
+// Compositing several sets ("multiple source images ... to fill in the gaps left after warping
+// the first image"; the choice among them by quality). A plain z-buffer keeps the nearer of two
+// samples even where both are the same surface: its flat splats are rebuilt from two
+// viewpoints, so their 1/w differ by up to the splat's depth range across its footprint and the
+// winner is a coin toss between a close set's sharp sample and a far set's stretched one. So
+// the set whose reference eye is nearest the destination eye (the first of equals in the given
+// order) is preferred: every other set's destination 1/w is scaled by 1 / (1 + tolerance)
+// before the z-test, and wins only where it is nearer by more than that relative tolerance
+// (a true occluder in front). The tolerance is relative in 1/w, not tied to the splat: a
+// derivative splat of up to kMaxSplatSize pixels on a surface 60 degrees from the view spans
+// about 1-3% of its 1/w at the measured magnifications (docs/warp-results.md has the sweep).
+// The written 1/w of a non-preferred set's pixel is the scaled one (within the tolerance).
+constexpr float kCompositeTolerance = 0.3f;
+
+// Per set, the factor its destination 1/w is scaled by before the z-test: 1 for the preferred
+// set, 1 / (1 + tolerance) for the others (tolerance <= 0: all 1, a plain z-buffer).
+std::vector<float> compositeDepthScales(std::span<const ReferenceSet* const> sets,
+                                        const Camera& destination, float tolerance);
 
 // Fills every pixel whose mask is 1 (a hole) as above and sets its mask to 2. Returns how many
 // it filled. Preconditions: the three images have the same size; depth holds 1/w (0 = far).

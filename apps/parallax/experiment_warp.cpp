@@ -59,6 +59,12 @@ warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const C
     // A 90-degree cube face of side S has focal length S / 2 pixels; the display's is
     // H / (2 tan(fov / 2)). Equal densities: S = H / tan(fov / 2) (416 for 240 rows at 60 deg).
     int side = int(std::lround(float(display.height()) / tanHalf));
+    // The same parity as the display's rows: both images then have their centre on a pixel
+    // corner (or both on a pixel centre), so at equal density a warp to the set's own pose maps
+    // pixel centres onto pixel centres. Otherwise every pixel lands half a pixel off and the
+    // splats pick one of two neighbours (24 dB instead of 37 at 96x72 with 125-pixel faces).
+    if ((side - display.height()) % 2 != 0)
+        side += float(display.height()) / tanHalf > float(side) ? 1 : -1;
     if (layout == warp::ReferenceLayout::kWide) {
         // 20 degrees of margin each way for head turns between references, at the same density.
         o.wideFovDegrees = std::min(display.desc().fovYDegrees + 40.0f, 160.0f);

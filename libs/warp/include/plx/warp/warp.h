@@ -25,6 +25,7 @@
 
 #include <plx/core/core.h>
 #include <plx/raster/raster.h>
+#include <plx/warp/holes.h>
 
 namespace plx::warp {
 
@@ -97,7 +98,7 @@ struct WarpOptions {
     // Several sets: the relative 1/w margin by which a set other than the one nearest the
     // destination must be nearer to win a pixel (holes.h, compositeDepthScales); 0 = plain
     // z-buffer.
-    float compositeTolerance = 0.3f;    // kCompositeTolerance
+    float compositeTolerance = kCompositeTolerance;
     Rgba8 clearColor{40, 44, 52, 255};  // what delta = 0 pixels warp as (the renderer's clear)
 };
 

@@ -18,6 +18,7 @@ struct WarpBenchArgs {
     std::vector<double> rttsMs;
     std::string size;
     double refreshMs = 100.0;
+    float compositeTolerance = warp::kCompositeTolerance;
     double durationS = 0.0;
     std::string refs = "cube4";
     std::string splat = "derivative";
@@ -59,6 +60,11 @@ Result<WarpExperimentConfig> configFrom(const WarpBenchArgs& a) {
     }
     if (a.durationS != 0.0) c.durationS = a.durationS;
     c.refreshMs = a.refreshMs;
+    if (!(a.compositeTolerance >= 0.0f && a.compositeTolerance <= 1e6f))
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("--composite-tolerance {} outside 0 .. 1e6", a.compositeTolerance));
+    c.compositeTolerance = a.compositeTolerance;
     auto layout = warp::parseReferenceLayout(a.refs);
     if (!layout) return layout.status();
     c.layout = *layout;
@@ -136,6 +142,9 @@ Command addBenchWarp(CLI::App* bench) {
     sub->add_option("--rtts", a->rttsMs, "Round-trip times in ms (default 0,50,100,200,300,500)")
         ->delimiter(',');
     sub->add_option("--size", a->size, "Display size WxH (default 320x240)");
+    sub->add_option("--composite-tolerance", a->compositeTolerance,
+                    "Relative 1/w margin by which a set other than the nearest must be nearer to "
+                    "win a pixel (0: plain z-buffer)");
     sub->add_option("--refresh", a->refreshMs, "Reference request interval in ms")
         ->capture_default_str();
     sub->add_option("--duration", a->durationS,

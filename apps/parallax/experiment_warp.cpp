@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -34,6 +35,8 @@ const char* latencyMethodName(LatencyMethod method) {
             return "warp2";
         case LatencyMethod::kWarp2Predicted:
             return "warp2_predicted";
+        case LatencyMethod::kWarp2Bracketed:
+            return "warp2_bracketed";
     }
     return "?";
 }
@@ -56,6 +59,12 @@ warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const C
     // A 90-degree cube face of side S has focal length S / 2 pixels; the display's is
     // H / (2 tan(fov / 2)). Equal densities: S = H / tan(fov / 2) (416 for 240 rows at 60 deg).
     int side = int(std::lround(float(display.height()) / tanHalf));
+    // The same parity as the display's rows: both images then have their centre on a pixel
+    // corner (or both on a pixel centre), so at equal density a warp to the set's own pose maps
+    // pixel centres onto pixel centres. Otherwise every pixel lands half a pixel off and the
+    // splats pick one of two neighbours (24 dB instead of 37 at 96x72 with 125-pixel faces).
+    if ((side - display.height()) % 2 != 0)
+        side += float(display.height()) / tanHalf > float(side) ? 1 : -1;
     if (layout == warp::ReferenceLayout::kWide) {
         // 20 degrees of margin each way for head turns between references, at the same density.
         o.wideFovDegrees = std::min(display.desc().fovYDegrees + 40.0f, 160.0f);
@@ -169,7 +178,8 @@ private:
     double frameMs() const { return 1000.0 / mConfig.displayHz; }
     Status renderAnswer(const scene::Viewpoint& vp, bool withFrame, Answer* out);
     Result<const Answer*> answer(int64_t k);
-    Result<const Answer*> predictedAnswer(int64_t k, size_t rtt);
+    // The set for request k's pose predicted RTT + `refreshes` refresh intervals ahead.
+    Result<const Answer*> predictedAnswer(int64_t k, size_t rtt, int refreshes = 0);
     Status measureFrame(double tMs, const Camera& now, const Image<Rgba8>& truth, bool capture);
     void add(size_t rtt, LatencyMethod m, double psnrDb, double holes, double ms,
              const Image<Rgba8>* image = nullptr) {
@@ -189,7 +199,7 @@ private:
     warp::WarpFrame mWarped;
     Image<Rgba8> mTimewarped;
     std::map<int64_t, Answer> mAnswers;
-    std::map<std::pair<int64_t, size_t>, Answer> mPredicted;
+    std::map<std::tuple<int64_t, size_t, int>, Answer> mPredicted;
     std::map<std::pair<size_t, size_t>, Samples> mSamples;
     LatencyExample* mExample = nullptr;
 };
@@ -217,13 +227,13 @@ Result<const Answer*> LatencySimulation::answer(int64_t k) {
     return &a;
 }
 
-Result<const Answer*> LatencySimulation::predictedAnswer(int64_t k, size_t rtt) {
-    auto it = mPredicted.find({k, rtt});
+Result<const Answer*> LatencySimulation::predictedAnswer(int64_t k, size_t rtt, int refreshes) {
+    auto it = mPredicted.find({k, rtt, refreshes});
     if (it != mPredicted.end()) return &it->second;
     const double requestMs = double(k) * mConfig.refreshMs;
     scene::Viewpoint vp = predict(mPath.at(requestMs), mPath.at(requestMs - frameMs()), frameMs(),
-                                  mConfig.rttsMs[rtt]);
-    Answer& a = mPredicted[{k, rtt}];
+                                  mConfig.rttsMs[rtt] + double(refreshes) * mConfig.refreshMs);
+    Answer& a = mPredicted[{k, rtt, refreshes}];
     PLX_RETURN_IF_ERROR(renderAnswer(vp, false, &a));
     return &a;
 }
@@ -234,6 +244,7 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
     const double pixels = double(now.width()) * double(now.height());
     warp::WarpOptions options;
     options.splat = mConfig.splat;
+    options.compositeTolerance = mConfig.compositeTolerance;
     auto warpAndAdd = [&](size_t rtt, LatencyMethod m,
                           std::vector<const warp::ReferenceSet*> sets) {
         warp::WarpStats stats;
@@ -276,6 +287,13 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         if (!pOlder) return pOlder.status();
         PLX_RETURN_IF_ERROR(
             warpAndAdd(j, LatencyMethod::kWarp2Predicted, {&(*pNewest)->set, &(*pOlder)->set}));
+        // "These viewpoints might be chosen to bracket the estimated future position of the
+        // user" (Mark, Bishop, McMillan, "Improving Quality of Final Images"): request k's
+        // second set is predicted one refresh past its first, where request k + 1 takes over.
+        auto pNext = predictedAnswer(k, j, 1);
+        if (!pNext) return pNext.status();
+        PLX_RETURN_IF_ERROR(
+            warpAndAdd(j, LatencyMethod::kWarp2Bracketed, {&(*pNewest)->set, &(*pNext)->set}));
     }
     return Status::ok();
 }
@@ -299,7 +317,7 @@ Status LatencySimulation::run(const std::function<void()>& frameDone) {
         // Later frames never need an answer older than the longest RTT's second newest.
         const int64_t oldest = int64_t(std::floor((tMs - maxRtt) / mConfig.refreshMs)) - 1;
         std::erase_if(mAnswers, [&](const auto& e) { return e.first < oldest; });
-        std::erase_if(mPredicted, [&](const auto& e) { return e.first.first < oldest; });
+        std::erase_if(mPredicted, [&](const auto& e) { return std::get<0>(e.first) < oldest; });
         if (frameDone) frameDone();
     }
     return Status::ok();
@@ -492,6 +510,7 @@ nlohmann::json warpExperimentJson(const WarpExperiment& e) {
                           {"duration_s", c.durationS},
                           {"refs", warp::referenceLayoutName(c.layout)},
                           {"splat", warp::splatName(c.splat)},
+                          {"composite_tolerance", c.compositeTolerance},
                           {"rtts_ms", c.rttsMs},
                           {"rows", nlohmann::json::array()},
                           {"throughput", nlohmann::json::array()},

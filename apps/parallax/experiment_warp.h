@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include <plx/scene/scene.h>
+#include <plx/warp/holes.h>
 #include <plx/warp/warp.h>
 
 namespace plx::cli {
@@ -25,10 +26,14 @@ enum class LatencyMethod {
     kWarp1,           // the newest reference set warped to the current pose
     kWarp2,           // the newest two reference sets, composited by depth
     kWarp2Predicted,  // two sets requested for constant-velocity predicted poses (now + RTT)
+    // Both sets of the newest request, for the predicted poses at its arrival (now + RTT) and
+    // at the next one's (now + RTT + refresh): they bracket the poses shown until the next
+    // pair arrives.
+    kWarp2Bracketed,
 };
-inline constexpr LatencyMethod kLatencyMethods[] = {LatencyMethod::kStale, LatencyMethod::kTimewarp,
-                                                    LatencyMethod::kWarp1, LatencyMethod::kWarp2,
-                                                    LatencyMethod::kWarp2Predicted};
+inline constexpr LatencyMethod kLatencyMethods[] = {
+    LatencyMethod::kStale, LatencyMethod::kTimewarp,       LatencyMethod::kWarp1,
+    LatencyMethod::kWarp2, LatencyMethod::kWarp2Predicted, LatencyMethod::kWarp2Bracketed};
 const char* latencyMethodName(LatencyMethod method);  // stale, timewarp, warp1, warp2, ...
 
 struct WarpExperimentConfig {
@@ -43,6 +48,7 @@ struct WarpExperimentConfig {
     int width = 320, height = 240;  // the display (the paper's 320x240)
     warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;
     warp::Splat splat = warp::Splat::kDerivative;
+    float compositeTolerance = warp::kCompositeTolerance;  // WarpOptions::compositeTolerance
     int threads = 0;
     // Throughput table: output sizes x thread counts on one scene, and the scenes of the
     // size-independence check at the first output size.

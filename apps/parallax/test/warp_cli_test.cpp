@@ -108,7 +108,8 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
     auto doc = nlohmann::json::parse(r.out);
     const std::vector<double> rtts = doc["rtts_ms"].get<std::vector<double>>();
     ASSERT_FALSE(rtts.empty());
-    for (const char* method : {"stale", "timewarp", "warp1", "warp2", "warp2_predicted"})
+    for (const char* method :
+         {"stale", "timewarp", "warp1", "warp2", "warp2_predicted", "warp2_bracketed"})
         for (double rtt : rtts) {
             int found = 0;
             for (const auto& row : doc["rows"])

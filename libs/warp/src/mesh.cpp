@@ -58,8 +58,8 @@ void drawTriangle(const Writer& writer, const Vertex& a, const Vertex& b, const 
             const bool inside = wa >= 0.0f && wb >= 0.0f && wc >= 0.0f;
             if (kMode == WriteMode::kPainter && !inside) continue;
             const float delta = a.p.delta + wb * dB + wc * dC;
-            const uint32_t color = wa >= wb ? (wa >= wc ? a.color : c.color)
-                                            : (wb >= wc ? b.color : c.color);
+            const uint32_t color =
+                wa >= wb ? (wa >= wc ? a.color : c.color) : (wb >= wc ? b.color : c.color);
             const uint64_t key = uint64_t(std::bit_cast<uint32_t>(std::max(delta, 0.0f)) + 1u);
             // Outside: word 0, which a max leaves unchanged; no branch on the edge tests, whose
             // outcome is a coin toss over a triangle's bounding box.
@@ -106,6 +106,7 @@ std::pair<int32_t, int32_t> transformMeshRow(const ViewJob& view, const RowJob& 
         for (int x = row.x0; x < xEnd; ++x) {
             Vertex& vx = vertices[x - row.x0];
             if (warpPixel(view.w, x, y, disparity[x], &vx.p)) {
+                vx.p.delta *= view.depthScale;  // the set's compositing handicap (holes.h)
                 lo = std::min(lo, vx.p.y);
                 hi = std::max(hi, vx.p.y);
             }

@@ -22,6 +22,7 @@ namespace plx::warp::detail {
 struct ViewJob {
     const ReferenceView* view;
     WarpCoefficients w;
+    float depthScale = 1.0f;  // its set's compositing factor on the destination 1/w (holes.h)
 };
 
 // One source row of one view and its potentially visible span [x0, x1). Mesh: the quads between

@@ -218,10 +218,12 @@ void planRows(std::span<const ReferenceSet* const> sets, const Camera& destinati
     const bool mesh = options.splat == Splat::kMesh;
     // How far (destination pixels) a splat or mesh triangle reaches from a warped position.
     const float margin = (mesh ? kMaxSplatSize : 0.5f * kMaxSplatSize) + 1.0f;
-    for (const ReferenceSet* set : sets) {
-        for (const ReferenceView& view : set->views) {
+    const std::vector<float> scales =
+        compositeDepthScales(sets, destination, options.compositeTolerance);
+    for (size_t s = 0; s < sets.size(); ++s) {
+        for (const ReferenceView& view : sets[s]->views) {
             const uint32_t vi = uint32_t(views->size());
-            ViewJob job{&view, warpCoefficients(view.camera, destination)};
+            ViewJob job{&view, warpCoefficients(view.camera, destination), scales[s]};
             views->push_back(job);
             const int w = view.camera.width(), h = view.camera.height();
             // Mesh: row y stands for the quads between rows y and y + 1.

@@ -3,12 +3,22 @@
 // once, then splatted band by band (warper.cpp says why).
 
 #include <algorithm>
+#include <bit>
 
 #include <plx/warp/splat.h>
 
 #include "warp_internal.h"
 
 namespace plx::warp::detail {
+
+namespace {
+
+// A key (float bits of 1/w, plus one) with its 1/w scaled: a set's compositing handicap.
+uint32_t scaledKey(uint32_t key, float scale) {
+    return std::bit_cast<uint32_t>(std::bit_cast<float>(key - 1u) * scale) + 1u;
+}
+
+}  // namespace
 
 std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& row, Splat splat,
                                             const DestBuffer& dest, Transformed* out) {
@@ -33,6 +43,7 @@ std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& r
     int32_t lo = dest.height, hi = 0;
     for (size_t i = row.offset, end = i + size_t(row.x1 - row.x0); i < end; ++i) {
         if (out->rx0[i] >= out->rx1[i]) continue;
+        if (view.depthScale != 1.0f) out->key[i] = scaledKey(out->key[i], view.depthScale);
         lo = std::min(lo, out->ry0[i]);
         hi = std::max(hi, out->ry1[i]);
     }

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <plx/core/cpu.h>
+#include <plx/core/metrics.h>
 #include <plx/raster/raster.h>
 #include <plx/scene/generators.h>
 #include <plx/warp/clip.h>
@@ -40,13 +41,15 @@ Camera cameraFor(const Pose& pose, int w, int h, float fov = 60.0f) {
     return *Camera::create(d);
 }
 
-// office:1 from its first viewpoint: the pose and a small cube4 set.
+// office:1 (or another scene) from its first viewpoint: the pose and a small cube4 set.
 struct Office {
-    scene::Scene scene = *scene::generateOffice(1);
+    scene::Scene scene;
     std::unique_ptr<raster::Renderer> renderer = makeRenderer();
     Pose pose;
     ReferenceSet set;
-    explicit Office(ReferenceLayout layout = ReferenceLayout::kCube4, int face = 96) {
+    explicit Office(ReferenceLayout layout = ReferenceLayout::kCube4, int face = 96,
+                    scene::Scene s = *scene::generateOffice(1))
+        : scene(std::move(s)) {
         pose = poseAt(scene.viewpoints.front());
         ReferenceSetOptions o;
         o.layout = layout;
@@ -345,6 +348,56 @@ TEST(Warp, CompositesSetsAndFillsHolesFromTheRearSurface) {
     options.fillHoles = false;
     ASSERT_TRUE(warper->warp(both, dest, options, &c, &two).isOk());
     EXPECT_LT(two.holePixels, open.holePixels / 4);
+}
+
+// An exact newest set is not made worse by an older one: where both cover a pixel the set
+// nearest the destination keeps it unless the other is nearer by more than the tolerance
+// (holes.h, compositeDepthScales), whichever order the sets come in. The museum: walls all
+// round, so no pixel is empty background, which a z-buffer cannot rank (docs/warp-results.md).
+TEST(Warp, AnOlderSetDoesNotDegradeAnExactNewestOne) {
+    Office o(ReferenceLayout::kCube4, 160, *scene::generateMuseum(1));
+    const Camera dest = o.moved(0.0f, 0.0f, 10.0f, 160, 120);
+    raster::FrameBuffers fb;
+    fb.resize(dest.width(), dest.height());
+    o.renderer->render(o.scene, dest, {}, fb.targets());
+    // The older set stands 30 cm behind and 20 cm left of the destination, as on a walk.
+    Pose older = o.pose;
+    const Vec3 right = glm::normalize(glm::cross(o.pose.forward, o.pose.up));
+    older.eye -= o.pose.forward * 0.3f + right * 0.2f;
+    ReferenceSet olderSet;
+    ReferenceSetOptions ro;
+    ro.faceSize = 160;
+    ASSERT_TRUE(renderReferenceSet(*o.renderer, o.scene, older, ro, &olderSet).isOk());
+    WarpOptions options;
+    const double one = psnr(warpOnce(o.set, dest, options).color, fb.color);
+    const ReferenceSet* orders[][2] = {{&o.set, &olderSet}, {&olderSet, &o.set}};
+    auto warper = std::move(Warper::create(2)).value();
+    for (auto& sets : orders) {
+        WarpFrame two;
+        ASSERT_TRUE(warper->warp(sets, dest, options, &two).isOk());
+        EXPECT_GE(psnr(two.color, fb.color), one - 0.1)
+            << "exact set first: " << (sets[0] == &o.set);
+    }
+}
+
+// The set nearest the destination is preferred, the first of equals; one set or no tolerance:
+// a plain z-buffer.
+TEST(Warp, CompositePrefersTheSetNearestTheDestination) {
+    ReferenceSet a, b, c;
+    a.pose.eye = Vec3(0.0f, 0.0f, 0.0f);
+    b.pose.eye = Vec3(1.0f, 0.0f, 0.0f);
+    c.pose.eye = Vec3(-1.0f, 0.0f, 0.0f);
+    Pose at = a.pose;
+    at.eye = Vec3(0.9f, 0.0f, 0.0f);
+    const Camera dest = cameraFor(at, 16, 12);
+    const ReferenceSet* sets[] = {&a, &b, &c};
+    const float handicap = 1.0f / (1.0f + kCompositeTolerance);
+    EXPECT_EQ(compositeDepthScales(sets, dest, kCompositeTolerance),
+              (std::vector<float>{handicap, 1.0f, handicap}));
+    const ReferenceSet* tied[] = {&b, &b};
+    EXPECT_EQ(compositeDepthScales(tied, dest, 0.5f), (std::vector<float>{1.0f, 1.0f / 1.5f}));
+    EXPECT_EQ(compositeDepthScales(sets, dest, 0.0f), (std::vector<float>{1.0f, 1.0f, 1.0f}));
+    EXPECT_EQ(compositeDepthScales(std::span(sets, 1), dest, 0.5f), (std::vector<float>{1.0f}));
 }
 
 TEST(Holes, RunTakesTheFartherNeighbour) {

@@ -25,6 +25,7 @@
 
 #include <plx/core/core.h>
 #include <plx/raster/raster.h>
+#include <plx/warp/holes.h>
 
 namespace plx::warp {
 
@@ -94,6 +95,10 @@ struct WarpOptions {
     // writes the packed (1/w, colour) word with compare-and-swap. Same image either way
     // (docs/warp-results.md has the timings).
     bool atomicWrites = false;
+    // Several sets: the relative 1/w margin by which a set other than the one nearest the
+    // destination must be nearer to win a pixel (holes.h, compositeDepthScales); 0 = plain
+    // z-buffer.
+    float compositeTolerance = kCompositeTolerance;
     Rgba8 clearColor{40, 44, 52, 255};  // what delta = 0 pixels warp as (the renderer's clear)
 };
 

@@ -434,6 +434,7 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
 }  // namespace
 
 Result<Scene> importFile(const std::string& path, const ImportOptions& options) {
+    if (options.isolation.enabled) return importFileIsolated(path, options);
     auto named = [&](const Status& s) { return errorStatus(s.code(), path + ": " + s.message()); };
     // A directory, FIFO or device is refused here, without blocking; the message names the path
     // and the cause (not found, symlink loop, permission).

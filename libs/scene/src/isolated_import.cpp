@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <new>
 #include <vector>
 
@@ -99,7 +100,7 @@ void testFault(int fd) {
     }
     if (f == "stack") stackHog(0);
     if (f == "garbage") {
-        (void)writeAll(fd, "PLXSCNW1\0\xff\xff", 11);
+        (void)writeAll(fd, "\3\0\0\0\0\0\0\0xyz", 11);  // length 3, then no wire header
         ::_exit(0);
     }
 }
@@ -114,25 +115,40 @@ struct ChildJob {
     bool written = false;
 };
 
-// The child's import thread: import, then encode the scene or the error into the pipe.
+// Sends one wire message prefixed by its length (u64), counted by a first pass that writes
+// nothing, so that the parent allocates its buffer once, at the right size.
+bool sendFramed(PipeSink& pipe, const std::function<bool(const wire::Sink&)>& encode) {
+    uint64_t length = 0;
+    encode([&](const void*, size_t n) { return (length += n), true; });
+    wire::Sink sink = [&](const void* p, size_t n) { return pipe.put(p, n); };
+    return pipe.put(&length, sizeof length) && encode(sink) && pipe.flush();
+}
+
+// The child's import thread: import, then send the scene or the error into the pipe.
 void* childImport(void* arg) {
     auto* job = static_cast<ChildJob*>(arg);
     PipeSink pipe(kChildFd);
-    wire::Sink sink = [&](const void* p, size_t n) { return pipe.put(p, n); };
+    auto sendError = [&](wire::WireOutcome outcome, const Status& status) {
+        return sendFramed(
+            pipe, [&](const wire::Sink& s) { return wire::encodeError(outcome, status, s); });
+    };
     try {
         testFault(kChildFd);
         Result<Scene> scene = importFile(*job->path, job->options);
         if (scene) {
-            job->written = wire::encodeScene(*scene, sink) && pipe.flush();
+            job->written =
+                sendFramed(pipe, [&](const wire::Sink& s) { return wire::encodeScene(*scene, s); });
+            // EOF now: the parent decodes while this process frees the scene and exits.
+            ::close(kChildFd);
         } else {
-            auto outcome = saysOutOfMemory(scene.status()) ? wire::WireOutcome::kOutOfMemory
-                                                           : wire::WireOutcome::kError;
-            job->written = wire::encodeError(outcome, scene.status(), sink) && pipe.flush();
+            job->written =
+                sendError(saysOutOfMemory(scene.status()) ? wire::WireOutcome::kOutOfMemory
+                                                          : wire::WireOutcome::kError,
+                          scene.status());
         }
     } catch (const std::bad_alloc&) {
-        Status oom = errorStatus(ErrorCode::kOutOfRange, "out of memory");
-        job->written =
-            wire::encodeError(wire::WireOutcome::kOutOfMemory, oom, sink) && pipe.flush();
+        job->written = sendError(wire::WireOutcome::kOutOfMemory,
+                                 errorStatus(ErrorCode::kOutOfRange, "out of memory"));
     }
     return nullptr;
 }
@@ -185,9 +201,9 @@ rlim_t addressSpaceFor(const IsolationLimits& limits) {
 
 enum class ReadEnd { kEof, kDeadline, kTooLarge, kError };
 
-// Reads the child's result until EOF, the deadline, or more bytes than the memory limit.
-ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vector<uint8_t>* out) {
-    size_t size = 0;
+// After the whole message: EOF (the child closed the pipe) by the deadline; more bytes are an
+// error.
+ReadEnd awaitEof(int fd, Clock::time_point deadline) {
     for (;;) {
         auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
         if (left.count() <= 0) return ReadEnd::kDeadline;
@@ -195,14 +211,37 @@ ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vec
         int ready = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 1000)));
         if (ready < 0 && errno != EINTR) return ReadEnd::kError;
         if (ready <= 0) continue;
-        if (out->size() - size < (size_t(1) << 20))
-            out->resize(std::max(out->size() * 2, size_t(1) << 20));
+        uint8_t extra = 0;
+        ssize_t n = ::read(fd, &extra, 1);
+        if (n == 0) return ReadEnd::kEof;
+        if (n > 0 || (errno != EINTR && errno != EAGAIN)) return ReadEnd::kError;
+    }
+}
+
+// Reads the child's message (u64 length, then the wire bytes) until EOF, the deadline, or a
+// length over the memory limit. The buffer is allocated once the length is known.
+ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vector<uint8_t>* out) {
+    uint64_t length = 0;
+    size_t size = 0;
+    out->resize(sizeof length);
+    for (;;) {
+        auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+        if (left.count() <= 0) return ReadEnd::kDeadline;
+        pollfd p{fd, POLLIN, 0};
+        int ready = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 1000)));
+        if (ready < 0 && errno != EINTR) return ReadEnd::kError;
+        if (ready <= 0) continue;
         ssize_t n = ::read(fd, out->data() + size, out->size() - size);
         if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
         if (n < 0) return ReadEnd::kError;
         if (n == 0) break;
         size += size_t(n);
-        if (size > maxBytes) return ReadEnd::kTooLarge;
+        if (size == sizeof length && out->size() == sizeof length) {
+            std::memcpy(&length, out->data(), sizeof length);
+            if (length > maxBytes) return ReadEnd::kTooLarge;
+            out->resize(sizeof length + size_t(length));
+        }
+        if (size == out->size() && size > sizeof length) return awaitEof(fd, deadline);
     }
     out->resize(size);
     return ReadEnd::kEof;
@@ -280,10 +319,15 @@ Result<Scene> importFileIsolated(const std::string& path, const ImportOptions& o
     ReadEnd end = readResult(fds[0], deadline, limits.maxMemoryBytes, &bytes);
     ::close(fds[0]);
     if (end != ReadEnd::kEof) ::kill(pid, SIGKILL);
+    // Decoded before waiting, overlapping the child's teardown; used only if it exits cleanly.
+    Result<wire::Decoded> decoded = errorStatus(ErrorCode::kInternal, "no result");
+    if (end == ReadEnd::kEof)  // the wire message follows its u64 length
+        decoded = wire::decode(
+            std::span<const uint8_t>(bytes).subspan(std::min(bytes.size(), sizeof(uint64_t))));
+    bytes = {};
     int status = waitChild(pid);
     Status decodeError;
     if (end == ReadEnd::kEof && WIFEXITED(status) && WEXITSTATUS(status) == 0) {
-        auto decoded = wire::decode(bytes);
         if (decoded && decoded->outcome == wire::WireOutcome::kScene)
             return std::move(decoded->scene);
         if (decoded && decoded->outcome == wire::WireOutcome::kOutOfMemory)

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sys/resource.h>
@@ -176,6 +177,9 @@ void setLimit(int resource, rlim_t value) {
 
     ChildJob job{&path, options};
     job.options.isolation.enabled = false;
+    // The import thread allocates from the main arena (brk heap), as an in-process import on
+    // the main thread does, not from a fresh per-thread arena of 64 MB mmap'd heaps.
+    mallopt(M_ARENA_MAX, 1);
     pthread_attr_t attr;
     pthread_attr_init(&attr);
     pthread_attr_setstacksize(&attr, std::max<size_t>(limits.maxStackBytes, size_t(1) << 20));

@@ -186,6 +186,11 @@ TEST(IsolatedImport, AseWithAHugeIndexIsAnError) {
         auto s = importFile(path, isolated(20.0));
         if (s.isOk()) continue;  // a reader that drops the bad face is fine too
         EXPECT_NE(s.status().message().find(path), std::string::npos) << s.status().message();
+#if !defined(__SANITIZE_ADDRESS__)  // ASan's allocator exits instead of throwing
+        if (std::string(name) == "count.ase")  // assimp reported a bare "std::bad_alloc"
+            EXPECT_NE(s.status().message().find("needed more than"), std::string::npos)
+                << s.status().message();
+#endif
     }
 }
 

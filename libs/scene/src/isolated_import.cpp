@@ -223,9 +223,12 @@ ReadEnd awaitEof(int fd, Clock::time_point deadline) {
 }
 
 // Reads the child's message (u64 length, then the wire bytes) until EOF, the deadline, or a
-// length over the memory limit. The buffer is allocated once the length is known.
+// length over the memory limit. The buffer grows as bytes arrive (at once to the whole message
+// up to 64 MiB, then doubling), so that a length alone commits no memory.
 ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vector<uint8_t>* out) {
+    constexpr size_t kFirstChunk = size_t(64) << 20;
     uint64_t length = 0;
+    bool haveLength = false;
     size_t size = 0;
     out->resize(sizeof length);
     for (;;) {
@@ -240,12 +243,14 @@ ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vec
         if (n < 0) return ReadEnd::kError;
         if (n == 0) break;
         size += size_t(n);
-        if (size == sizeof length && out->size() == sizeof length) {
+        if (!haveLength && size == sizeof length) {
             std::memcpy(&length, out->data(), sizeof length);
             if (length > maxBytes) return ReadEnd::kTooLarge;
-            out->resize(sizeof length + size_t(length));
+            haveLength = true;
         }
-        if (size == out->size() && size > sizeof length) return awaitEof(fd, deadline);
+        const size_t whole = sizeof length + size_t(length);
+        if (haveLength && size == whole) return awaitEof(fd, deadline);
+        if (size == out->size()) out->resize(std::min(whole, std::max(2 * size, kFirstChunk)));
     }
     out->resize(size);
     return ReadEnd::kEof;

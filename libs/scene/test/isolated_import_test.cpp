@@ -22,7 +22,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tempDir(const std::string& name) { return freshTestDir("scene_isolated", name); }
+fs::path tempDir(const std::string& name) {
+    return freshTestDir("scene_isolated", name);
+}
 
 std::string writeFile(const fs::path& path, const std::string& bytes) {
     return writeTestFile(path, bytes);
@@ -186,7 +188,7 @@ TEST(IsolatedImport, AseWithAHugeIndexIsAnError) {
         auto s = importFile(path, isolated(20.0));
         if (s.isOk()) continue;  // a reader that drops the bad face is fine too
         EXPECT_NE(s.status().message().find(path), std::string::npos) << s.status().message();
-#if !defined(__SANITIZE_ADDRESS__)  // ASan's allocator exits instead of throwing
+#if !defined(__SANITIZE_ADDRESS__)             // ASan's allocator exits instead of throwing
         if (std::string(name) == "count.ase")  // assimp reported a bare "std::bad_alloc"
             EXPECT_NE(s.status().message().find("needed more than"), std::string::npos)
                 << s.status().message();

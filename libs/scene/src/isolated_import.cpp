@@ -19,6 +19,7 @@
 #include <cstring>
 #include <functional>
 #include <new>
+#include <optional>
 #include <vector>
 
 #include <fcntl.h>
@@ -205,16 +206,23 @@ rlim_t addressSpaceFor(const IsolationLimits& limits) {
 
 enum class ReadEnd { kEof, kDeadline, kTooLarge, kError };
 
-// After the whole message: EOF (the child closed the pipe) by the deadline; more bytes are an
-// error.
-ReadEnd awaitEof(int fd, Clock::time_point deadline) {
+// Waits until fd is readable (bytes or EOF): nothing then, else kDeadline or kError.
+std::optional<ReadEnd> waitReadable(int fd, Clock::time_point deadline) {
     for (;;) {
         auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
         if (left.count() <= 0) return ReadEnd::kDeadline;
         pollfd p{fd, POLLIN, 0};
         int ready = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 1000)));
+        if (ready > 0) return std::nullopt;
         if (ready < 0 && errno != EINTR) return ReadEnd::kError;
-        if (ready <= 0) continue;
+    }
+}
+
+// After the whole message: EOF (the child closed the pipe) by the deadline; more bytes are an
+// error.
+ReadEnd awaitEof(int fd, Clock::time_point deadline) {
+    for (;;) {
+        if (auto failed = waitReadable(fd, deadline)) return *failed;
         uint8_t extra = 0;
         ssize_t n = ::read(fd, &extra, 1);
         if (n == 0) return ReadEnd::kEof;
@@ -232,12 +240,7 @@ ReadEnd readResult(int fd, Clock::time_point deadline, size_t maxBytes, std::vec
     size_t size = 0;
     out->resize(sizeof length);
     for (;;) {
-        auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-        if (left.count() <= 0) return ReadEnd::kDeadline;
-        pollfd p{fd, POLLIN, 0};
-        int ready = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 1000)));
-        if (ready < 0 && errno != EINTR) return ReadEnd::kError;
-        if (ready <= 0) continue;
+        if (auto failed = waitReadable(fd, deadline)) return *failed;
         ssize_t n = ::read(fd, out->data() + size, out->size() - size);
         if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
         if (n < 0) return ReadEnd::kError;

@@ -26,6 +26,17 @@ void addInputOptions(CLI::App& app) {
                    "Largest decoded image (textures, ptm encode input) in pixels")
         ->check(CLI::Range(int64_t(1), kMaxDecodedPixels))
         ->capture_default_str();
+    // Third-party parsers can crash or hang on hostile files: contained by default.
+    app.add_flag("--no-isolate{false}", p.isolate,
+                 "Parse model files in this process instead of a limited child process");
+    app.add_option("--import-memory", p.importMemoryMb,
+                   "Memory limit of the model import's child process in MB")
+        ->check(CLI::Range(int64_t(64), int64_t(1) << 20))
+        ->capture_default_str();
+    app.add_option("--import-seconds", p.importSeconds,
+                   "Time limit of the model import's child process in seconds")
+        ->check(CLI::Range(0.1, 86400.0))
+        ->capture_default_str();
 }
 
 Status warn(const std::string& message) {

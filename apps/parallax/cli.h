@@ -27,11 +27,15 @@ struct Command {
 };
 
 // How every command treats its input files, from the options any command accepts (main.cpp):
-// --strict, --allow-external-refs, --max-pixels.
+// --strict, --allow-external-refs, --max-pixels, --no-isolate, --import-memory, --import-seconds.
 struct InputPolicy {
     bool strict = false;                    // every warning is an error
     bool allowExternalRefs = false;         // models may refer to files outside their folder
     int64_t maxPixels = kDefaultMaxPixels;  // decoded images: textures, `ptm encode` inputs
+    // Model files are parsed in a child process under these limits (scene::IsolationLimits).
+    bool isolate = true;
+    int64_t importMemoryMb = 4096;
+    double importSeconds = 60.0;
 };
 InputPolicy& inputPolicy();
 void addInputOptions(CLI::App& app);

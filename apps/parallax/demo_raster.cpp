@@ -97,7 +97,7 @@ Status demoRasterSection(DemoContext& ctx) {
 
     std::string helmet = std::string(PLX_SHARED_DATA_DIR) + "/models/DamagedHelmet/DamagedHelmet.glb";
     if (!ctx.quick && std::filesystem::exists(helmet)) {
-        auto scene = scene::loadScene(helmet);
+        auto scene = loadSceneChecked(helmet);
         if (!scene) return scene.status();
         auto cam = scene::cameraAt(*scene, scene::defaultViewpoint(*scene), width, height);
         if (!cam) return cam.status();

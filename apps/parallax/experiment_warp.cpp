@@ -20,6 +20,7 @@
 #include <plx/stereo/path.h>
 
 #include "report.h"
+#include "view.h"
 
 namespace plx::cli {
 
@@ -362,7 +363,7 @@ CameraPath pathFor(const scene::Scene& scene, bool isModel, const WarpExperiment
 Status runLatency(const std::string& spec, bool isModel, const WarpExperimentConfig& c,
                   raster::Renderer& renderer, warp::Warper& warper,
                   const std::function<void()>& frameDone, std::vector<LatencyRow>* rows) {
-    auto scene = scene::loadScene(spec);
+    auto scene = loadSceneChecked(spec);
     if (!scene) return errorStatus(scene.status().code(), spec + ": " + scene.status().message());
     CameraPath path = pathFor(*scene, isModel, c);
     LatencySimulation sim(*scene, path, c, renderer, warper);
@@ -423,7 +424,7 @@ Result<ThroughputRow> measureThroughput(const scene::Scene& scene, const std::st
 Status runThroughput(const WarpExperimentConfig& c, raster::Renderer& renderer,
                      const std::function<void()>& step, std::vector<ThroughputRow>* rows) {
     if (!c.throughputScene.empty() && !c.throughputSizes.empty()) {
-        auto scene = scene::loadScene(c.throughputScene);
+        auto scene = loadSceneChecked(c.throughputScene);
         if (!scene) return scene.status();
         for (auto [w, h] : c.throughputSizes)
             for (int t : c.throughputThreads) {
@@ -436,7 +437,7 @@ Status runThroughput(const WarpExperimentConfig& c, raster::Renderer& renderer,
     if (c.throughputSizes.empty()) return Status::ok();
     auto [w, h] = c.throughputSizes.front();
     for (const std::string& spec : c.sizeScenes) {
-        auto scene = scene::loadScene(spec);
+        auto scene = loadSceneChecked(spec);
         if (!scene) return scene.status();
         auto row = measureThroughput(*scene, spec, w, h, c.threads, c, renderer);
         if (!row) return row.status();
@@ -454,7 +455,7 @@ Result<LatencyExample> latencyExample(const std::string& spec, const WarpExperim
     c.rttsMs = {rttMs};
     c.durationS = double(std::max(frame, 0) + 1) / c.displayHz;
     PLX_RETURN_IF_ERROR(checkWarpExperimentConfig(c));
-    auto scene = scene::loadScene(spec);
+    auto scene = loadSceneChecked(spec);
     if (!scene) return scene.status();
     auto renderer = raster::Renderer::create({c.threads});
     if (!renderer) return renderer.status();

@@ -21,6 +21,9 @@ Result<scene::Scene> loadSceneChecked(const std::string& spec) {
     scene::ImportOptions options;
     options.allowExternalRefs = inputPolicy().allowExternalRefs;
     options.maxTexturePixels = inputPolicy().maxPixels;
+    options.isolation.enabled = inputPolicy().isolate;
+    options.isolation.maxMemoryBytes = size_t(inputPolicy().importMemoryMb) << 20;
+    options.isolation.maxSeconds = inputPolicy().importSeconds;
     auto scene = scene::loadScene(spec, options);
     if (!scene) return scene.status();
     for (const std::string& w : scene->warnings) PLX_RETURN_IF_ERROR(warn(spec + ": " + w));

@@ -94,7 +94,7 @@ int runWarp(const WarpArgs& a) {
     if (!renderer) return fail(renderer.status().message(), kExitUsage);
     auto warper = warp::Warper::create(a.threads);
     if (!warper) return fail(warper.status().message(), kExitUsage);
-    auto scene = scene::loadScene(a.scene);
+    auto scene = loadSceneChecked(a.scene);
     if (!scene) return fail(scene.status());
     auto from = cameraFor(*scene, a.view);
     if (!from) return fail(from.status().message(), kExitUsage);

@@ -418,6 +418,14 @@ std::string withoutQuotedContent(const std::string& message, const std::string& 
     return out;
 }
 
+// A reader that asked for more memory than there is; the isolated import maps "out of memory" to
+// its memory limit.
+Status outOfMemory() {
+    return errorStatus(ErrorCode::kOutOfRange,
+                       "out of memory while reading the file (its contents ask for more than "
+                       "this machine has)");
+}
+
 // Counts declared in the file against its size and the limits, before assimp allocates.
 Status checkFile(const std::string& path, uint64_t size, const ImportOptions& options) {
     if (size == 0) return errorStatus(ErrorCode::kCorruptData, "file is empty");
@@ -434,6 +442,7 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
 }  // namespace
 
 Result<Scene> importFile(const std::string& path, const ImportOptions& options) {
+    if (options.isolation.enabled) return importFileIsolated(path, options);
     auto named = [&](const Status& s) { return errorStatus(s.code(), path + ": " + s.message()); };
     // A directory, FIFO or device is refused here, without blocking; the message names the path
     // and the cause (not found, symlink loop, permission).
@@ -461,9 +470,7 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
                                               aiProcess_JoinIdenticalVertices | aiProcess_FlipUVs);
         }
     } catch (const std::bad_alloc&) {  // assimp catches its own errors, not this one
-        return named(errorStatus(ErrorCode::kOutOfRange,
-                                 "out of memory while reading the file (its contents ask for "
-                                 "more than this machine has)"));
+        return named(outOfMemory());
     } catch (const std::exception&) {  // what() may quote the file: not shown
         return named(errorStatus(ErrorCode::kCorruptData, "assimp failed while reading the file"));
     }
@@ -471,6 +478,8 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
     // was refused fails the import whatever the reader made of it.
     if (io->firstRefusal()) return named(*io->firstRefusal());
     if (!ai) {
+        // Some readers catch std::bad_alloc themselves and report its what() as their error.
+        if (std::strstr(importer.GetErrorString(), "bad_alloc")) return named(outOfMemory());
         std::string why = withoutQuotedContent(importer.GetErrorString(), path);
         if (why.empty()) why = "assimp could not read the file";
         return named(errorStatus(ErrorCode::kCorruptData, why));

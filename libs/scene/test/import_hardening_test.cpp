@@ -23,17 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tempDir(const std::string& name) {
-    fs::path dir = fs::path(PLX_TEST_OUTPUT_DIR) / "scene_hardening" / name;
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+fs::path tempDir(const std::string& name) { return freshTestDir("scene_hardening", name); }
 
 std::string writeFile(const fs::path& path, const std::string& bytes) {
-    fs::create_directories(path.parent_path());
-    std::ofstream(path, std::ios::binary) << bytes;
-    return path.string();
+    return writeTestFile(path, bytes);
 }
 
 const char* kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";

@@ -8,6 +8,20 @@
 
 namespace plx::scene {
 
+// Limits of an isolated import: the file is parsed in a child process (fork) whose address
+// space, CPU time and parser stack are capped, so that a crash, a hang or a runaway allocation in
+// a third-party parser becomes an error naming the file instead of taking the caller down.
+struct IsolationLimits {
+    // Off by default in the library (the caller's choice); the parallax CLI turns it on.
+    bool enabled = false;
+    // Address space of the child (RLIMIT_AS), also the most bytes its result may take.
+    size_t maxMemoryBytes = size_t(4) << 30;
+    // CPU time of the child (RLIMIT_CPU) and, as wall-clock time, the parent's deadline.
+    double maxSeconds = 60.0;
+    // Stack of the thread that runs the parser in the child.
+    size_t maxStackBytes = size_t(64) << 20;
+};
+
 struct ImportOptions {
     bool loadTextures = true;
     // Files declaring more than this many triangles or vertices are refused before allocation;
@@ -25,6 +39,8 @@ struct ImportOptions {
     // model's folder and below, after resolving "..", absolute paths, file:// and symlinks;
     // true follows references anywhere.
     bool allowExternalRefs = false;
+    // Parse in a child process with these limits (importFileIsolated) when enabled.
+    IsolationLimits isolation;
 };
 
 // Imports a model file: triangles of every mesh instance baked into world space, normals kept
@@ -37,7 +53,16 @@ struct ImportOptions {
 // vertices, absurd declared counts: PLY headers and OBJ contents are checked against the file
 // size and options.maxTriangles before assimp allocates anything). Degenerate triangles
 // (repeated indices or zero area) are dropped and counted in Scene::degenerateTrianglesDropped.
+// With options.isolation.enabled the work is done by importFileIsolated.
 Result<Scene> importFile(const std::string& path, const ImportOptions& options = {});
+
+// importFile run in a forked child under options.isolation's limits; the scene comes back over a
+// pipe in a checked binary form. A crash, a limit reached or the deadline passed is one error
+// naming the file and what happened ("crashed (segmentation fault)", "took longer than 60 s",
+// "needed more than 4096 MB of memory"). The child runs only the import (no thread pools, no
+// callbacks into the caller); a lock held by another of the caller's threads at fork time can
+// only make the child miss its deadline, which is reported like any timeout. POSIX only.
+Result<Scene> importFileIsolated(const std::string& path, const ImportOptions& options);
 
 // True when spec names a generator ("office:N", "museum:N", "showcase") rather than a file.
 bool isGeneratorSpec(const std::string& spec);

@@ -8,6 +8,7 @@ packages=(
     cmake ninja-build g++ make pkg-config libgtest-dev libgmock-dev libbenchmark-dev
     # libraries the toolkit links
     libglm-dev libtbb-dev libassimp-dev libpng-dev libjpeg-dev libturbojpeg0-dev libzstd-dev
+    zlib1g-dev
     libcli11-dev nlohmann-json3-dev libfmt-dev
     # OpenGL peer (Mesa llvmpipe through EGL, no display needed)
     libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri mesa-common-dev

@@ -4,7 +4,8 @@
 // the same parsing, decoding and WebGL2 warping code as the socket path, renders the destination
 // pose, and the read-back frame is compared with the native client's frame (libs/remote decode +
 // warp::Warper) of the same bytes and pose: PSNR and the fraction of pixels within a tolerance.
-// A truncated message must then stop the page with a one-line error.
+// Every truncated prefix and random bit flips of both messages are refused with one line (or, for
+// a flip, decode), never another exception; a truncated message stops the page visibly.
 //
 // Usage: node browser_test.mjs FIXTURE_EXE OUTDIR. Exit 0 pass, 1 fail, 77 skipped (no chromium
 // or no node_modules: `npm ci` in this folder, which scripts/install-deps.sh runs).
@@ -113,6 +114,16 @@ try {
                 `(${pose.holePixels} native hole pixels of ${pose.width * pose.height}; set ${pose.setBytes} bytes)`);
     check(r.psnr >= MIN_PSNR_DB, `PSNR ${r.psnr.toFixed(2)} dB >= ${MIN_PSNR_DB} dB`);
     check(r.within >= MIN_FRACTION_WITHIN, `${(100 * r.within).toFixed(2)}% >= ${100 * MIN_FRACTION_WITHIN}% within tolerance`);
+
+    // The page's parser and decoders on damaged bytes: every truncated prefix of both messages
+    // refused, bit flips decoded or refused, never another exception.
+    for (const [name, flips] of [['server_hello.bin', 200], ['reference_set.bin', 300]]) {
+        const d = await page.evaluate(([u, n]) => plxTest.checkDamaged(u, n), [`/data/${name}`, flips]);
+        console.log(`${name}: ${d.prefixesRefused}/${d.prefixes} prefixes refused, ${d.flipsRefused}/${d.flips} ` +
+                    `bit flips refused${d.unexpected.length ? `; unexpected: ${d.unexpected.slice(0, 3).join(' | ')}` : ''}`);
+        check(d.prefixesRefused === d.prefixes && d.unexpected.length === 0,
+              `${name}: every prefix refused, every flip decoded or refused with one line`);
+    }
 
     // A damaged message stops the page with one line, shown to the viewer.
     await page.goto(`${origin}/?test`);

@@ -277,6 +277,40 @@ function testHook(client) {
             return {width: w, height: h, rgba: base64(client.warper.readPixels(w, h))};
         },
         stats: () => ({...client.stats, error: client.error, state: client.state}),
+        // The message at `url` damaged: every truncated prefix must be refused by the parser, and
+        // `flips` single-bit flips (a fixed pseudo-random sequence) must parse and decode or be
+        // refused with a one-line ProtocolError; anything else is listed in `unexpected`.
+        async checkDamaged(url, flips) {
+            const good = new Uint8Array(await (await fetch(url)).arrayBuffer());
+            const result = {prefixes: good.length, prefixesRefused: 0, flips, flipsRefused: 0,
+                            unexpected: []};
+            const refused = (e) => {
+                if (e instanceof ProtocolError && e.message && !e.message.includes('\n')) return true;
+                result.unexpected.push(String(e?.message ?? e));
+                return false;
+            };
+            for (let n = 0; n < good.length; ++n) {
+                try {
+                    parseMessage(good.slice(0, n).buffer);
+                    result.unexpected.push(`prefix of ${n} bytes parsed`);
+                } catch (e) {
+                    if (refused(e)) ++result.prefixesRefused;
+                }
+            }
+            let seed = 12345;
+            const random = () => (seed = (Math.imul(seed, 1103515245) + 12345) >>> 0);
+            for (let i = 0; i < flips; ++i) {
+                const bad = good.slice();
+                bad[random() % bad.length] ^= 1 << (random() % 8);
+                try {
+                    const m = parseMessage(bad.buffer);
+                    if (m.type === 'referenceSet') (await decodeViews(m.set)).forEach((v) => v.bitmap.close());
+                } catch (e) {
+                    if (refused(e)) ++result.flipsRefused;
+                }
+            }
+            return result;
+        },
     };
     window.plxTest.ready = true;
 }

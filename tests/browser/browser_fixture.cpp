@@ -112,6 +112,14 @@ Status run(const fs::path& out) {
     warp::WarpStats stats;
     PLX_RETURN_IF_ERROR((*warper)->warp(set, *destination, warpOptions, &frame, &stats));
     PLX_RETURN_IF_ERROR(writePng((out / "native.png").string(), frame.color));
+    // The point kernel's frame too (one pixel per source pixel): it isolates the warped
+    // positions and the z-test from the derivative splat's extents.
+    warp::WarpFrame points;
+    warpOptions.splat = warp::Splat::kPoint;
+    PLX_RETURN_IF_ERROR((*warper)->warp(set, *destination, warpOptions, &points));
+    PLX_RETURN_IF_ERROR(writeBytes(
+        out / "native_point.rgba",
+        {reinterpret_cast<const uint8_t*>(points.color.data()), points.color.pixelCount() * 4}));
     PLX_RETURN_IF_ERROR(writeBytes(
         out / "native.rgba",
         {reinterpret_cast<const uint8_t*>(frame.color.data()), frame.color.pixelCount() * 4}));

@@ -142,9 +142,9 @@ class Client {
         this.pose.eye = this.pose.eye.map((e, i) => e + this.velocity[i] * dt);
     }
 
-    render(w, h) {
+    render(w, h, maxSplat) {
         if (!this.pose || this.warper.views.length === 0) return false;
-        this.warper.render(displayCamera(this.pose, w, h));
+        this.warper.render(displayCamera(this.pose, w, h), maxSplat);
         this.stats.referenceAgeMs = this.reference.requestTimestampUs
             ? (nowUs() - this.reference.requestTimestampUs) / 1000 : null;
         this.stats.frames += 1;
@@ -268,12 +268,13 @@ function testHook(client) {
             return client.error;
         },
         setPose(pose) { client.setPose(pose); },
-        render(w, h) {
+        // maxSplat: 1 for the point kernel; the derivative splat's cap when absent.
+        render(w, h, maxSplat) {
             canvas.width = w;
             canvas.height = h;
             canvas.style.width = `${w}px`;
             canvas.style.height = `${h}px`;
-            if (!client.render(w, h)) throw new Error('nothing to render (no reference set yet)');
+            if (!client.render(w, h, maxSplat)) throw new Error('nothing to render (no reference set yet)');
             return {width: w, height: h, rgba: base64(client.warper.readPixels(w, h))};
         },
         stats: () => ({...client.stats, error: client.error, state: client.state}),

@@ -13,7 +13,6 @@
 // can be compared pixel for pixel, and it needs no neighbour topology or tear threshold. Depth is
 // the destination's 1/w (delta / D), z-tested, so all faces of a set composite correctly.
 
-const DEG = Math.PI / 180;
 const f32 = Math.fround;
 // kMaxSplatSize (splat.h): the largest splat side in destination pixels.
 export const MAX_SPLAT = 6;
@@ -25,9 +24,10 @@ export const CLEAR_COLOR = [40, 44, 52];
 
 // 3-vectors and column-major 3x3 matrices (m[c * 3 + r], glm's [column][row]).
 const sub3 = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-// glm::normalize in f32: v * inversesqrt(dot(v, v)).
+// glm::normalize in f32: v * inversesqrt(dot(v, v)), inversesqrt(x) = 1 / sqrt(x), each op
+// rounded to f32 (sqrt and division are correctly rounded in both).
 const normalizeF = (v) => {
-    const s = f32(1 / Math.sqrt(f32(f32(f32(v[0] * v[0]) + f32(v[1] * v[1])) + f32(v[2] * v[2]))));
+    const s = f32(1 / f32(Math.sqrt(f32(f32(f32(v[0] * v[0]) + f32(v[1] * v[1])) + f32(v[2] * v[2])))));
     return [f32(v[0] * s), f32(v[1] * s), f32(v[2] * s)];
 };
 const crossF = (a, b) => [f32(f32(a[1] * b[2]) - f32(a[2] * b[1])),
@@ -72,7 +72,9 @@ export function makeCamera(desc) {
     const viewRot = [s[0], u[0], -f[0], s[1], u[1], -f[1], s[2], u[2], -f[2]];
     // glm::perspective (right-handed, clip z in -1..1), then the principal point shift.
     const aspect = f32(desc.width / desc.height);
-    const tanHalf = f32(Math.tan(f32(f32(desc.fovY * f32(DEG)) / 2)));
+    // plx::radians: degrees * (kPi / 180.0f) in f32.
+    const radians = f32(desc.fovY * f32(f32(Math.PI) / 180));
+    const tanHalf = f32(Math.tan(f32(radians / 2)));
     const clip = [  // columns 0..2 of the 4x4 clip matrix, 4 rows each
         f32(1 / f32(aspect * tanHalf)), 0, 0, 0,
         0, f32(1 / tanHalf), 0, 0,
@@ -120,6 +122,7 @@ uniform vec4 uD;                     // g h i m
 uniform vec2 uDest;                  // destination size, pixels
 uniform float uGuard;
 uniform float uMaxSplat;
+uniform vec3 uClear;  // the colour of empty pixels (1/w = 0), as the native warp draws them
 flat out vec4 vColor;
 flat out vec2 vCentre;  // warped position (x', y'), destination pixels, y down
 flat out vec2 vHalf;    // half the splat's sides
@@ -162,13 +165,15 @@ void main() {
     float sy = abs((ddx * cy + (uY.x - uD.x * yp)) * r) + abs((ddy * cy + (uY.y - uD.y * yp)) * r);
     vHalf = 0.5 * clamp(vec2(sx, sy), 1.0, uMaxSplat);
     vCentre = vec2(xp, yp);
-    vColor = texelFetch(uColor, ivec2(x, y), 0);
+    vColor = delta > 0.0 ? texelFetch(uColor, ivec2(x, y), 0) : vec4(uClear, 1.0);
     // The viewport spans the canvas plus the guard band, so window x = x', window y = H - y'.
     vec2 span = uDest + 2.0 * uGuard;
     vec2 ndc = vec2(2.0 * (xp + uGuard) / span.x - 1.0, 1.0 - 2.0 * (yp + uGuard) / span.y);
-    // Nearer (larger 1/w) is smaller z; 1/w = 0 (the background at infinity) stays inside the far
-    // plane so that it is drawn, behind everything else.
-    float z = 0.9999 - 1.9998 * (dd / (dd + 1.0));
+    // Window depth dd / (dd + 1), increasing with the destination's 1/w and tested GREATER into a
+    // 32-bit float depth buffer cleared to 0 (nearer wins, as the native z-buffer's larger 1/w):
+    // f32 resolves neighbouring splats' 1/w where a 16- or 24-bit buffer left ties that the
+    // draw order broke. 1/w = 0 (the background at infinity) is drawn a hair above the clear.
+    float z = 2.0 * (1e-7 + 0.9999 * (dd / (dd + 1.0))) - 1.0;
     gl_Position = vec4(ndc, z, 1.0);
     gl_PointSize = 2.0 * max(vHalf.x, vHalf.y) + 1.0;
 }`;
@@ -199,8 +204,7 @@ function compile(gl, type, source) {
 // Warps decoded reference sets into a WebGL2 canvas.
 export class GlWarper {
     constructor(canvas) {
-        const gl = canvas.getContext('webgl2', {antialias: false, depth: true, alpha: false,
-                                                preserveDrawingBuffer: true});
+        const gl = canvas.getContext('webgl2', {antialias: false, depth: false, alpha: false});
         if (!gl) throw new Error('WebGL2 is not available');
         this.gl = gl;
         this.canvas = canvas;
@@ -212,11 +216,38 @@ export class GlWarper {
         this.program = program;
         this.u = {};
         for (const n of ['uDisparity', 'uColor', 'uWidth', 'uHeight', 'uX', 'uY', 'uD', 'uDest',
-                         'uGuard', 'uMaxSplat']) {
+                         'uGuard', 'uMaxSplat', 'uClear']) {
             this.u[n] = gl.getUniformLocation(program, n);
         }
         this.vao = gl.createVertexArray();
         this.views = [];
+        this.target = null;  // {w, h, framebuffer, color, depth}
+    }
+
+    // The offscreen target of the destination's size: RGBA8 colour, 32-bit float depth.
+    bindTarget(w, h) {
+        const gl = this.gl;
+        if (!this.target || this.target.w !== w || this.target.h !== h) {
+            if (this.target) {
+                gl.deleteFramebuffer(this.target.framebuffer);
+                gl.deleteRenderbuffer(this.target.color);
+                gl.deleteRenderbuffer(this.target.depth);
+            }
+            const framebuffer = gl.createFramebuffer(), color = gl.createRenderbuffer(),
+                  depth = gl.createRenderbuffer();
+            gl.bindRenderbuffer(gl.RENDERBUFFER, color);
+            gl.renderbufferStorage(gl.RENDERBUFFER, gl.RGBA8, w, h);
+            gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+            gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT32F, w, h);
+            gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
+            gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.RENDERBUFFER, color);
+            gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+            if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) {
+                throw new Error('WebGL2: no RGBA8 + DEPTH_COMPONENT32F framebuffer');
+            }
+            this.target = {w, h, framebuffer, color, depth};
+        }
+        gl.bindFramebuffer(gl.FRAMEBUFFER, this.target.framebuffer);
     }
 
     // Uploads a decoded set: per view its camera, colour bitmap and disparity. Replaces the last.
@@ -252,21 +283,23 @@ export class GlWarper {
     }
 
     // Draws the uploaded set warped to `destination` (a makeCamera camera of the canvas' size).
-    render(destination) {
+    // maxSplat 1 gives the point kernel (one pixel per source pixel), for tests.
+    render(destination, maxSplat = MAX_SPLAT) {
         const gl = this.gl;
         const w = destination.width, h = destination.height;
-        gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+        this.bindTarget(w, h);
         gl.viewport(-GUARD, -GUARD, w + 2 * GUARD, h + 2 * GUARD);
         gl.clearColor(CLEAR_COLOR[0] / 255, CLEAR_COLOR[1] / 255, CLEAR_COLOR[2] / 255, 1);
-        gl.clearDepth(1);
+        gl.clearDepth(0);
         gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
         gl.enable(gl.DEPTH_TEST);
-        gl.depthFunc(gl.LESS);
+        gl.depthFunc(gl.GREATER);
         gl.useProgram(this.program);
         gl.bindVertexArray(this.vao);
         gl.uniform2f(this.u.uDest, w, h);
         gl.uniform1f(this.u.uGuard, GUARD);
-        gl.uniform1f(this.u.uMaxSplat, MAX_SPLAT);
+        gl.uniform1f(this.u.uMaxSplat, maxSplat);
+        gl.uniform3f(this.u.uClear, CLEAR_COLOR[0] / 255, CLEAR_COLOR[1] / 255, CLEAR_COLOR[2] / 255);
         gl.uniform1i(this.u.uDisparity, 0);
         gl.uniform1i(this.u.uColor, 1);
         for (const v of this.views) {
@@ -282,12 +315,17 @@ export class GlWarper {
             gl.bindTexture(gl.TEXTURE_2D, v.color);
             gl.drawArrays(gl.POINTS, 0, v.width * v.height);
         }
+        // Shown on the canvas; readPixels reads the offscreen target.
+        gl.bindFramebuffer(gl.READ_FRAMEBUFFER, this.target.framebuffer);
+        gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
+        gl.blitFramebuffer(0, 0, w, h, 0, 0, w, h, gl.COLOR_BUFFER_BIT, gl.NEAREST);
     }
 
     // The canvas' pixels, RGBA rows top to bottom.
     readPixels(w, h) {
         const gl = this.gl;
         const flipped = new Uint8Array(w * h * 4), out = new Uint8Array(w * h * 4);
+        gl.bindFramebuffer(gl.READ_FRAMEBUFFER, this.target.framebuffer);
         gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, flipped);
         for (let y = 0; y < h; ++y) out.set(flipped.subarray((h - 1 - y) * w * 4, (h - y) * w * 4), y * w * 4);
         return out;

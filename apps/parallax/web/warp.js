@@ -62,11 +62,10 @@ function inverse3(m) {
 // desc: {eye, target, up, fovY (degrees), near, far, width, height, shift: [x, y] pixels}.
 export function makeCamera(desc) {
     const eye = desc.eye.map(f32), target = desc.target.map(f32);
-    const forward = normalizeF(sub3(target, eye).map(f32));
-    const right = normalizeF(crossF(forward, desc.up.map(f32)));
-    const up = crossF(right, forward);
-    // glm::lookAt(eye, target, up): rows s, u, -f of the rotation.
+    // The camera's frame (Camera::Camera), then glm::lookAt(eye, target, up): rows s, u, -f.
     const f = normalizeF(sub3(target, eye).map(f32));
+    const right = normalizeF(crossF(f, desc.up.map(f32)));
+    const up = crossF(right, f);
     const s = normalizeF(crossF(f, up));
     const u = crossF(s, f);
     const viewRot = [s[0], u[0], -f[0], s[1], u[1], -f[1], s[2], u[2], -f[2]];
@@ -81,7 +80,7 @@ export function makeCamera(desc) {
         f32(-2 * f32(desc.shift[0]) / desc.width), f32(2 * f32(desc.shift[1]) / desc.height),
         f32(-f32(desc.far + desc.near) / f32(desc.far - desc.near)), -1,
     ];
-    return {eye, width: desc.width, height: desc.height, near: desc.near, clip, viewRot};
+    return {eye, width: desc.width, height: desc.height, clip, viewRot};
 }
 
 // P of equation.h: world-space ray (forward component 1) of pixel position (u, v, 1).

@@ -104,6 +104,12 @@ std::vector<Choice> choices() {
     CodecOptions level1 = jpeg(90, C::k420), level9 = jpeg(90, C::k420);
     level1.zstdLevel = 1;
     level9.zstdLevel = 9;
+    // q16 with deflate (what a browser decodes), at zlib levels 1, 6 (the default) and 9.
+    CodecOptions deflate1 = jpeg(90, C::k420), deflate6 = deflate1, deflate9 = deflate1;
+    deflate1.disparity = deflate6.disparity = deflate9.disparity =
+        DisparityCodec::kQuantized16Deflate;
+    deflate1.deflateLevel = 1;
+    deflate9.deflateLevel = 9;
     return {{"jpeg75-420/q16", jpeg(75, C::k420)},
             {"jpeg85-420/q16", jpeg(85, C::k420)},
             {"jpeg90-420/q16", jpeg(90, C::k420)},
@@ -113,6 +119,9 @@ std::vector<Choice> choices() {
             {"jpeg95-444/q16", jpeg(95, C::k444)},
             {"jpeg90-420/q16-zstd1", level1},
             {"jpeg90-420/q16-zstd9", level9},
+            {"jpeg90-420/q16-deflate1", deflate1},
+            {"jpeg90-420/q16-deflate6", deflate6},
+            {"jpeg90-420/q16-deflate9", deflate9},
             {"zstd-rgb/q16", zstdColor},
             {"zstd-rgb/zstd-float (lossless)", lossless}};
 }

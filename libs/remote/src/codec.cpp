@@ -18,11 +18,19 @@ namespace {
 constexpr size_t kViewHeaderBytes = 72;  // up to the row ranges
 constexpr size_t kSetHeaderBytes = 44;   // up to the first view
 
+bool knownDisparityCodec(int c) {
+    return c >= int(DisparityCodec::kQuantized16) && c <= int(DisparityCodec::kQuantized16Deflate);
+}
+// Both q16 codecs share the quantisation, the range fields and the residual planes.
+bool isQ16(DisparityCodec c) {
+    return c == DisparityCodec::kQuantized16 || c == DisparityCodec::kQuantized16Deflate;
+}
+
 Status checkOptions(const CodecOptions& o) {
     if (o.color != ColorCodec::kJpeg && o.color != ColorCodec::kZstd) {
         return {ErrorCode::kInvalidArgument, "codec options: unknown colour codec"};
     }
-    if (o.disparity != DisparityCodec::kQuantized16 && o.disparity != DisparityCodec::kFloatZstd) {
+    if (!knownDisparityCodec(int(o.disparity))) {
         return {ErrorCode::kInvalidArgument, "codec options: unknown disparity codec"};
     }
     if (o.jpegQuality < 1 || o.jpegQuality > 100) {
@@ -32,6 +40,10 @@ Status checkOptions(const CodecOptions& o) {
     if (o.zstdLevel < 1 || o.zstdLevel > 19) {
         return {ErrorCode::kInvalidArgument,
                 fmt::format("codec options: zstd level {} outside 1..19", o.zstdLevel)};
+    }
+    if (o.deflateLevel < 1 || o.deflateLevel > 9) {
+        return {ErrorCode::kInvalidArgument,
+                fmt::format("codec options: deflate level {} outside 1..9", o.deflateLevel)};
     }
     return {};
 }
@@ -110,8 +122,7 @@ void readCodecs(ByteReader& r, ViewHeader* h) {
     if (r.ok() && color != uint8_t(ColorCodec::kJpeg) && color != uint8_t(ColorCodec::kZstd)) {
         r.fail(ErrorCode::kCorruptData, "unknown colorCodec {}", color);
     }
-    if (r.ok() && disparity != uint8_t(DisparityCodec::kQuantized16) &&
-        disparity != uint8_t(DisparityCodec::kFloatZstd)) {
+    if (r.ok() && !knownDisparityCodec(disparity)) {
         r.fail(ErrorCode::kCorruptData, "unknown disparityCodec {}", disparity);
     }
     if (r.ok() && reserved != 0) r.fail(ErrorCode::kCorruptData, "reserved byte is {}", reserved);
@@ -144,7 +155,7 @@ void readDisparityRange(ByteReader& r, DisparityCodec codec, DisparityRange* ran
     range->dmin = r.f32("dmin");
     range->dmax = r.f32("dmax");
     const bool empty = range->dmin == 0.0f && range->dmax == 0.0f;
-    const bool valid = codec == DisparityCodec::kQuantized16
+    const bool valid = isQ16(codec)
                            ? empty || (range->dmin > 0.0f && range->dmax >= range->dmin)
                            : empty;
     if (r.ok() && !valid) {
@@ -248,12 +259,15 @@ Result<std::vector<uint8_t>> encodeReferenceView(const warp::ReferenceView& view
                                                  const CodecOptions& options) {
     PLX_RETURN_IF_ERROR(checkOptions(options));
     PLX_RETURN_IF_ERROR(checkView(view));
-    const bool q16 = options.disparity == DisparityCodec::kQuantized16;
+    const bool q16 = isQ16(options.disparity);
     const DisparityRange range = q16 ? disparityRange(view.disparity) : DisparityRange{};
     std::vector<uint8_t> color, disparity;
     PLX_RETURN_IF_ERROR(encodeColor(view.color, options, &color));
+    const int level = options.disparity == DisparityCodec::kQuantized16Deflate
+                          ? options.deflateLevel
+                          : options.zstdLevel;
     PLX_RETURN_IF_ERROR(
-        q16 ? encodeDisparityQ16(view.disparity, range, options.zstdLevel, &disparity)
+        q16 ? encodeDisparityQ16(view.disparity, range, options.disparity, level, &disparity)
             : encodeDisparityRaw(view.disparity, options.zstdLevel, &disparity));
     std::vector<uint8_t> out;
     out.reserve(kViewHeaderBytes + view.rowMinDisparity.size() * 8 + 8 + color.size() +
@@ -292,15 +306,16 @@ Status decodeReferenceView(std::span<const uint8_t> bytes, const DecodeLimits& l
     PLX_RETURN_IF_ERROR(withContext(
         checkColorHeader(h.color, color, h.camera.width, h.camera.height), "reference view"));
     PLX_RETURN_IF_ERROR(withContext(
-        checkZstdFrame(disparity, pixels * (h.disparity == DisparityCodec::kQuantized16 ? 2 : 4),
-                       "disparity"),
+        h.disparity == DisparityCodec::kQuantized16Deflate
+            ? checkZlibHeader(disparity, "disparity")
+            : checkZstdFrame(disparity, pixels * (isQ16(h.disparity) ? 2 : 4), "disparity"),
         "reference view"));
     out->camera = *camera;
     out->color.resize(h.camera.width, h.camera.height);
     out->disparity.resize(h.camera.width, h.camera.height);
     PLX_RETURN_IF_ERROR(withContext(decodeColor(h.color, color, &out->color), "reference view"));
-    const Status s = h.disparity == DisparityCodec::kQuantized16
-                         ? decodeDisparityQ16(disparity, h.range, out->rowMinDisparity,
+    const Status s = isQ16(h.disparity)
+                         ? decodeDisparityQ16(disparity, h.disparity, h.range, out->rowMinDisparity,
                                               out->rowMaxDisparity, &out->disparity)
                          : decodeDisparityRaw(disparity, out->rowMinDisparity, out->rowMaxDisparity,
                                               &out->disparity);

@@ -2,7 +2,8 @@
 // plane seen in perspective, so along a row its second difference vanishes on every planar
 // surface (the "highly compressible" disparity of Mark, Bishop, McMillan, citing Guenter et al.);
 // quantised to 16 bits over the view's own range, predicted by 2a - b and zigzag-coded, the
-// residuals are mostly 0 and +-1 and zstd packs them. Raw: the floats under zstd (lossless peer).
+// residuals are mostly 0 and +-1 and zstd (zlib for browsers) packs them. Raw: the floats under
+// zstd (lossless peer).
 // Layout and error bound: docs/remote-protocol.md, "Disparity, q16".
 
 #include <algorithm>
@@ -58,8 +59,8 @@ DisparityRange disparityRange(const Image<float>& disparity) {
     return r;
 }
 
-Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, int level,
-                          std::vector<uint8_t>* out) {
+Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range,
+                          DisparityCodec codec, int level, std::vector<uint8_t>* out) {
     const int w = disparity.width(), h = disparity.height();
     const size_t n = disparity.pixelCount();
     const double step = quantStep(range);
@@ -85,16 +86,19 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, i
         }
         aboveFirst = q[0];
     }
-    return zstdCompress(planes, level, out);
+    return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(planes, level, out)
+                                                        : zstdCompress(planes, level, out);
 }
 
-Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityRange range,
+Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity) {
     const int w = disparity->width(), h = disparity->height();
     const size_t n = disparity->pixelCount();
     std::vector<uint8_t> planes(2 * n);
-    PLX_RETURN_IF_ERROR(zstdDecompressExact(in, planes, "disparity"));
+    PLX_RETURN_IF_ERROR(codec == DisparityCodec::kQuantized16Deflate
+                            ? zlibInflateExact(in, planes, "disparity")
+                            : zstdDecompressExact(in, planes, "disparity"));
     const double step = quantStep(range);
     std::vector<uint16_t> q(static_cast<size_t>(w));
     int aboveFirst = 0;

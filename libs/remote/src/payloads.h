@@ -22,6 +22,13 @@ Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* 
 // names the payload in errors.
 Status zstdDecompressExact(std::span<const uint8_t> in, std::span<uint8_t> out, const char* field);
 
+// zlib (RFC 1950): compresses `in` as one stream.
+Status zlibCompress(std::span<const uint8_t> in, int level, std::vector<uint8_t>* out);
+// Checks, without inflating, a zlib stream's header: deflate, window <= 32 KiB, no dictionary.
+Status checkZlibHeader(std::span<const uint8_t> in, const char* field);
+// Inflates one zlib stream that must produce exactly out.size() bytes and end with the input.
+Status zlibInflateExact(std::span<const uint8_t> in, std::span<uint8_t> out, const char* field);
+
 // Colour as JPEG (TurboJPEG, alpha dropped) or zstd of raw RGB.
 Status encodeColor(const Image<Rgba8>& color, const CodecOptions& options,
                    std::vector<uint8_t>* out);
@@ -38,12 +45,13 @@ struct DisparityRange {
 };
 DisparityRange disparityRange(const Image<float>& disparity);
 
-// q16: quantised, row-predicted residual planes, zstd (docs/remote-protocol.md, "Disparity, q16").
-Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, int level,
-                          std::vector<uint8_t>* out);
+// q16: quantised, row-predicted residual planes (docs/remote-protocol.md, "Disparity, q16"),
+// compressed with zstd (kQuantized16) or zlib (kQuantized16Deflate) at `level`.
+Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range,
+                          DisparityCodec codec, int level, std::vector<uint8_t>* out);
 // Decodes into *disparity, already of the view's size, clamping each drawn pixel to its row's
 // range (rowMin, rowMax: one entry per row).
-Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityRange range,
+Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity);
 

@@ -63,10 +63,14 @@ Status invalid(const char* what, const std::string& problem) {
 Status put(ByteWriter& w, const ClientHello& m, const CodecOptions&) {
     if (!faceValid(m.faceSize)) return invalid("client hello", "faceSize out of range");
     if (m.token.size() > kMaxTokenBytes) return invalid("client hello", "token too long");
+    if (m.disparityCodecs == 0 || (m.disparityCodecs & ~kAllDisparityCodecs) != 0) {
+        return invalid("client hello", "disparityCodecs names no codec or an unknown one");
+    }
     w.u16(m.version);
     w.u8(uint8_t(m.layout));
     w.u16(uint16_t(m.faceSize));
     writeText(w, m.token);
+    w.u8(m.disparityCodecs);
     return {};
 }
 
@@ -159,6 +163,11 @@ ClientHello getClientHello(ByteReader& r) {
     m.version = r.u16("version");
     readLayoutAndFace(r, &m.layout, &m.faceSize);
     m.token = readText(r, "tokenBytes", kMaxTokenBytes);
+    m.disparityCodecs = r.u8("disparityCodecs");
+    if (r.ok() && (m.disparityCodecs == 0 || (m.disparityCodecs & ~kAllDisparityCodecs) != 0)) {
+        r.fail(ErrorCode::kCorruptData, "disparityCodecs {:#04x} names no codec or an unknown one",
+               m.disparityCodecs);
+    }
     return m;
 }
 

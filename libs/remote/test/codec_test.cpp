@@ -8,6 +8,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <plx/core/metrics.h>
 #include <plx/remote/codec.h>
@@ -47,6 +48,9 @@ TEST(Codec, LossyRoundTripStaysWithinTheStatedBounds) {
         for (ChromaSubsampling chroma : {ChromaSubsampling::k420, ChromaSubsampling::k444}) {
             CodecOptions o;
             o.chroma = chroma;
+            // Both q16 entropy coders carry the same codes: one pass each.
+            o.disparity = chroma == ChromaSubsampling::k420 ? DisparityCodec::kQuantized16
+                                                            : DisparityCodec::kQuantized16Deflate;
             for (const warp::ReferenceView& view : renderedSet(spec, kFace).views) {
                 auto bytes = encodeReferenceView(view, o);
                 ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
@@ -142,25 +146,78 @@ TEST(Codec, PlanesCompressToAlmostNothing) {
 
 TEST(Codec, EveryTruncatedPrefixIsRefused) {
     const warp::ReferenceSet& set = renderedSet("office:1", 16);
-    auto view = encodeReferenceView(set.views[0], {});
-    ASSERT_TRUE(view.isOk());
+    for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate}) {
+        CodecOptions o;
+        o.disparity = d;
+        auto view = encodeReferenceView(set.views[0], o);
+        ASSERT_TRUE(view.isOk());
+        warp::ReferenceView v;
+        for (size_t n = 0; n < view->size(); ++n) {
+            expectOneLineError(decodeReferenceView(std::span(*view).first(n), {}, &v));
+        }
+        auto bytes = encodeReferenceSet(set, o);
+        ASSERT_TRUE(bytes.isOk());
+        warp::ReferenceSet s;
+        for (size_t n = 0; n < bytes->size(); ++n) {
+            expectOneLineError(decodeReferenceSet(std::span(*bytes).first(n), {}, &s));
+        }
+    }
+}
+
+// A zlib stream records no size: its header is checked before the images are allocated, and it
+// must inflate to exactly the 2 W H bytes of the view header, no more, no fewer, nothing after.
+TEST(Codec, DeflatePayloadInflatesToExactlyTheViewSize) {
+    const warp::ReferenceView& view = renderedSet("office:1", 16).views[0];
+    CodecOptions o;
+    o.disparity = DisparityCodec::kQuantized16Deflate;
+    auto good = encodeReferenceView(view, o);
+    ASSERT_TRUE(good.isOk());
+    warp::ReferenceView out;
+    ASSERT_TRUE(decodeReferenceView(*good, {}, &out).isOk());
+    // The disparity payload is the view's tail: u32 disparityBytes, then the stream.
+    const size_t colorAt = 72 + 8 * 16;
+    const size_t colorBytes = (*good)[colorAt] | ((*good)[colorAt + 1] << 8) |
+                              ((*good)[colorAt + 2] << 16) | (size_t((*good)[colorAt + 3]) << 24);
+    const size_t payloadAt = colorAt + 4 + colorBytes + 4;
+    auto withPayload = [&](std::vector<uint8_t> payload) {
+        std::vector<uint8_t> b(good->begin(), good->begin() + std::ptrdiff_t(payloadAt - 4));
+        for (int i = 0; i < 4; ++i) b.push_back(uint8_t(payload.size() >> (8 * i)));
+        b.insert(b.end(), payload.begin(), payload.end());
+        return b;
+    };
+    auto zlibOf = [](size_t bytes) {
+        std::vector<uint8_t> raw(bytes, 0), z(compressBound(uLong(bytes)));
+        uLongf n = z.size();
+        EXPECT_EQ(compress2(z.data(), &n, raw.data(), uLong(raw.size()), 6), Z_OK);
+        z.resize(n);
+        return z;
+    };
+    const size_t planes = 2 * 16 * 16;
     warp::ReferenceView v;
-    for (size_t n = 0; n < view->size(); ++n) {
-        expectOneLineError(decodeReferenceView(std::span(*view).first(n), {}, &v));
-    }
-    auto bytes = encodeReferenceSet(set, {});
-    ASSERT_TRUE(bytes.isOk());
-    warp::ReferenceSet s;
-    for (size_t n = 0; n < bytes->size(); ++n) {
-        expectOneLineError(decodeReferenceSet(std::span(*bytes).first(n), {}, &s));
-    }
+    expectOneLineError(decodeReferenceView(withPayload(zlibOf(planes + 1)), {}, &v),
+                       "inflates past 512 bytes");
+    expectOneLineError(decodeReferenceView(withPayload(zlibOf(planes - 1)), {}, &v),
+                       "zlib stream of 511 bytes, expected 512");
+    std::vector<uint8_t> longer = zlibOf(planes);
+    longer.push_back(0);
+    expectOneLineError(decodeReferenceView(withPayload(longer), {}, &v),
+                       "1 bytes after the zlib stream");
+    std::vector<uint8_t> badHeader = zlibOf(planes);
+    badHeader[0] = 0x79;  // method 9
+    warp::ReferenceView fresh;
+    expectOneLineError(decodeReferenceView(withPayload(badHeader), {}, &fresh),
+                       "not a zlib deflate stream");
+    EXPECT_TRUE(fresh.color.empty() && fresh.disparity.empty()) << "refused before allocation";
+    std::vector<uint8_t> badSum = zlibOf(planes);
+    badSum.back() ^= 1;
+    expectOneLineError(decodeReferenceView(withPayload(badSum), {}, &v), "incorrect data check");
 }
 
 TEST(Codec, FlippedBitsNeverCrash) {
     const warp::ReferenceSet& set = renderedSet("museum:1", 16);
     for (ColorCodec color : {ColorCodec::kJpeg, ColorCodec::kZstd}) {
-        for (DisparityCodec disparity :
-             {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd}) {
+        for (DisparityCodec disparity : {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
+                                         DisparityCodec::kQuantized16Deflate}) {
             CodecOptions o;
             o.color = color;
             o.disparity = disparity;
@@ -246,6 +303,9 @@ TEST(Codec, BadOptionsAndViewsAreInvalidArguments) {
     CodecOptions o;
     o.jpegQuality = 0;
     expectOneLineError(encodeReferenceView(view, o).status(), "JPEG quality 0");
+    o = {};
+    o.deflateLevel = 10;
+    expectOneLineError(encodeReferenceView(view, o).status(), "deflate level 10");
     warp::ReferenceView bad = view;
     bad.disparity.at(3, 3) = -1.0f;
     expectOneLineError(encodeReferenceView(bad, {}).status(), "disparity -1 at (3, 3)");

@@ -36,7 +36,10 @@ std::vector<Message> sampleMessages() {
     ServerHello refusal;
     refusal.accepted = false;
     refusal.reason = "unsupported protocol version 2 (server speaks 1)";
+    ClientHello browser{1, warp::ReferenceLayout::kCube4, 256, "",
+                        disparityCodecBit(DisparityCodec::kQuantized16Deflate)};
     return {ClientHello{1, warp::ReferenceLayout::kCube6, 768, "secret-token"},
+            browser,
             ServerHello{},
             refusal,
             pose,
@@ -65,6 +68,7 @@ void expectSame(const Message& a, const Message& b) {
                 EXPECT_EQ(x.layout, y.layout);
                 EXPECT_EQ(x.faceSize, y.faceSize);
                 EXPECT_EQ(x.token, y.token);
+                EXPECT_EQ(x.disparityCodecs, y.disparityCodecs);
             } else if constexpr (std::is_same_v<T, ServerHello>) {
                 EXPECT_EQ(x.accepted, y.accepted);
                 EXPECT_EQ(x.layout, y.layout);
@@ -108,7 +112,7 @@ TEST(Protocol, EveryMessageTypeRoundTrips) {
         ASSERT_TRUE(back.isOk()) << back.status().toString();
         expectSame(m, *back);
     }
-    EXPECT_EQ(encoded(sampleMessages()[3]).size(), 58u);
+    EXPECT_EQ(encoded(sampleMessages()[4]).size(), 58u);
 }
 
 TEST(Protocol, EveryTruncatedPrefixIsRefused) {
@@ -148,16 +152,21 @@ TEST(Protocol, BadFieldsGetErrorsNamingThem) {
     b[4] = 0xFF;
     b[5] = 0xFF;
     expectOneLineError(decodeMessage(b).status(), "faceSize 65535");
-    b = encoded(msgs[1]);
+    b = encoded(msgs[2]);
     b[1] = 2;
     expectOneLineError(decodeMessage(b).status(), "protocol version 2");
-    b = encoded(msgs[3]);
+    b = encoded(msgs[4]);
     b[12] = 0x7F;
     b[11] = 0xC0;  // eye.x = NaN
     expectOneLineError(decodeMessage(b).status(), "eye is not finite");
-    b = encoded(msgs[3]);
+    b = encoded(msgs[4]);
     b[45] = 3;
     expectOneLineError(decodeMessage(b).status(), "flags 3");
+    b = encoded(msgs[0]);
+    b.back() = 0;
+    expectOneLineError(decodeMessage(b).status(), "disparityCodecs 0x00 names no codec");
+    b.back() = 0x0F;
+    expectOneLineError(decodeMessage(b).status(), "disparityCodecs 0x0f");
     // A client hello of another version decodes: the server answers with a refusal.
     b = encoded(msgs[0]);
     b[1] = 2;
@@ -173,7 +182,7 @@ TEST(Protocol, OversizedMessagesAreRefusedBeforeReading) {
     hello[6] = 0xFF;  // tokenBytes 65535
     hello[7] = 0xFF;
     expectOneLineError(decodeMessage(hello).status(), "tokenBytes 65535 over 256");
-    std::vector<uint8_t> set = encoded(sampleMessages()[5]);
+    std::vector<uint8_t> set = encoded(sampleMessages()[6]);
     DecodeLimits small;
     small.maxViewSide = 8;
     expectOneLineError(decodeMessage(set, small).status(), "size 16x16");
@@ -189,6 +198,23 @@ TEST(Protocol, EncoderRefusesWhatTheDecoderWould) {
     ServerHello s;
     s.accepted = false;
     expectOneLineError(encodeMessage(s).status(), "reason");
+    ClientHello none;
+    none.disparityCodecs = 0;
+    expectOneLineError(encodeMessage(none).status(), "disparityCodecs");
+}
+
+// Native clients (every codec) keep q16 + zstd; a browser (deflate only) gets q16 + deflate; the
+// raw floats only to a client that decodes nothing else; a mask naming nothing is refused.
+TEST(Protocol, ServerPicksTheBestDisparityCodecTheClientDecodes) {
+    EXPECT_EQ(*chooseDisparityCodec(kAllDisparityCodecs), DisparityCodec::kQuantized16);
+    EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kQuantized16Deflate)),
+              DisparityCodec::kQuantized16Deflate);
+    EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kQuantized16Deflate) |
+                                    disparityCodecBit(DisparityCodec::kFloatZstd)),
+              DisparityCodec::kQuantized16Deflate);
+    EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kFloatZstd)),
+              DisparityCodec::kFloatZstd);
+    expectOneLineError(chooseDisparityCodec(0x08).status(), "no disparity codec");
 }
 
 // The fuzzers' seeds: every message (protocol fuzzer) and encoded views with each codec pair
@@ -208,7 +234,8 @@ TEST(Protocol, FuzzSeedsDecode) {
         }
         i = 0;
         for (ColorCodec c : {ColorCodec::kJpeg, ColorCodec::kZstd}) {
-            for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd}) {
+            for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
+                                     DisparityCodec::kQuantized16Deflate}) {
                 CodecOptions o;
                 o.color = c;
                 o.disparity = d;

@@ -3,7 +3,8 @@
 // Transmitted Data": "conventional image compression techniques should be effective on the color
 // portion of the image ... the disparity values should be highly compressible as well").
 // Colour: JPEG through TurboJPEG, or zstd of raw RGB (lossless). Disparity: 16-bit quantised,
-// predicted along rows by second differences and coded with zstd, or zstd of the raw floats.
+// predicted along rows by second differences and coded with zstd (or zlib, for browsers), or
+// zstd of the raw floats.
 // The byte layout, the quantisation and its error bound are in docs/remote-protocol.md;
 // measurements behind the defaults in docs/remote-results.md.
 
@@ -17,7 +18,9 @@
 namespace plx::remote {
 
 enum class ColorCodec : uint8_t { kJpeg = 1, kZstd = 2 };
-enum class DisparityCodec : uint8_t { kQuantized16 = 1, kFloatZstd = 2 };
+// kQuantized16Deflate: q16's codes and planes, compressed as one zlib stream instead of zstd, for
+// clients without zstd (browsers: DecompressionStream inflates deflate, not zstd).
+enum class DisparityCodec : uint8_t { kQuantized16 = 1, kFloatZstd = 2, kQuantized16Deflate = 3 };
 enum class ChromaSubsampling { k420, k444 };
 
 struct CodecOptions {
@@ -29,6 +32,9 @@ struct CodecOptions {
     DisparityCodec disparity = DisparityCodec::kQuantized16;
     // zstd level 1..19 for both zstd payloads; higher levels buy little on residuals.
     int zstdLevel = 3;
+    // zlib level 1..9 for the q16-deflate payload (6, zlib's default: see
+    // docs/remote-results.md).
+    int deflateLevel = 6;
 };
 
 // What a decoder accepts; everything larger is refused before allocation.

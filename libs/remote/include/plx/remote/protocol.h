@@ -37,13 +37,28 @@ constexpr int kMaxFaceSize = 4096;
 constexpr size_t kMaxPoseMessageBytes = 256;
 constexpr size_t kMaxReferenceSetMessageBytes = size_t(64) << 20;
 
+// The ClientHello's disparityCodecs bit of a codec: bit (codec - 1).
+constexpr uint8_t disparityCodecBit(DisparityCodec codec) {
+    return uint8_t(1u << (uint8_t(codec) - 1));
+}
+// Every disparity codec of this version: what a native client decodes.
+constexpr uint8_t kAllDisparityCodecs = 0x07;
+
 // The first message of a session, client to server.
 struct ClientHello {
     uint16_t version = kProtocolVersion;                           // the client's protocol version
     warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;  // requested
     int faceSize = 512;  // requested pixels per face side, kMinFaceSize..kMaxFaceSize
     std::string token;   // opaque credential, at most kMaxTokenBytes
+    // The disparity codecs the client decodes (disparityCodecBit of each; at least one, no
+    // unknown bits). A browser has no zstd and sends only kQuantized16Deflate's bit.
+    uint8_t disparityCodecs = kAllDisparityCodecs;
 };
+
+// The disparity codec a server sends to a client that decodes `disparityCodecs`: q16 with zstd
+// when it can (the smallest and fastest, docs/remote-results.md), else q16 with deflate, else the
+// raw floats. Error (kUnsupported) when the mask names none of them.
+Result<DisparityCodec> chooseDisparityCodec(uint8_t disparityCodecs);
 
 // The server's answer: accepted with what it will send, or refused with a reason.
 struct ServerHello {

@@ -167,13 +167,20 @@ std::string percentDecode(const std::string& s) {
     return out;
 }
 
+// A texture that does not decode, whatever the decoder's code: kUnsupported is reserved for
+// references outside the model's folder, which fail the import (an unknown image format only
+// leaves the material untextured).
+Status decodeFailure(const Status& status) {
+    return errorStatus(ErrorCode::kCorruptData, status.message());
+}
+
 // Decodes an embedded texture: compressed file bytes (PNG/JPEG) or raw BGRA texels.
 Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex, int64_t maxPixels) {
     if (tex.mHeight == 0) {
         auto image = decodeImage(
             std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth),
             maxPixels);
-        if (!image) return image.status();
+        if (!image) return decodeFailure(image.status());
         return toRgba8(*image);
     }
     if (tex.mWidth > unsigned(kMaxDecodedSide) || tex.mHeight > unsigned(kMaxDecodedSide) ||
@@ -206,7 +213,7 @@ Result<Image<Rgba8>> loadTextureImage(const aiScene& ai, const RefPolicy& policy
         auto real = policy.resolve(candidate, true);
         if (real) {
             auto image = readImage(real->string(), maxPixels);
-            if (!image) return image.status();
+            if (!image) return decodeFailure(image.status());
             return toRgba8(*image);
         }
         if (real.status().code() == ErrorCode::kUnsupported) return real.status();
@@ -434,6 +441,10 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
     if (ext == ".obj") return checkObjCounts(path, options.maxTriangles);
     if (ext == ".off") return checkOffFile(path, size, options.maxTriangles);
     if (ext == ".x") return checkXFaces(path, size);
+    if (ext == ".smd") return checkSmdSections(path);
+    if (ext == ".ac" || ext == ".acc" || ext == ".ac3d")
+        return checkAc3dSubdivision(
+            path, std::min(options.maxTriangles, options.maxSubdividedTriangles));
     if (ext == ".gltf" || ext == ".glb")
         return checkGltfExpansion(path, size, options.maxNodeCopies, options.maxTriangles);
     return Status::ok();

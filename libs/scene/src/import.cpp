@@ -24,6 +24,7 @@
 #include "contained_io.h"
 #include "normals.h"
 #include "size_check.h"
+#include "vertex_join.h"
 
 namespace plx::scene {
 namespace {
@@ -106,6 +107,8 @@ Mesh bakeInstance(const aiMesh& src, const MeshInstance& inst, size_t* degenerat
     std::vector<Vec3> worldPos(src.mNumVertices);
     for (unsigned v = 0; v < src.mNumVertices; ++v)
         worldPos[v] = Vec3(world * Vec4(toVec3(src.mVertices[v]), 1.0f));
+    // Corners refer to the first of identical vertices (the OBJ reader makes one per corner).
+    const std::vector<uint32_t> same = firstIdenticalVertex(src);
     std::vector<Corners> tris;
     tris.reserve(src.mNumFaces);
     for (unsigned f = 0; f < src.mNumFaces; ++f) {
@@ -113,6 +116,7 @@ Mesh bakeInstance(const aiMesh& src, const MeshInstance& inst, size_t* degenerat
         if (face.mNumIndices != 3) continue;  // points and lines: not drawable as triangles
         unsigned a = face.mIndices[0], b = face.mIndices[1], c = face.mIndices[2];
         if (a >= src.mNumVertices || b >= src.mNumVertices || c >= src.mNumVertices) continue;
+        a = same[a], b = same[b], c = same[c];
         if (flip) std::swap(b, c);
         glm::dvec3 pa(worldPos[a]), pb(worldPos[b]), pc(worldPos[c]);
         glm::dvec3 n = glm::cross(pb - pa, pc - pa);
@@ -477,8 +481,8 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
             Status repaired = repairMeshes(const_cast<aiScene*>(ai), options.maxPolygonCorners);
             if (!repaired) return named(repaired);
             // UV (0,0) is the top-left texel, as in glTF and in plx::Image.
-            ai = importer.ApplyPostProcessing(aiProcess_Triangulate |
-                                              aiProcess_JoinIdenticalVertices | aiProcess_FlipUVs);
+            // Identical vertices are joined in bakeInstance (vertex_join.h), in linear time.
+            ai = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
         }
     } catch (const std::bad_alloc&) {  // assimp catches its own errors, not this one
         return named(outOfMemory());

@@ -261,6 +261,22 @@ TEST(ImportNormals, LinearMethodEqualsTheReference) {
     for (size_t c = 0; c < fast.size(); ++c) EXPECT_EQ(fast[c], ref[c]) << "corner " << c;
 }
 
+TEST(ImportNormals, CornersShareAVertexOnlyWhenEveryAttributeIsEqual) {
+    // Two coplanar triangles sharing an edge (one vertex each way), and a third over the same
+    // corners facing the other way, one of its corners with another UV.
+    fs::path dir = tempDir("join");
+    auto s = importFile(writeFile(dir / "join.obj",
+                                  "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                                  "vt 0 1\nvt 0.5 0.5\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\nf 1/5 4/4 3/3\n"));
+    ASSERT_TRUE(s.isOk()) << s.status().message();
+    ASSERT_EQ(s->meshes.size(), 1u);
+    const Mesh& m = s->meshes[0];
+    // 4 vertices facing +z; 3 facing -z (normals differ), one of which also differs in UV.
+    EXPECT_EQ(m.vertexCount(), 7u);
+    EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 4, 5, 6}));
+    EXPECT_EQ(m.uvs[4], Vec2(0.5f, 0.5f));
+}
+
 TEST(ImportNormals, HugeFanAroundOneVertexImports) {
     // 400,000 triangles around one shared vertex: quadratic normal generation took over 30 s.
     const int n = 400000;
@@ -280,6 +296,10 @@ TEST(ImportNormals, HugeFanAroundOneVertexImports) {
     auto s = importFile(writeFile(dir / "fan.obj", obj));
     ASSERT_TRUE(s.isOk()) << s.status().message();
     EXPECT_GT(s->triangleCount(), size_t(n) * 99 / 100);  // a few sliver triangles may be zero area
+    // The reader's one vertex per corner is joined back to one per file vertex.
+    size_t vertices = 0;
+    for (const Mesh& m : s->meshes) vertices += m.vertexCount();
+    EXPECT_EQ(vertices, size_t(n) + 2);
     // Every triangle is in the plane z = 0: the averaged normals are +z.
     for (const Mesh& m : s->meshes)
         for (const Vec3& nrm : m.normals) ASSERT_NEAR(std::abs(nrm.z), 1.0f, 1e-4f);

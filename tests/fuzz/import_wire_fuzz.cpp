@@ -13,5 +13,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     auto decoded = plx::scene::wire::decode(std::span<const uint8_t>(data, size));
     if (!decoded.isOk() && decoded.status().message().empty()) std::abort();
+    // What the parent does next: finalize the scene, which checks what the bytes mean.
+    if (decoded.isOk() && decoded->outcome == plx::scene::wire::WireOutcome::kScene)
+        (void)decoded->scene.finalize();
     return 0;
 }

@@ -23,6 +23,7 @@
 
 #include "contained_io.h"
 #include "normals.h"
+#include "import_unfinalized.h"
 #include "size_check.h"
 #include "vertex_join.h"
 
@@ -361,7 +362,7 @@ Status convertScene(const aiScene& ai, const std::string& path, const RefPolicy&
         return errorStatus(ErrorCode::kCorruptData,
                            fmt::format("no triangles (all {} are degenerate)", triangles));
     convertCameras(ai, isGltfPath(path), scene);
-    return scene->finalize();
+    return Status::ok();
 }
 
 // Recomputes each mesh's primitive-type flags from its faces and checks the face indices.
@@ -458,6 +459,14 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
 
 Result<Scene> importFile(const std::string& path, const ImportOptions& options) {
     if (options.isolation.enabled) return importFileIsolated(path, options);
+    auto scene = importFileUnfinalized(path, options);
+    if (!scene) return scene.status();
+    Status finalized = scene->finalize();
+    if (!finalized) return errorStatus(finalized.code(), path + ": " + finalized.message());
+    return scene;
+}
+
+Result<Scene> importFileUnfinalized(const std::string& path, const ImportOptions& options) {
     auto named = [&](const Status& s) { return errorStatus(s.code(), path + ": " + s.message()); };
     // A directory, FIFO or device is refused here, without blocking; the message names the path
     // and the cause (not found, symlink loop, permission).

@@ -254,6 +254,7 @@ TEST(SceneWire, EveryPrefixOfASmallSceneOrAnErrorIsAnError) {
     const std::vector<uint8_t> bytes = encodedScene(scene);
     auto whole = wire::decode(bytes);
     ASSERT_TRUE(whole.isOk()) << whole.status().message();
+    ASSERT_TRUE(whole->scene.finalize().isOk());
     expectSameScene(scene, whole->scene);
     const Status failure = errorStatus(ErrorCode::kCorruptData, "m.obj: face 3 is broken");
     const std::vector<uint8_t> error = encodedError(wire::WireOutcome::kError, failure);
@@ -269,6 +270,18 @@ TEST(SceneWire, EveryPrefixOfASmallSceneOrAnErrorIsAnError) {
             EXPECT_NE(r.status().message().find("import result: "), std::string::npos);
         }
     }
+}
+
+// Well-formed bytes can still describe a broken scene: finalize, which the parent runs on every
+// decoded scene, refuses it.
+TEST(SceneWire, WellFormedBytesOfABrokenSceneFailFinalize) {
+    Scene scene = smallWireScene();
+    scene.meshes[0].indices[2] = 99;
+    auto decoded = wire::decode(encodedScene(scene));
+    ASSERT_TRUE(decoded.isOk()) << decoded.status().message();
+    Status finalized = decoded->scene.finalize();
+    ASSERT_FALSE(finalized.isOk());
+    EXPECT_NE(finalized.message().find("99"), std::string::npos) << finalized.message();
 }
 
 // The import-wire fuzzer's seeds (tests/fuzz/import-wire-seeds): rewritten with
@@ -297,7 +310,10 @@ TEST(SceneWire, FuzzSeedsDecode) {
         std::ifstream f(e.path(), std::ios::binary);
         const std::vector<uint8_t> b{std::istreambuf_iterator<char>(f), {}};
         auto r = wire::decode(b);
-        EXPECT_TRUE(r.isOk()) << e.path() << ": " << r.status().message();
+        ASSERT_TRUE(r.isOk()) << e.path() << ": " << r.status().message();
+        if (r->outcome == wire::WireOutcome::kScene) {
+            EXPECT_TRUE(r->scene.finalize().isOk());
+        }
         ++seeds;
     }
     EXPECT_GE(seeds, 4);
@@ -310,6 +326,7 @@ TEST(SceneWire, EveryTruncatedPrefixIsAnError) {
     const std::vector<uint8_t> bytes = encodedScene(scene);
     auto whole = wire::decode(bytes);
     ASSERT_TRUE(whole.isOk()) << whole.status().message();
+    ASSERT_TRUE(whole->scene.finalize().isOk());
     expectSameScene(scene, whole->scene);
     size_t step = std::max<size_t>(1, bytes.size() / 4000);
     for (size_t n = 0; n < bytes.size(); n += step)

@@ -36,7 +36,7 @@ TEST(HardeningCli, DirectoriesAndFifosAreRefusedAtOnce) {
     fs::create_directories(folder);
     fs::path fifo = makeFifo("input.fifo");
     const std::string out = " -o " + (dir() / "x.png").string();
-    for (const std::string& cmd : {"ptm info ", "ptm verify ", "ptm decode "}) {
+    for (const std::string cmd : {"ptm info ", "ptm verify ", "ptm decode "}) {
         expectOneLineError(runParallax(cmd + q(folder) + (cmd == "ptm decode " ? out : "")),
                            "is a directory, not a regular file");
         expectOneLineError(runParallax(cmd + q(fifo) + (cmd == "ptm decode " ? out : "")),

@@ -23,7 +23,9 @@
 
 #include "contained_io.h"
 #include "normals.h"
+#include "import_unfinalized.h"
 #include "size_check.h"
+#include "vertex_join.h"
 
 namespace plx::scene {
 namespace {
@@ -106,6 +108,8 @@ Mesh bakeInstance(const aiMesh& src, const MeshInstance& inst, size_t* degenerat
     std::vector<Vec3> worldPos(src.mNumVertices);
     for (unsigned v = 0; v < src.mNumVertices; ++v)
         worldPos[v] = Vec3(world * Vec4(toVec3(src.mVertices[v]), 1.0f));
+    // Corners refer to the first of identical vertices (the OBJ reader makes one per corner).
+    const std::vector<uint32_t> same = firstIdenticalVertex(src);
     std::vector<Corners> tris;
     tris.reserve(src.mNumFaces);
     for (unsigned f = 0; f < src.mNumFaces; ++f) {
@@ -113,6 +117,7 @@ Mesh bakeInstance(const aiMesh& src, const MeshInstance& inst, size_t* degenerat
         if (face.mNumIndices != 3) continue;  // points and lines: not drawable as triangles
         unsigned a = face.mIndices[0], b = face.mIndices[1], c = face.mIndices[2];
         if (a >= src.mNumVertices || b >= src.mNumVertices || c >= src.mNumVertices) continue;
+        a = same[a], b = same[b], c = same[c];
         if (flip) std::swap(b, c);
         glm::dvec3 pa(worldPos[a]), pb(worldPos[b]), pc(worldPos[c]);
         glm::dvec3 n = glm::cross(pb - pa, pc - pa);
@@ -167,13 +172,20 @@ std::string percentDecode(const std::string& s) {
     return out;
 }
 
+// A texture that does not decode, whatever the decoder's code: kUnsupported is reserved for
+// references outside the model's folder, which fail the import (an unknown image format only
+// leaves the material untextured).
+Status decodeFailure(const Status& status) {
+    return errorStatus(ErrorCode::kCorruptData, status.message());
+}
+
 // Decodes an embedded texture: compressed file bytes (PNG/JPEG) or raw BGRA texels.
 Result<Image<Rgba8>> decodeEmbedded(const aiTexture& tex, int64_t maxPixels) {
     if (tex.mHeight == 0) {
         auto image = decodeImage(
             std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(tex.pcData), tex.mWidth),
             maxPixels);
-        if (!image) return image.status();
+        if (!image) return decodeFailure(image.status());
         return toRgba8(*image);
     }
     if (tex.mWidth > unsigned(kMaxDecodedSide) || tex.mHeight > unsigned(kMaxDecodedSide) ||
@@ -206,7 +218,7 @@ Result<Image<Rgba8>> loadTextureImage(const aiScene& ai, const RefPolicy& policy
         auto real = policy.resolve(candidate, true);
         if (real) {
             auto image = readImage(real->string(), maxPixels);
-            if (!image) return image.status();
+            if (!image) return decodeFailure(image.status());
             return toRgba8(*image);
         }
         if (real.status().code() == ErrorCode::kUnsupported) return real.status();
@@ -350,7 +362,7 @@ Status convertScene(const aiScene& ai, const std::string& path, const RefPolicy&
         return errorStatus(ErrorCode::kCorruptData,
                            fmt::format("no triangles (all {} are degenerate)", triangles));
     convertCameras(ai, isGltfPath(path), scene);
-    return scene->finalize();
+    return Status::ok();
 }
 
 // Recomputes each mesh's primitive-type flags from its faces and checks the face indices.
@@ -434,6 +446,10 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
     if (ext == ".obj") return checkObjCounts(path, options.maxTriangles);
     if (ext == ".off") return checkOffFile(path, size, options.maxTriangles);
     if (ext == ".x") return checkXFaces(path, size);
+    if (ext == ".smd") return checkSmdSections(path);
+    if (ext == ".ac" || ext == ".acc" || ext == ".ac3d")
+        return checkAc3dSubdivision(
+            path, std::min(options.maxTriangles, options.maxSubdividedTriangles));
     if (ext == ".gltf" || ext == ".glb")
         return checkGltfExpansion(path, size, options.maxNodeCopies, options.maxTriangles);
     return Status::ok();
@@ -443,6 +459,14 @@ Status checkFile(const std::string& path, uint64_t size, const ImportOptions& op
 
 Result<Scene> importFile(const std::string& path, const ImportOptions& options) {
     if (options.isolation.enabled) return importFileIsolated(path, options);
+    auto scene = importFileUnfinalized(path, options);
+    if (!scene) return scene.status();
+    Status finalized = scene->finalize();
+    if (!finalized) return errorStatus(finalized.code(), path + ": " + finalized.message());
+    return scene;
+}
+
+Result<Scene> importFileUnfinalized(const std::string& path, const ImportOptions& options) {
     auto named = [&](const Status& s) { return errorStatus(s.code(), path + ": " + s.message()); };
     // A directory, FIFO or device is refused here, without blocking; the message names the path
     // and the cause (not found, symlink loop, permission).
@@ -466,8 +490,8 @@ Result<Scene> importFile(const std::string& path, const ImportOptions& options) 
             Status repaired = repairMeshes(const_cast<aiScene*>(ai), options.maxPolygonCorners);
             if (!repaired) return named(repaired);
             // UV (0,0) is the top-left texel, as in glTF and in plx::Image.
-            ai = importer.ApplyPostProcessing(aiProcess_Triangulate |
-                                              aiProcess_JoinIdenticalVertices | aiProcess_FlipUVs);
+            // Identical vertices are joined in bakeInstance (vertex_join.h), in linear time.
+            ai = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
         }
     } catch (const std::bad_alloc&) {  // assimp catches its own errors, not this one
         return named(outOfMemory());

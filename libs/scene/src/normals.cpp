@@ -2,30 +2,11 @@
 
 #include <cmath>
 #include <cstring>
-#include <unordered_map>
+
+#include "vertex_join.h"
 
 namespace plx::scene {
 namespace {
-
-// A position by its exact bits (files often repeat a position with other UVs).
-struct Key {
-    uint32_t x, y, z;
-    bool operator==(const Key&) const = default;
-};
-
-struct KeyHash {
-    size_t operator()(const Key& k) const {
-        return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^ (size_t(k.z) * 83492791u);
-    }
-};
-
-Key keyOf(const Vec3& p) {
-    Key k;
-    std::memcpy(&k.x, &p.x, 4);
-    std::memcpy(&k.y, &p.y, 4);
-    std::memcpy(&k.z, &p.z, 4);
-    return k;
-}
 
 // The faces around each position as compressed rows: faces of group g are
 // faces[start[g] .. start[g + 1]), in triangle order. groupOf gives each corner's group.
@@ -36,16 +17,23 @@ struct FacesAround {
 FacesAround groupCorners(const std::vector<Vec3>& pos, const std::vector<Corners>& tris) {
     FacesAround g;
     g.groupOf.resize(3 * tris.size());
-    std::unordered_map<Key, uint32_t, KeyHash> ids;
-    ids.reserve(tris.size());
-    std::vector<uint32_t> counts;
-    for (size_t t = 0; t < tris.size(); ++t)
-        for (int k = 0; k < 3; ++k) {
-            auto [it, added] = ids.try_emplace(keyOf(pos[tris[t][k]]), uint32_t(counts.size()));
-            if (added) counts.push_back(0);
-            ++counts[it->second];
-            g.groupOf[3 * t + k] = it->second;
+    // Positions by their exact bits (files often repeat a position with other UVs), hashed once
+    // per position rather than once per corner.
+    const std::vector<uint32_t> samePos = firstIdentical(pos.size(), [&](size_t v) {
+        std::array<uint32_t, 3> bits;
+        std::memcpy(bits.data(), &pos[v], sizeof bits);
+        return bits;
+    });
+    std::vector<uint32_t> groupOfPos(pos.size(), UINT32_MAX), counts;
+    for (size_t c = 0; c < g.groupOf.size(); ++c) {
+        uint32_t& group = groupOfPos[samePos[tris[c / 3][c % 3]]];
+        if (group == UINT32_MAX) {
+            group = uint32_t(counts.size());
+            counts.push_back(0);
         }
+        ++counts[group];
+        g.groupOf[c] = group;
+    }
     g.start.assign(counts.size() + 1, 0);
     for (size_t i = 0; i < counts.size(); ++i) g.start[i + 1] = g.start[i] + counts[i];
     g.faces.resize(3 * tris.size());

@@ -255,11 +255,6 @@ Result<Decoded> decode(std::span<const uint8_t> bytes) {
                            fmt::format("import result: unknown outcome {}", outcome));
     }
     if (!r.atEnd()) return errorStatus(ErrorCode::kCorruptData, "import result: trailing bytes");
-    if (d.outcome == WireOutcome::kScene) {
-        Status finalized = d.scene.finalize();
-        if (!finalized)
-            return errorStatus(finalized.code(), "import result: " + finalized.message());
-    }
     return d;
 }
 

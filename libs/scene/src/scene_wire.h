@@ -36,11 +36,13 @@ bool encodeError(WireOutcome outcome, const Status& status, const Sink& sink);
 struct Decoded {
     WireOutcome outcome = WireOutcome::kError;
     Status status;  // the child's error (outcome != kScene)
-    Scene scene;    // finalized (outcome == kScene)
+    Scene scene;    // not yet finalized (outcome == kScene)
 };
 
-// Decodes untrusted bytes; errors name the field that was malformed. The scene is finalized,
-// which re-checks indices, material and texture references and finiteness.
+// Decodes untrusted bytes; errors name the field that was malformed. Every count is checked
+// against the bytes, not the scene's meaning: the caller must finalize the scene, which checks
+// indices, material and texture references and finiteness (and is then done once, in the
+// parent, not also in the child that sent it).
 Result<Decoded> decode(std::span<const uint8_t> bytes);
 
 }  // namespace plx::scene::wire

@@ -444,6 +444,9 @@ public:
         return ec == std::errc() && end == t.data() + t.size();
     }
 
+    // Bytes not yet read.
+    size_t left() const { return mText.size() - mPos; }
+
     bool skipNumbers(uint64_t count) {
         std::string t;
         for (uint64_t i = 0; i < count; ++i)
@@ -456,13 +459,27 @@ private:
     size_t mPos = 0;
 };
 
-// One "Mesh [name] {" block from just after its brace: the face indices against the vertex
-// count. A block that does not parse (a template) is left to assimp.
+// A count the mesh declares against the bytes left after it: each item needs at least
+// minBytes (a number and a separator for each of its values). assimp reserves the count first.
+Status checkXCount(const XTokens& tokens, int64_t count, size_t minBytes, const char* what,
+                   int meshNumber) {
+    if (uint64_t(count) <= tokens.left() / minBytes) return Status::ok();
+    return errorStatus(ErrorCode::kCorruptData,
+                       fmt::format(".x mesh {} declares {} {}, more than the {} bytes after it "
+                                   "can hold",
+                                   meshNumber, count, what, tokens.left()));
+}
+
+// One "Mesh [name] {" block from just after its brace: the declared counts against the file's
+// size, the face indices against the vertex count. A block that does not parse (a template) is
+// left to assimp.
 Status checkXMesh(XTokens* tokens, int meshNumber) {
     int64_t vertices = 0, faces = 0;
-    if (!tokens->number(&vertices) || vertices < 0 || !tokens->skipNumbers(3 * uint64_t(vertices)))
-        return Status::ok();
+    if (!tokens->number(&vertices) || vertices < 0) return Status::ok();
+    PLX_RETURN_IF_ERROR(checkXCount(*tokens, vertices, 5, "vertices", meshNumber));
+    if (!tokens->skipNumbers(3 * uint64_t(vertices))) return Status::ok();
     if (!tokens->number(&faces) || faces < 0) return Status::ok();
+    PLX_RETURN_IF_ERROR(checkXCount(*tokens, faces, 2, "faces", meshNumber));
     for (int64_t f = 0; f < faces; ++f) {
         int64_t corners = 0;
         if (!tokens->number(&corners) || corners < 0) return Status::ok();

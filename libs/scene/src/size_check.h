@@ -34,4 +34,12 @@ Status checkXFaces(const std::string& path, uintmax_t fileSize);
 Status checkGltfExpansion(const std::string& path, uintmax_t fileSize, size_t maxNodes,
                           size_t maxTriangles);
 
+// SMD: every section ("nodes", "skeleton", "triangles", "vertexanimation") must be closed by
+// an "end" line; assimp's reader loops forever on a file that ends inside "nodes".
+Status checkSmdSections(const std::string& path);
+
+// AC3D: the triangles that Catmull-Clark subdivision ("subdiv N" of an object) makes of the
+// file's surfaces must not exceed maxTriangles. Streams the file once.
+Status checkAc3dSubdivision(const std::string& path, size_t maxTriangles);
+
 }  // namespace plx::scene

@@ -84,6 +84,82 @@ TEST(ImportLimits, XFaceIndexOutOfRangeIsAnError) {
     EXPECT_EQ(ok->triangleCount(), 2u);
 }
 
+TEST(ImportLimits, XCountsBeyondTheFileAreErrors) {
+    // One count changed to 2^31-1: assimp reserved that many and crashed.
+    fs::path dir = tempDir("x_count");
+    expectError(writeFile(dir / "faces.x", xFile(" 3;0,1,2;,\n 3;0,2,1;", 2147483647)),
+                ".x mesh 0 declares 2147483647 faces, more than the");
+    std::string vertices = xFile(" 3;0,1,2;", 1);
+    vertices.replace(vertices.find(" 3;\n 0.0"), 3, " 2147483647;");
+    expectError(writeFile(dir / "vertices.x", vertices), "declares 2147483647 vertices");
+}
+
+// An import that cannot hang or crash the test if a check regresses: isolated, 10 s at most.
+ImportOptions contained() {
+    ImportOptions o;
+    o.isolation.enabled = true;
+    o.isolation.maxSeconds = 10.0;
+    o.isolation.maxMemoryBytes = size_t(1) << 30;
+    return o;
+}
+
+TEST(ImportLimits, SmdEndingInsideASectionIsTruncated) {
+    // The reader looped forever at the end of a file inside its "nodes" block.
+    fs::path dir = tempDir("smd");
+    const std::string nodes = "version 1\nnodes\n0 \"root\" -1\n";
+    expectError(writeFile(dir / "nodes.smd", nodes), "SMD section 'nodes' (line 2) has no 'end'",
+                contained());
+    expectError(writeFile(dir / "empty_nodes.smd", "version 1\nnodes\n"), "has no 'end'",
+                contained());
+    const std::string good = nodes +
+                             "end\nskeleton\ntime 0\n0 0 0 0 0 0 0\nend\ntriangles\nmat\n"
+                             "0 0 0 0 0 0 1 0 0 1\n0 1 0 0 0 0 1 1 0 1\n0 0 1 0 0 0 1 0 1 1\nend\n";
+    expectError(writeFile(dir / "triangles.smd", good.substr(0, good.size() - 4)),
+                "SMD section 'triangles' (line 9) has no 'end'", contained());
+    auto s = importFile(writeFile(dir / "good.smd", good), contained());
+    ASSERT_TRUE(s.isOk()) << s.status().message();
+    EXPECT_EQ(s->triangleCount(), 1u);
+}
+
+// An AC3D file of one quad, subdivided `subdiv` times (0: none).
+std::string ac3dQuad(int subdiv) {
+    return "AC3Db\nMATERIAL \"m\" rgb 1 1 1  amb 0.2 0.2 0.2  emis 0 0 0  spec 0.5 0.5 0.5  "
+           "shi 10  trans 0\nOBJECT world\nkids 1\nOBJECT poly\nname \"quad\"\n" +
+           (subdiv ? "subdiv " + std::to_string(subdiv) + "\n" : std::string()) +
+           "numvert 4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\nnumsurf 1\nSURF 0x0\nmat 0\nrefs 4\n"
+           "0 0 0\n1 1 0\n2 1 1\n3 0 1\nkids 0\n";
+}
+
+TEST(ImportLimits, Ac3dSubdivisionIsCountedBeforeAssimpSubdivides) {
+    // "subdiv 9" (2^19 triangles from one quad) took 1.7 s; "subdiv 12" 24 s and 4 GB.
+    fs::path dir = tempDir("ac3d");
+    expectError(writeFile(dir / "subdiv9.ac", ac3dQuad(9)),
+                "AC3D subdivision (subdiv 9) makes more than the limit of 131072 triangles");
+    expectError(writeFile(dir / "subdiv40.ac", ac3dQuad(40)), "(subdiv 40)");
+    ImportOptions few;
+    few.maxSubdividedTriangles = 2 * 4 * 4;  // one quad: 4 quads after one step, 16 after two
+    auto two = importFile(writeFile(dir / "subdiv2.ac", ac3dQuad(2)), few);
+    ASSERT_TRUE(two.isOk()) << two.status().message();
+    EXPECT_EQ(two->triangleCount(), 32u);
+    expectError(writeFile(dir / "subdiv3.ac", ac3dQuad(3)), "limit of 32 triangles", few);
+    auto plain = importFile(writeFile(dir / "plain.ac", ac3dQuad(0)));
+    ASSERT_TRUE(plain.isOk()) << plain.status().message();
+    EXPECT_EQ(plain->triangleCount(), 2u);
+}
+
+TEST(ImportLimits, GlbChunkLengthBeyondTheFileIsAnError) {
+    // A JSON chunk length of 0xFFFFFFF0 made the reader allocate 4 GB.
+    const std::string json = R"({"asset":{"version":"2.0"}}  )";
+    std::string glb = "glTF";
+    auto u32 = [&](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+    u32(2);
+    u32(uint32_t(12 + 8 + json.size()));
+    u32(0xFFFFFFF0u);
+    glb += "JSON" + json;
+    fs::path dir = tempDir("glb_chunk");
+    expectError(writeFile(dir / "chunk.glb", glb), "GLB has no complete JSON chunk");
+}
+
 TEST(ImportLimits, DoubledGltfChildrenFailFastNamingTheLimit) {
     // 40 levels, each node listing its child twice: 2^40 copies of the leaf in 1.7 KB.
     std::string nodes = "[";
@@ -185,6 +261,22 @@ TEST(ImportNormals, LinearMethodEqualsTheReference) {
     for (size_t c = 0; c < fast.size(); ++c) EXPECT_EQ(fast[c], ref[c]) << "corner " << c;
 }
 
+TEST(ImportNormals, CornersShareAVertexOnlyWhenEveryAttributeIsEqual) {
+    // Two coplanar triangles sharing an edge (one vertex each way), and a third over the same
+    // corners facing the other way, one of its corners with another UV.
+    fs::path dir = tempDir("join");
+    auto s = importFile(writeFile(dir / "join.obj",
+                                  "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                                  "vt 0 1\nvt 0.5 0.5\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\nf 1/5 4/4 3/3\n"));
+    ASSERT_TRUE(s.isOk()) << s.status().message();
+    ASSERT_EQ(s->meshes.size(), 1u);
+    const Mesh& m = s->meshes[0];
+    // 4 vertices facing +z; 3 facing -z (normals differ), one of which also differs in UV.
+    EXPECT_EQ(m.vertexCount(), 7u);
+    EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 4, 5, 6}));
+    EXPECT_EQ(m.uvs[4], Vec2(0.5f, 0.5f));
+}
+
 TEST(ImportNormals, HugeFanAroundOneVertexImports) {
     // 400,000 triangles around one shared vertex: quadratic normal generation took over 30 s.
     const int n = 400000;
@@ -204,6 +296,10 @@ TEST(ImportNormals, HugeFanAroundOneVertexImports) {
     auto s = importFile(writeFile(dir / "fan.obj", obj));
     ASSERT_TRUE(s.isOk()) << s.status().message();
     EXPECT_GT(s->triangleCount(), size_t(n) * 99 / 100);  // a few sliver triangles may be zero area
+    // The reader's one vertex per corner is joined back to one per file vertex.
+    size_t vertices = 0;
+    for (const Mesh& m : s->meshes) vertices += m.vertexCount();
+    EXPECT_EQ(vertices, size_t(n) + 2);
     // Every triangle is in the plane z = 0: the averaged normals are +z.
     for (const Mesh& m : s->meshes)
         for (const Vec3& nrm : m.normals) ASSERT_NEAR(std::abs(nrm.z), 1.0f, 1e-4f);
@@ -307,6 +403,40 @@ TEST(ImportTextures, DecodeFailuresAreWarningsNamingTheTexture) {
     EXPECT_EQ(limited->texturesMissing, 4u);
     EXPECT_NE(limited->warnings[3].find("limit of 1 pixels"), std::string::npos)
         << limited->warnings[3];
+}
+
+TEST(ImportTextures, HugeDeclaredAndUndecodableEmbeddedTexturesAreWarnings) {
+    // A PNG declaring 100000x100000 pixels (57 bytes) is refused from its header, before
+    // decoding. An embedded image of unknown format (the base64 decodes to garbage) is a warning
+    // naming it too; it once failed the whole import without naming the texture.
+    fs::path dir = tempDir("huge_texture");
+    fs::copy_file(std::string(PLX_SOURCE_DIR) + "/libs/scene/test/fixtures/declares_100000x100000.png",
+                  dir / "huge.png");
+    writeFile(dir / "m.mtl", "newmtl a\nmap_Kd huge.png\n");
+    auto s = importFile(writeFile(
+        dir / "m.obj", "mtllib m.mtl\n" + std::string(kTriangleObj) + "usemtl a\nf 1/1 2/2 3/3\n"));
+    ASSERT_TRUE(s.isOk()) << s.status().message();
+    EXPECT_EQ(s->texturesMissing, 1u);
+    ASSERT_EQ(s->warnings.size(), 1u);
+    EXPECT_NE(s->warnings[0].find("texture 'huge.png'"), std::string::npos) << s->warnings[0];
+    EXPECT_NE(s->warnings[0].find("declares 100000x100000 pixels"), std::string::npos)
+        << s->warnings[0];
+
+    std::string gltf = gltfWithBuffer(kTriangleBase64);
+    gltf.insert(gltf.rfind('}'),
+                R"(,"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+"textures":[{"source":0}],"images":[{"uri":"data:image/png;base64,****AAAA"}])");
+    gltf.replace(gltf.find(R"("attributes":{"POSITION":0}})"), 28,
+                 R"("attributes":{"POSITION":0},"material":0})");
+    auto b = importFile(writeFile(dir / "b64.gltf", gltf));
+    ASSERT_TRUE(b.isOk()) << b.status().message();
+    EXPECT_EQ(b->texturesMissing, 1u);
+    ASSERT_EQ(b->warnings.size(), 1u);
+    EXPECT_NE(b->warnings[0].find("texture '*0' not loaded: not a PNG or JPEG"), std::string::npos)
+        << b->warnings[0];
+    // Characters outside base64 make assimp refuse the file, without quoting them.
+    gltf.replace(gltf.find("****AAAA"), 8, "!!not*base64!!");
+    expectError(writeFile(dir / "invalid.gltf", gltf), "Invalid base64 encoded data");
 }
 
 TEST(ImportTextures, DevicesAndFifosAreNotRead) {

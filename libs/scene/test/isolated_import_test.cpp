@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <span>
 #include <tuple>
 
 #include <gtest/gtest.h>
@@ -189,25 +191,142 @@ TEST(IsolatedImport, AseWithAHugeIndexIsAnError) {
         if (s.isOk()) continue;  // a reader that drops the bad face is fine too
         EXPECT_NE(s.status().message().find(path), std::string::npos) << s.status().message();
 #if !defined(__SANITIZE_ADDRESS__)             // ASan's allocator exits instead of throwing
-        if (std::string(name) == "count.ase")  // assimp reported a bare "std::bad_alloc"
+        if (std::string(name) == "count.ase") {  // assimp reported a bare "std::bad_alloc"
             EXPECT_NE(s.status().message().find("needed more than"), std::string::npos)
                 << s.status().message();
+        }
 #endif
     }
+}
+
+// The bytes an encoder gives its sink, gathered.
+std::vector<uint8_t> wireBytes(const std::function<bool(const wire::Sink&)>& encode) {
+    std::vector<uint8_t> bytes;
+    EXPECT_TRUE(encode([&](const void* p, size_t n) {
+        auto* b = static_cast<const uint8_t*>(p);
+        bytes.insert(bytes.end(), b, b + n);
+        return true;
+    }));
+    return bytes;
+}
+
+std::vector<uint8_t> encodedScene(const Scene& scene) {
+    return wireBytes([&](const wire::Sink& s) { return wire::encodeScene(scene, s); });
+}
+
+std::vector<uint8_t> encodedError(wire::WireOutcome outcome, const Status& status) {
+    return wireBytes([&](const wire::Sink& s) { return wire::encodeError(outcome, status, s); });
+}
+
+// A small scene that uses every field of the wire form: one textured triangle (a 3x2 texture
+// with its mips), a second material without texture, a viewpoint, a warning and the counters.
+Scene smallWireScene() {
+    Scene s;
+    Mesh m;
+    m.name = "tri";
+    m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+    m.normals = {Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(0, 0, 1)};
+    m.uvs = {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)};
+    m.indices = {0, 1, 2};
+    s.meshes.push_back(m);
+    m.name = "plain";
+    m.uvs.clear();
+    m.materialIndex = 1;
+    s.meshes.push_back(m);
+    s.materials = {Material{"textured", Vec4(1.0f), 0}, Material{"red", Vec4(1, 0, 0, 1), -1}};
+    Texture t;
+    t.name = "checker.png";
+    t.mips.emplace_back(3, 2);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 3; ++x) t.mips[0].at(x, y) = Rgba8{uint8_t(80 * x), uint8_t(255 * y), 7, 255};
+    buildMipChain(&t);
+    s.textures.push_back(t);
+    s.viewpoints.push_back(Viewpoint{"front", Vec3(0, 0, 3), Vec3(0), Vec3(0, 1, 0), 45.0f});
+    s.warnings = {"texture 'missing.png' not loaded: file not found"};
+    s.degenerateTrianglesDropped = 2;
+    s.texturesMissing = 1;
+    EXPECT_TRUE(s.finalize().isOk());
+    return s;
+}
+
+TEST(SceneWire, EveryPrefixOfASmallSceneOrAnErrorIsAnError) {
+    const Scene scene = smallWireScene();
+    const std::vector<uint8_t> bytes = encodedScene(scene);
+    auto whole = wire::decode(bytes);
+    ASSERT_TRUE(whole.isOk()) << whole.status().message();
+    ASSERT_TRUE(whole->scene.finalize().isOk());
+    expectSameScene(scene, whole->scene);
+    const Status failure = errorStatus(ErrorCode::kCorruptData, "m.obj: face 3 is broken");
+    const std::vector<uint8_t> error = encodedError(wire::WireOutcome::kError, failure);
+    auto decodedError = wire::decode(error);
+    ASSERT_TRUE(decodedError.isOk()) << decodedError.status().message();
+    EXPECT_EQ(decodedError->outcome, wire::WireOutcome::kError);
+    EXPECT_EQ(decodedError->status.code(), ErrorCode::kCorruptData);
+    EXPECT_EQ(decodedError->status.message(), failure.message());
+    for (const std::vector<uint8_t>* b : {&bytes, &error}) {
+        for (size_t n = 0; n < b->size(); ++n) {
+            auto r = wire::decode(std::span(b->data(), n));
+            ASSERT_FALSE(r.isOk()) << "prefix " << n << " of " << b->size();
+            EXPECT_NE(r.status().message().find("import result: "), std::string::npos);
+        }
+    }
+}
+
+// Well-formed bytes can still describe a broken scene: finalize, which the parent runs on every
+// decoded scene, refuses it.
+TEST(SceneWire, WellFormedBytesOfABrokenSceneFailFinalize) {
+    Scene scene = smallWireScene();
+    scene.meshes[0].indices[2] = 99;
+    auto decoded = wire::decode(encodedScene(scene));
+    ASSERT_TRUE(decoded.isOk()) << decoded.status().message();
+    Status finalized = decoded->scene.finalize();
+    ASSERT_FALSE(finalized.isOk());
+    EXPECT_NE(finalized.message().find("99"), std::string::npos) << finalized.message();
+}
+
+// The import-wire fuzzer's seeds (tests/fuzz/import-wire-seeds): rewritten with
+// PLX_UPDATE_GOLDEN=1, otherwise checked to decode.
+TEST(SceneWire, FuzzSeedsDecode) {
+    const fs::path dir = fs::path(PLX_SOURCE_DIR) / "tests/fuzz/import-wire-seeds";
+    if (std::getenv("PLX_UPDATE_GOLDEN")) {
+        fs::create_directories(dir);
+        Scene untextured = smallWireScene();
+        untextured.textures.clear();
+        untextured.materials[0].baseColorTexture = -1;
+        const std::vector<std::pair<const char*, std::vector<uint8_t>>> seeds = {
+            {"scene.bin", encodedScene(smallWireScene())},
+            {"untextured.bin", encodedScene(untextured)},
+            {"error.bin", encodedError(wire::WireOutcome::kError,
+                                       errorStatus(ErrorCode::kCorruptData, "bad face"))},
+            {"oom.bin", encodedError(wire::WireOutcome::kOutOfMemory,
+                                     errorStatus(ErrorCode::kOutOfRange, "out of memory"))}};
+        for (const auto& [name, b] : seeds)
+            std::ofstream(dir / name, std::ios::binary)
+                .write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+    }
+    ASSERT_TRUE(fs::exists(dir)) << dir;
+    int seeds = 0;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        std::ifstream f(e.path(), std::ios::binary);
+        const std::vector<uint8_t> b{std::istreambuf_iterator<char>(f), {}};
+        auto r = wire::decode(b);
+        ASSERT_TRUE(r.isOk()) << e.path() << ": " << r.status().message();
+        if (r->outcome == wire::WireOutcome::kScene) {
+            EXPECT_TRUE(r->scene.finalize().isOk());
+        }
+        ++seeds;
+    }
+    EXPECT_GE(seeds, 4);
 }
 
 TEST(SceneWire, EveryTruncatedPrefixIsAnError) {
     auto office = generateOffice(1);
     ASSERT_TRUE(office.isOk());
     Scene& scene = *office;
-    std::vector<uint8_t> bytes;
-    wire::encodeScene(scene, [&](const void* p, size_t n) {
-        auto* b = static_cast<const uint8_t*>(p);
-        bytes.insert(bytes.end(), b, b + n);
-        return true;
-    });
+    const std::vector<uint8_t> bytes = encodedScene(scene);
     auto whole = wire::decode(bytes);
     ASSERT_TRUE(whole.isOk()) << whole.status().message();
+    ASSERT_TRUE(whole->scene.finalize().isOk());
     expectSameScene(scene, whole->scene);
     size_t step = std::max<size_t>(1, bytes.size() / 4000);
     for (size_t n = 0; n < bytes.size(); n += step)

@@ -33,6 +33,10 @@ struct ImportOptions {
     // Corners of one polygon: assimp's triangulation is quadratic in them (100,000 corners take
     // about a minute; 4096 about 0.1 s).
     size_t maxPolygonCorners = 4096;
+    // Triangles that subdivision in the file makes (AC3D "subdiv"): assimp's Catmull-Clark
+    // subdivider grows faster than linearly (2^17 triangles take 0.3 s, 2^19 1.7 s, 2^25 24 s and
+    // 4 GB), so a few bytes can ask for minutes.
+    size_t maxSubdividedTriangles = size_t(1) << 17;
     // Pixels of one decoded texture (kDefaultMaxPixels: 64 Mpix).
     int64_t maxTexturePixels = int64_t(1) << 26;
     // Files the model refers to (buffers, images, material libraries) are read only from the

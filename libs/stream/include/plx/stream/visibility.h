@@ -22,7 +22,8 @@ struct VisibilityConfig {
     // Rendering boxes per cell; the paper uses eight, "uniformly distributed inside the cell".
     int samples = 8;
     // Side of each square camera face in pixels. 128 by measurement (docs/stream-results.md):
-    // against 256 it finds the same PVS on museum:64 and office:16 at a quarter of the pixels.
+    // at eight samples it finds the same PVS as 256 on museum:64 and office:16, in half the time;
+    // at 64 samples it misses 19 of 2,416 PVS entries on museum:64.
     int faceSize = 128;
     // Sample points stay this fraction of the cell's extent away from its faces (per axis), so
     // that they do not sit inside the walls on a room's boundary.

@@ -78,6 +78,9 @@ Result<json> parseJson(std::span<const uint8_t> bytes, size_t maxBytes, const ch
         return errorStatus(ErrorCode::kCorruptData,
                            fmt::format("{}: JSON syntax error at {}", what,
                                        lineColumn(text, e.byte > 0 ? e.byte - 1 : 0)));
+    } catch (const json::exception& e) {  // nlohmann's other errors
+        return errorStatus(ErrorCode::kCorruptData,
+                           fmt::format("{}: JSON not readable (nlohmann error {})", what, e.id));
     }
 }
 

@@ -13,5 +13,6 @@ Command registerPredistort(CLI::App& app);
 Command registerBench(CLI::App& app);
 Command registerStereo(CLI::App& app);
 Command registerWarp(CLI::App& app);
+Command registerStream(CLI::App& app);
 
 }  // namespace plx::cli

@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
         registerRender(app),
         registerStereo(app),
         registerWarp(app),
+        registerStream(app),
         registerDemo(app),
         registerInfo(app),
         registerPtm(app),

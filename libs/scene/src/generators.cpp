@@ -565,6 +565,11 @@ Result<Scene> generateOffice(int rooms) {
             appendTranslated(&scene.meshes[size_t(k)], room[size_t(k)], offset);
     }
     PLX_RETURN_IF_ERROR(scene.finalize());
+    // Room boxes up to the tallest furniture (the office has no ceiling).
+    for (int r = 0; r < rooms; ++r) {
+        Vec3 lo(float(r % cols) * kRoomSize, scene.bounds().lo.y, float(r / cols) * kRoomSize);
+        scene.rooms.push_back({lo, Vec3(lo.x + kRoomSize, scene.bounds().hi.y, lo.z + kRoomSize)});
+    }
     scene.viewpoints = officeViewpoints(scene.bounds());
     return scene;
 }
@@ -627,6 +632,10 @@ Result<Scene> generateMuseum(int rooms) {
     }
     scene.meshes = std::move(m);
     PLX_RETURN_IF_ERROR(scene.finalize());
+    for (int i = 0; i < rooms; ++i) {
+        Vec3 lo(float(i % layout.cols) * kMuseumRoom, 0.0f, float(i / layout.cols) * kMuseumRoom);
+        scene.rooms.push_back({lo, lo + Vec3(kMuseumRoom, kMuseumHeight, kMuseumRoom)});
+    }
     // Inside room 0, looking along +x through the doorway into room 1 (when there is one).
     Viewpoint inside;
     inside.name = "default";

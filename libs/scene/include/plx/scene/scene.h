@@ -78,6 +78,10 @@ public:
     std::vector<Material> materials;  // at least one after finalize()
     std::vector<Texture> textures;
     std::vector<Viewpoint> viewpoints;
+    // The rooms of a generated scene with rooms (office:N, museum:N), one box each, floor to
+    // ceiling and wall centre line to wall centre line, in room order; empty for other scenes.
+    // The streaming module makes one cell of each (Marvie & Bouatouch section 3).
+    std::vector<Aabb> rooms;
 
     // Checks the scene (finite positions and normals, indices in range, material and texture
     // indices valid, at least one triangle), normalises normals (computing them from faces where

@@ -1,0 +1,221 @@
+// PVS and ACH preprocessing (Marvie & Bouatouch section 5) on the software rasterizer's ID-only
+// path: no colour target, and depth and IDs kept in the renderer's tile memory, the pixels'
+// cells counted tile by tile while the tile is in cache (raster::TileIdVisitor).
+
+#include <plx/stream/visibility.h>
+
+#include <algorithm>
+#include <atomic>
+#include <memory>
+#include <mutex>
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <plx/raster/raster.h>
+
+namespace plx::stream {
+namespace {
+
+// Radical inverse of i in `base`: the Halton sequence's coordinate.
+float radicalInverse(uint32_t i, uint32_t base) {
+    double inv = 1.0 / double(base), f = inv, r = 0.0;
+    for (; i > 0; i /= base, f *= inv) r += f * double(i % base);
+    return float(r);
+}
+
+// Counts each pixel's cell (Marvie eq. 1, N_ij summed over the cameras of one sample) into a
+// dense per-cell array; the renderer runs on one thread here, so one slot.
+class CellCounter : public raster::TileIdVisitor {
+public:
+    CellCounter(const std::vector<uint32_t>& cellOfTriangle, size_t cellCount)
+        : mCellOf(cellOfTriangle), mCounts(cellCount, 0) {}
+
+    void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1,
+                   int /*slot*/) override {
+        for (int y = y0; y <= y1; ++y) {
+            const uint32_t* row = ids.row(y);
+            for (int x = x0; x <= x1; ++x)
+                if (row[x] != 0) ++mCounts[mCellOf[row[x] - 1]];
+        }
+    }
+
+    // Moves the non-zero counts out as (cell, pixels) ascending and clears the array.
+    std::vector<std::pair<uint32_t, uint64_t>> take() {
+        std::vector<std::pair<uint32_t, uint64_t>> seen;
+        for (size_t c = 0; c < mCounts.size(); ++c)
+            if (mCounts[c] != 0) {
+                seen.emplace_back(uint32_t(c), mCounts[c]);
+                mCounts[c] = 0;
+            }
+        return seen;
+    }
+
+private:
+    const std::vector<uint32_t>& mCellOf;
+    std::vector<uint64_t> mCounts;
+};
+
+// One worker's renderer and counter, made on first use by each thread.
+struct Worker {
+    std::unique_ptr<raster::Renderer> renderer;
+    std::unique_ptr<CellCounter> counter;
+};
+
+// The six cameras of a rendering box centred at eyePos (section 5: "the view direction of each
+// camera is perpendicular to one face of a box", 90-degree field of view).
+std::vector<Camera> renderingBox(const scene::Scene& scene, const Vec3& eyePos, int faceSize) {
+    static const Vec3 kDirs[6] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                  {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+    static const Vec3 kUps[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
+    std::vector<Camera> cameras;
+    for (int f = 0; f < 6; ++f) {
+        CameraDesc d;
+        d.eyePos = eyePos;
+        d.targetPos = eyePos + kDirs[f];
+        d.upDir = kUps[f];
+        d.fovYDegrees = 90.0f;
+        d.width = d.height = faceSize;
+        scene::clipPlanesFor(scene.bounds(), eyePos, &d.nearPlane, &d.farPlane);
+        cameras.push_back(Camera::create(d).value());
+    }
+    return cameras;
+}
+
+// Pixels per cell seen from one sample point: the six faces rendered ID-only.
+std::vector<std::pair<uint32_t, uint64_t>> sampleCoverage(const scene::Scene& scene,
+                                                          const Vec3& eyePos, int faceSize,
+                                                          Worker& worker) {
+    raster::RenderOptions options;
+    options.clearTargets = true;
+    raster::RenderTargets targets;  // no colour, depth or ID views: tile memory only
+    targets.visibility.tileIds = worker.counter.get();
+    for (const Camera& camera : renderingBox(scene, eyePos, faceSize))
+        worker.renderer->render(scene, camera, options, targets);
+    return worker.counter->take();
+}
+
+// Adds sparse ascending (cell, pixels) lists: Marvie eq. 1 summed over samples.
+void accumulate(std::vector<std::pair<uint32_t, uint64_t>>* sum,
+                const std::vector<std::pair<uint32_t, uint64_t>>& add) {
+    std::vector<std::pair<uint32_t, uint64_t>> out;
+    out.reserve(sum->size() + add.size());
+    size_t i = 0, j = 0;
+    while (i < sum->size() || j < add.size()) {
+        if (j == add.size() || (i < sum->size() && (*sum)[i].first < add[j].first)) {
+            out.push_back((*sum)[i++]);
+        } else if (i == sum->size() || add[j].first < (*sum)[i].first) {
+            out.push_back(add[j++]);
+        } else {
+            out.emplace_back(add[j].first, (*sum)[i].second + add[j].second);
+            ++i, ++j;
+        }
+    }
+    *sum = std::move(out);
+}
+
+Status checkRequest(const Cells& cells, const VisibilityConfig& config, uint32_t first,
+                    uint32_t last) {
+    if (config.samples < 1 || config.samples > kMaxSamples)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("samples {} outside 1..{}", config.samples, kMaxSamples));
+    if (config.faceSize < kMinFaceSize || config.faceSize > kMaxFaceSize)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("face size {} outside {}..{}", config.faceSize, kMinFaceSize,
+                                       kMaxFaceSize));
+    if (!(config.margin >= 0.0f && config.margin < 0.5f) || config.threads < 0)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("margin {} outside [0, 0.5) or threads {} < 0",
+                                       config.margin, config.threads));
+    if (first > last || last >= cells.boxes.size())
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("cell range {}-{} outside 0-{}", first, last, cells.boxes.size() - 1));
+    return Status::ok();
+}
+
+}  // namespace
+
+std::vector<Vec3> samplePoints(const Aabb& box, int samples, float margin) {
+    PLX_CHECK(samples >= 1);
+    const Vec3 lo = box.lo + margin * box.extent();
+    const Vec3 size = (1.0f - 2.0f * margin) * box.extent();
+    std::vector<Vec3> points;
+    // Index i + 1 skips the Halton sequence's first point (0, 0, 0), a corner of the box.
+    for (uint32_t i = 0; i < uint32_t(samples); ++i)
+        points.push_back(lo + size * Vec3(radicalInverse(i + 1, 2), radicalInverse(i + 1, 3),
+                                          radicalInverse(i + 1, 5)));
+    return points;
+}
+
+Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene, const Cells& cells,
+                                                      const VisibilityConfig& config,
+                                                      uint32_t first, uint32_t last,
+                                                      const std::function<void(size_t)>& progress) {
+    PLX_RETURN_IF_ERROR(checkRequest(cells, config, first, last));
+    const size_t cellCount = last - first + 1, samples = size_t(config.samples);
+    // One slot per (cell, sample) pair, so that a range of one cell still uses every core.
+    std::vector<std::vector<std::pair<uint32_t, uint64_t>>> perSample(cellCount * samples);
+    std::vector<std::vector<Vec3>> points(cellCount);
+    for (size_t c = 0; c < cellCount; ++c)
+        points[c] = samplePoints(cells.boxes[first + c], config.samples, config.margin);
+    std::vector<std::atomic<int>> samplesLeft(cellCount);
+    for (auto& s : samplesLeft) s.store(config.samples);
+    std::atomic<size_t> cellsDone{0};
+    std::mutex progressMutex;
+    tbb::enumerable_thread_specific<Worker> workers;
+    tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, perSample.size(), 1),
+                          [&](const tbb::blocked_range<size_t>& r) {
+                              Worker& w = workers.local();
+                              if (!w.renderer) {
+                                  w.renderer = raster::Renderer::create({1, 128}).value();
+                                  w.counter = std::make_unique<CellCounter>(cells.cellOfTriangle,
+                                                                            cells.boxes.size());
+                              }
+                              for (size_t k = r.begin(); k < r.end(); ++k) {
+                                  const size_t c = k / samples;
+                                  perSample[k] = sampleCoverage(scene, points[c][k % samples],
+                                                                config.faceSize, w);
+                                  if (samplesLeft[c].fetch_sub(1) == 1 && progress) {
+                                      std::lock_guard lock(progressMutex);
+                                      progress(++cellsDone);
+                                  }
+                              }
+                          });
+    });
+    // Sum the samples in a fixed order: the result does not depend on the schedule.
+    std::vector<CellVisibility> result(cellCount);
+    for (size_t c = 0; c < cellCount; ++c) {
+        result[c].cell = uint32_t(first + c);
+        for (size_t s = 0; s < samples; ++s)
+            accumulate(&result[c].seen, perSample[c * samples + s]);
+    }
+    return result;
+}
+
+std::vector<PvsEntry> pvsWithAch(const CellVisibility& visibility) {
+    uint64_t total = 0;  // N_pixels^total, Marvie eq. 2
+    for (const auto& [cell, pixels] : visibility.seen) total += pixels;
+    std::vector<PvsEntry> pvs;
+    bool self = false;
+    for (const auto& [cell, pixels] : visibility.seen) {
+        if (!self && cell > visibility.cell) {
+            pvs.push_back({visibility.cell, 0, 0.0});
+            self = true;
+        }
+        self = self || cell == visibility.cell;
+        // ACH_j = N_j^total / N_pixels^total (Marvie eq. 3).
+        pvs.push_back({cell, pixels, double(pixels) / double(total)});
+    }
+    if (!self) pvs.push_back({visibility.cell, 0, 0.0});
+    if (total == 0)
+        for (PvsEntry& e : pvs) e.ach = 1.0;  // only the cell itself: it takes the whole budget
+    return pvs;
+}
+
+}  // namespace plx::stream

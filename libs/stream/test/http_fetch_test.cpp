@@ -10,8 +10,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -460,19 +462,25 @@ std::vector<Expected> everyFileAndGroup(const fs::path& db) {
     return out;
 }
 
-TEST(HttpFetchNginx, RangesMatchTheFilesAndLimitRateThrottles) {
-    if (!fs::exists(Nginx::kNginx)) {
-        GTEST_SKIP() << "no " << Nginx::kNginx << " (Debian nginx-light): HTTP test skipped";
-    }
-    const fs::path tmp = freshTempDir("http_nginx"), db = tmp / "db";
+// Writes a small museum:2 database (two samples, 16-pixel faces) into `db`.
+Status buildMuseum2(const fs::path& db) {
     scene::Scene museum = scene::generateMuseum(2).value();
     Cells cells = makeCells(museum).value();
     VisibilityConfig sampling;
     sampling.samples = 2;
     sampling.faceSize = 16;
     auto vis = computeVisibility(museum, cells, sampling, 0, uint32_t(cells.boxes.size() - 1));
-    ASSERT_TRUE(vis.isOk()) << vis.status().toString();
-    ASSERT_TRUE(writeDatabase(museum, cells, *vis, sampling, "museum:2", db.string()).isOk());
+    if (!vis) return vis.status();
+    return writeDatabase(museum, cells, *vis, sampling, "museum:2", db.string()).status();
+}
+
+TEST(HttpFetchNginx, RangesMatchTheFilesAndLimitRateThrottles) {
+    if (!fs::exists(Nginx::kNginx)) {
+        GTEST_SKIP() << "no " << Nginx::kNginx << " (Debian nginx-light): HTTP test skipped";
+    }
+    const fs::path tmp = freshTempDir("http_nginx"), db = tmp / "db";
+    Status built = buildMuseum2(db);
+    ASSERT_TRUE(built.isOk()) << built.toString();
 
     const std::vector<Expected> expected = everyFileAndGroup(db);
     uint64_t largest = 0;
@@ -515,6 +523,51 @@ TEST(HttpFetchNginx, RangesMatchTheFilesAndLimitRateThrottles) {
     // A lower bound only (a loaded machine is slower, never faster): N / rate - 1 s, with margin.
     const double atLeast = 0.8 * (double(largest) / double(limitRate) - 1.0);
     EXPECT_GE(seconds, atLeast) << largest << " bytes at limit_rate " << limitRate;
+    fs::remove_all(tmp);
+}
+
+// Submits every request of `requests` in turn, `rounds` times, and reports requests/s and MB/s
+// (one connection, FIFO: what the streaming client sees).
+void measure(const char* label, Fetcher& f, const std::vector<Expected>& requests, int rounds) {
+    uint64_t bytes = 0, id = 0;
+    const auto start = Clock::now();
+    for (int round = 0; round < rounds; ++round) {
+        for (const Expected& e : requests) f.submit({id++, e.path, e.range, uint64_t(64) << 20}, 0);
+        for (const FetchCompletion& c : waitFor(f, requests.size())) {
+            EXPECT_TRUE(c.status.isOk()) << c.status.message();
+            bytes += c.bytes.size();
+        }
+    }
+    const double s = std::chrono::duration<double>(Clock::now() - start).count();
+    std::printf("%s: %llu requests, %.1f KB each, %.3f s: %.0f requests/s, %.1f KB/s\n", label,
+                (unsigned long long)id, double(bytes) / double(id) / 1e3, s, double(id) / s,
+                double(bytes) / s / 1e3);
+}
+
+// Loopback figures for docs/stream-results.md; runs only with PLX_STREAM_HTTP_MEASURE=1
+// (timings are measurements, not pass/fail).
+TEST(HttpFetchNginx, MeasureLoopback) {
+    if (!std::getenv("PLX_STREAM_HTTP_MEASURE")) GTEST_SKIP() << "set PLX_STREAM_HTTP_MEASURE=1";
+    if (!fs::exists(Nginx::kNginx)) GTEST_SKIP() << "no " << Nginx::kNginx;
+    const fs::path tmp = freshTempDir("http_measure"), db = tmp / "db";
+    ASSERT_TRUE(buildMuseum2(db).isOk());
+    std::vector<Expected> groups, wholes;
+    for (Expected& e : everyFileAndGroup(db)) (e.range ? groups : wholes).push_back(std::move(e));
+    const uint64_t limitRate = 64 * 1024;
+    Nginx nginx(tmp, db, limitRate);
+    ASSERT_TRUE(nginx.ready()) << nginx.errorLog();
+    auto f = openHttpFetcher(nginx.url("db"));
+    ASSERT_TRUE(f.isOk());
+    measure("level groups, unthrottled", **f, groups, 20);
+    measure("whole files, unthrottled", **f, wholes, 20);
+    auto slow = openHttpFetcher(nginx.url("slow"));
+    ASSERT_TRUE(slow.isOk());
+    std::printf("limit_rate %llu bytes/s:\n", (unsigned long long)limitRate);
+    measure("level groups, limit_rate", **slow, groups, 1);
+    std::vector<Expected> largest = {*std::max_element(
+        wholes.begin(), wholes.end(),
+        [](const Expected& a, const Expected& b) { return a.bytes.size() < b.bytes.size(); })};
+    measure("largest file, limit_rate", **slow, largest, 1);
     fs::remove_all(tmp);
 }
 

@@ -158,7 +158,9 @@ private:
     static Status checkRequest(const FetchRequest& r) {
         PLX_RETURN_IF_ERROR(checkUrl(r.path));
         if (r.maxBytes == 0) return errorStatus(ErrorCode::kInvalidArgument, "maxBytes is 0");
-        if (r.range && (r.range->last < r.range->first || r.range->size() > r.maxBytes)) {
+        // last - first, not size(): bytes 0-(2^64-1) would wrap size() to 0.
+        if (r.range &&
+            (r.range->last < r.range->first || r.range->last - r.range->first >= r.maxBytes)) {
             return errorStatus(ErrorCode::kInvalidArgument,
                                fmt::format("range not within 1..{} bytes", r.maxBytes));
         }

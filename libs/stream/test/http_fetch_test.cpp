@@ -117,6 +117,7 @@ struct Reply {
     std::string bytes;    // sent as one write; empty with `silent`
     bool silent = false;  // never answers (the client must time out)
     bool reset = false;   // after sending, closes with RST (SO_LINGER 0)
+    bool close = false;   // after sending, closes in order (FIN)
 };
 
 class RawServer {
@@ -180,8 +181,8 @@ private:
             if (r.reset) {
                 linger l{1, 0};
                 setsockopt(fd, SOL_SOCKET, SO_LINGER, &l, sizeof l);
-                break;
             }
+            if (r.reset || r.close) break;
         }
         close(fd);
     }
@@ -325,6 +326,41 @@ TEST(HttpFetchHostile, GoodAnswersShareOneConnectionInOrder) {
     FetchCompletion bad = fetchOne(**f, {9, "../etc/passwd", std::nullopt, 100});
     EXPECT_FALSE(bad.status.isOk());
     EXPECT_EQ(server.requests(), 5);
+}
+
+TEST(HttpFetchHostile, EveryTruncatedPrefixOfAGoodAnswerFails) {
+    const std::string good = response206("bytes 0-99/1000", 100, payload(100));
+    HttpOptions once = quickOptions();
+    once.maxAttempts = 1;
+    // One server sends the n-th connection a prefix of n bytes, then an orderly close (FIN);
+    // one fetcher reconnects for each request.
+    std::atomic<size_t> next{0};
+    RawServer server([&](const std::string&) {
+        return Reply{good.substr(0, next++), false, false, true};
+    });
+    auto prefixes = openHttpFetcher(server.url(), once);
+    ASSERT_TRUE(prefixes.isOk());
+    for (size_t n = 0; n < good.size(); ++n) {
+        FetchCompletion done = fetchOne(**prefixes, rangeRequest(n));
+        EXPECT_FALSE(done.status.isOk()) << n;
+        EXPECT_TRUE(done.bytes.empty()) << n;
+    }
+    EXPECT_EQ(server.connections(), int(good.size()));
+    RawServer whole([&](const std::string&) { return Reply{good, false, false, true}; });
+    auto f = openHttpFetcher(whole.url(), once);
+    EXPECT_TRUE(fetchOne(**f, rangeRequest()).status.isOk());
+}
+
+TEST(HttpFetchHostile, RangesBeyondMaxBytesAreRefusedBeforeSending) {
+    RawServer server([](const std::string&) { return Reply{}; });
+    auto f = openHttpFetcher(server.url(), quickOptions());
+    ASSERT_TRUE(f.isOk());
+    const uint64_t kLast = ~uint64_t(0);
+    for (ByteRange r : {ByteRange{0, kLast}, ByteRange{10, 9}, ByteRange{0, 1000}}) {
+        FetchCompletion done = fetchOne(**f, {1, "root.json", r, 1000});
+        EXPECT_EQ(done.status.code(), ErrorCode::kInvalidArgument) << done.status.message();
+    }
+    EXPECT_EQ(server.requests(), 0);
 }
 
 TEST(HttpFetchHostile, NoServerFailsAfterBoundedTries) {

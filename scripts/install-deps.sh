@@ -14,6 +14,8 @@ packages=(
     libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri mesa-common-dev
     # codec peers used by benchmarks only
     libwebp-dev libjxl-dev optipng
+    # a real web server for the HTTP streaming tests (Range requests, limit_rate)
+    nginx-light
     # fuzzing and sanitizers
     clang
     # the portability test (disassembles parallax; objdump comes with binutils)

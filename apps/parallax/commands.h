@@ -13,5 +13,7 @@ Command registerPredistort(CLI::App& app);
 Command registerBench(CLI::App& app);
 Command registerStereo(CLI::App& app);
 Command registerWarp(CLI::App& app);
+Command registerServe(CLI::App& app);
+Command registerClient(CLI::App& app);
 
 }  // namespace plx::cli

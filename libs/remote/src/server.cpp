@@ -339,6 +339,8 @@ struct Server::Impl {
             at.eye = predictEye(at.eye, velocity, leadMs);
         warp::ReferenceSetOptions options = config.reference;
         options.faceSize = faceSize;
+        if (config.fitClipPlanes)
+            scene::clipPlanesFor(scene.bounds(), at.eye, &options.nearPlane, &options.farPlane);
         Clock::time_point start = Clock::now();
         Status rendered = warp::renderReferenceSet(*renderer, scene, at, options, set);
         const double renderMs = msSince(start);

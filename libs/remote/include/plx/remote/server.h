@@ -35,6 +35,9 @@ struct ServerConfig {
     // What a set holds: layout, clip planes, shading. faceSize is the largest the server renders;
     // a session gets min(requested, faceSize).
     warp::ReferenceSetOptions reference;
+    // Near and far planes fitted to the scene's bounds from each rendered eye (clipPlanesFor);
+    // false: reference.nearPlane and farPlane as given.
+    bool fitClipPlanes = true;
     CodecOptions codec;
     int maxSessions = 16;  // accepted sessions at once, 1..1024; more get Error kOverloaded
     int poseRateHz = 60;   // announced in ServerHello, 1..1000

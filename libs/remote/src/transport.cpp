@@ -78,13 +78,12 @@ constexpr size_t kMaxDelayedMessages = 64;
 
 class WsConnection final : public Connection, public std::enable_shared_from_this<WsConnection> {
 public:
-    WsConnection(std::shared_ptr<asio::io_context> io, tcp::socket socket,
-                 const ConnectionConfig& config)
-        : mIo(std::move(io)),
+    WsConnection(asio::io_context& io, tcp::socket socket, const ConnectionConfig& config)
+        : mIo(io),
           mWs(std::move(socket)),
           mConfig(config),
-          mSendTimer(*mIo),
-          mRecvTimer(*mIo),
+          mSendTimer(io),
+          mRecvTimer(io),
           mOutShaper(config.link, config.link.seed),
           mInShaper(config.link, config.link.seed * 2654435761u + 1u) {
         mWs.binary(true);
@@ -112,25 +111,25 @@ public:
 
     void send(std::vector<uint8_t> message, std::function<void(const Status&)> done) override {
         mQueued += message.size();
-        asio::post(*mIo,
+        asio::post(mIo,
                    [self = shared_from_this(), m = std::move(message),
                     d = std::move(done)]() mutable { self->enqueue(std::move(m), std::move(d)); });
     }
     size_t queuedBytes() const override { return mQueued.load(); }
     void setReading(bool on) override {
-        asio::post(*mIo, [self = shared_from_this(), on] {
+        asio::post(mIo, [self = shared_from_this(), on] {
             self->mWantRead = on;
             self->readMore();
         });
     }
     void close() override {
-        asio::post(*mIo, [self = shared_from_this()] {
+        asio::post(mIo, [self = shared_from_this()] {
             self->mCloseWhenDrained = true;
             self->pump();
         });
     }
     void abort() override {
-        asio::post(*mIo, [self = shared_from_this()] {
+        asio::post(mIo, [self = shared_from_this()] {
             ErrorCodeB ignored;
             beast::get_lowest_layer(self->mWs).socket().close(ignored);
             self->finish(errorStatus(ErrorCode::kIoError, "connection aborted"));
@@ -282,7 +281,9 @@ private:
         Clock::time_point release;
     };
 
-    std::shared_ptr<asio::io_context> mIo;  // outlives the socket
+    // The transport's; it outlives the connection (a pending handler that holds the last
+    // reference is destroyed with the io_context, which then destroys the socket).
+    asio::io_context& mIo;
     websocket::stream<beast::tcp_stream> mWs;
     ConnectionConfig mConfig;
     ConnectionEvents mEvents;
@@ -299,7 +300,7 @@ private:
 }  // namespace
 
 struct Transport::Impl {
-    std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>(1);
+    std::unique_ptr<asio::io_context> io = std::make_unique<asio::io_context>(1);
     asio::executor_work_guard<asio::io_context::executor_type> work{io->get_executor()};
     std::thread thread;
     std::unique_ptr<tcp::acceptor> acceptor;
@@ -316,7 +317,7 @@ struct Transport::Impl {
         acceptor->async_accept([this, config, onAccept](ErrorCodeB ec, tcp::socket socket) {
             if (ec == asio::error::operation_aborted || !acceptor || !acceptor->is_open()) return;
             if (!ec) {
-                auto c = std::make_shared<WsConnection>(io, std::move(socket), config);
+                auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
                 track(c);
                 c->setTimeouts(true);
                 c->ws().async_accept([c, onAccept](ErrorCodeB hec) {
@@ -393,7 +394,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
     auto result = std::make_shared<std::promise<Result<std::shared_ptr<Connection>>>>();
     auto future = result->get_future();
     auto resolver = std::make_shared<tcp::resolver>(*mImpl->io);
-    auto c = std::make_shared<WsConnection>(mImpl->io, tcp::socket(*mImpl->io), config);
+    auto c = std::make_shared<WsConnection>(*mImpl->io, tcp::socket(*mImpl->io), config);
     auto fail = [result, host, port](const char* step, ErrorCodeB ec) {
         result->set_value(errorStatus(
             ErrorCode::kIoError, fmt::format("{} ws://{}:{}: {}", step, host, port, ec.message())));

@@ -66,7 +66,8 @@ public:
     virtual void abort() = 0;
 };
 
-// One I/O thread with its listeners and connections.
+// One I/O thread with its listeners and connections. It must outlive every Connection it made
+// (release them before destroying it); stop() drops the ones still open.
 class Transport {
 public:
     static Result<std::unique_ptr<Transport>> create();

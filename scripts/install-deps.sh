@@ -10,6 +10,8 @@ packages=(
     libglm-dev libtbb-dev libassimp-dev libpng-dev libjpeg-dev libturbojpeg0-dev libzstd-dev
     zlib1g-dev
     libcli11-dev nlohmann-json3-dev libfmt-dev
+    # WebSocket transport of remote sessions (Boost.Beast and Asio, header-only)
+    libboost1.81-dev
     # OpenGL peer (Mesa llvmpipe through EGL, no display needed)
     libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri mesa-common-dev
     # codec peers used by benchmarks only

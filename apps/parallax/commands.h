@@ -14,5 +14,7 @@ Command registerBench(CLI::App& app);
 Command registerStereo(CLI::App& app);
 Command registerWarp(CLI::App& app);
 Command registerStream(CLI::App& app);
+Command registerServe(CLI::App& app);
+Command registerClient(CLI::App& app);
 
 }  // namespace plx::cli

@@ -54,6 +54,12 @@ warp::Pose poseOf(const Camera& camera) {
 
 warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const Camera& display,
                                               warp::ReferenceLayout layout) {
+    warp::ReferenceSetOptions o = referenceDensityFor(display, layout);
+    scene::clipPlanesFor(scene.bounds(), display.eyePos(), &o.nearPlane, &o.farPlane);
+    return o;
+}
+
+warp::ReferenceSetOptions referenceDensityFor(const Camera& display, warp::ReferenceLayout layout) {
     warp::ReferenceSetOptions o;
     o.layout = layout;
     const float tanHalf = std::tan(radians(display.desc().fovYDegrees) * 0.5f);
@@ -74,7 +80,6 @@ warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const C
                                std::tan(radians(o.wideFovDegrees) * 0.5f) / tanHalf));
     }
     o.faceSize = std::clamp(side, 1, Camera::kMaxImageSide);
-    scene::clipPlanesFor(scene.bounds(), display.eyePos(), &o.nearPlane, &o.farPlane);
     return o;
 }
 

@@ -92,6 +92,8 @@ struct WarpExperiment {
 // scene's bounds.
 warp::ReferenceSetOptions referenceOptionsFor(const scene::Scene& scene, const Camera& display,
                                               warp::ReferenceLayout layout);
+// The same without the scene: layout, face size (and wide field of view) only; default planes.
+warp::ReferenceSetOptions referenceDensityFor(const Camera& display, warp::ReferenceLayout layout);
 
 // Pixels of every view of a set: the "source pixels" of Mpix/s figures, clipped rows included.
 int64_t referencePixels(const warp::ReferenceSet& set);

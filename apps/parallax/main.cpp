@@ -39,6 +39,8 @@ int main(int argc, char** argv) {
         registerRender(app),
         registerStereo(app),
         registerWarp(app),
+        registerServe(app),
+        registerClient(app),
         registerStream(app),
         registerDemo(app),
         registerInfo(app),

@@ -116,14 +116,9 @@ double jsonDb(double db) {
 // The cameras of a walkthrough: --walk N poses of the built-in walk, or the --path file's.
 Result<std::vector<Camera>> walkCameras(const scene::Scene& scene, const StereoArgs& a,
                                         IVec2 size) {
-    std::vector<stereo::Pose> poses;
-    if (a.walk > 0) {
-        poses = stereo::builtinWalk(scene, a.walk);
-    } else {
-        auto loaded = stereo::loadPath(a.path);
-        if (!loaded) return loaded.status();
-        poses = std::move(loaded).value();
-    }
+    auto loaded = walkOrPathPoses(&scene, a.walk, a.path);
+    if (!loaded) return loaded.status();
+    const std::vector<stereo::Pose> poses = std::move(loaded).value();
     std::vector<Camera> cameras;
     for (size_t i = 0; i < poses.size(); ++i) {
         scene::Viewpoint vp{"path", poses[i].eyePos, poses[i].targetPos, poses[i].upDir,

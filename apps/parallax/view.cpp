@@ -68,4 +68,10 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     return cam;
 }
 
+Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene, int walk,
+                                                  const std::string& pathFile) {
+    if (walk > 0) return stereo::builtinWalk(*scene, walk);
+    return stereo::loadPath(pathFile);
+}
+
 }  // namespace plx::cli

@@ -4,6 +4,7 @@
 // scene's bounds when it has none.
 
 #include <plx/scene/scene.h>
+#include <plx/stereo/path.h>
 
 #include "cli.h"
 
@@ -25,5 +26,10 @@ Result<scene::Scene> loadSceneChecked(const std::string& spec);
 
 // The camera the options describe for this scene; errors name the bad option.
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args);
+
+// The poses of a walkthrough: `walk` > 0 poses of the built-in walk through `scene` (not null
+// then), else the JSON path file's.
+Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene, int walk,
+                                                  const std::string& pathFile);
 
 }  // namespace plx::cli

@@ -1,0 +1,172 @@
+// parallax serve SCENE: the render server of Mark, Bishop, McMillan's remote rendering system
+// (libs/remote, server.h). Streams reference sets over WebSocket to `parallax client` until
+// Ctrl-C or SIGTERM (or --seconds), then says Bye(GoingAway) to every session.
+
+#include <csignal>
+#include <cstdio>
+#include <ctime>
+
+#include <fmt/format.h>
+
+#include <plx/remote/server.h>
+
+#include "commands.h"
+#include "view.h"
+
+namespace plx::cli {
+namespace {
+
+struct ServeArgs {
+    std::string scene;
+    int port = 8080;
+    std::string bind = "127.0.0.1";
+    std::string token;
+    std::string refs = "cube4";
+    int faceSize = 512;
+    int maxSessions = 16;
+    double latencyMs = 0.0, jitterMs = 0.0, bandwidthMbit = 0.0;
+    std::string prediction = "velocity";
+    int threads = 0;
+    double seconds = 0.0;
+    bool json = false;
+};
+
+Result<remote::ServerConfig> plan(const ServeArgs& a) {
+    remote::ServerConfig c;
+    c.bind = a.bind;
+    c.port = a.port;
+    c.token = a.token;
+    auto layout = warp::parseReferenceLayout(a.refs);
+    if (!layout) return layout.status();
+    c.reference.layout = *layout;
+    c.reference.faceSize = a.faceSize;
+    c.maxSessions = a.maxSessions;
+    c.link.latencyMs = a.latencyMs;
+    c.link.jitterMs = a.jitterMs;
+    c.link.bandwidthMbit = a.bandwidthMbit;
+    auto prediction = remote::parsePrediction(a.prediction);
+    if (!prediction) return prediction.status();
+    c.prediction = *prediction;
+    c.renderThreads = a.threads;
+    if (!(a.seconds >= 0.0 && a.seconds <= 1e6))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("--seconds {} outside 0 .. 1e6", a.seconds));
+    PLX_RETURN_IF_ERROR(remote::checkServerConfig(c));
+    return c;
+}
+
+// Blocks SIGINT and SIGTERM in this thread and every thread started after it, so that only
+// waitForStop receives them.
+sigset_t blockStopSignals() {
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    return set;
+}
+
+// Until a stop signal, or `seconds` have passed (0: no limit).
+void waitForStop(const sigset_t& set, double seconds) {
+    if (seconds <= 0.0) {
+        int sig = 0;
+        sigwait(&set, &sig);
+        return;
+    }
+    timespec limit{time_t(seconds), long((seconds - double(time_t(seconds))) * 1e9)};
+    sigtimedwait(&set, nullptr, &limit);
+}
+
+int runServe(const ServeArgs& a) {
+    auto config = plan(a);
+    if (!config) return fail(config.status().message(), kExitUsage);
+    auto scene = loadSceneChecked(a.scene);
+    if (!scene) return fail(scene.status());
+    const size_t triangles = scene->triangleCount();
+    const sigset_t stopSignals = blockStopSignals();
+    auto server = remote::Server::create(std::move(scene).value(), *config);
+    if (!server) return fail(server.status());
+    const std::string url = fmt::format("ws://{}:{}/", a.bind, (*server)->port());
+    if (a.json) {
+        fmt::print("{}\n", nlohmann::json{{"event", "listening"},
+                                          {"url", url},
+                                          {"bind", a.bind},
+                                          {"port", (*server)->port()},
+                                          {"scene", a.scene},
+                                          {"triangles", triangles},
+                                          {"refs", a.refs},
+                                          {"face_size", a.faceSize},
+                                          {"prediction", a.prediction}}
+                               .dump());
+    } else {
+        fmt::print(
+            "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C "
+            "stops\n",
+            a.scene, triangles, url, a.refs, a.faceSize, a.prediction);
+    }
+    std::fflush(stdout);
+    waitForStop(stopSignals, a.seconds);
+    (*server)->stop();
+    remote::ServerStats s = (*server)->stats();
+    if (a.json) {
+        fmt::print("{}\n", nlohmann::json{{"event", "stopped"},
+                                          {"sessions_total", s.sessionsTotal},
+                                          {"refused", s.refused},
+                                          {"protocol_errors", s.protocolErrors},
+                                          {"sets_sent", s.setsSent},
+                                          {"bytes_sent", s.bytesSent},
+                                          {"raw_bytes_sent", s.rawBytesSent},
+                                          {"max_queued_bytes", s.maxQueuedBytes},
+                                          {"max_set_bytes", s.maxSetBytes},
+                                          {"render_ms_mean", s.renderMsMean},
+                                          {"encode_ms_mean", s.encodeMsMean}}
+                               .dump());
+    } else {
+        fmt::print(
+            "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "
+            "{:.1f} ms + encode {:.1f} ms per set\n",
+            s.sessionsTotal, s.setsSent,
+            s.setsSent ? double(s.bytesSent) / double(s.setsSent) / 1024.0 : 0.0,
+            s.bytesSent ? double(s.rawBytesSent) / double(s.bytesSent) : 0.0, s.renderMsMean,
+            s.encodeMsMean);
+    }
+    return kExitOk;
+}
+
+}  // namespace
+
+Command registerServe(CLI::App& app) {
+    auto a = std::make_shared<ServeArgs>();
+    CLI::App* sub = app.add_subcommand(
+        "serve", "Serve reference sets of a scene to remote warping clients (WebSocket)");
+    sub->footer(
+        "Example: parallax serve office:8 --port 8080 --face-size 512 --token secret\n"
+        "         parallax client ws://127.0.0.1:8080 --token secret --walk 300 --scene office:8\n"
+        "Listens on 127.0.0.1 unless --bind says otherwise; --port 0 picks a free port. With "
+        "--json, stdout has one JSON line when listening ({\"event\":\"listening\",\"port\":...}) "
+        "and one when stopped (totals). The wire protocol: docs/remote-protocol.md.");
+    sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
+        ->required();
+    sub->add_option("--port", a->port, "TCP port (0: a free one, printed)")->capture_default_str();
+    sub->add_option("--bind", a->bind, "Address to listen on")->capture_default_str();
+    sub->add_option("--token", a->token, "Clients must present this token");
+    sub->add_option("--refs", a->refs, "cube4 | cube6 | wide: the reference views")
+        ->capture_default_str();
+    sub->add_option("--face-size", a->faceSize,
+                    "Largest face side rendered (a client asking less gets less)")
+        ->capture_default_str();
+    sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
+        ->capture_default_str();
+    sub->add_option("--latency", a->latencyMs, "Emulated one-way latency, ms (both directions)");
+    sub->add_option("--jitter", a->jitterMs, "Emulated extra delay, uniform in 0..MS per message");
+    sub->add_option("--bandwidth", a->bandwidthMbit, "Emulated link rate, Mbit/s (0: unlimited)");
+    sub->add_option("--prediction", a->prediction,
+                    "velocity (render ahead along the pose's velocity) | none")
+        ->capture_default_str();
+    sub->add_option("--threads", a->threads, "Render threads (0: all cores)");
+    sub->add_option("--seconds", a->seconds, "Stop after this long (0: at Ctrl-C or SIGTERM)");
+    sub->add_flag("--json", a->json, "JSON lines on stdout (listening, stopped)");
+    return {sub, [a] { return runServe(*a); }};
+}
+
+}  // namespace plx::cli

@@ -1,0 +1,131 @@
+// parallax serve and parallax client run as a user would, as separate processes over loopback:
+// the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
+// arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
+
+#include <csignal>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+// A `parallax serve` in the background: its pid and the port from its first JSON line.
+class ServeProcess {
+public:
+    explicit ServeProcess(const std::string& args) {
+        // The shell prints its pid, then becomes the server (exec keeps the pid).
+        std::string cmd = "sh -c 'echo $$; exec timeout 60 " + std::string(PARALLAX_EXE) +
+                          " serve " + args + " --port 0 --json --seconds 30' 2>/dev/null";
+        mPipe = popen(cmd.c_str(), "r");
+        if (!mPipe) return;
+        char line[4096];
+        if (fgets(line, sizeof line, mPipe)) mPid = std::atoi(line);
+        if (fgets(line, sizeof line, mPipe))
+            listening = nlohmann::json::parse(line, nullptr, false);
+    }
+    ~ServeProcess() { stop(); }
+    int port() const { return listening.is_object() ? listening.value("port", 0) : 0; }
+    std::string url() const { return "ws://127.0.0.1:" + std::to_string(port()); }
+    // SIGTERM; returns the "stopped" JSON line and the exit code.
+    std::pair<nlohmann::json, int> stop() {
+        if (!mPipe) return {{}, -1};
+        if (mPid > 0) kill(mPid, SIGTERM);
+        std::string rest;
+        char buf[4096];
+        while (fgets(buf, sizeof buf, mPipe)) rest += buf;
+        int status = pclose(mPipe);
+        mPipe = nullptr;
+        return {nlohmann::json::parse(rest, nullptr, false),
+                WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+    }
+    nlohmann::json listening;
+
+private:
+    FILE* mPipe = nullptr;
+    int mPid = 0;
+};
+
+TEST(RemoteCli, ServeAndClientEndToEnd) {
+    ServeProcess server("office:1 --face-size 64");
+    ASSERT_GT(server.port(), 0);
+    EXPECT_EQ(server.listening["bind"], "127.0.0.1");  // loopback unless --bind says otherwise
+    fs::path out = scratchDir("remote_cli") / "walk";
+    fs::remove_all(out);
+    RunResult r = runParallax("client " + server.url() +
+                              " --walk 30 --scene office:1 --size 160x120 --every 10 --out " +
+                              out.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* key : {"frames", "client_fps", "warp_ms_median", "reference_age_ms_median",
+                            "references_received", "bytes_per_reference", "psnr_db_median"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["frames"], 30);
+    EXPECT_GE(doc["references_received"].get<int>(), 1);
+    EXPECT_GT(doc["bytes_per_reference"].get<double>(), 0.0);
+    EXPECT_LT(doc["bytes_per_reference"].get<double>(),
+              doc["raw_bytes_per_reference"].get<double>());
+    EXPECT_GT(doc["psnr_db_median"].get<double>(), 15.0);
+    EXPECT_EQ(doc["frames_written"], 3);
+    EXPECT_TRUE(fs::exists(out / "frame-00010.png"));
+    EXPECT_TRUE(fs::exists(out / "stats.csv"));
+    auto [stopped, code] = server.stop();
+    EXPECT_EQ(code, 0);
+    ASSERT_TRUE(stopped.is_object());
+    EXPECT_EQ(stopped["event"], "stopped");
+    EXPECT_GE(stopped["sets_sent"].get<int>(), 1);
+}
+
+TEST(RemoteCli, PathFileAndStereoWithoutScene) {
+    ServeProcess server("office:1 --face-size 32 --refs cube6");
+    ASSERT_GT(server.port(), 0);
+    fs::path path = scratchDir("remote_cli") / "path.json";
+    writeFile(path, R"({"poses": [{"eye": [1,1.6,1], "target": [4,1.2,5]},
+                                  {"eye": [1.05,1.6,1.05], "target": [4,1.2,5]}]})");
+    RunResult r = runParallax("client " + server.url() + " --path " + path.string() +
+                              " --frames 6 --stereo --size 64x48 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["frames"], 6);
+    EXPECT_TRUE(doc["stereo"].get<bool>());
+    EXPECT_FALSE(doc.contains("psnr_db_median"));
+}
+
+TEST(RemoteCli, TokenRefusedAtTheHandshake) {
+    ServeProcess server("office:1 --face-size 32 --token abc");
+    ASSERT_GT(server.port(), 0);
+    fs::path path = scratchDir("remote_cli") / "one.json";
+    writeFile(path, R"([{"eye": [1,1.6,1], "target": [4,1.2,5]}])");
+    expectOneLineError(runParallax("client " + server.url() + " --path " + path.string() +
+                                   " --token abd --size 64x48"),
+                       "wrong token");
+    expectOneLineError(
+        runParallax("client " + server.url() + " --path " + path.string() + " --size 64x48"),
+        "token is required");
+}
+
+TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
+    expectOneLineError(runParallax("serve office:1 --refs cube5 --port 0"), "cube5", 2);
+    expectOneLineError(runParallax("serve office:1 --face-size 8 --port 0"), "face size", 2);
+    expectOneLineError(runParallax("serve office:1 --latency -5 --port 0"), "latency", 2);
+    expectOneLineError(runParallax("serve office:1 --max-sessions 0 --port 0"), "max sessions", 2);
+    expectOneLineError(runParallax("serve office:1 --prediction magic --port 0"), "magic", 2);
+    expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1");
+    expectOneLineError(runParallax("serve no-such-scene.glb --port 0"), "no-such-scene.glb");
+    expectOneLineError(runParallax("client http://127.0.0.1:1 --walk 3 --scene office:1"), "ws://",
+                       2);
+    expectOneLineError(runParallax("client ws://127.0.0.1:99999 --walk 3 --scene office:1"),
+                       "99999", 2);
+    expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3"), "--walk needs --scene", 2);
+    expectOneLineError(runParallax("client ws://127.0.0.1:1 --scene office:1"), "--path", 2);
+    expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --size 0x4"),
+                       "0x4", 2);
+    // Nobody listening: the client retries with backoff, then gives up after --wait.
+    expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --wait 0.5"),
+                       "no reference set");
+}
+
+}  // namespace

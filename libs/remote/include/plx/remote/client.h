@@ -1,0 +1,81 @@
+#pragma once
+// The warping client's network side (Mark, Bishop, McMillan, "The Remote Rendering System"): an
+// I/O thread that keeps a session with a render server, sends the newest head pose (with its
+// velocity) at the server's pose rate and pings, and receives and decodes reference sets. The
+// display loop (the caller) takes the newest set whenever it likes and never waits for the
+// network. When the server goes away the client reconnects with exponential backoff and keeps
+// the last set meanwhile.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <plx/core/status.h>
+#include <plx/remote/codec.h>
+#include <plx/remote/protocol.h>
+#include <plx/warp/warp.h>
+
+namespace plx::remote {
+
+struct ClientConfig {
+    std::string host = "127.0.0.1";
+    int port = 8080;
+    std::string path = "/";
+    std::string token;
+    warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;
+    int faceSize = 512;  // requested; the server may lower it
+    DecodeLimits limits;
+    double pingIntervalMs = 500.0;
+    // Reconnection backoff: first wait, doubled per failed attempt up to the cap.
+    double backoffMinMs = 100.0, backoffMaxMs = 2000.0;
+    double connectTimeoutMs = 3000.0;
+};
+
+// A decoded set with what the client knows about it.
+struct ReceivedSet {
+    warp::ReferenceSet set;
+    uint32_t sequence = 0;
+    uint64_t requestTimestampUs = 0;  // the pose's timestamp (client clock, clientNowUs)
+    uint64_t arrivalUs = 0;           // when it was decoded (client clock)
+    size_t bytes = 0;                 // the message's bytes
+};
+
+struct ClientStats {
+    int64_t referencesReceived = 0;
+    int64_t bytesReceived = 0;  // reference set messages
+    int64_t connects = 0;       // successful handshakes (1 + reconnections)
+    int64_t posesSent = 0;
+    double rttMs = -1.0;  // smoothed ping round trip; < 0 before the first Pong
+    double decodeMsMean = 0.0;
+    bool connected = false;
+    int faceSize = 0, poseRateHz = 0;  // from the last ServerHello
+};
+
+// The client's clock, microseconds (the clock of Pose timestamps).
+uint64_t clientNowUs();
+
+class Client {
+public:
+    // Starts the I/O thread, which connects in the background. Errors: bad config.
+    static Result<std::unique_ptr<Client>> create(const ClientConfig& config);
+    ~Client();  // stop()
+
+    // The pose to send next (the newest wins); timestampUs on clientNowUs's clock.
+    void setPose(const PoseMessage& pose);
+    // The newest decoded set, or null before the first.
+    std::shared_ptr<const ReceivedSet> newest() const;
+    // Waits until a set has arrived, the client failed for good, or timeoutMs passed.
+    bool waitForFirst(double timeoutMs) const;
+    // A failure the client will not retry (refused at the handshake); ok otherwise.
+    Status fatal() const;
+    ClientStats stats() const;
+    // Says Bye and stops the I/O thread. Idempotent.
+    void stop();
+
+private:
+    struct Impl;
+    explicit Client(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
+
+}  // namespace plx::remote

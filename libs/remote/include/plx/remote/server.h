@@ -1,0 +1,87 @@
+#pragma once
+// The render server of Mark, Bishop, McMillan ("The Remote Rendering System"): one session per
+// WebSocket client (docs/remote-protocol.md). A session receives timestamped poses, predicts
+// where the viewer will be when the reference set arrives ("Prediction techniques": constant
+// velocity), renders the set there, encodes it and sends it.
+//
+// Bounded by construction: a session keeps one pose (a newer one replaces an unserved one) and
+// at most one encoded set queued on its socket; the next render for it starts only after the
+// previous set was written (backpressure). A slow client gets fewer, fresher sets.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <plx/core/status.h>
+#include <plx/remote/codec.h>
+#include <plx/remote/transport.h>
+#include <plx/scene/scene.h>
+#include <plx/warp/warp.h>
+
+namespace plx::remote {
+
+// How the server moves the eye from the pose it received to the one it renders for.
+enum class Prediction {
+    kNone,              // render at the received pose
+    kConstantVelocity,  // eye + velocity * lead (velocity from the pose, else from the last two)
+};
+Result<Prediction> parsePrediction(const std::string& name);  // none, velocity
+const char* predictionName(Prediction prediction);
+
+struct ServerConfig {
+    std::string bind = "127.0.0.1";  // listen on loopback unless told otherwise
+    int port = 8080;                 // 0: a free port (Server::port says which)
+    std::string token;               // non-empty: ClientHello must carry exactly this token
+    // What a set holds: layout, clip planes, shading. faceSize is the largest the server renders;
+    // a session gets min(requested, faceSize).
+    warp::ReferenceSetOptions reference;
+    // Near and far planes fitted to the scene's bounds from each rendered eye (clipPlanesFor);
+    // false: reference.nearPlane and farPlane as given.
+    bool fitClipPlanes = true;
+    CodecOptions codec;
+    int maxSessions = 16;  // accepted sessions at once, 1..1024; more get Error kOverloaded
+    int poseRateHz = 60;   // announced in ServerHello, 1..1000
+    LinkEmulation link;    // applied to every connection, both directions
+    Prediction prediction = Prediction::kConstantVelocity;
+    int renderThreads = 0;          // the renderer's threads (0: all cores)
+    double pingIntervalMs = 500.0;  // the server pings each session this often (its RTT)
+};
+Status checkServerConfig(const ServerConfig& config);
+
+struct ServerStats {
+    int64_t sessionsActive = 0;  // accepted (handshake done) and open
+    int64_t sessionsTotal = 0;   // accepted since start
+    int64_t refused = 0;         // refused at the handshake (version, token, overloaded)
+    int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
+    int64_t setsSent = 0;        // reference sets written to sockets
+    int64_t bytesSent = 0;       // their bytes
+    int64_t rawBytesSent = 0;    // 8 bytes (RGBA8 + f32) per pixel of those sets
+    size_t queuedBytes = 0;      // now: bytes accepted by sessions' sockets' queues, not written
+    size_t maxQueuedBytes = 0;   // the most queuedBytes ever seen (sampled at each send)
+    size_t maxSetBytes = 0;      // the largest encoded set
+    double renderMsMean = 0.0, encodeMsMean = 0.0;  // per set
+};
+
+class Server {
+public:
+    // Listens and starts serving `scene` (moved in). Errors: checkServerConfig's, the address.
+    static Result<std::unique_ptr<Server>> create(scene::Scene scene, const ServerConfig& config);
+    ~Server();  // stop()
+
+    int port() const;
+    ServerStats stats() const;
+    // Says Bye(GoingAway) to every session, waits for those bytes (at most ~1 s), then closes.
+    // Idempotent.
+    void stop();
+
+private:
+    struct Impl;
+    explicit Server(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
+
+// The eye a constant-velocity predictor renders for: eye + velocity * leadMs, the lead clamped
+// to 0..1000 ms (past a second the prediction is worse than none, Mark et al. citing Azuma).
+Vec3 predictEye(const Vec3& eye, const Vec3& velocity, double leadMs);
+
+}  // namespace plx::remote

@@ -1,0 +1,109 @@
+#pragma once
+// WebSocket transport for remote sessions (docs/remote-protocol.md, "Framing"): binary messages
+// over TCP, with optional link emulation (latency, jitter, bandwidth) on the real socket. The
+// implementation (Boost.Beast) stays in transport.cpp; this header has no Boost in it.
+//
+// Threading: a Transport owns one I/O thread. Every callback (ConnectionEvents, send completions)
+// runs on it, so callbacks must be short and must not block. Connection methods may be called
+// from any thread.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <plx/core/status.h>
+
+namespace plx::remote {
+
+// A link emulated on one side's socket, in both directions: each message written is released
+// after latency plus a uniform jitter in [0, jitterMs], paced by a token bucket at bandwidthMbit
+// (its serialisation time); each message read is delayed the same way before it is delivered.
+// Order is preserved both ways. Over loopback, latency L on the server gives a round trip of 2L.
+struct LinkEmulation {
+    double latencyMs = 0.0;      // one-way, 0..10000
+    double jitterMs = 0.0;       // 0..10000, added to latency per message
+    double bandwidthMbit = 0.0;  // 0: unlimited; else > 0.001
+    uint32_t seed = 1;           // jitter's random sequence
+    bool active() const { return latencyMs > 0.0 || jitterMs > 0.0 || bandwidthMbit > 0.0; }
+};
+Status checkLinkEmulation(const LinkEmulation& link);
+
+struct ConnectionConfig {
+    // The WebSocket layer refuses (closes with code 1009) any message larger than this before
+    // allocating it: the largest message the peer may send by docs/remote-protocol.md.
+    size_t maxMessageBytes = 2048;
+    LinkEmulation link;
+    double handshakeTimeoutMs = 5000.0;
+};
+
+// What one connection reports, on the transport's I/O thread.
+struct ConnectionEvents {
+    // A whole message. binary = false for a text message (a protocol error for Parallax).
+    std::function<void(std::vector<uint8_t>&& message, bool binary)> onMessage;
+    // Once, when the connection is gone (closed by either side, reset, or too large a message);
+    // the status says why (ok for a clean WebSocket close).
+    std::function<void(const Status& why)> onClosed;
+};
+
+// One WebSocket connection. Methods are thread-safe.
+class Connection {
+public:
+    virtual ~Connection() = default;
+    // Queues one binary message; `done` runs on the I/O thread once the socket accepted all of
+    // it (or with the error that stopped it). Queued messages keep their order.
+    virtual void send(std::vector<uint8_t> message,
+                      std::function<void(const Status&)> done = nullptr) = 0;
+    // Bytes queued by send and not yet accepted by the socket.
+    virtual size_t queuedBytes() const = 0;
+    // Stops or resumes reading (a stalled reader, for tests and backpressure).
+    virtual void setReading(bool on) = 0;
+    // A clean WebSocket close once every queued message is written.
+    virtual void close() = 0;
+    // Drops the TCP connection at once (no close handshake).
+    virtual void abort() = 0;
+};
+
+// One I/O thread with its listeners and connections. It must outlive every Connection it made
+// (release them before destroying it); stop() drops the ones still open.
+class Transport {
+public:
+    static Result<std::unique_ptr<Transport>> create();
+    ~Transport();
+
+    // Accepts WebSocket connections on bind:port (port 0: a free one) and returns the bound
+    // port. onAccept receives each connection after its WebSocket handshake and returns its
+    // events; reading starts after it returns. Errors: a bad address, a port in use.
+    using AcceptHandler = std::function<ConnectionEvents(std::shared_ptr<Connection>)>;
+    Result<int> listen(const std::string& bind, int port, const ConnectionConfig& config,
+                       AcceptHandler onAccept);
+    // Stops accepting (connections already made go on).
+    void stopListening();
+
+    // Connects to ws://host:port/path and completes the WebSocket handshake, waiting at most
+    // config.handshakeTimeoutMs. Errors: unreachable, refused, timed out.
+    Result<std::shared_ptr<Connection>> connect(const std::string& host, int port,
+                                                const std::string& path,
+                                                const ConnectionConfig& config,
+                                                ConnectionEvents events);
+
+    // Stops the I/O thread: connections still open are dropped. Idempotent.
+    void stop();
+
+private:
+    struct Impl;
+    explicit Transport(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> mImpl;
+};
+
+// "ws://host:port/path" split; errors name the problem (only ws:// is supported).
+struct WsUrl {
+    std::string host;
+    int port = 80;
+    std::string path = "/";
+};
+Result<WsUrl> parseWsUrl(const std::string& url);
+
+}  // namespace plx::remote

@@ -1,0 +1,305 @@
+// The client's I/O thread: connect, handshake, send poses and pings, receive sets; reconnect
+// with exponential backoff.
+
+#include <plx/remote/client.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include <plx/remote/transport.h>
+
+namespace plx::remote {
+
+using Clock = std::chrono::steady_clock;
+
+uint64_t clientNowUs() {
+    return uint64_t(
+        std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+            .count());
+}
+
+namespace {
+
+// A pose is not sent while this many bytes wait on the socket: a stalled link gets the newest
+// pose later rather than a queue of stale ones.
+constexpr size_t kMaxQueuedPoseBytes = 4096;
+
+// What one connection's callbacks report to the I/O thread.
+struct Link {
+    bool closed = false;
+    std::optional<ServerHello> hello;
+    Status error;  // an Error message from the server
+    uint32_t pingNonce = 0;
+};
+
+}  // namespace
+
+struct Client::Impl {
+    ClientConfig config;
+    std::unique_ptr<Transport> transport;
+    std::thread thread;
+
+    mutable std::mutex mutex;
+    mutable std::condition_variable changed;
+    bool stopping = false;
+    std::optional<PoseMessage> pose;
+    uint64_t poseVersion = 0, sentVersion = 0;
+    std::shared_ptr<const ReceivedSet> newest;
+    Status fatal;
+    ClientStats stats;
+    std::shared_ptr<Connection> conn;
+
+    void onMessage(const std::shared_ptr<Link>& link, std::vector<uint8_t>&& bytes, bool binary) {
+        if (!binary) return;
+        const uint64_t arrival = clientNowUs();
+        Clock::time_point decodeStart = Clock::now();
+        auto m = decodeMessage(bytes, config.limits);
+        if (!m) {
+            // A server that breaks the protocol is told so; the session ends and is retried.
+            if (auto e = encodeMessage(ErrorMessage{ErrorKind::kProtocol,
+                                                    m.status().message().substr(0, kMaxTextBytes)}))
+                sendNow(std::move(e).value());
+            closeNow();
+            return;
+        }
+        if (auto* set = std::get_if<ReferenceSetMessage>(&*m)) {
+            auto r = std::make_shared<ReceivedSet>();
+            r->set = std::move(set->set);
+            r->sequence = set->sequence;
+            r->requestTimestampUs = set->requestTimestampUs;
+            r->arrivalUs = arrival;
+            r->bytes = bytes.size();
+            double ms =
+                std::chrono::duration<double, std::milli>(Clock::now() - decodeStart).count();
+            std::lock_guard lock(mutex);
+            newest = std::move(r);  // the newest wins; an older one is dropped with its last user
+            ++stats.referencesReceived;
+            stats.bytesReceived += int64_t(bytes.size());
+            stats.decodeMsMean += (ms - stats.decodeMsMean) / double(stats.referencesReceived);
+            changed.notify_all();
+            return;
+        }
+        std::lock_guard lock(mutex);
+        if (auto* hello = std::get_if<ServerHello>(&*m)) {
+            link->hello = *hello;
+        } else if (auto* ping = std::get_if<Ping>(&*m)) {
+            if (auto pong = encodeMessage(Pong{ping->timestampUs, ping->nonce}); pong && conn)
+                conn->send(std::move(pong).value());
+        } else if (auto* pong = std::get_if<Pong>(&*m)) {
+            // Pongs of earlier pings count too: a round trip longer than the ping interval is
+            // normal.
+            if (link->pingNonce - pong->nonce < 64u) {
+                double rtt = double(arrival - std::min(arrival, pong->timestampUs)) * 1e-3;
+                stats.rttMs = stats.rttMs < 0.0 ? rtt : 0.75 * stats.rttMs + 0.25 * rtt;
+            }
+        } else if (auto* err = std::get_if<ErrorMessage>(&*m)) {
+            link->error = errorStatus(ErrorCode::kIoError, "server: " + err->text);
+        }
+        changed.notify_all();
+    }
+
+    void sendNow(std::vector<uint8_t> bytes) {
+        std::lock_guard lock(mutex);
+        if (conn) conn->send(std::move(bytes));
+    }
+    void closeNow() {
+        std::lock_guard lock(mutex);
+        if (conn) conn->close();
+    }
+
+    // Waits for `until` or for stop; false when stopping.
+    bool sleepUntil(Clock::time_point until) {
+        std::unique_lock lock(mutex);
+        changed.wait_until(lock, until, [&] { return stopping; });
+        return !stopping;
+    }
+
+    void run() {
+        double backoffMs = config.backoffMinMs;
+        while (true) {
+            {
+                std::lock_guard lock(mutex);
+                if (stopping) break;
+            }
+            Status ended = session();
+            {
+                std::lock_guard lock(mutex);
+                stats.connected = false;
+                conn.reset();
+                if (stopping || !fatal.isOk()) break;
+                if (stats.connects > 0 && ended.isOk()) backoffMs = config.backoffMinMs;
+            }
+            auto wait = std::chrono::duration_cast<Clock::duration>(
+                std::chrono::duration<double, std::milli>(backoffMs));
+            if (!sleepUntil(Clock::now() + wait)) break;
+            backoffMs = std::min(backoffMs * 2.0, config.backoffMaxMs);
+        }
+    }
+
+    // One connection: handshake, then poses and pings until it closes. ok when it got as far
+    // as an accepted handshake (the backoff restarts), an error otherwise.
+    Status session() {
+        auto link = std::make_shared<Link>();
+        ConnectionEvents ev;
+        ev.onMessage = [this, link](std::vector<uint8_t>&& m, bool binary) {
+            onMessage(link, std::move(m), binary);
+        };
+        ev.onClosed = [this, link](const Status&) {
+            std::lock_guard lock(mutex);
+            link->closed = true;
+            changed.notify_all();
+        };
+        ConnectionConfig cc;
+        cc.maxMessageBytes = kMaxReferenceSetMessageBytes;
+        cc.handshakeTimeoutMs = config.connectTimeoutMs;
+        auto c = transport->connect(config.host, config.port, config.path, cc, std::move(ev));
+        if (!c) return c.status();
+        ClientHello hello;
+        hello.layout = config.layout;
+        hello.faceSize = config.faceSize;
+        hello.token = config.token;
+        {
+            std::lock_guard lock(mutex);
+            conn = *c;
+        }
+        if (auto bytes = encodeMessage(hello)) (*c)->send(std::move(bytes).value());
+        ServerHello answer;
+        {
+            std::unique_lock lock(mutex);
+            changed.wait_for(
+                lock, std::chrono::duration<double, std::milli>(config.connectTimeoutMs),
+                [&] { return stopping || link->closed || link->hello || !link->error.isOk(); });
+            if (stopping) return Status::ok();
+            if (!link->hello) {
+                (*c)->abort();
+                if (!link->error.isOk()) return link->error;
+                return errorStatus(ErrorCode::kIoError, "no ServerHello");
+            }
+            answer = *link->hello;
+            if (!answer.accepted) {
+                fatal = errorStatus(ErrorCode::kUnsupported, "server refused: " + answer.reason);
+                changed.notify_all();
+                (*c)->close();
+                return fatal;
+            }
+            ++stats.connects;
+            stats.connected = true;
+            stats.faceSize = answer.faceSize;
+            stats.poseRateHz = answer.poseRateHz;
+        }
+        const auto poseInterval = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double>(1.0 / std::max(1, answer.poseRateHz)));
+        const auto pingInterval = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double, std::milli>(config.pingIntervalMs));
+        Clock::time_point nextPose = Clock::now(), nextPing = Clock::now();
+        std::unique_lock lock(mutex);
+        while (!stopping && !link->closed) {
+            changed.wait_until(lock, std::min(nextPose, nextPing),
+                               [&] { return stopping || link->closed; });
+            if (stopping || link->closed) break;
+            Clock::time_point now = Clock::now();
+            if (now >= nextPose) {
+                nextPose = std::max(nextPose + poseInterval, now);
+                // Each pose once (the newest), and never onto a backed-up socket.
+                if (pose && sentVersion != poseVersion &&
+                    conn->queuedBytes() < kMaxQueuedPoseBytes) {
+                    if (auto b = encodeMessage(*pose)) {
+                        conn->send(std::move(b).value());
+                        sentVersion = poseVersion;
+                        ++stats.posesSent;
+                    }
+                }
+            }
+            if (now >= nextPing) {
+                nextPing = now + pingInterval;
+                if (auto b = encodeMessage(Ping{clientNowUs(), ++link->pingNonce}))
+                    conn->send(std::move(b).value());
+            }
+        }
+        if (stopping && !link->closed) {
+            if (auto b = encodeMessage(Bye{ByeReason::kNormal, "client done"}))
+                conn->send(std::move(b).value());
+            conn->close();
+            changed.wait_for(lock, std::chrono::milliseconds(500), [&] { return link->closed; });
+        }
+        return Status::ok();
+    }
+};
+
+Client::Client(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+Client::~Client() {
+    stop();
+}
+
+Result<std::unique_ptr<Client>> Client::create(const ClientConfig& config) {
+    if (config.faceSize < kMinFaceSize || config.faceSize > kMaxFaceSize)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("face size {} outside {}..{}", config.faceSize, kMinFaceSize,
+                                       kMaxFaceSize));
+    if (config.token.size() > size_t(kMaxTokenBytes))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("token longer than {} bytes", kMaxTokenBytes));
+    if (config.port < 1 || config.port > 65535)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("port {} outside 1..65535", config.port));
+    if (!(config.backoffMinMs > 0.0 && config.backoffMaxMs >= config.backoffMinMs &&
+          config.backoffMaxMs <= 60000.0 && config.pingIntervalMs >= 10.0 &&
+          config.connectTimeoutMs > 0.0))
+        return errorStatus(ErrorCode::kInvalidArgument, "client timing options out of range");
+    auto impl = std::make_unique<Impl>();
+    impl->config = config;
+    auto transport = Transport::create();
+    if (!transport) return transport.status();
+    impl->transport = std::move(transport).value();
+    Impl* p = impl.get();
+    impl->thread = std::thread([p] { p->run(); });
+    return std::unique_ptr<Client>(new Client(std::move(impl)));
+}
+
+void Client::setPose(const PoseMessage& pose) {
+    std::lock_guard lock(mImpl->mutex);
+    mImpl->pose = pose;
+    ++mImpl->poseVersion;
+}
+
+std::shared_ptr<const ReceivedSet> Client::newest() const {
+    std::lock_guard lock(mImpl->mutex);
+    return mImpl->newest;
+}
+
+bool Client::waitForFirst(double timeoutMs) const {
+    std::unique_lock lock(mImpl->mutex);
+    mImpl->changed.wait_for(lock, std::chrono::duration<double, std::milli>(timeoutMs), [&] {
+        return mImpl->newest != nullptr || !mImpl->fatal.isOk() || mImpl->stopping;
+    });
+    return mImpl->newest != nullptr;
+}
+
+Status Client::fatal() const {
+    std::lock_guard lock(mImpl->mutex);
+    return mImpl->fatal;
+}
+
+ClientStats Client::stats() const {
+    std::lock_guard lock(mImpl->mutex);
+    return mImpl->stats;
+}
+
+void Client::stop() {
+    {
+        std::lock_guard lock(mImpl->mutex);
+        if (mImpl->stopping && !mImpl->thread.joinable()) return;
+        mImpl->stopping = true;
+        mImpl->changed.notify_all();
+    }
+    if (mImpl->thread.joinable()) mImpl->thread.join();
+    mImpl->transport->stop();
+}
+
+}  // namespace plx::remote

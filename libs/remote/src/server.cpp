@@ -1,0 +1,492 @@
+// The render server: sessions over the transport, a one-slot pose mailbox per session, one
+// render worker serving sessions in turn (docs/remote-protocol.md, "Session").
+
+#include <plx/remote/server.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include <plx/raster/raster.h>
+#include <plx/remote/protocol.h>
+#include <plx/warp/reference.h>
+
+namespace plx::remote {
+
+using Clock = std::chrono::steady_clock;
+
+Result<Prediction> parsePrediction(const std::string& name) {
+    if (name == "none") return Prediction::kNone;
+    if (name == "velocity") return Prediction::kConstantVelocity;
+    return errorStatus(ErrorCode::kInvalidArgument,
+                       fmt::format("unknown prediction '{}' (none, velocity)", name));
+}
+
+const char* predictionName(Prediction prediction) {
+    return prediction == Prediction::kNone ? "none" : "velocity";
+}
+
+Vec3 predictEye(const Vec3& eye, const Vec3& velocity, double leadMs) {
+    const double lead = std::clamp(leadMs, 0.0, 1000.0) * 1e-3;
+    return eye + velocity * float(lead);
+}
+
+Status checkServerConfig(const ServerConfig& c) {
+    auto bad = [](const std::string& m) { return errorStatus(ErrorCode::kInvalidArgument, m); };
+    if (c.port < 0 || c.port > 65535) return bad(fmt::format("port {} outside 0..65535", c.port));
+    if (c.token.size() > size_t(kMaxTokenBytes))
+        return bad(fmt::format("token longer than {} bytes", kMaxTokenBytes));
+    if (c.reference.faceSize < kMinFaceSize || c.reference.faceSize > kMaxFaceSize)
+        return bad(fmt::format("face size {} outside {}..{}", c.reference.faceSize, kMinFaceSize,
+                               kMaxFaceSize));
+    if (c.maxSessions < 1 || c.maxSessions > 1024)
+        return bad(fmt::format("max sessions {} outside 1..1024", c.maxSessions));
+    if (c.poseRateHz < 1 || c.poseRateHz > 1000)
+        return bad(fmt::format("pose rate {} outside 1..1000", c.poseRateHz));
+    if (!(c.pingIntervalMs >= 10.0 && c.pingIntervalMs <= 60000.0))
+        return bad(fmt::format("ping interval {} ms outside 10..60000", c.pingIntervalMs));
+    if (c.renderThreads < 0 || c.renderThreads > 1024)
+        return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
+    PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
+    return warp::checkReferenceSetOptions(c.reference);
+}
+
+namespace {
+
+// A client that has not said hello after this long is dropped (it holds a connection slot).
+constexpr double kHelloTimeoutMs = 5000.0;
+// Ping answers per second per session (docs/remote-protocol.md); extra pings are not answered.
+constexpr int kMaxPingsPerSecond = 10;
+// The server's largest message from a client: Error and Bye at 2 KiB (docs/remote-protocol.md).
+constexpr size_t kMaxClientMessageBytes = 2048;
+
+uint64_t nowUs() {
+    return uint64_t(
+        std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+            .count());
+}
+
+double msSince(Clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+enum class SessionState { kAwaitingHello, kAccepted, kClosed };
+
+struct Session {
+    std::shared_ptr<Connection> conn;
+    Clock::time_point connectedAt = Clock::now();
+    // Guarded by Server::Impl::mutex.
+    SessionState state = SessionState::kAwaitingHello;
+    int faceSize = 0;
+    // The disparity codec of this client's sets: the server's unless the client cannot decode it
+    // (ClientHello::disparityCodecs; a browser has no zstd).
+    DisparityCodec disparityCodec = DisparityCodec::kQuantized16;
+    std::optional<PoseMessage> pending;   // the one-slot mailbox
+    Clock::time_point pendingAt;          // when the pending pose arrived
+    std::optional<PoseMessage> lastPose;  // for the velocity estimate without a velocity field
+    Vec3 estimatedVelocity{0.0f};
+    bool inFlight = false;  // a set is being rendered or waits on the socket
+    bool ready = false;     // in the ready queue
+    uint32_t sequence = 0;
+    double rttMs = -1.0;  // smoothed round trip, < 0 before the first Pong
+    Clock::time_point lastPingSent{};
+    uint32_t pingNonce = 0;
+    Clock::time_point pingWindow{};
+    int pingsInWindow = 0;
+};
+using SessionPtr = std::shared_ptr<Session>;
+
+}  // namespace
+
+struct Server::Impl {
+    scene::Scene scene;
+    ServerConfig config;
+    std::unique_ptr<Transport> transport;
+    std::unique_ptr<raster::Renderer> renderer;
+    int port = 0;
+
+    mutable std::mutex mutex;
+    std::condition_variable wake;
+    std::set<SessionPtr> sessions;
+    std::deque<SessionPtr> ready;
+    bool stopping = false, stopped = false;
+    std::thread worker;
+    ServerStats stats;
+    double renderEncodeMsEstimate = 0.0;  // smoothed, for the prediction lead
+
+    void send(const SessionPtr& s, const Message& m, std::function<void(const Status&)> done = {}) {
+        auto bytes = encodeMessage(m, config.codec);
+        if (!bytes) return;  // well-formed by construction; nothing to send otherwise
+        s->conn->send(std::move(bytes).value(), std::move(done));
+    }
+
+    // Ends a session with an Error message (sent before the close).
+    void fail(const SessionPtr& s, ErrorKind kind, std::string text) {
+        {
+            std::lock_guard lock(mutex);
+            if (s->state == SessionState::kClosed) return;
+            if (kind == ErrorKind::kProtocol || kind == ErrorKind::kTooLarge)
+                ++stats.protocolErrors;
+            if (s->state == SessionState::kAccepted) --stats.sessionsActive;
+            s->state = SessionState::kClosed;
+        }
+        if (text.size() > size_t(kMaxTextBytes)) text.resize(size_t(kMaxTextBytes));
+        send(s, ErrorMessage{kind, std::move(text)});
+        s->conn->close();
+    }
+
+    void refuse(const SessionPtr& s, std::string reason, const ClientHello& hello) {
+        {
+            std::lock_guard lock(mutex);
+            ++stats.refused;
+            s->state = SessionState::kClosed;
+        }
+        ServerHello h;
+        h.accepted = false;
+        h.layout = config.reference.layout;
+        h.faceSize = std::clamp(hello.faceSize, kMinFaceSize, kMaxFaceSize);
+        h.poseRateHz = config.poseRateHz;
+        h.reason = std::move(reason);
+        send(s, h);
+        s->conn->close();
+    }
+
+    void onHello(const SessionPtr& s, const ClientHello& hello) {
+        if (hello.version != kProtocolVersion)
+            return refuse(s,
+                          fmt::format("unsupported protocol version {} (server speaks {})",
+                                      hello.version, kProtocolVersion),
+                          hello);
+        if (!config.token.empty() && !tokensEqual(hello.token, config.token))
+            return refuse(s, hello.token.empty() ? "a token is required" : "wrong token", hello);
+        const DisparityCodec disparity = disparityCodecFor(hello.disparityCodecs);
+        ServerHello h;
+        {
+            std::lock_guard lock(mutex);
+            if (stats.sessionsActive >= config.maxSessions) {
+                ++stats.refused;
+                s->state = SessionState::kClosed;
+                h.accepted = false;
+            } else {
+                ++stats.sessionsActive;
+                ++stats.sessionsTotal;
+                s->state = SessionState::kAccepted;
+                s->faceSize = std::min(hello.faceSize, config.reference.faceSize);
+                s->disparityCodec = disparity;
+            }
+        }
+        if (!h.accepted) {
+            send(s, ErrorMessage{ErrorKind::kOverloaded,
+                                 fmt::format("server full ({} sessions)", config.maxSessions)});
+            s->conn->close();
+            return;
+        }
+        h.layout = config.reference.layout;
+        h.faceSize = s->faceSize;
+        h.poseRateHz = config.poseRateHz;
+        send(s, h);
+    }
+
+    // The server's configured disparity codec when the client decodes it, else the client's
+    // preferred one (chooseDisparityCodec: q16 + zstd, q16 + deflate, raw).
+    DisparityCodec disparityCodecFor(uint8_t clientCodecs) const {
+        if (clientCodecs & disparityCodecBit(config.codec.disparity)) return config.codec.disparity;
+        Result<DisparityCodec> chosen = chooseDisparityCodec(clientCodecs);
+        return chosen ? *chosen : config.codec.disparity;  // the decoder refused an empty mask
+    }
+
+    // Equal tokens, compared in time independent of where they differ.
+    static bool tokensEqual(const std::string& a, const std::string& b) {
+        if (a.size() != b.size()) return false;
+        unsigned diff = 0;
+        for (size_t i = 0; i < a.size(); ++i) diff |= unsigned(uint8_t(a[i]) ^ uint8_t(b[i]));
+        return diff == 0;
+    }
+
+    void onPose(const SessionPtr& s, const PoseMessage& pose) {
+        std::lock_guard lock(mutex);
+        // Velocity from successive poses when the client sends none (client clock deltas).
+        if (s->lastPose && pose.timestampUs > s->lastPose->timestampUs) {
+            double dt = double(pose.timestampUs - s->lastPose->timestampUs) * 1e-6;
+            if (dt <= 1.0)
+                s->estimatedVelocity = (pose.pose.eye - s->lastPose->pose.eye) / float(dt);
+        }
+        s->lastPose = pose;
+        s->pending = pose;  // replaces an unserved one
+        s->pendingAt = Clock::now();
+        scheduleLocked(s);
+    }
+
+    void scheduleLocked(const SessionPtr& s) {
+        if (s->state != SessionState::kAccepted || s->inFlight || s->ready || !s->pending) return;
+        s->ready = true;
+        ready.push_back(s);
+        wake.notify_one();
+    }
+
+    void onPing(const SessionPtr& s, const Ping& ping) {
+        {
+            std::lock_guard lock(mutex);
+            Clock::time_point now = Clock::now();
+            if (now - s->pingWindow > std::chrono::seconds(1))
+                s->pingWindow = now, s->pingsInWindow = 0;
+            if (++s->pingsInWindow > kMaxPingsPerSecond) return;
+        }
+        send(s, Pong{ping.timestampUs, ping.nonce});
+    }
+
+    void onPong(const SessionPtr& s, const Pong& pong) {
+        std::lock_guard lock(mutex);
+        // One of our recent pings (a round trip may exceed the ping interval), not a forged one.
+        if (s->pingNonce - pong.nonce >= 64u) return;
+        double rtt = double(nowUs() - std::min(pong.timestampUs, nowUs())) * 1e-3;
+        // Smoothed like TCP's SRTT (gain 1/4): one late pong does not swing the prediction.
+        s->rttMs = s->rttMs < 0.0 ? rtt : 0.75 * s->rttMs + 0.25 * rtt;
+    }
+
+    void onMessage(const SessionPtr& s, std::vector<uint8_t>&& bytes, bool binary) {
+        SessionState state;
+        {
+            std::lock_guard lock(mutex);
+            state = s->state;
+        }
+        if (state == SessionState::kClosed) return;
+        if (!binary) return fail(s, ErrorKind::kProtocol, "text message (binary messages only)");
+        DecodeLimits limits;
+        auto m = decodeMessage(bytes, limits);
+        if (!m) return fail(s, ErrorKind::kProtocol, m.status().message());
+        if (state == SessionState::kAwaitingHello) {
+            if (auto* hello = std::get_if<ClientHello>(&*m)) return onHello(s, *hello);
+            return fail(s, ErrorKind::kProtocol,
+                        fmt::format("{} before ClientHello", messageTypeName(messageType(*m))));
+        }
+        if (auto* pose = std::get_if<PoseMessage>(&*m)) return onPose(s, *pose);
+        if (auto* ping = std::get_if<Ping>(&*m)) return onPing(s, *ping);
+        if (auto* pong = std::get_if<Pong>(&*m)) return onPong(s, *pong);
+        if (std::holds_alternative<Bye>(*m) || std::holds_alternative<ErrorMessage>(*m)) {
+            closeQuietly(s);
+            return;
+        }
+        fail(s, ErrorKind::kProtocol,
+             fmt::format("unexpected {} from a client", messageTypeName(messageType(*m))));
+    }
+
+    void closeQuietly(const SessionPtr& s) {
+        {
+            std::lock_guard lock(mutex);
+            if (s->state == SessionState::kAccepted) --stats.sessionsActive;
+            s->state = SessionState::kClosed;
+        }
+        s->conn->close();
+    }
+
+    void onClosed(const SessionPtr& s) {
+        std::lock_guard lock(mutex);
+        if (s->state == SessionState::kAccepted) --stats.sessionsActive;
+        s->state = SessionState::kClosed;
+        s->pending.reset();
+        sessions.erase(s);
+        wake.notify_all();
+    }
+
+    ConnectionEvents accept(std::shared_ptr<Connection> conn) {
+        auto s = std::make_shared<Session>();
+        s->conn = std::move(conn);
+        {
+            std::lock_guard lock(mutex);
+            if (stopping) {
+                s->conn->abort();
+                return {};
+            }
+            sessions.insert(s);
+        }
+        ConnectionEvents ev;
+        ev.onMessage = [this, s](std::vector<uint8_t>&& m, bool binary) {
+            onMessage(s, std::move(m), binary);
+        };
+        ev.onClosed = [this, s](const Status&) { onClosed(s); };
+        return ev;
+    }
+
+    // The worker: renders for ready sessions in turn and pings every session periodically.
+    void run() {
+        warp::ReferenceSet set;
+        std::unique_lock lock(mutex);
+        while (!stopping) {
+            wake.wait_for(lock, std::chrono::milliseconds(50),
+                          [&] { return stopping || !ready.empty(); });
+            if (stopping) break;
+            housekeepLocked();
+            if (ready.empty()) continue;
+            SessionPtr s = ready.front();
+            ready.pop_front();
+            s->ready = false;
+            if (s->state != SessionState::kAccepted || !s->pending) continue;
+            PoseMessage pose = *s->pending;
+            s->pending.reset();
+            s->inFlight = true;
+            // The set reaches the client about one RTT after the pose left it, plus the time the
+            // pose waited here and the render and encode ahead.
+            double leadMs =
+                std::max(0.0, s->rttMs) + msSince(s->pendingAt) + renderEncodeMsEstimate;
+            Vec3 velocity = pose.hasVelocity ? pose.velocity : s->estimatedVelocity;
+            const int faceSize = s->faceSize;
+            const uint32_t sequence = s->sequence++;
+            lock.unlock();
+            serve(s, pose, velocity, leadMs, faceSize, sequence, &set);
+            lock.lock();
+        }
+    }
+
+    void serve(const SessionPtr& s, const PoseMessage& pose, Vec3 velocity, double leadMs,
+               int faceSize, uint32_t sequence, warp::ReferenceSet* set) {
+        warp::Pose at = pose.pose;
+        if (config.prediction == Prediction::kConstantVelocity)
+            at.eye = predictEye(at.eye, velocity, leadMs);
+        warp::ReferenceSetOptions options = config.reference;
+        options.faceSize = faceSize;
+        if (config.fitClipPlanes)
+            scene::clipPlanesFor(scene.bounds(), at.eye, &options.nearPlane, &options.farPlane);
+        Clock::time_point start = Clock::now();
+        Status rendered = warp::renderReferenceSet(*renderer, scene, at, options, set);
+        const double renderMs = msSince(start);
+        if (!rendered) return fail(s, ErrorKind::kInternal, rendered.message());
+        Clock::time_point encodeStart = Clock::now();
+        Message m = ReferenceSetMessage{sequence, pose.timestampUs, std::move(*set)};
+        CodecOptions codec = config.codec;
+        {
+            std::lock_guard lock(mutex);
+            codec.disparity = s->disparityCodec;
+        }
+        auto bytes = encodeMessage(m, codec);
+        *set = std::move(std::get<ReferenceSetMessage>(m).set);  // keep the buffers
+        const double encodeMs = msSince(encodeStart);
+        if (!bytes) return fail(s, ErrorKind::kInternal, bytes.status().message());
+        const size_t size = bytes->size();
+        int64_t raw = 0;
+        for (const warp::ReferenceView& v : set->views) raw += int64_t(v.color.pixelCount()) * 8;
+        {
+            std::lock_guard lock(mutex);
+            stats.renderMsMean += (renderMs - stats.renderMsMean) / double(stats.setsSent + 1);
+            stats.encodeMsMean += (encodeMs - stats.encodeMsMean) / double(stats.setsSent + 1);
+            renderEncodeMsEstimate =
+                renderEncodeMsEstimate == 0.0
+                    ? renderMs + encodeMs
+                    : 0.75 * renderEncodeMsEstimate + 0.25 * (renderMs + encodeMs);
+            stats.maxSetBytes = std::max(stats.maxSetBytes, size);
+        }
+        s->conn->send(std::move(bytes).value(), [this, s, size, raw](const Status& written) {
+            std::lock_guard lock(mutex);
+            if (written)
+                ++stats.setsSent, stats.bytesSent += int64_t(size), stats.rawBytesSent += raw;
+            s->inFlight = false;
+            scheduleLocked(s);  // backpressure: the next render only after this write
+        });
+        std::lock_guard lock(mutex);
+        size_t queued = 0;
+        for (const SessionPtr& other : sessions) queued += other->conn->queuedBytes();
+        stats.maxQueuedBytes = std::max(stats.maxQueuedBytes, queued);
+    }
+
+    // Pings accepted sessions every pingIntervalMs; drops connections that never said hello.
+    void housekeepLocked() {
+        Clock::time_point now = Clock::now();
+        std::vector<SessionPtr> ping, drop;
+        for (const SessionPtr& s : sessions) {
+            if (s->state == SessionState::kAwaitingHello &&
+                msSince(s->connectedAt) > kHelloTimeoutMs)
+                drop.push_back(s);
+            if (s->state == SessionState::kAccepted &&
+                std::chrono::duration<double, std::milli>(now - s->lastPingSent).count() >=
+                    config.pingIntervalMs) {
+                s->lastPingSent = now;
+                ++s->pingNonce;
+                ping.push_back(s);
+            }
+        }
+        for (const SessionPtr& s : drop) s->state = SessionState::kClosed, s->conn->abort();
+        for (const SessionPtr& s : ping) {
+            auto bytes = encodeMessage(Ping{nowUs(), s->pingNonce});
+            if (bytes) s->conn->send(std::move(bytes).value());
+        }
+    }
+};
+
+Server::Server(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+Server::~Server() {
+    stop();
+}
+
+Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerConfig& config) {
+    PLX_RETURN_IF_ERROR(checkServerConfig(config));
+    auto impl = std::make_unique<Impl>();
+    impl->scene = std::move(scene);
+    impl->config = config;
+    auto renderer = raster::Renderer::create({config.renderThreads});
+    if (!renderer) return renderer.status();
+    impl->renderer = std::move(renderer).value();
+    auto transport = Transport::create();
+    if (!transport) return transport.status();
+    impl->transport = std::move(transport).value();
+    ConnectionConfig cc;
+    cc.maxMessageBytes = kMaxClientMessageBytes;
+    cc.link = config.link;
+    Impl* p = impl.get();
+    auto port = impl->transport->listen(
+        config.bind, config.port, cc, [p](std::shared_ptr<Connection> c) { return p->accept(c); });
+    if (!port) return port.status();
+    impl->port = *port;
+    impl->worker = std::thread([p] { p->run(); });
+    return std::unique_ptr<Server>(new Server(std::move(impl)));
+}
+
+int Server::port() const {
+    return mImpl->port;
+}
+
+ServerStats Server::stats() const {
+    std::lock_guard lock(mImpl->mutex);
+    ServerStats s = mImpl->stats;
+    s.queuedBytes = 0;
+    for (const SessionPtr& session : mImpl->sessions) s.queuedBytes += session->conn->queuedBytes();
+    return s;
+}
+
+void Server::stop() {
+    Impl& m = *mImpl;
+    std::vector<SessionPtr> open;
+    {
+        std::lock_guard lock(m.mutex);
+        if (m.stopped) return;
+        m.stopped = m.stopping = true;
+        m.wake.notify_all();
+        open.assign(m.sessions.begin(), m.sessions.end());
+    }
+    if (m.worker.joinable()) m.worker.join();
+    m.transport->stopListening();
+    for (const SessionPtr& s : open) {
+        {
+            std::lock_guard lock(m.mutex);
+            if (s->state != SessionState::kAccepted) continue;
+        }
+        m.send(s, Bye{ByeReason::kGoingAway, "server shutting down"});
+        s->conn->close();
+    }
+    // Wait for the goodbyes to be written and the peers to close (bounded).
+    std::unique_lock lock(m.mutex);
+    m.wake.wait_for(lock, std::chrono::seconds(1), [&] { return m.sessions.empty(); });
+    lock.unlock();
+    m.transport->stop();
+    lock.lock();
+    m.sessions.clear();
+    m.ready.clear();
+}
+
+}  // namespace plx::remote

@@ -1,0 +1,483 @@
+// The WebSocket transport on Boost.Beast (asynchronous, one I/O thread per Transport). The only
+// translation unit that includes Beast and Asio: they cost ~17 s and 700 MB to compile.
+
+#include <plx/remote/transport.h>
+
+#include <chrono>
+#include <deque>
+#include <future>
+#include <mutex>
+#include <random>
+#include <set>
+#include <thread>
+
+#include <fmt/format.h>
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+
+namespace plx::remote {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+using ErrorCodeB = boost::system::error_code;
+
+Status checkLinkEmulation(const LinkEmulation& link) {
+    auto bad = [](const char* what, double v) {
+        return errorStatus(ErrorCode::kInvalidArgument, fmt::format("{} {} out of range", what, v));
+    };
+    if (!(link.latencyMs >= 0.0 && link.latencyMs <= 10000.0))
+        return bad("latency", link.latencyMs);
+    if (!(link.jitterMs >= 0.0 && link.jitterMs <= 10000.0)) return bad("jitter", link.jitterMs);
+    if (!(link.bandwidthMbit == 0.0 || (link.bandwidthMbit >= 0.001 && link.bandwidthMbit <= 1e6)))
+        return bad("bandwidth", link.bandwidthMbit);
+    return Status::ok();
+}
+
+namespace {
+
+// One direction of an emulated link: a message of B bytes enters the wire when the previous one
+// has left it (token bucket at the bandwidth: B * 8 / bandwidth seconds of serialisation), then
+// travels latency + U(0, jitter); releases never overtake each other, so order is kept.
+class LinkShaper {
+public:
+    LinkShaper(const LinkEmulation& link, uint32_t seed) : mLink(link), mRng(seed) {}
+
+    Clock::time_point release(size_t bytes, Clock::time_point now) {
+        using Ms = std::chrono::duration<double, std::milli>;
+        Clock::time_point start = std::max(now, mWireFree);
+        double serialiseMs =
+            mLink.bandwidthMbit > 0.0 ? double(bytes) * 8.0 / (mLink.bandwidthMbit * 1e3) : 0.0;
+        mWireFree = start + std::chrono::duration_cast<Clock::duration>(Ms(serialiseMs));
+        double jitterMs = mLink.jitterMs > 0.0
+                              ? std::uniform_real_distribution<double>(0.0, mLink.jitterMs)(mRng)
+                              : 0.0;
+        Clock::time_point out =
+            mWireFree + std::chrono::duration_cast<Clock::duration>(Ms(mLink.latencyMs + jitterMs));
+        mLastRelease = std::max(mLastRelease, out);
+        return mLastRelease;
+    }
+
+private:
+    LinkEmulation mLink;
+    std::mt19937 mRng;
+    Clock::time_point mWireFree{}, mLastRelease{};
+};
+
+Status fromBoost(const ErrorCodeB& ec, const char* what) {
+    if (!ec || ec == websocket::error::closed) return Status::ok();
+    return errorStatus(ErrorCode::kIoError, fmt::format("{}: {}", what, ec.message()));
+}
+
+// Messages read but not yet delivered (only with link emulation): reading pauses above this, so
+// a peer cannot grow the delay queue without bound.
+constexpr size_t kMaxDelayedMessages = 64;
+
+class WsConnection final : public Connection, public std::enable_shared_from_this<WsConnection> {
+public:
+    WsConnection(asio::io_context& io, tcp::socket socket, const ConnectionConfig& config)
+        : mIo(io),
+          mWs(std::move(socket)),
+          mConfig(config),
+          mSendTimer(io),
+          mRecvTimer(io),
+          mOutShaper(config.link, config.link.seed),
+          mInShaper(config.link, config.link.seed * 2654435761u + 1u) {
+        mWs.binary(true);
+        mWs.read_message_max(config.maxMessageBytes);
+        mWs.auto_fragment(false);
+    }
+
+    websocket::stream<beast::tcp_stream>& ws() { return mWs; }
+
+    void setTimeouts(bool server) {
+        websocket::stream_base::timeout t = websocket::stream_base::timeout::suggested(
+            server ? beast::role_type::server : beast::role_type::client);
+        t.handshake_timeout =
+            std::chrono::milliseconds(int64_t(std::max(1.0, mConfig.handshakeTimeoutMs)));
+        beast::get_lowest_layer(mWs).expires_never();
+        mWs.set_option(t);
+    }
+
+    // On the I/O thread, after the handshake.
+    void start(ConnectionEvents events) {
+        mEvents = std::move(events);
+        mStarted = true;
+        readMore();
+    }
+
+    void send(std::vector<uint8_t> message, std::function<void(const Status&)> done) override {
+        mQueued += message.size();
+        asio::post(mIo,
+                   [self = shared_from_this(), m = std::move(message),
+                    d = std::move(done)]() mutable { self->enqueue(std::move(m), std::move(d)); });
+    }
+    size_t queuedBytes() const override { return mQueued.load(); }
+    void setReading(bool on) override {
+        asio::post(mIo, [self = shared_from_this(), on] {
+            self->mWantRead = on;
+            self->readMore();
+        });
+    }
+    void close() override {
+        asio::post(mIo, [self = shared_from_this()] {
+            self->mCloseWhenDrained = true;
+            self->pump();
+        });
+    }
+    void abort() override {
+        asio::post(mIo, [self = shared_from_this()] {
+            ErrorCodeB ignored;
+            beast::get_lowest_layer(self->mWs).socket().close(ignored);
+            self->finish(errorStatus(ErrorCode::kIoError, "connection aborted"));
+        });
+    }
+
+    // On the I/O thread: drops the socket when the transport stops.
+    void drop() {
+        ErrorCodeB ignored;
+        beast::get_lowest_layer(mWs).socket().close(ignored);
+        finish(errorStatus(ErrorCode::kIoError, "transport stopped"));
+    }
+
+private:
+    struct Outgoing {
+        std::vector<uint8_t> bytes;
+        std::function<void(const Status&)> done;
+        Clock::time_point release;
+    };
+
+    void enqueue(std::vector<uint8_t> m, std::function<void(const Status&)> done) {
+        if (mFinished) {
+            mQueued -= m.size();
+            if (done) done(errorStatus(ErrorCode::kIoError, "connection closed"));
+            return;
+        }
+        Clock::time_point release = mConfig.link.active()
+                                        ? mOutShaper.release(m.size(), Clock::now())
+                                        : Clock::time_point{};
+        mOutbox.push_back({std::move(m), std::move(done), release});
+        pump();
+    }
+
+    // Writes the outbox in order, each message when its emulated release time has come.
+    void pump() {
+        if (mWriting || mFinished) return;
+        if (mOutbox.empty()) {
+            if (mCloseWhenDrained && !mClosing) {
+                mClosing = true;
+                mWs.async_close(websocket::close_code::normal,
+                                [self = shared_from_this()](ErrorCodeB ec) {
+                                    self->finish(fromBoost(ec, "close"));
+                                });
+            }
+            return;
+        }
+        mWriting = true;
+        Outgoing& front = mOutbox.front();
+        if (front.release > Clock::now()) {
+            mSendTimer.expires_at(front.release);
+            mSendTimer.async_wait([self = shared_from_this()](ErrorCodeB) {
+                self->mWriting = false;
+                if (self->mFinished || self->mOutbox.empty()) return;
+                self->mOutbox.front().release = {};
+                self->pump();
+            });
+            return;
+        }
+        mWs.async_write(asio::buffer(front.bytes),
+                        [self = shared_from_this()](ErrorCodeB ec, size_t) { self->written(ec); });
+    }
+
+    void written(ErrorCodeB ec) {
+        mWriting = false;
+        if (mOutbox.empty()) return;  // finished meanwhile
+        Outgoing out = std::move(mOutbox.front());
+        mOutbox.pop_front();
+        mQueued -= out.bytes.size();
+        Status s = ec ? fromBoost(ec, "write") : Status::ok();
+        if (s.isOk() && ec) s = errorStatus(ErrorCode::kIoError, "write: connection closed");
+        if (out.done) out.done(s);
+        if (ec) return finish(s);
+        pump();
+    }
+
+    void readMore() {
+        if (!mStarted || mReading || mFinished || !mWantRead || mClosing) return;
+        if (mDelayed.size() >= kMaxDelayedMessages) return;
+        mReading = true;
+        mWs.async_read(mReadBuffer, [self = shared_from_this()](ErrorCodeB ec, size_t) {
+            self->mReading = false;
+            self->gotMessage(ec);
+        });
+    }
+
+    void gotMessage(ErrorCodeB ec) {
+        if (ec) {
+            if (ec == websocket::error::message_too_big)
+                return finish(errorStatus(
+                    ErrorCode::kOutOfRange,
+                    fmt::format("message larger than {} bytes", mConfig.maxMessageBytes)));
+            return finish(fromBoost(ec, "read"));
+        }
+        auto data = mReadBuffer.cdata();
+        const auto* p = static_cast<const uint8_t*>(data.data());
+        std::vector<uint8_t> m(p, p + data.size());
+        mReadBuffer.consume(mReadBuffer.size());
+        const bool binary = mWs.got_binary();
+        if (!mConfig.link.active()) {
+            deliver(std::move(m), binary);
+        } else {
+            Clock::time_point release = mInShaper.release(m.size(), Clock::now());
+            mDelayed.push_back({std::move(m), binary, release});
+            if (mDelayed.size() == 1) armRecvTimer();
+        }
+        readMore();
+    }
+
+    void armRecvTimer() {
+        mRecvTimer.expires_at(mDelayed.front().release);
+        mRecvTimer.async_wait([self = shared_from_this()](ErrorCodeB ec) {
+            if (ec || self->mFinished) return;
+            while (!self->mDelayed.empty() && self->mDelayed.front().release <= Clock::now()) {
+                Delayed d = std::move(self->mDelayed.front());
+                self->mDelayed.pop_front();
+                self->deliver(std::move(d.bytes), d.binary);
+                if (self->mFinished) return;
+            }
+            if (!self->mDelayed.empty()) self->armRecvTimer();
+            self->readMore();
+        });
+    }
+
+    void deliver(std::vector<uint8_t>&& m, bool binary) {
+        if (mEvents.onMessage) mEvents.onMessage(std::move(m), binary);
+    }
+
+    void finish(const Status& why) {
+        if (mFinished) return;
+        mFinished = true;
+        mSendTimer.cancel();
+        mRecvTimer.cancel();
+        ErrorCodeB ignored;
+        beast::get_lowest_layer(mWs).socket().close(ignored);
+        std::deque<Outgoing> left = std::move(mOutbox);
+        mOutbox.clear();
+        for (Outgoing& o : left) {
+            mQueued -= o.bytes.size();
+            if (o.done) o.done(errorStatus(ErrorCode::kIoError, "connection closed"));
+        }
+        ConnectionEvents events = std::move(mEvents);
+        mEvents = {};
+        if (events.onClosed) events.onClosed(why);
+    }
+
+    struct Delayed {
+        std::vector<uint8_t> bytes;
+        bool binary;
+        Clock::time_point release;
+    };
+
+    // The transport's; it outlives the connection (a pending handler that holds the last
+    // reference is destroyed with the io_context, which then destroys the socket).
+    asio::io_context& mIo;
+    websocket::stream<beast::tcp_stream> mWs;
+    ConnectionConfig mConfig;
+    ConnectionEvents mEvents;
+    asio::steady_timer mSendTimer, mRecvTimer;
+    LinkShaper mOutShaper, mInShaper;
+    beast::flat_buffer mReadBuffer;
+    std::deque<Outgoing> mOutbox;
+    std::deque<Delayed> mDelayed;
+    std::atomic<size_t> mQueued{0};
+    bool mStarted = false, mWriting = false, mReading = false, mWantRead = true;
+    bool mCloseWhenDrained = false, mClosing = false, mFinished = false;
+};
+
+}  // namespace
+
+struct Transport::Impl {
+    std::unique_ptr<asio::io_context> io = std::make_unique<asio::io_context>(1);
+    asio::executor_work_guard<asio::io_context::executor_type> work{io->get_executor()};
+    std::thread thread;
+    std::unique_ptr<tcp::acceptor> acceptor;
+    std::mutex mutex;  // guards stopped
+    bool stopped = false;
+    std::vector<std::weak_ptr<WsConnection>> connections;  // I/O thread only
+
+    void track(const std::shared_ptr<WsConnection>& c) {
+        std::erase_if(connections, [](const auto& w) { return w.expired(); });
+        connections.push_back(c);
+    }
+
+    void acceptNext(ConnectionConfig config, AcceptHandler onAccept) {
+        acceptor->async_accept([this, config, onAccept](ErrorCodeB ec, tcp::socket socket) {
+            if (ec == asio::error::operation_aborted || !acceptor || !acceptor->is_open()) return;
+            if (!ec) {
+                auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
+                track(c);
+                c->setTimeouts(true);
+                c->ws().async_accept([c, onAccept](ErrorCodeB hec) {
+                    if (hec) return;  // not a WebSocket client, or too slow: dropped
+                    c->start(onAccept(c));
+                });
+            }
+            acceptNext(config, onAccept);
+        });
+    }
+};
+
+Transport::Transport(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+Transport::~Transport() {
+    stop();
+}
+
+Result<std::unique_ptr<Transport>> Transport::create() {
+    auto impl = std::make_unique<Impl>();
+    Impl* p = impl.get();
+    impl->thread = std::thread([p] { p->io->run(); });
+    return std::unique_ptr<Transport>(new Transport(std::move(impl)));
+}
+
+Result<int> Transport::listen(const std::string& bind, int port, const ConnectionConfig& config,
+                              AcceptHandler onAccept) {
+    if (port < 0 || port > 65535)
+        return errorStatus(ErrorCode::kInvalidArgument, fmt::format("port {} out of range", port));
+    ErrorCodeB ec;
+    asio::ip::address address = asio::ip::make_address(bind, ec);
+    if (ec)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("bind address '{}' is not an IP address", bind));
+    std::promise<Result<int>> bound;
+    asio::post(*mImpl->io, [&] {
+        Impl& m = *mImpl;
+        tcp::endpoint endpoint(address, uint16_t(port));
+        auto acceptor = std::make_unique<tcp::acceptor>(*m.io);
+        ErrorCodeB e;
+        acceptor->open(endpoint.protocol(), e);
+        if (!e) acceptor->set_option(asio::socket_base::reuse_address(true), e);
+        if (!e) acceptor->bind(endpoint, e);
+        if (!e) acceptor->listen(asio::socket_base::max_listen_connections, e);
+        if (e) {
+            bound.set_value(
+                errorStatus(ErrorCode::kIoError,
+                            fmt::format("cannot listen on {}:{}: {}", bind, port, e.message())));
+            return;
+        }
+        int actual = acceptor->local_endpoint().port();
+        m.acceptor = std::move(acceptor);
+        m.acceptNext(config, onAccept);
+        bound.set_value(actual);
+    });
+    return bound.get_future().get();
+}
+
+void Transport::stopListening() {
+    std::promise<void> done;
+    asio::post(*mImpl->io, [&] {
+        if (mImpl->acceptor) {
+            ErrorCodeB ignored;
+            mImpl->acceptor->close(ignored);
+        }
+        done.set_value();
+    });
+    done.get_future().wait();
+}
+
+Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, int port,
+                                                       const std::string& path,
+                                                       const ConnectionConfig& config,
+                                                       ConnectionEvents events) {
+    auto result = std::make_shared<std::promise<Result<std::shared_ptr<Connection>>>>();
+    auto future = result->get_future();
+    auto resolver = std::make_shared<tcp::resolver>(*mImpl->io);
+    auto c = std::make_shared<WsConnection>(*mImpl->io, tcp::socket(*mImpl->io), config);
+    auto fail = [result, host, port](const char* step, ErrorCodeB ec) {
+        result->set_value(errorStatus(
+            ErrorCode::kIoError, fmt::format("{} ws://{}:{}: {}", step, host, port, ec.message())));
+    };
+    const auto timeout =
+        std::chrono::milliseconds(int64_t(std::max(1.0, config.handshakeTimeoutMs)));
+    asio::post(*mImpl->io, [=, this, ev = std::move(events)]() mutable {
+        mImpl->track(c);
+        resolver->async_resolve(
+            host, std::to_string(port),
+            [=, ev = std::move(ev)](ErrorCodeB ec, tcp::resolver::results_type r) mutable {
+                if (ec) return fail("cannot resolve", ec);
+                beast::get_lowest_layer(c->ws()).expires_after(timeout);
+                beast::get_lowest_layer(c->ws()).async_connect(
+                    r, [=, ev = std::move(ev)](ErrorCodeB cec, const tcp::endpoint&) mutable {
+                        if (cec) return fail("cannot connect to", cec);
+                        c->setTimeouts(false);
+                        c->ws().async_handshake(
+                            fmt::format("{}:{}", host, port), path,
+                            [=, ev = std::move(ev)](ErrorCodeB hec) mutable {
+                                if (hec) return fail("WebSocket handshake with", hec);
+                                c->start(std::move(ev));
+                                result->set_value(std::shared_ptr<Connection>(c));
+                            });
+                    });
+            });
+    });
+    // The handshake timeout bounds each step; the extra second covers name resolution.
+    if (future.wait_for(timeout * 3 + std::chrono::seconds(1)) != std::future_status::ready) {
+        c->abort();
+        return errorStatus(ErrorCode::kIoError,
+                           fmt::format("connecting to ws://{}:{} timed out", host, port));
+    }
+    return future.get();
+}
+
+void Transport::stop() {
+    {
+        std::lock_guard lock(mImpl->mutex);
+        if (mImpl->stopped) return;
+        mImpl->stopped = true;
+    }
+    std::promise<void> dropped;
+    asio::post(*mImpl->io, [&] {
+        if (mImpl->acceptor) {
+            ErrorCodeB ignored;
+            mImpl->acceptor->close(ignored);
+        }
+        for (auto& w : mImpl->connections)
+            if (auto c = w.lock()) c->drop();
+        mImpl->connections.clear();
+        dropped.set_value();
+    });
+    dropped.get_future().wait();
+    mImpl->work.reset();
+    mImpl->io->stop();
+    if (mImpl->thread.joinable()) mImpl->thread.join();
+    mImpl->acceptor.reset();
+}
+
+Result<WsUrl> parseWsUrl(const std::string& url) {
+    const std::string scheme = "ws://";
+    if (url.rfind(scheme, 0) != 0)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("'{}' is not a ws://HOST:PORT address", url));
+    std::string rest = url.substr(scheme.size());
+    WsUrl out;
+    size_t slash = rest.find('/');
+    if (slash != std::string::npos) out.path = rest.substr(slash), rest = rest.substr(0, slash);
+    size_t colon = rest.rfind(':');
+    out.host = rest.substr(0, colon);
+    if (colon != std::string::npos) {
+        std::string port = rest.substr(colon + 1);
+        if (port.empty() || port.size() > 5 ||
+            port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 ||
+            std::stoi(port) > 65535)
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               fmt::format("'{}': port '{}' is not 1..65535", url, port));
+        out.port = std::stoi(port);
+    }
+    if (out.host.empty())
+        return errorStatus(ErrorCode::kInvalidArgument, fmt::format("'{}' has no host", url));
+    return out;
+}
+
+}  // namespace plx::remote

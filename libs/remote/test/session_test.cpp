@@ -1,0 +1,469 @@
+// Server and client in one process over loopback (127.0.0.1, free ports): the handshake, sets
+// that arrive and warp, abuse from raw WebSocket peers, a stalled reader, many clients, abrupt
+// disconnects, a restart. Every wait is bounded; nothing here measures speed.
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include <plx/raster/raster.h>
+#include <plx/remote/client.h>
+#include <plx/remote/protocol.h>
+#include <plx/remote/server.h>
+#include <plx/remote/transport.h>
+#include <plx/scene/generators.h>
+#include <plx/warp/reference.h>
+
+namespace plx::remote {
+namespace {
+
+using namespace std::chrono_literals;
+
+ServerConfig smallServer(int faceSize = 32) {
+    ServerConfig c;
+    c.port = 0;
+    c.reference.faceSize = faceSize;
+    c.renderThreads = 2;
+    c.pingIntervalMs = 100.0;
+    return c;
+}
+
+std::unique_ptr<Server> startServer(const ServerConfig& config,
+                                    const std::string& spec = "office:1") {
+    auto server = Server::create(*scene::generateFromSpec(spec), config);
+    EXPECT_TRUE(server.isOk()) << server.status().message();
+    return server ? std::move(server).value() : nullptr;
+}
+
+ClientConfig clientFor(const Server& server, int faceSize = 32) {
+    ClientConfig c;
+    c.port = server.port();
+    c.faceSize = faceSize;
+    c.pingIntervalMs = 100.0;
+    c.backoffMinMs = 50.0;
+    c.backoffMaxMs = 400.0;
+    return c;
+}
+
+PoseMessage poseNow(const scene::Scene& scene, Vec3 velocity = Vec3(0.0f)) {
+    PoseMessage p;
+    p.timestampUs = clientNowUs();
+    p.pose = warp::poseAt(scene.viewpoints.front());
+    p.hasVelocity = true;
+    p.velocity = velocity;
+    return p;
+}
+
+// Waits (bounded) until pred() holds; returns whether it did.
+template <class Pred>
+bool eventually(Pred pred, std::chrono::milliseconds limit = 10s) {
+    auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+        if (pred()) return true;
+        std::this_thread::sleep_for(10ms);
+    }
+    return pred();
+}
+
+// A client with its first set, or null.
+std::unique_ptr<Client> servedClient(const Server& server, const scene::Scene& scene) {
+    auto client = std::move(Client::create(clientFor(server))).value();
+    client->setPose(poseNow(scene));
+    if (!client->waitForFirst(10000.0)) return nullptr;
+    return client;
+}
+
+// Whether new poses keep bringing new sets (a session still served).
+bool receivesMore(Client& client, const scene::Scene& scene) {
+    int64_t before = client.stats().referencesReceived;
+    return eventually([&] {
+        client.setPose(poseNow(scene));
+        return client.stats().referencesReceived > before + 2;
+    });
+}
+
+// A raw WebSocket peer: sends whatever bytes it is given and records what comes back.
+class RawPeer {
+public:
+    explicit RawPeer(int port) {
+        mTransport = std::move(Transport::create()).value();
+        ConnectionEvents ev;
+        ev.onMessage = [this](std::vector<uint8_t>&& m, bool) {
+            std::lock_guard lock(mMutex);
+            auto decoded = decodeMessage(m);
+            if (decoded && messageType(*decoded) == MessageType::kReferenceSet) mRawSets.push_back(m);
+            if (decoded) mReceived.push_back(std::move(decoded).value());
+            mChanged.notify_all();
+        };
+        ev.onClosed = [this](const Status& why) {
+            std::lock_guard lock(mMutex);
+            mClosed = true;
+            mWhy = why;
+            mChanged.notify_all();
+        };
+        ConnectionConfig cc;
+        cc.maxMessageBytes = kMaxReferenceSetMessageBytes;
+        auto c = mTransport->connect("127.0.0.1", port, "/", cc, std::move(ev));
+        EXPECT_TRUE(c.isOk()) << c.status().message();
+        if (c) mConn = std::move(c).value();
+    }
+    ~RawPeer() { mTransport->stop(); }
+
+    Connection& conn() { return *mConn; }
+    void send(const Message& m) { mConn->send(std::move(encodeMessage(m)).value()); }
+    void sendBytes(std::vector<uint8_t> b) { mConn->send(std::move(b)); }
+    void hello(const std::string& token = {}, uint16_t version = kProtocolVersion,
+               uint8_t disparityCodecs = kAllDisparityCodecs) {
+        ClientHello h;
+        h.version = version;
+        h.faceSize = 32;
+        h.token = token;
+        h.disparityCodecs = disparityCodecs;
+        send(h);
+    }
+    // The bytes of the first reference set message received.
+    std::vector<uint8_t> firstRawSet() {
+        std::lock_guard lock(mMutex);
+        return mRawSets.empty() ? std::vector<uint8_t>{} : mRawSets.front();
+    }
+    bool waitClosed(std::chrono::milliseconds limit = 10s) {
+        std::unique_lock lock(mMutex);
+        return mChanged.wait_for(lock, limit, [&] { return mClosed; });
+    }
+    // The first received message of type T (waits, bounded).
+    template <class T>
+    std::optional<T> first(std::chrono::milliseconds limit = 10s) {
+        std::unique_lock lock(mMutex);
+        std::optional<T> out;
+        mChanged.wait_for(lock, limit, [&] {
+            for (const Message& m : mReceived)
+                if (auto* t = std::get_if<T>(&m)) return out = *t, true;
+            return mClosed;
+        });
+        if (!out)
+            for (const Message& m : mReceived)
+                if (auto* t = std::get_if<T>(&m)) return *t;
+        return out;
+    }
+    int count(MessageType type) {
+        std::lock_guard lock(mMutex);
+        int n = 0;
+        for (const Message& m : mReceived) n += messageType(m) == type;
+        return n;
+    }
+
+private:
+    std::unique_ptr<Transport> mTransport;
+    std::shared_ptr<Connection> mConn;
+    std::mutex mMutex;
+    std::condition_variable mChanged;
+    std::vector<Message> mReceived;
+    std::vector<std::vector<uint8_t>> mRawSets;
+    bool mClosed = false;
+    Status mWhy;
+};
+
+TEST(RemoteSession, ReferencesArriveAndWarp) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer(48));
+    ASSERT_TRUE(server);
+    auto client = std::move(Client::create(clientFor(*server, 64))).value();
+    PoseMessage pose = poseNow(scene);
+    client->setPose(pose);
+    ASSERT_TRUE(client->waitForFirst(10000.0)) << client->fatal().message();
+    auto set = client->newest();
+    EXPECT_EQ(set->requestTimestampUs, pose.timestampUs);
+    EXPECT_EQ(set->set.views.size(), 4u);
+    EXPECT_EQ(set->set.views[0].color.width(), 48);  // the server's cap, below the request
+    EXPECT_EQ(client->stats().faceSize, 48);
+    // Zero velocity: rendered exactly at the pose, so the warp to it is nearly the render.
+    EXPECT_EQ(set->set.pose.eye, pose.pose.eye);
+    auto warper = std::move(warp::Warper::create(2)).value();
+    CameraDesc d;
+    d.eyePos = pose.pose.eye;
+    d.targetPos = pose.pose.eye + pose.pose.forward;
+    d.width = 64, d.height = 48;
+    warp::WarpFrame frame;
+    warp::WarpStats stats;
+    ASSERT_TRUE(warper->warp(set->set, *Camera::create(d), {}, &frame, &stats).isOk());
+    EXPECT_LT(double(stats.holePixels), 0.05 * 64 * 48);
+    EXPECT_TRUE(eventually([&] { return client->stats().rttMs >= 0.0; }));
+    client->stop();
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 0; }));
+    EXPECT_GE(server->stats().setsSent, 1);
+}
+
+TEST(RemoteSession, PredictionRendersAheadAlongTheVelocity) {
+    EXPECT_EQ(predictEye({1, 2, 3}, {1, 0, -2}, 500.0), Vec3(1.5f, 2.0f, 2.0f));
+    EXPECT_EQ(predictEye({1, 2, 3}, {1, 0, 0}, 5000.0), Vec3(2.0f, 2.0f, 3.0f));  // clamped to 1 s
+    EXPECT_EQ(predictEye({1, 2, 3}, {1, 0, 0}, -5.0), Vec3(1.0f, 2.0f, 3.0f));
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    auto client = std::move(Client::create(clientFor(*server))).value();
+    PoseMessage pose = poseNow(scene, {1.0f, 0.0f, 0.0f});
+    client->setPose(pose);
+    ASSERT_TRUE(client->waitForFirst(10000.0));
+    // Moving at 1 m/s along x: the set is rendered ahead of the pose, at most a second's worth.
+    Vec3 ahead = client->newest()->set.pose.eye - pose.pose.eye;
+    EXPECT_GT(ahead.x, 0.0f);
+    EXPECT_LE(ahead.x, 1.0f);
+    EXPECT_EQ(ahead.y, 0.0f);
+}
+
+TEST(RemoteSession, HandshakeRefusesVersionAndToken) {
+    ServerConfig config = smallServer();
+    config.token = "s3cret";
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    {
+        RawPeer peer(server->port());
+        peer.hello("s3cret", 2);
+        auto answer = peer.first<ServerHello>();
+        ASSERT_TRUE(answer);
+        EXPECT_FALSE(answer->accepted);
+        EXPECT_NE(answer->reason.find("version 2"), std::string::npos) << answer->reason;
+        EXPECT_TRUE(peer.waitClosed());
+    }
+    for (std::string token : {"", "s3creT", "s3cret-longer"}) {
+        ClientConfig cc = clientFor(*server);
+        cc.token = token;
+        auto client = std::move(Client::create(cc)).value();
+        EXPECT_FALSE(client->waitForFirst(10000.0));
+        EXPECT_NE(client->fatal().message().find("token"), std::string::npos)
+            << client->fatal().message();
+    }
+    ClientConfig cc = clientFor(*server);
+    cc.token = "s3cret";
+    auto client = std::move(Client::create(cc)).value();
+    client->setPose(poseNow(*scene::generateFromSpec("office:1")));
+    EXPECT_TRUE(client->waitForFirst(10000.0)) << client->fatal().message();
+    EXPECT_EQ(server->stats().refused, 4);
+}
+
+// The disparity codec byte of a ReferenceSet message's first view: after the message header (13
+// bytes), the set header (44) and the view's size (4), at offset 2 of the view
+// (docs/remote-protocol.md).
+constexpr size_t kFirstViewDisparityCodecOffset = 13 + 44 + 4 + 2;
+
+TEST(RemoteSession, EachClientGetsADisparityCodecItDecodes) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    const struct {
+        uint8_t codecs;
+        DisparityCodec expected;
+    } cases[] = {
+        {kAllDisparityCodecs, DisparityCodec::kQuantized16},  // native: the server's codec
+        {disparityCodecBit(DisparityCodec::kQuantized16Deflate),
+         DisparityCodec::kQuantized16Deflate},  // a browser: no zstd
+    };
+    for (const auto& c : cases) {
+        SCOPED_TRACE(int(c.codecs));
+        RawPeer peer(server->port());
+        peer.hello({}, kProtocolVersion, c.codecs);
+        ASSERT_TRUE(peer.first<ServerHello>());
+        peer.send(poseNow(scene));
+        ASSERT_TRUE(peer.first<ReferenceSetMessage>());
+        const std::vector<uint8_t> raw = peer.firstRawSet();
+        ASSERT_GT(raw.size(), kFirstViewDisparityCodecOffset);
+        EXPECT_EQ(raw[kFirstViewDisparityCodecOffset], uint8_t(c.expected));
+    }
+}
+
+TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    auto good = servedClient(*server, scene);
+    ASSERT_TRUE(good);
+
+    auto poseBytes = std::move(encodeMessage(poseNow(scene))).value();
+    struct Case {
+        const char* name;
+        bool helloFirst;
+        std::vector<uint8_t> bytes;
+        const char* word;  // in the Error text
+    };
+    std::vector<uint8_t> truncated(poseBytes.begin(), poseBytes.end() - 5);
+    std::vector<Case> cases = {
+        {"malformed", true, {0xff, 1, 2, 3}, "unknown message type"},
+        {"truncated", true, truncated, "pose message: truncated"},
+        {"empty", true, {}, "empty"},
+        {"out of order: pose before hello", false, poseBytes, "before ClientHello"},
+        {"out of order: second hello", true, std::move(encodeMessage(ClientHello{})).value(),
+         "unexpected client hello"},
+        {"server message from a client", true, std::move(encodeMessage(ServerHello{})).value(),
+         "unexpected server hello"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.name);
+        RawPeer peer(server->port());
+        if (c.helloFirst) {
+            peer.hello();
+            ASSERT_TRUE(peer.first<ServerHello>());
+        }
+        peer.sendBytes(c.bytes);
+        auto error = peer.first<ErrorMessage>();
+        ASSERT_TRUE(error);
+        EXPECT_EQ(error->kind, ErrorKind::kProtocol);
+        EXPECT_NE(error->text.find(c.word), std::string::npos) << error->text;
+        EXPECT_TRUE(peer.waitClosed());
+    }
+    {
+        // Oversized: refused by the WebSocket layer before allocation (close code 1009).
+        RawPeer peer(server->port());
+        peer.hello();
+        ASSERT_TRUE(peer.first<ServerHello>());
+        peer.sendBytes(std::vector<uint8_t>(64 * 1024, 3));
+        EXPECT_TRUE(peer.waitClosed());
+    }
+    // The well-behaved session went on: more sets arrive for new poses.
+    EXPECT_TRUE(receivesMore(*good, scene));
+    EXPECT_EQ(server->stats().sessionsActive, 1);
+    EXPECT_GE(server->stats().protocolErrors, int64_t(cases.size()));
+}
+
+TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer(256));
+    ASSERT_TRUE(server);
+    RawPeer peer(server->port());
+    ClientHello h;
+    h.faceSize = 256;
+    peer.send(h);
+    ASSERT_TRUE(peer.first<ServerHello>());
+    peer.conn().setReading(false);
+    // Poses keep coming while nothing is read: the socket's buffers fill, then the session
+    // stops rendering (no completed send) and the newest pose waits in its one slot.
+    int64_t lastSent = -1;
+    auto steadySince = std::chrono::steady_clock::now();
+    auto end = steadySince + 8s;
+    while (std::chrono::steady_clock::now() < end) {
+        peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
+        std::this_thread::sleep_for(10ms);
+        ServerStats s = server->stats();
+        if (s.setsSent != lastSent)
+            lastSent = s.setsSent, steadySince = std::chrono::steady_clock::now();
+        if (std::chrono::steady_clock::now() - steadySince > 600ms && s.queuedBytes > 0) break;
+    }
+    ServerStats s = server->stats();
+    EXPECT_GT(s.queuedBytes, 0u) << "the socket never backed up";
+    // One set plus the small messages (pings) queued behind it.
+    EXPECT_LE(s.queuedBytes, s.maxSetBytes + 4096);
+    EXPECT_LE(s.maxQueuedBytes, s.maxSetBytes + 4096);
+}
+
+TEST(RemoteSession, ThirtyTwoConcurrentClients) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    ServerConfig config = smallServer(16);
+    config.maxSessions = 32;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    std::vector<std::unique_ptr<Client>> clients;
+    for (int i = 0; i < 32; ++i) {
+        clients.push_back(std::move(Client::create(clientFor(*server, 16))).value());
+        clients.back()->setPose(poseNow(scene));
+    }
+    for (auto& c : clients) EXPECT_TRUE(c->waitForFirst(20000.0)) << c->fatal().message();
+    EXPECT_EQ(server->stats().sessionsActive, 32);
+    {
+        // The 33rd is refused as overloaded.
+        RawPeer extra(server->port());
+        extra.hello();
+        auto error = extra.first<ErrorMessage>();
+        ASSERT_TRUE(error);
+        EXPECT_EQ(error->kind, ErrorKind::kOverloaded);
+    }
+    for (auto& c : clients) c->stop();
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 0; }));
+    EXPECT_LE(server->stats().maxQueuedBytes, 32 * (server->stats().maxSetBytes + 4096));
+}
+
+TEST(RemoteSession, AbruptDisconnectsLeaveOthersServed) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    auto good = servedClient(*server, scene);
+    ASSERT_TRUE(good);
+    for (int i = 0; i < 4; ++i) {
+        RawPeer peer(server->port());
+        if (i % 2 == 0) {
+            peer.hello();
+            ASSERT_TRUE(peer.first<ServerHello>());
+            peer.send(poseNow(scene));  // a render is in flight as the peer vanishes
+        }
+        peer.conn().abort();
+    }
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 1; }));
+    EXPECT_TRUE(receivesMore(*good, scene));
+}
+
+TEST(RemoteSession, ClientReconnectsAfterServerRestart) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    const int port = server->port();
+    auto client = std::move(Client::create(clientFor(*server))).value();
+    client->setPose(poseNow(scene));
+    ASSERT_TRUE(client->waitForFirst(10000.0));
+    server->stop();
+    server.reset();
+    EXPECT_TRUE(eventually([&] { return !client->stats().connected; }));
+    EXPECT_NE(client->newest(), nullptr);  // the last set stays for the display loop
+    ServerConfig again = smallServer();
+    again.port = port;
+    server = startServer(again);
+    ASSERT_TRUE(server);
+    int64_t before = client->stats().referencesReceived;
+    EXPECT_TRUE(eventually([&] {
+        client->setPose(poseNow(scene));
+        return client->stats().referencesReceived > before;
+    }));
+    EXPECT_EQ(client->stats().connects, 2);
+}
+
+TEST(RemoteSession, LinkEmulationDelaysBothDirections) {
+    ServerConfig config = smallServer();
+    config.link.latencyMs = 50.0;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    auto client = std::move(Client::create(clientFor(*server))).value();
+    ASSERT_TRUE(eventually([&] { return client->stats().rttMs >= 0.0; }));
+    // 50 ms each way on the server's socket: about 100 ms round trip (generous bounds: this
+    // checks the emulation is applied in both directions, not the machine's timing).
+    EXPECT_GE(client->stats().rttMs, 95.0);
+    EXPECT_LE(client->stats().rttMs, 400.0);
+}
+
+TEST(RemoteSession, BadConfigurationsAreRefused) {
+    ServerConfig c = smallServer();
+    c.bind = "not-an-address";
+    EXPECT_FALSE(Server::create(*scene::generateFromSpec("office:1"), c).isOk());
+    c = smallServer();
+    c.link.latencyMs = -1.0;
+    EXPECT_FALSE(checkServerConfig(c).isOk());
+    c = smallServer(8);
+    EXPECT_FALSE(checkServerConfig(c).isOk());
+    EXPECT_FALSE(parseWsUrl("http://x:1").isOk());
+    EXPECT_FALSE(parseWsUrl("ws://x:99999").isOk());
+    EXPECT_FALSE(parseWsUrl("ws://:80").isOk());
+    auto u = parseWsUrl("ws://127.0.0.1:8080/a");
+    ASSERT_TRUE(u.isOk());
+    EXPECT_EQ(u->host, "127.0.0.1");
+    EXPECT_EQ(u->port, 8080);
+    EXPECT_EQ(u->path, "/a");
+    // A client that cannot connect keeps trying (bounded backoff) and never fails for good.
+    ClientConfig cc;
+    cc.port = 1;
+    cc.backoffMaxMs = 200.0;
+    auto client = std::move(Client::create(cc)).value();
+    EXPECT_FALSE(client->waitForFirst(300.0));
+    EXPECT_TRUE(client->fatal().isOk());
+}
+
+}  // namespace
+}  // namespace plx::remote

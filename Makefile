@@ -43,7 +43,7 @@ FUZZ_SECONDS ?= 60
 fuzz:
 	scripts/fuzz.sh $(FUZZ_SECONDS)
 
-# The fuzz run inside `make test`: six targets of 60 s, two at a time, about 3 minutes of wall
+# The fuzz run inside `make test`: seven targets of 60 s, two at a time, about 4 minutes of wall
 # time on CI's 2 cores.
 test-fuzz:
 	$(MAKE) fuzz FUZZ_SECONDS=60

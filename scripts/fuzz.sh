@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Bounded libFuzzer runs (clang, ASan + UBSan) of every decoder of untrusted bytes, two at a time
-# (CI has 2 cores): SECONDS each (default 60), so the six targets take 3 x SECONDS of wall time.
+# (CI has 2 cores): SECONDS each (default 60), so the seven targets take 4 x SECONDS of wall time.
 # Each starts from its committed seed corpus; a finding fails the run and leaves the input at
 # build/fuzz/<target>-crash-*. Usage: scripts/fuzz.sh [SECONDS] [TARGET...]
 set -euo pipefail
@@ -16,6 +16,7 @@ remote-view     plx_remote_view_fuzz     tests/fuzz/remote-seeds/view/*.bin     
 display-json    plx_display_json_fuzz    tests/fuzz/display-json-seeds/*.json     4096  tests/fuzz/display-json.dict
 path-json       plx_path_json_fuzz       tests/fuzz/path-json-seeds/*.json        4096  tests/fuzz/path-json.dict
 import-wire     plx_import_wire_fuzz     tests/fuzz/import-wire-seeds/*.bin       16384 -
+stream-db       plx_stream_db_fuzz       tests/fuzz/stream-db-seeds/*.bin         16384 tests/fuzz/stream-db.dict
 "
 wanted=("$@")
 selected() {

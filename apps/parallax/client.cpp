@@ -173,7 +173,10 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
                      : warper.warp(sets, cam, options, &left);
         s.warpMs = clock.elapsedMs();
         if (!warped) return warped;
-        s.referenceAgeMs = double(remote::clientNowUs() - ref->requestTimestampUs) * 1e-3;
+        // A set the server rendered before any pose of ours (timestamp 0) has no age to report.
+        s.referenceAgeMs = ref->requestTimestampUs == 0
+                               ? -1.0
+                               : double(remote::clientNowUs() - ref->requestTimestampUs) * 1e-3;
         s.bytesReceived = client.stats().bytesReceived;
         s.sequence = ref->sequence;
         if (f % a.every == 0) {

@@ -11,6 +11,7 @@
 #include <plx/remote/server.h>
 
 #include "commands.h"
+#include "web_assets.h"
 #include "view.h"
 
 namespace plx::cli {
@@ -48,6 +49,12 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     if (!prediction) return prediction.status();
     c.prediction = *prediction;
     c.renderThreads = a.threads;
+    // The browser client, from the assets compiled into the binary (never the file system).
+    c.pages = [](std::string_view path) -> std::optional<remote::HttpFile> {
+        std::optional<WebAsset> asset = webAsset(path);
+        if (!asset) return std::nullopt;
+        return remote::HttpFile{asset->bytes, std::string(asset->contentType)};
+    };
     if (!(a.seconds >= 0.0 && a.seconds <= 1e6))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--seconds {} outside 0 .. 1e6", a.seconds));

@@ -62,6 +62,11 @@ namespace {
 
 // A client that has not said hello after this long is dropped (it holds a connection slot).
 constexpr double kHelloTimeoutMs = 5000.0;
+// A session that has sent no pose this long after connecting gets a first set at the scene's
+// default viewpoint (requestTimestampUs 0), so that a client with no pose of its own (the
+// browser page) has something to show and walk from. Clients that send a pose at once (the
+// native client) never see it.
+constexpr double kInitialSetAfterMs = 300.0;
 // Ping answers per second per session (docs/remote-protocol.md); extra pings are not answered.
 constexpr int kMaxPingsPerSecond = 10;
 // The server's largest message from a client: Error and Bye at 2 KiB (docs/remote-protocol.md).
@@ -94,6 +99,7 @@ struct Session {
     Vec3 estimatedVelocity{0.0f};
     bool inFlight = false;  // a set is being rendered or waits on the socket
     bool ready = false;     // in the ready queue
+    bool initialQueued = false;  // the default-viewpoint set was queued (kInitialSetAfterMs)
     uint32_t sequence = 0;
     double rttMs = -1.0;  // smoothed round trip, < 0 before the first Pong
     Clock::time_point lastPingSent{};
@@ -102,6 +108,21 @@ struct Session {
     int pingsInWindow = 0;
 };
 using SessionPtr = std::shared_ptr<Session>;
+
+// A viewpoint as a pose (forward toward the target, up made orthogonal to it); nullopt when the
+// viewpoint is degenerate or the pose would break the protocol's checks.
+std::optional<warp::Pose> poseAt(const scene::Viewpoint& v) {
+    const Vec3 toTarget = v.targetPos - v.eyePos;
+    if (!(glm::length(toTarget) > 1e-6f)) return std::nullopt;
+    warp::Pose pose;
+    pose.eye = v.eyePos;
+    pose.forward = glm::normalize(toTarget);
+    const Vec3 side = glm::cross(pose.forward, v.upDir);
+    if (!(glm::length(side) > 1e-3f)) return std::nullopt;
+    pose.up = glm::normalize(glm::cross(glm::normalize(side), pose.forward));
+    if (!warp::checkPose(pose)) return std::nullopt;
+    return pose;
+}
 
 }  // namespace
 
@@ -120,6 +141,7 @@ struct Server::Impl {
     std::thread worker;
     ServerStats stats;
     double renderEncodeMsEstimate = 0.0;  // smoothed, for the prediction lead
+    std::optional<warp::Pose> initialPose;  // the scene's default viewpoint, when valid
 
     void send(const SessionPtr& s, const Message& m, std::function<void(const Status&)> done = {}) {
         auto bytes = encodeMessage(m, config.codec);
@@ -395,11 +417,19 @@ struct Server::Impl {
         stats.maxQueuedBytes = std::max(stats.maxQueuedBytes, queued);
     }
 
-    // Pings accepted sessions every pingIntervalMs; drops connections that never said hello.
+    // Pings accepted sessions every pingIntervalMs; drops connections that never said hello;
+    // gives a session that stays without a pose its first set (kInitialSetAfterMs).
     void housekeepLocked() {
         Clock::time_point now = Clock::now();
         std::vector<SessionPtr> ping, drop;
         for (const SessionPtr& s : sessions) {
+            if (s->state == SessionState::kAccepted && !s->lastPose && !s->pending &&
+                !s->initialQueued && initialPose && msSince(s->connectedAt) > kInitialSetAfterMs) {
+                s->initialQueued = true;
+                s->pending = PoseMessage{0, *initialPose, false, Vec3(0.0f)};
+                s->pendingAt = now;
+                scheduleLocked(s);
+            }
             if (s->state == SessionState::kAwaitingHello &&
                 msSince(s->connectedAt) > kHelloTimeoutMs)
                 drop.push_back(s);
@@ -429,6 +459,7 @@ Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerC
     auto impl = std::make_unique<Impl>();
     impl->scene = std::move(scene);
     impl->config = config;
+    impl->initialPose = poseAt(scene::defaultViewpoint(impl->scene));
     auto renderer = raster::Renderer::create({config.renderThreads});
     if (!renderer) return renderer.status();
     impl->renderer = std::move(renderer).value();
@@ -438,6 +469,7 @@ Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerC
     ConnectionConfig cc;
     cc.maxMessageBytes = kMaxClientMessageBytes;
     cc.link = config.link;
+    cc.httpFiles = config.pages;
     Impl* p = impl.get();
     auto port = impl->transport->listen(
         config.bind, config.port, cc, [p](std::shared_ptr<Connection> c) { return p->accept(c); });

@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 
 namespace plx::remote {
@@ -21,6 +22,7 @@ namespace plx::remote {
 namespace asio = boost::asio;
 namespace beast = boost::beast;
 namespace websocket = beast::websocket;
+namespace http = beast::http;
 using tcp = asio::ip::tcp;
 using Clock = std::chrono::steady_clock;
 using ErrorCodeB = boost::system::error_code;
@@ -93,6 +95,31 @@ public:
 
     websocket::stream<beast::tcp_stream>& ws() { return mWs; }
 
+    // Server side: reads one HTTP request (headers at most kMaxRequestHeaderBytes, no body). A
+    // WebSocket upgrade becomes a session (onUpgrade gives its events); anything else is answered
+    // from config.httpFiles and closed.
+    void acceptRequest(std::function<ConnectionEvents(std::shared_ptr<Connection>)> onUpgrade) {
+        mRequest.emplace();
+        mRequest->header_limit(kMaxRequestHeaderBytes);
+        mRequest->body_limit(0);
+        beast::get_lowest_layer(mWs).expires_after(
+            std::chrono::milliseconds(int64_t(std::max(1.0, mConfig.handshakeTimeoutMs))));
+        http::async_read(mWs.next_layer(), mHttpBuffer, *mRequest,
+                         [self = shared_from_this(), onUpgrade](ErrorCodeB ec, size_t) {
+                             if (ec) return self->dropSocket();
+                             if (websocket::is_upgrade(self->mRequest->get())) {
+                                 beast::get_lowest_layer(self->mWs).expires_never();
+                                 self->mWs.async_accept(
+                                     self->mRequest->get(), [self, onUpgrade](ErrorCodeB hec) {
+                                         if (hec) return;  // a bad handshake: dropped
+                                         self->start(onUpgrade(self));
+                                     });
+                                 return;
+                             }
+                             self->answerHttp();
+                         });
+    }
+
     void setTimeouts(bool server) {
         websocket::stream_base::timeout t = websocket::stream_base::timeout::suggested(
             server ? beast::role_type::server : beast::role_type::client);
@@ -144,6 +171,51 @@ public:
     }
 
 private:
+    static constexpr uint32_t kMaxRequestHeaderBytes = 8192;
+
+    // A plain HTTP request: GET of an embedded file, else 404 / 405; then close.
+    void answerHttp() {
+        const auto& req = mRequest->get();
+        std::string_view target(req.target().data(), req.target().size());
+        target = target.substr(0, target.find_first_of("?#"));
+        auto res = std::make_shared<http::response<http::string_body>>();
+        res->version(req.version());
+        res->keep_alive(false);
+        res->set(http::field::server, "parallax");
+        res->set("X-Content-Type-Options", "nosniff");
+        res->set(http::field::cache_control, "no-cache");
+        std::optional<HttpFile> file;
+        if (mConfig.httpFiles) file = mConfig.httpFiles(target);
+        if (req.method() != http::verb::get) {
+            res->result(http::status::method_not_allowed);
+            res->set(http::field::allow, "GET");
+            res->set(http::field::content_type, "text/plain; charset=utf-8");
+            res->body() = "method not allowed\n";
+        } else if (!file) {
+            res->result(http::status::not_found);
+            res->set(http::field::content_type, "text/plain; charset=utf-8");
+            res->body() = "not found\n";
+        } else {
+            res->result(http::status::ok);
+            res->set(http::field::content_type, file->contentType);
+            res->body().assign(reinterpret_cast<const char*>(file->bytes.data()),
+                               file->bytes.size());
+        }
+        res->prepare_payload();
+        http::async_write(mWs.next_layer(), *res,
+                          [self = shared_from_this(), res](ErrorCodeB, size_t) {
+                              self->dropSocket();
+                          });
+    }
+
+    void dropSocket() {
+        ErrorCodeB ignored;
+        beast::get_lowest_layer(mWs).socket().shutdown(tcp::socket::shutdown_both, ignored);
+        beast::get_lowest_layer(mWs).close();
+    }
+
+    std::optional<http::request_parser<http::empty_body>> mRequest;
+    beast::flat_buffer mHttpBuffer;
     struct Outgoing {
         std::vector<uint8_t> bytes;
         std::function<void(const Status&)> done;
@@ -320,10 +392,7 @@ struct Transport::Impl {
                 auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
                 track(c);
                 c->setTimeouts(true);
-                c->ws().async_accept([c, onAccept](ErrorCodeB hec) {
-                    if (hec) return;  // not a WebSocket client, or too slow: dropped
-                    c->start(onAccept(c));
-                });
+                c->acceptRequest(onAccept);
             }
             acceptNext(config, onAccept);
         });

@@ -2,6 +2,12 @@
 // that arrive and warp, abuse from raw WebSocket peers, a stalled reader, many clients, abrupt
 // disconnects, a restart. Every wait is bounded; nothing here measures speed.
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -242,6 +248,75 @@ TEST(RemoteSession, HandshakeRefusesVersionAndToken) {
     client->setPose(poseNow(*scene::generateFromSpec("office:1")));
     EXPECT_TRUE(client->waitForFirst(10000.0)) << client->fatal().message();
     EXPECT_EQ(server->stats().refused, 4);
+}
+
+// Sends `request` to 127.0.0.1:port on a plain TCP socket and returns everything the server
+// answers until it closes (each read bounded by a 5 s timeout).
+std::string rawHttp(int port, const std::string& request) {
+    int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) return {};
+    timeval timeout{5, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(uint16_t(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    std::string answer;
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
+        ::send(fd, request.data(), request.size(), MSG_NOSIGNAL) == ssize_t(request.size())) {
+        char buffer[4096];
+        for (int reads = 0; reads < 1000; ++reads) {
+            ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+            if (n <= 0) break;
+            answer.append(buffer, size_t(n));
+        }
+    }
+    ::close(fd);
+    return answer;
+}
+
+TEST(RemoteSession, PagesAreServedBesideTheWebSocket) {
+    static const std::string page = "<!doctype html><title>p</title>";
+    ServerConfig config = smallServer();
+    config.pages = [](std::string_view path) -> std::optional<HttpFile> {
+        if (path != "/") return std::nullopt;
+        return HttpFile{{reinterpret_cast<const uint8_t*>(page.data()), page.size()},
+                        "text/html; charset=utf-8"};
+    };
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    const int port = server->port();
+
+    std::string ok = rawHttp(port, "GET /?ws=/ws HTTP/1.1\r\nHost: x\r\n\r\n");
+    EXPECT_EQ(ok.rfind("HTTP/1.1 200", 0), 0u) << ok;
+    EXPECT_NE(ok.find("Content-Type: text/html; charset=utf-8"), std::string::npos);
+    EXPECT_EQ(ok.substr(ok.size() - page.size()), page);
+    std::string missing = rawHttp(port, "GET /../../etc/passwd HTTP/1.1\r\nHost: x\r\n\r\n");
+    EXPECT_EQ(missing.rfind("HTTP/1.1 404", 0), 0u) << missing;
+    std::string post = rawHttp(port, "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+    EXPECT_EQ(post.rfind("HTTP/1.1 405", 0), 0u) << post;
+    // Headers past the limit, and bytes that are not HTTP: the connection is dropped, unanswered.
+    EXPECT_EQ(rawHttp(port, "GET / HTTP/1.1\r\nX: " + std::string(16384, 'a') + "\r\n\r\n"), "");
+    EXPECT_EQ(rawHttp(port, std::string("\x16\x03\x01 not http\r\n\r\n")), "");
+    // The WebSocket on the same port still serves sessions.
+    auto client = servedClient(*server, scene);
+    EXPECT_TRUE(client);
+}
+
+TEST(RemoteSession, AClientWithoutAPoseGetsTheDefaultViewpoint) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    RawPeer peer(server->port());
+    peer.hello();
+    ASSERT_TRUE(peer.first<ServerHello>());
+    auto set = peer.first<ReferenceSetMessage>();  // no pose sent
+    ASSERT_TRUE(set);
+    EXPECT_EQ(set->requestTimestampUs, 0u);
+    const scene::Viewpoint v = scene::defaultViewpoint(scene);
+    EXPECT_EQ(set->set.pose.eye, v.eyePos);
+    EXPECT_NEAR(glm::dot(set->set.pose.forward, glm::normalize(v.targetPos - v.eyePos)), 1.0f, 1e-5f);
 }
 
 // The disparity codec byte of a ReferenceSet message's first view: after the message header (13

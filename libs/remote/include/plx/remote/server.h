@@ -45,6 +45,9 @@ struct ServerConfig {
     Prediction prediction = Prediction::kConstantVelocity;
     int renderThreads = 0;          // the renderer's threads (0: all cores)
     double pingIntervalMs = 500.0;  // the server pings each session this often (its RTT)
+    // Plain HTTP GET on the same port: the browser client's page (`parallax serve` passes the
+    // assets embedded in the binary); empty: every such request gets 404.
+    HttpFiles pages;
 };
 Status checkServerConfig(const ServerConfig& config);
 

@@ -11,7 +11,10 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <plx/core/status.h>
@@ -31,12 +34,24 @@ struct LinkEmulation {
 };
 Status checkLinkEmulation(const LinkEmulation& link);
 
+// A file a listener serves to plain HTTP GET requests on its port: the browser page.
+struct HttpFile {
+    std::span<const uint8_t> bytes;  // must outlive the listener (embedded assets do)
+    std::string contentType;
+};
+// Looks up the file of a request's path ("/", "/main.js"; query and fragment already stripped);
+// nullopt answers 404. It never touches the file system unless its author makes it.
+using HttpFiles = std::function<std::optional<HttpFile>(std::string_view path)>;
+
 struct ConnectionConfig {
     // The WebSocket layer refuses (closes with code 1009) any message larger than this before
     // allocating it: the largest message the peer may send by docs/remote-protocol.md.
     size_t maxMessageBytes = 2048;
     LinkEmulation link;
     double handshakeTimeoutMs = 5000.0;
+    // Listeners only: requests that are not a WebSocket upgrade are answered from these files
+    // (404 when empty), then the connection is closed.
+    HttpFiles httpFiles;
 };
 
 // What one connection reports, on the transport's I/O thread.

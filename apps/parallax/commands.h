@@ -14,5 +14,7 @@ Command registerBench(CLI::App& app);
 Command registerStereo(CLI::App& app);
 Command registerWarp(CLI::App& app);
 Command registerStream(CLI::App& app);
+// Adds `stream walk` under the stream command; its run falls back to `inner` for the others.
+Command registerStreamWalk(CLI::App* stream, Command inner);
 
 }  // namespace plx::cli

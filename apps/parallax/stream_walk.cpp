@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include <plx/raster/raster.h>
 #include <plx/stereo/path.h>
 #include <plx/stream/client.h>
 #include <plx/stream/link_simulator.h>
@@ -105,6 +106,9 @@ Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFil
     return cameras;
 }
 
+// The paper's screenshot moments (Fig. 3: 10 s, 35 s and 80 s after the downloads start).
+constexpr double kShotTimesS[] = {10.0, 35.0, 80.0};
+
 uint64_t megabytes(double mb) {
     return uint64_t(std::llround(mb * double(1 << 20)));
 }
@@ -127,6 +131,16 @@ int runWalk(const WalkArgs& a) {
     config.dtMaxS = a.dtMaxS, config.dtMaxStaticS = a.dtMaxStaticS, config.tStaticS = a.tStaticS;
     stream::StreamClient client(fetcher->get(), config);
 
+    auto renderer = raster::Renderer::create();
+    if (!renderer) return fail(renderer.status());
+    raster::FrameBuffers buffers;
+    buffers.resize((*cameras)[0].width(), (*cameras)[0].height());
+    raster::RenderOptions options;
+    options.shading = raster::Shading::kTextured;
+    if (!a.out.empty())
+        if (Status s = ensureParentDirectory(a.out + "/"); !s) return fail(s);
+    size_t nextShot = 0;
+
     nlohmann::json frames = nlohmann::json::array();
     std::string csv = "frame,time_s,budget_bytes,resident_bytes,downloaded_bytes,quality,frame_ms\n";
     uint64_t maxResident = 0;
@@ -135,7 +149,15 @@ int runWalk(const WalkArgs& a) {
     for (size_t i = 0; i < cameras->size(); ++i) {
         Stopwatch clock;
         last = client.frame((*cameras)[i], double(i) / a.fps);
+        // The display step: the downloaded geometry with the resident levels only.
+        auto drawn = client.residentScene();
+        if (drawn) (*renderer)->render(*drawn, (*cameras)[i], options, buffers.targets());
         double ms = clock.elapsedMs();
+        if (!a.out.empty() && nextShot < std::size(kShotTimesS) &&
+            last.timeS >= kShotTimesS[nextShot]) {
+            std::string png = fmt::format("{}/frame-{:03}s.png", a.out, int(kShotTimesS[nextShot++]));
+            if (Status s = writePng(png, buffers.color); !s) return fail(s);
+        }
         maxResident = std::max(maxResident, last.residentBytes);
         frames.push_back({{"time_s", last.timeS},
                           {"budget_bytes", last.budgetBytes},
@@ -150,10 +172,8 @@ int runWalk(const WalkArgs& a) {
         progress.step();
     }
     for (const std::string& line : client.log()) (void)warn(line);
-    if (!a.out.empty()) {
-        if (Status s = ensureParentDirectory(a.out + "/"); !s) return fail(s);
+    if (!a.out.empty())
         if (Status s = writeText(a.out + "/frames.csv", csv); !s) return fail(s);
-    }
     if (a.json) {
         printJson({{"frames", cameras->size()},
                    {"budget_bytes", config.budgetBytes},
@@ -183,7 +203,8 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         "Example: parallax stream walk out/museum64 --bandwidth 56 --walk 600 --json\n"
         "Frames advance a simulated clock at --fps. The budgets are M^mem (moving) and "
         "M^mem_static (after --t-static s unmoved); --dt-max caps a level's estimated download "
-        "time. --out DIR writes DIR/frames.csv.\nJSON: frames, budget_bytes, "
+        "time. Frames draw the downloaded geometry with the resident levels only (grey where none "
+        "is resident yet). --out DIR writes DIR/frames.csv and the frames at 10, 35 and 80 s.\nJSON: frames, budget_bytes, "
         "max_resident_bytes, downloaded_bytes, quality_final, failed_requests, per_frame.");
     walk->add_option("location", a->location, "Database folder")->required();
     walk->add_option("--bandwidth", a->bandwidthKbit, "Link bandwidth, kbit/s (0: unlimited)");

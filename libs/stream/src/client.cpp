@@ -179,6 +179,7 @@ Status StreamClient::accept(const Request& r, const std::vector<uint8_t>& bytes)
             if (triangles != mCells[size_t(r.target)].file->triangles)
                 return errorStatus(ErrorCode::kCorruptData, "triangle count differs from the cell");
             mCells[size_t(r.target)].geometry = true;
+            mCells[size_t(r.target)].primitives = std::move(prims).value();
             return Status::ok();
         }
         case Kind::kHeader: {

@@ -3,6 +3,7 @@
 // accessors over buffer views of buffer 0. Anything outside the subset is refused.
 #include <plx/stream/glb_reader.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -85,6 +86,16 @@ Result<GlbPrimitive> readPrimitive(const json& gltf, std::span<const uint8_t> bi
         if (!mats.is_array() || size_t(material) >= mats.size())
             return corrupt("material index out of range");
         const json& m = mats[size_t(material)];
+        if (m.is_object() && m.contains("pbrMetallicRoughness") &&
+            m["pbrMetallicRoughness"].is_object() &&
+            m["pbrMetallicRoughness"].contains("baseColorFactor")) {
+            const json& f = m["pbrMetallicRoughness"]["baseColorFactor"];
+            if (!f.is_array() || f.size() != 4) return corrupt("baseColorFactor not 4 numbers");
+            for (int i = 0; i < 4; ++i) {
+                if (!f[size_t(i)].is_number()) return corrupt("baseColorFactor not 4 numbers");
+                out.baseColor[i] = std::clamp(f[size_t(i)].get<float>(), 0.0f, 1.0f);
+            }
+        }
         if (m.is_object() && m.contains("extras") && m["extras"].is_object() &&
             m["extras"].contains("ptm")) {
             if (!m["extras"]["ptm"].is_string()) return corrupt("extras.ptm not a string");

@@ -241,6 +241,11 @@ TEST(StreamClient, StaticViewpointReachesFullQualityUnderTheCap) {
         ASSERT_LE(last.residentBytes, last.budgetBytes);
     }
     EXPECT_DOUBLE_EQ(last.quality, 1.0);
+    // The renderer's scene carries the resident textures, each at its highest resident level.
+    auto drawn = client.residentScene();
+    ASSERT_TRUE(drawn.isOk()) << drawn.status().toString();
+    ASSERT_FALSE(drawn->textures.empty());
+    for (const scene::Texture& t : drawn->textures) EXPECT_GT(t.width(), 1);
     EXPECT_EQ(client.failedRequests(), 0u) << (client.log().empty() ? "" : client.log()[0]);
     // Cells and geometry of the first cell's PVS went out before any texture level.
     size_t lastGeometry = 0, firstLevel = rec.requests.size();

@@ -18,6 +18,8 @@
 #include <plx/stream/budget.h>
 #include <plx/stream/database.h>
 #include <plx/stream/fetch.h>
+#include <plx/stream/glb_reader.h>
+#include <plx/scene/scene.h>
 
 namespace plx::stream {
 
@@ -80,6 +82,11 @@ public:
     int residentLevel(const std::string& textureUrl) const;
     // The resident image of a texture (its highest resident level), or null.
     const ByteImage* residentImage(const std::string& textureUrl) const;
+    // The geometry of the current cell's PVS as downloaded so far, for the renderer: textured
+    // materials carry their highest resident level (with a mip chain built below it); a texture
+    // with no level resident draws in flat grey (0.5 linear), as does its surface until then.
+    // Errors: no geometry yet.
+    Result<scene::Scene> residentScene();
     // Hostile or failed completions, each logged with its reason.
     uint64_t failedRequests() const { return mFailed; }
     const std::vector<std::string>& log() const { return mLog; }
@@ -99,6 +106,11 @@ private:
         std::optional<CellFile> file;
         bool requested = false, failed = false, geometry = false;
         std::vector<int> nodes;  // PTM nodes of the textures its geometry uses
+        std::vector<GlbPrimitive> primitives;
+    };
+    struct CachedTexture {
+        int resident = 0;  // the node's resident level count it was built from
+        scene::Texture texture;
     };
 
     void enqueue(Request request);
@@ -129,6 +141,7 @@ private:
     uint64_t mNextId = 1;
     uint64_t mDownloaded = 0, mFailed = 0;
     std::vector<std::string> mLog;
+    std::map<int, CachedTexture> mTextureCache;  // by node
     int mCurrentCell = -1;
     Vec3 mLastEye{0.0f}, mLastTarget{0.0f};
     double mLastMoveS = 0.0, mLastFrameS = -1.0;

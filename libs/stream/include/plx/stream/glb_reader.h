@@ -17,6 +17,7 @@ struct GlbPrimitive {
     std::vector<Vec2> uvs;          // empty, or one per position
     std::vector<uint32_t> indices;  // triangles; each < positions.size()
     std::string ptmUrl;             // the material's PTM (extras.ptm), empty when untextured
+    Vec4 baseColor{1.0f};           // the material's baseColorFactor (linear RGBA)
 };
 
 // Parses a cell's .glb. Errors are one line naming the part that is wrong.

@@ -16,5 +16,7 @@ Command registerWarp(CLI::App& app);
 Command registerStream(CLI::App& app);
 Command registerServe(CLI::App& app);
 Command registerClient(CLI::App& app);
+// Adds `stream walk` under the stream command; its run falls back to `inner` for the others.
+Command registerStreamWalk(CLI::App* stream, Command inner);
 
 }  // namespace plx::cli

@@ -238,7 +238,7 @@ Command registerStream(CLI::App& app) {
     build->add_option("--face-size", a->faceSize, "Pixels per side of each camera face")
         ->capture_default_str();
     merge->add_option("parts", a->parts, "Part files written by stream build --cells")->required();
-    return {sub, [a, merge] { return runStream(*a, merge->parsed()); }};
+    return registerStreamWalk(sub, {sub, [a, merge] { return runStream(*a, merge->parsed()); }});
 }
 
 }  // namespace plx::cli

@@ -97,8 +97,8 @@ struct Session {
     Clock::time_point pendingAt;          // when the pending pose arrived
     std::optional<PoseMessage> lastPose;  // for the velocity estimate without a velocity field
     Vec3 estimatedVelocity{0.0f};
-    bool inFlight = false;  // a set is being rendered or waits on the socket
-    bool ready = false;     // in the ready queue
+    bool inFlight = false;       // a set is being rendered or waits on the socket
+    bool ready = false;          // in the ready queue
     bool initialQueued = false;  // the default-viewpoint set was queued (kInitialSetAfterMs)
     uint32_t sequence = 0;
     double rttMs = -1.0;  // smoothed round trip, < 0 before the first Pong
@@ -140,7 +140,7 @@ struct Server::Impl {
     bool stopping = false, stopped = false;
     std::thread worker;
     ServerStats stats;
-    double renderEncodeMsEstimate = 0.0;  // smoothed, for the prediction lead
+    double renderEncodeMsEstimate = 0.0;    // smoothed, for the prediction lead
     std::optional<warp::Pose> initialPose;  // the scene's default viewpoint, when valid
 
     void send(const SessionPtr& s, const Message& m, std::function<void(const Status&)> done = {}) {

@@ -109,11 +109,12 @@ public:
                              if (ec) return self->dropSocket();
                              if (websocket::is_upgrade(self->mRequest->get())) {
                                  beast::get_lowest_layer(self->mWs).expires_never();
-                                 self->mWs.async_accept(
-                                     self->mRequest->get(), [self, onUpgrade](ErrorCodeB hec) {
-                                         if (hec) return;  // a bad handshake: dropped
-                                         self->start(onUpgrade(self));
-                                     });
+                                 self->mWs.async_accept(self->mRequest->get(),
+                                                        [self, onUpgrade](ErrorCodeB hec) {
+                                                            if (hec)
+                                                                return;  // a bad handshake: dropped
+                                                            self->start(onUpgrade(self));
+                                                        });
                                  return;
                              }
                              self->answerHttp();
@@ -202,10 +203,9 @@ private:
                                file->bytes.size());
         }
         res->prepare_payload();
-        http::async_write(mWs.next_layer(), *res,
-                          [self = shared_from_this(), res](ErrorCodeB, size_t) {
-                              self->dropSocket();
-                          });
+        http::async_write(
+            mWs.next_layer(), *res,
+            [self = shared_from_this(), res](ErrorCodeB, size_t) { self->dropSocket(); });
     }
 
     void dropSocket() {

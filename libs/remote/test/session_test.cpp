@@ -100,7 +100,8 @@ public:
         ev.onMessage = [this](std::vector<uint8_t>&& m, bool) {
             std::lock_guard lock(mMutex);
             auto decoded = decodeMessage(m);
-            if (decoded && messageType(*decoded) == MessageType::kReferenceSet) mRawSets.push_back(m);
+            if (decoded && messageType(*decoded) == MessageType::kReferenceSet)
+                mRawSets.push_back(m);
             if (decoded) mReceived.push_back(std::move(decoded).value());
             mChanged.notify_all();
         };
@@ -316,7 +317,8 @@ TEST(RemoteSession, AClientWithoutAPoseGetsTheDefaultViewpoint) {
     EXPECT_EQ(set->requestTimestampUs, 0u);
     const scene::Viewpoint v = scene::defaultViewpoint(scene);
     EXPECT_EQ(set->set.pose.eye, v.eyePos);
-    EXPECT_NEAR(glm::dot(set->set.pose.forward, glm::normalize(v.targetPos - v.eyePos)), 1.0f, 1e-5f);
+    EXPECT_NEAR(glm::dot(set->set.pose.forward, glm::normalize(v.targetPos - v.eyePos)), 1.0f,
+                1e-5f);
 }
 
 // The disparity codec byte of a ReferenceSet message's first view: after the message header (13

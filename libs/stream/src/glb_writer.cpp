@@ -1,6 +1,7 @@
 // glTF 2.0 binary writer (Khronos glTF 2.0 specification, "GLB File Format Specification").
 
 #include "glb_writer.h"
+#include "glb_format.h"
 
 #include <cstring>
 #include <map>
@@ -13,10 +14,7 @@ namespace {
 
 using nlohmann::json;
 
-constexpr uint32_t kGlbMagic = 0x46546C67;   // "glTF"
-constexpr uint32_t kChunkJson = 0x4E4F534A;  // "JSON"
-constexpr uint32_t kChunkBin = 0x004E4942;   // "BIN\0"
-constexpr int kFloat = 5126, kUnsignedInt = 5125;
+using namespace glb;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
 
 // One primitive under construction: the vertices it uses, each once.

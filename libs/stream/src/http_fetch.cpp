@@ -112,6 +112,7 @@ public:
         return out;
     }
 
+    bool realTime() const override { return true; }
     size_t pending() const override {
         std::lock_guard lock(mMutex);
         return mOutstanding;

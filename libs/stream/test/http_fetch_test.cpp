@@ -27,8 +27,10 @@
 #include <plx/ptm/format.h>
 #include <plx/scene/generators.h>
 #include <plx/stream/cells.h>
+#include <plx/stream/client.h>
 #include <plx/stream/database.h>
 #include <plx/stream/http_fetch.h>
+#include <plx/stream/link_simulator.h>
 #include <plx/stream/visibility.h>
 
 extern char** environ;
@@ -559,6 +561,44 @@ TEST(HttpFetchNginx, RangesMatchTheFilesAndLimitRateThrottles) {
     // A lower bound only (a loaded machine is slower, never faster): N / rate - 1 s, with margin.
     const double atLeast = 0.8 * (double(largest) / double(limitRate) - 1.0);
     EXPECT_GE(seconds, atLeast) << largest << " bytes at limit_rate " << limitRate;
+    fs::remove_all(tmp);
+}
+
+// The streaming client over HTTP against nginx, as over the simulator: a static viewpoint with
+// a budget that holds everything reaches full quality with no failed request, under the cap.
+TEST(HttpFetchNginx, StreamClientReachesFullQualityOverNginx) {
+    if (!fs::exists(Nginx::kNginx)) {
+        GTEST_SKIP() << "no " << Nginx::kNginx << " (Debian nginx-light): HTTP test skipped";
+    }
+    const fs::path tmp = freshTempDir("http_client"), db = tmp / "db";
+    Status built = buildMuseum2(db);
+    ASSERT_TRUE(built.isOk()) << built.toString();
+    Nginx nginx(tmp, db, 1 << 20);
+    ASSERT_TRUE(nginx.ready()) << "nginx did not start: " << nginx.errorLog();
+    auto fetcher = openFetcher(nginx.url("db"), {});
+    ASSERT_TRUE(fetcher.isOk()) << fetcher.status().toString();
+    EXPECT_TRUE((*fetcher)->realTime());
+
+    auto root = parseRoot(fileBytes(db / "root.json")).value();
+    CameraDesc d;
+    d.eyePos = root.viewpoints[0].eyePos, d.targetPos = root.viewpoints[0].targetPos;
+    d.width = 64, d.height = 48;
+    const Camera camera = Camera::create(d).value();
+    ClientConfig config;
+    config.budgetBytes = config.staticBudgetBytes = uint64_t(256) << 20;
+    StreamClient client(fetcher->get(), config);
+    FrameReport last;
+    const auto start = Clock::now();
+    // Bounded: at most 20 s of wall time (the museum:2 database is ~0.3 MB over loopback).
+    for (int f = 0; f < 4000 && last.quality < 1.0; ++f) {
+        const double now = std::chrono::duration<double>(Clock::now() - start).count();
+        if (now > 20.0) break;
+        last = client.frame(camera, now);
+        ASSERT_LE(last.residentBytes, last.budgetBytes);
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    EXPECT_DOUBLE_EQ(last.quality, 1.0);
+    EXPECT_EQ(client.failedRequests(), 0u) << (client.log().empty() ? "" : client.log()[0]);
     fs::remove_all(tmp);
 }
 

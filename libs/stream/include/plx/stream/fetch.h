@@ -52,6 +52,9 @@ public:
     virtual std::vector<FetchCompletion> poll(double nowS) = 0;
     // Requests submitted and not yet returned by poll.
     virtual size_t pending() const = 0;
+    // True for a real transport, whose requests complete in wall-clock time: a caller that runs
+    // on a simulated clock paces it by the wall clock (`parallax stream walk` does).
+    virtual bool realTime() const { return false; }
 };
 
 }  // namespace plx::stream

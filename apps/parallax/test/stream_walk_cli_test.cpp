@@ -1,0 +1,79 @@
+// parallax stream walk run as a user would: the JSON summary, the cap against the budget, full
+// quality with a static viewpoint on an unlimited link, one-line errors.
+
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+// A museum:4 database with a quick sampling, built once.
+const fs::path& walkDb() {
+    static const fs::path dir = [] {
+        // One database per test process (CTest runs several at once).
+        fs::path d = scratchDir("stream_walk_cli") / ("db-" + std::to_string(getpid()));
+        fs::remove_all(d);
+        RunResult r =
+            runParallax("stream build museum:4 --samples 2 --face-size 32 --out " + d.string());
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return d;
+    }();
+    return dir;
+}
+
+TEST(StreamWalkCli, JsonSummaryAndTheCap) {
+    RunResult r = runParallax("stream walk " + walkDb().string() +
+                              " --walk 90 --bandwidth 1000 --latency 20 --budget 0.25 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* key : {"frames", "budget_bytes", "max_resident_bytes", "downloaded_bytes",
+                            "quality_final", "failed_requests", "per_frame"})
+        EXPECT_TRUE(doc.contains(key)) << key;
+    EXPECT_EQ(doc["frames"], 90);
+    EXPECT_EQ(doc["budget_bytes"], 262144);
+    ASSERT_EQ(doc["per_frame"].size(), 90u);
+    for (const auto& f : doc["per_frame"])
+        EXPECT_LE(f["resident_bytes"].get<uint64_t>(), f["budget_bytes"].get<uint64_t>());
+    EXPECT_GT(doc["downloaded_bytes"].get<uint64_t>(), 0u);
+}
+
+TEST(StreamWalkCli, StaticViewpointReachesFullQuality) {
+    // One pose held for four simulated seconds: the static budget and dt_max take over.
+    fs::path path = scratchDir("stream_walk_cli") / "still.json";
+    std::ifstream in(walkDb() / "root.json");
+    auto root = nlohmann::json::parse(in);
+    auto v = root["viewpoints"][0];
+    nlohmann::json poses = nlohmann::json::array();
+    for (int i = 0; i < 120; ++i) poses.push_back({{"eye", v["eye"]}, {"target", v["target"]}});
+    writeFile(path, poses.dump());
+    RunResult r = runParallax("stream walk " + walkDb().string() + " --path " + path.string() +
+                              " --static-budget 256 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    EXPECT_EQ(doc["quality_final"], 1.0);
+    EXPECT_EQ(doc["failed_requests"], 0);
+}
+
+TEST(StreamWalkCli, BadArgumentsAreOneLineErrors) {
+    const std::string db = walkDb().string();
+    expectOneLineError(runParallax("stream walk " + db), "--path P.json or --walk N", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk 0"), "--walk", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk 5 --budget -1"), "--budget", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk 5 --fps 0"), "--fps", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk 5 --size 0x3"), "size", 2);
+    // Nothing listens on port 1: the root request fails after its bounded tries.
+    expectOneLineError(runParallax("stream walk http://127.0.0.1:1/db --walk 5"), "root.json");
+    expectOneLineError(runParallax("stream walk http://127.0.0.1:1/db --walk 5 --bandwidth 56"),
+                       "--bandwidth");
+    expectOneLineError(runParallax("stream walk /nonexistent/db --walk 5"),
+                       "not a stream database");
+    fs::path bad = scratchDir("stream_walk_cli") / "bad.json";
+    writeFile(bad, "[{\"eye\": [0, 1]}]");
+    expectOneLineError(runParallax("stream walk " + db + " --path " + bad.string()), "pose");
+}
+
+}  // namespace

@@ -1,0 +1,69 @@
+#pragma once
+// Memory budget allocation and PTM node updates (Marvie & Bouatouch 6.1 and 6.2), as pure
+// functions over PTM nodes so that scripted budgets can test them.
+//
+// Level numbering: a node's levels are numbered as the PTM file stores them, 0 = the smallest.
+// `resident` levels 0..resident-1 are in (graphics) memory, so the paper's L (current highest
+// level) is resident - 1; `downloaded` levels 0..downloaded-1 have arrived, so L_max is
+// downloaded - 1; L_total is the file's level count. S(L) is the memory of the mipmap chain up
+// to level L: the texel bytes of levels 0..L (a texture needs its smaller levels too).
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace plx::stream {
+
+struct PtmNode {
+    std::string url;
+    uint64_t fileBytes = 0;                 // as the cell file states it
+    std::vector<uint64_t> levelBytes;       // texel bytes per level; empty until the header arrived
+    std::vector<uint64_t> groupBytes;       // download bytes per level group
+    int resident = 0;                       // levels resident (L + 1)
+    int downloaded = 0;                     // levels downloaded (L_max + 1)
+    bool downloading = false;               // a level request is queued or on the link
+    bool failed = false;                    // skipped after its retries: never offered budget
+    uint64_t saved = 0;                     // N: budget kept during this frame's computeVS calls
+
+    int total() const { return int(levelBytes.size()); }
+    // S: bytes of the chain of the first `levels` levels (levels 0..levels-1).
+    uint64_t chainBytes(int levels) const;
+    uint64_t residentBytes() const { return chainBytes(resident); }
+};
+
+// Marvie 6.2, computeVS: the node keeps the offered `alloc` while even N + alloc cannot hold
+// level L+1 (it saves up), else keeps only what S(L+1) needs and returns the rest; without a
+// level L+1 the same test uses L. Returns the bytes kept (added to node.saved).
+uint64_t offerBudget(PtmNode& node, uint64_t alloc);
+
+enum class RefreshAction { kNone, kAdd, kRemove, kDownload };
+
+// Marvie 6.2, refreshResident, in the paper's order with N = node.saved:
+//   S(L+1) <= N, L+1 <= L_max, L+1 < L_total   -> add level L+1 (only when its bytes fit in
+//                                                 freeBytes: the client's hard cap);
+//   else S(L) > N                               -> remove level L;
+//   else not downloading, S(L+1) <= N, L+1 > L_max, L+1 < L_total
+//                                               -> download level L+1 when allowDownload(its
+//                                                  group bytes) (the dt_max rule).
+// The paper's "L+1 <= L_total" and "L+1 != L_total" count levels from 1; here both read "level
+// L+1 exists". Updates node.resident / node.downloading.
+RefreshAction refreshResident(PtmNode& node, uint64_t freeBytes,
+                              const std::function<bool(uint64_t)>& allowDownload);
+
+// A visible cell of this frame: its ACH in the current cell's PVS and its PTM nodes.
+struct VisibleCell {
+    int cell = 0;
+    double ach = 0.0;
+    std::vector<int> nodes;
+};
+
+// Marvie 6.1: the cells share out `budget` from the highest ACH to the lowest. Each cell gets
+// its normalised ACH (over the cells not yet served) of what the previous cells left, offers it
+// to its nodes in turn (each an equal part of what is left of the cell's share) and returns
+// what they kept; the next cell shares out M - M_used. Nodes' `saved` must be reset before.
+// Returns M_used over all cells (<= budget).
+uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
+                        std::vector<PtmNode>& nodes);
+
+}  // namespace plx::stream

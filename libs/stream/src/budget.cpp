@@ -1,0 +1,77 @@
+// Marvie & Bouatouch 6.1 (budget by ACH) and 6.2 (PTM node rules, refreshResident).
+#include <plx/stream/budget.h>
+
+#include <algorithm>
+
+namespace plx::stream {
+
+uint64_t PtmNode::chainBytes(int levels) const {
+    uint64_t sum = 0;
+    for (int k = 0; k < levels && k < total(); ++k) sum += levelBytes[size_t(k)];
+    return sum;
+}
+
+uint64_t offerBudget(PtmNode& node, uint64_t alloc) {
+    if (node.failed || node.total() == 0) return 0;
+    // S(L+1), or S(L) when L is the top level.
+    const int chain = std::min(node.resident + 1, node.total());
+    const uint64_t need = node.chainBytes(chain);
+    uint64_t kept = alloc;
+    if (need <= node.saved + alloc) kept = need > node.saved ? need - node.saved : 0;
+    node.saved += kept;
+    return kept;
+}
+
+RefreshAction refreshResident(PtmNode& node, uint64_t freeBytes,
+                              const std::function<bool(uint64_t)>& allowDownload) {
+    const int next = node.resident;  // the index of level L+1
+    const bool nextExists = next < node.total();
+    const bool nextFits = nextExists && node.chainBytes(next + 1) <= node.saved;
+    if (nextFits && next < node.downloaded) {
+        // Hard cap: the level goes in only when the frame's budget has room for it.
+        if (node.levelBytes[size_t(next)] > freeBytes) return RefreshAction::kNone;
+        ++node.resident;
+        return RefreshAction::kAdd;
+    }
+    if (node.resident > 0 && node.chainBytes(node.resident) > node.saved) {
+        --node.resident;
+        return RefreshAction::kRemove;
+    }
+    if (!node.downloading && nextFits && next >= node.downloaded &&
+        allowDownload(node.groupBytes[size_t(next)])) {
+        node.downloading = true;
+        return RefreshAction::kDownload;
+    }
+    return RefreshAction::kNone;
+}
+
+uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
+                        std::vector<PtmNode>& nodes) {
+    std::stable_sort(cells.begin(), cells.end(), [](const VisibleCell& a, const VisibleCell& b) {
+        return a.ach != b.ach ? a.ach > b.ach : a.cell < b.cell;
+    });
+    double achLeft = 0.0;
+    for (const VisibleCell& c : cells) achLeft += std::max(0.0, c.ach);
+    uint64_t remaining = budget, used = 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+        const VisibleCell& c = cells[i];
+        // M_i = normalised ACH_i * (M - M_used); the last cell gets all that is left.
+        double ach = std::max(0.0, c.ach);
+        uint64_t share = achLeft > 0.0 ? uint64_t(double(remaining) * std::min(1.0, ach / achLeft))
+                                       : remaining / (cells.size() - i);
+        if (i + 1 == cells.size()) share = remaining;
+        achLeft -= ach;
+        uint64_t cellLeft = share, cellUsed = 0;
+        for (size_t n = 0; n < c.nodes.size(); ++n) {
+            uint64_t alloc = cellLeft / (c.nodes.size() - n);
+            uint64_t kept = offerBudget(nodes[size_t(c.nodes[n])], alloc);
+            cellLeft -= kept;
+            cellUsed += kept;
+        }
+        remaining -= cellUsed;
+        used += cellUsed;
+    }
+    return used;
+}
+
+}  // namespace plx::stream

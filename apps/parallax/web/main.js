@@ -47,19 +47,24 @@ class Client {
         this.reference = null;  // {requestTimestampUs, sequence}
         this.poseRateHz = 0;
         this.ping = {nonce: 0, sentUs: 0, answered: true, answersThisSecond: 0};
-        this.stats = {fps: 0, referenceAgeMs: null, rttMs: null, references: 0, bytes: 0,
-                      decodeMs: 0, frames: 0};
+        this.stats = {fps: 0, referenceAgeMs: null, rttMs: null, references: 0, skipped: 0,
+                      bytes: 0, decodeMs: 0, frames: 0};
+        this.setsWaiting = 0;  // reference sets received and not yet handled
         this.error = '';
     }
 
     // Every received message, in arrival order (decoding is asynchronous): a bad one stops the
     // session with a one-line error.
     receive(data) {
-        this.queue = this.queue.then(() => this.handle(data)).catch((e) => this.fail(e));
+        const isSet = data instanceof ArrayBuffer && data.byteLength > 0 &&
+            new Uint8Array(data, 0, 1)[0] === MessageType.referenceSet;
+        if (isSet) this.setsWaiting += 1;
+        this.queue = this.queue.then(() => this.handle(data, isSet)).catch((e) => this.fail(e));
         return this.queue;
     }
 
-    async handle(data) {
+    async handle(data, isSet = false) {
+        if (isSet) this.setsWaiting -= 1;
         if (this.state === 'closed') return;
         if (!(data instanceof ArrayBuffer)) throw new ProtocolError('text frame (the protocol is binary)');
         const m = parseMessage(data);
@@ -101,6 +106,13 @@ class Client {
     async acceptSet(m) {
         if (m.sequence <= this.lastSequence) {
             throw new ProtocolError(`reference set sequence ${m.sequence} after ${this.lastSequence}`);
+        }
+        // A newer set already waits behind this one (decoding is slower than the link, as in
+        // software WebGL): skip to it rather than let the reference age grow with the queue.
+        if (this.setsWaiting > 0) {
+            this.lastSequence = m.sequence;
+            this.stats.skipped += 1;
+            return;
         }
         const t0 = performance.now();
         const decoded = await decodeViews(m.set);
@@ -238,7 +250,7 @@ function interactive(client) {
             overlayAt = t;
             const s = client.stats, f = (v, d = 0) => (v === null ? '-' : v.toFixed(d));
             overlay.textContent = `${f(s.fps)} fps  reference age ${f(s.referenceAgeMs)} ms  ` +
-                `RTT ${f(s.rttMs, 1)} ms\n${s.references} sets, last ${(s.bytes / 1024).toFixed(0)} KiB, ` +
+                `RTT ${f(s.rttMs, 1)} ms\n${s.references} sets (${s.skipped} skipped), last ${(s.bytes / 1024).toFixed(0)} KiB, ` +
                 `decoded in ${f(s.decodeMs)} ms`;
         }
         requestAnimationFrame(frame);

@@ -16,7 +16,7 @@ remote-view     plx_remote_view_fuzz     tests/fuzz/remote-seeds/view/*.bin     
 display-json    plx_display_json_fuzz    tests/fuzz/display-json-seeds/*.json     4096  tests/fuzz/display-json.dict
 path-json       plx_path_json_fuzz       tests/fuzz/path-json-seeds/*.json        4096  tests/fuzz/path-json.dict
 import-wire     plx_import_wire_fuzz     tests/fuzz/import-wire-seeds/*.bin       16384 -
-stream-db       plx_stream_db_fuzz       tests/fuzz/stream-db-seeds/*.bin         16384 tests/fuzz/stream-db.dict
+stream-db       plx_stream_db_fuzz       tests/fuzz/stream-db-seeds/*.bin         32768 tests/fuzz/stream-db.dict
 "
 wanted=("$@")
 selected() {

@@ -25,12 +25,14 @@ int runDemo(const DemoArgs& a) {
     HtmlReport report("Parallax demo");
     nlohmann::json summary = nlohmann::json::object();
     DemoContext ctx{a.out, &report, &summary, a.threads, a.quick};
-    report.paragraph("Parallax renders complex 3D scenes for stereo, remote and curved displays "
-                     "by reusing what was already computed. Every number below was measured "
-                     "while this page was generated.");
+    report.paragraph(
+        "Parallax renders complex 3D scenes for stereo, remote and curved displays "
+        "by reusing what was already computed. Every number below was measured "
+        "while this page was generated.");
     using Section = Status (*)(DemoContext&);
-    for (Section section : {Section(demoRasterSection), Section(demoStereoSection),
-                            Section(demoWarpSection), Section(demoDisplaySection), Section(demoPtmSection)}) {
+    for (Section section :
+         {Section(demoRasterSection), Section(demoStereoSection), Section(demoWarpSection),
+          Section(demoDisplaySection), Section(demoPtmSection), Section(demoStreamSection)}) {
         if (Status s = section(ctx); !s) return fail(s);
     }
     std::string index = a.out + "/index.html";
@@ -51,7 +53,8 @@ Command registerDemo(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("demo", "Run the demo and write an HTML report");
     sub->footer("Example: parallax demo   (then open out/demo/index.html)");
     sub->add_option("--out", a->out, "Report folder")->capture_default_str();
-    sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")->capture_default_str();
+    sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")
+        ->capture_default_str();
     sub->add_flag("--quick", a->quick, "Small sizes and few frames (for tests)");
     sub->add_flag("--json", a->json, "Print the headline numbers as JSON on stdout");
     return {sub, [a] { return runDemo(*a); }};

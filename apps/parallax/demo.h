@@ -34,4 +34,8 @@ Status demoDisplaySection(DemoContext& ctx);
 // per level, the size against PNG. Falls back to the office:4 render without the shared data.
 Status demoPtmSection(DemoContext& ctx);
 
+// Texture streaming (Marvie, Bouatouch): museum:4's database walked through every room at four
+// bandwidths; quality and resident bytes over time, frames at 10, 35 and 80 s at 56 kbit/s.
+Status demoStreamSection(DemoContext& ctx);
+
 }  // namespace plx::cli

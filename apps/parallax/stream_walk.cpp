@@ -1,5 +1,5 @@
-// parallax stream walk DIR: a walkthrough of a streaming database on the simulated link
-// (Marvie & Bouatouch section 7): per frame the resident texture bytes against the budget, the
+// parallax stream walk DIR|URL: a walkthrough of a streaming database on the simulated link or
+// over HTTP (Marvie & Bouatouch section 7): per frame the resident texture bytes against the budget, the
 // bytes downloaded, the progressive downloading quality and the client's frame time.
 
 #include <chrono>
@@ -218,10 +218,11 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         "Frames advance a simulated clock at --fps. The budgets are M^mem (moving) and "
         "M^mem_static (after --t-static s unmoved); --dt-max caps a level's estimated download "
         "time. Frames draw the downloaded geometry with the resident levels only (grey where none "
-        "is resident yet). --out DIR writes DIR/frames.csv and the frames at 10, 35 and 80 "
-        "s.\nJSON: frames, budget_bytes, "
-        "max_resident_bytes, downloaded_bytes, quality_final, failed_requests, per_frame.");
-    walk->add_option("location", a->location, "Database folder")->required();
+        "is resident yet). --out DIR writes DIR/frames.csv and the frames at 10, 35 and 80 s.\n"
+        "JSON: frames, budget_bytes, max_resident_bytes, downloaded_bytes, quality_final, "
+        "failed_requests, per_frame.");
+    walk->add_option("location", a->location, "Database folder or http://HOST:PORT/PATH")
+        ->required();
     walk->add_option("--bandwidth", a->bandwidthKbit, "Link bandwidth, kbit/s (0: unlimited)");
     walk->add_option("--latency", a->latencyMs, "Latency per request, ms");
     walk->add_option("--budget", a->budgetMb, "Texture memory budget M^mem, MB")

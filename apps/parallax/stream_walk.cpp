@@ -1,6 +1,6 @@
 // parallax stream walk DIR|URL: a walkthrough of a streaming database on the simulated link or
-// over HTTP (Marvie & Bouatouch section 7): per frame the resident texture bytes against the budget, the
-// bytes downloaded, the progressive downloading quality and the client's frame time.
+// over HTTP (Marvie & Bouatouch section 7): per frame the resident texture bytes against the
+// budget, the bytes downloaded, the progressive downloading quality and the client's frame time.
 
 #include <chrono>
 #include <cmath>
@@ -210,7 +210,8 @@ int runWalk(const WalkArgs& a) {
 Command registerStreamWalk(CLI::App* stream, Command inner) {
     auto a = std::make_shared<WalkArgs>();
     CLI::App* walk = stream->add_subcommand(
-        "walk", "Walk through a streaming database, simulated link or HTTP (Marvie & Bouatouch 6, 7)");
+        "walk",
+        "Walk through a streaming database, simulated link or HTTP (Marvie & Bouatouch 6, 7)");
     walk->footer(
         "Example: parallax stream walk out/museum64 --bandwidth 56 --walk 600 --json\n"
         "DIR is a database folder (a simulated link: --bandwidth, --latency) or "

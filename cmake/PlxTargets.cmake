@@ -61,13 +61,19 @@ function(plx_add_module name)
     target_link_libraries(plx_${name} PUBLIC ${ARG_DEPS} PRIVATE plx_flags ${ARG_PRIVATE_DEPS})
 endfunction()
 
-# plx_add_test(NAME SOURCES ... DEPS ...): one GoogleTest executable registered with CTest.
+# Every registered test executable; a build preset that only tests builds this target alone.
+add_custom_target(plx_test_suites)
+
+# plx_add_test(NAME [KERNELS] SOURCES ... DEPS ...): one GoogleTest executable registered with
+# CTest. KERNELS marks a suite that runs hand-written SIMD kernels or checks them against their
+# scalar reference; with PLX_KERNEL_TESTS_ONLY (the scalar preset) only those suites are built.
 function(plx_add_test name)
-    cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
-    if(NOT PLX_BUILD_TESTS)
+    cmake_parse_arguments(ARG "KERNELS" "" "SOURCES;DEPS" ${ARGN})
+    if(NOT PLX_BUILD_TESTS OR (PLX_KERNEL_TESTS_ONLY AND NOT ARG_KERNELS))
         return()
     endif()
     add_executable(${name} ${ARG_SOURCES})
+    add_dependencies(plx_test_suites ${name})
     target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest_main plx_flags)
     target_compile_definitions(${name} PRIVATE
         PLX_SHARED_DATA_DIR="${PLX_SHARED_DATA_DIR}"

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include <plx/warp/reference.h>
 
@@ -338,8 +339,13 @@ Result<std::vector<uint8_t>> encodeReferenceSet(const warp::ReferenceSet& set,
     w.vec3(set.pose.forward);
     w.vec3(set.pose.up);
     w.f32(std::isfinite(set.renderMs) ? float(std::clamp(set.renderMs, 0.0, 999999.0)) : 0.0f);
-    for (const warp::ReferenceView& v : set.views) {
-        Result<std::vector<uint8_t>> view = encodeReferenceView(v, options);
+    // The views are independent: each is coded on its own TBB task (in the caller's arena, so a
+    // ThreadPool bounds it), then written in order, so the bytes do not depend on the schedule.
+    std::vector<Result<std::vector<uint8_t>>> views(set.views.size(), std::vector<uint8_t>{});
+    tbb::parallel_for(size_t(0), set.views.size(), [&](size_t i) {
+        views[i] = encodeReferenceView(set.views[i], options);
+    });
+    for (const Result<std::vector<uint8_t>>& view : views) {
         if (!view) return view.status();
         writeSized(w, *view);
     }
@@ -358,9 +364,14 @@ Status decodeReferenceSet(std::span<const uint8_t> bytes, const DecodeLimits& li
     out->pose = header.pose;
     out->renderMs = header.renderMs;
     out->views.resize(size_t(count));
-    for (int i = 0; i < count; ++i) {
-        const Status s = decodeReferenceView(views[size_t(i)], limits, &out->views[size_t(i)]);
-        if (!s.isOk()) return withContext(s, fmt::format("reference set: view {}", i));
+    // One task per view, as in encodeReferenceSet; the first failing view (in order) is reported.
+    std::vector<Status> statuses(static_cast<size_t>(count));
+    tbb::parallel_for(size_t(0), size_t(count), [&](size_t i) {
+        statuses[i] = decodeReferenceView(views[i], limits, &out->views[i]);
+    });
+    for (size_t i = 0; i < statuses.size(); ++i) {
+        if (!statuses[i].isOk())
+            return withContext(statuses[i], fmt::format("reference set: view {}", i));
     }
     return {};
 }

@@ -2,52 +2,14 @@
 // the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
 // arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
 
-#include <csignal>
-#include <cstdio>
-
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
+#include "serve_process.h"
 
 namespace {
 
 using namespace plx::testing;
-
-// A `parallax serve` in the background: its pid and the port from its first JSON line.
-class ServeProcess {
-public:
-    explicit ServeProcess(const std::string& args) {
-        // The shell prints its pid, then becomes the server (exec keeps the pid).
-        std::string cmd = "sh -c 'echo $$; exec timeout 60 " + std::string(PARALLAX_EXE) +
-                          " serve " + args + " --port 0 --json --seconds 30' 2>/dev/null";
-        mPipe = popen(cmd.c_str(), "r");
-        if (!mPipe) return;
-        char line[4096];
-        if (fgets(line, sizeof line, mPipe)) mPid = std::atoi(line);
-        if (fgets(line, sizeof line, mPipe))
-            listening = nlohmann::json::parse(line, nullptr, false);
-    }
-    ~ServeProcess() { stop(); }
-    int port() const { return listening.is_object() ? listening.value("port", 0) : 0; }
-    std::string url() const { return "ws://127.0.0.1:" + std::to_string(port()); }
-    // SIGTERM; returns the "stopped" JSON line and the exit code.
-    std::pair<nlohmann::json, int> stop() {
-        if (!mPipe) return {{}, -1};
-        if (mPid > 0) kill(mPid, SIGTERM);
-        std::string rest;
-        char buf[4096];
-        while (fgets(buf, sizeof buf, mPipe)) rest += buf;
-        int status = pclose(mPipe);
-        mPipe = nullptr;
-        return {nlohmann::json::parse(rest, nullptr, false),
-                WIFEXITED(status) ? WEXITSTATUS(status) : -1};
-    }
-    nlohmann::json listening;
-
-private:
-    FILE* mPipe = nullptr;
-    int mPid = 0;
-};
 
 TEST(RemoteCli, ServeAndClientEndToEnd) {
     ServeProcess server("office:1 --face-size 64");

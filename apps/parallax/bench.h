@@ -2,12 +2,43 @@
 // Children of `parallax bench`, one source file each; the experiments they run live in
 // experiment_<name>.cpp, shared with the demo.
 
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "cli.h"
 
 namespace plx::cli {
 
+// The progress of an experiment that reports (done, total) after each step: the bar is made at
+// the first step, when the total is known.
+class StepProgress {
+public:
+    explicit StepProgress(std::string label) : mLabel(std::move(label)) {}
+    // A callback for run*Experiment; valid while this object lives.
+    std::function<void(size_t, size_t)> callback() {
+        return [this](size_t, size_t total) {
+            if (!mBar) mBar = std::make_unique<Progress>(mLabel, total);
+            mBar->step();
+        };
+    }
+
+private:
+    std::string mLabel;
+    std::unique_ptr<Progress> mBar;
+};
+
+// An experiment's output folder, created; errors ("cannot create ...") name it.
+Status createOutputFolder(const std::string& dir);
+// Writes (file name, text) pairs into `dir`; errors name the file.
+Status writeOutputFiles(const std::string& dir,
+                        const std::vector<std::pair<std::string, std::string>>& files);
+
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);
 Command addBenchWarp(CLI::App* bench);
+Command addBenchRemote(CLI::App* bench);
 
 }  // namespace plx::cli

@@ -90,4 +90,39 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
                        "no reference set");
 }
 
+// bench remote's quick run: one real loopback session per RTT, every method's row with the
+// issue's JSON fields, the files; bad settings are one-line usage errors.
+TEST(RemoteCli, BenchRemoteQuickHasEveryMethodAtEveryRtt) {
+    fs::path dir = scratchDir("remote_cli") / "bench";
+    RunResult r = runParallax("bench remote --quick --out " + dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* method : {"warp", "video", "timewarp"})
+        for (double rtt : {0.0, 100.0}) {
+            int found = 0;
+            for (const auto& row : doc["rows"])
+                if (row["method"] == method && row["rtt_ms"].get<double>() == rtt) {
+                    ++found;
+                    for (const char* key :
+                         {"rtt_ms", "bandwidth_mbit", "method", "client_fps", "psnr_db_median",
+                          "bytes_per_reference", "warp_ms_median", "references_per_s"})
+                        EXPECT_TRUE(row.contains(key)) << key;
+                    EXPECT_GT(row["client_fps"].get<double>(), 0.0);
+                    EXPECT_GT(row["psnr_db_median"].get<double>(), 5.0);
+                    EXPECT_GT(row["bytes_per_reference"].get<double>(), 0.0);
+                    EXPECT_GT(row["psnr_frames"].get<int>(), 0);
+                }
+            EXPECT_EQ(found, 1) << method << " at " << rtt << " ms";
+        }
+    EXPECT_TRUE(fs::exists(dir / "remote.csv"));
+    EXPECT_TRUE(fs::exists(dir / "remote.json"));
+    EXPECT_TRUE(fs::exists(dir / "psnr_vs_rtt_office_2.svg"));
+    expectOneLineError(runParallax("bench remote --quick --rtts=-5 --out " + dir.string()), "RTT",
+                       2);
+    expectOneLineError(runParallax("bench remote --quick --bandwidths 0 --out " + dir.string()),
+                       "bandwidth", 2);
+    expectOneLineError(runParallax("bench remote --quick --size 4x4 --out " + dir.string()), "4x4",
+                       2);
+}
+
 }  // namespace

@@ -27,10 +27,18 @@ Status createOutputFolder(const std::string& dir) {
     return Status::ok();
 }
 
-Status writeOutputFiles(const std::string& dir,
-                        const std::vector<std::pair<std::string, std::string>>& files) {
-    for (const auto& [name, text] : files) PLX_RETURN_IF_ERROR(writeText(dir + "/" + name, text));
-    return Status::ok();
+int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
+                     const std::string& jsonName,
+                     std::vector<std::pair<std::string, std::string>> files,
+                     const std::function<void(const std::string& dir)>& printTable) {
+    files.emplace_back(jsonName, doc.dump(2));
+    for (const auto& [name, text] : files)
+        if (Status s = writeText(out + "/" + name, text); !s) return fail(s);
+    if (json)
+        printJson(doc);
+    else
+        printTable(out + "/");
+    return kExitOk;
 }
 
 Command registerBench(CLI::App& app) {

@@ -32,9 +32,13 @@ private:
 
 // An experiment's output folder, created; errors ("cannot create ...") name it.
 Status createOutputFolder(const std::string& dir);
-// Writes (file name, text) pairs into `dir`; errors name the file.
-Status writeOutputFiles(const std::string& dir,
-                        const std::vector<std::pair<std::string, std::string>>& files);
+// The end of an experiment command: writes `files` and the document (as `jsonName`) into the
+// folder `out`, then prints the document (--json) or the human table (printTable(out + "/")).
+// Returns the exit code.
+int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
+                     const std::string& jsonName,
+                     std::vector<std::pair<std::string, std::string>> files,
+                     const std::function<void(const std::string& dir)>& printTable);
 
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);

@@ -100,16 +100,10 @@ int runRemoteBench(const RemoteBenchArgs& a) {
     StepProgress progress("bench remote");
     auto e = runRemoteExperiment(*config, progress.callback());
     if (!e) return fail(e.status());
-    const nlohmann::json doc = remoteExperimentJson(*e);
     auto files = remotePlots(*e);
-    files.emplace_back("remote.json", doc.dump(2));
     files.emplace_back("remote.csv", remoteCsv(*e));
-    if (Status s = writeOutputFiles(a.out, files); !s) return fail(s);
-    if (a.json)
-        printJson(doc);
-    else
-        printTable(*e, a.out + "/");
-    return kExitOk;
+    return finishExperiment(a.out, a.json, remoteExperimentJson(*e), "remote.json",
+                            std::move(files), [&](const std::string& dir) { printTable(*e, dir); });
 }
 
 }  // namespace

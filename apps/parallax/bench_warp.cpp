@@ -107,17 +107,11 @@ int runWarpBench(const WarpBenchArgs& a) {
     StepProgress progress("bench warp");
     auto e = runWarpExperiment(*config, progress.callback());
     if (!e) return fail(e.status());
-    const nlohmann::json doc = warpExperimentJson(*e);
     auto files = warpPlots(*e);
-    files.emplace_back("warp.json", doc.dump(2));
     files.emplace_back("latency.csv", latencyCsv(*e));
     files.emplace_back("throughput.csv", throughputCsv(*e));
-    if (Status s = writeOutputFiles(a.out, files); !s) return fail(s);
-    if (a.json)
-        printJson(doc);
-    else
-        printTables(*e, a.out + "/");
-    return kExitOk;
+    return finishExperiment(a.out, a.json, warpExperimentJson(*e), "warp.json", std::move(files),
+                            [&](const std::string& dir) { printTables(*e, dir); });
 }
 
 }  // namespace

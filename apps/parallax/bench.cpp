@@ -5,17 +5,47 @@
 //   bench stereo       Heo, Jung, Wohn Table 1 and Fig. 17 (full vs P-buffer stereo pairs), with
 //                      the reproject method of Fu, Bao, Peng and its paper's timing table
 //   bench warp         Mark, Bishop, McMillan: stale, timewarp and warp against the RTT
+//   bench remote       the same system over real sockets: warp vs video vs timewarp, RTT and
+//                      bandwidth emulated on loopback
 
 #include "bench.h"
+
+#include <filesystem>
+
+#include <fmt/format.h>
+
 #include "commands.h"
 
 namespace plx::cli {
+
+Status createOutputFolder(const std::string& dir) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec)
+        return errorStatus(ErrorCode::kIoError,
+                           fmt::format("cannot create '{}': {}", dir, ec.message()));
+    return Status::ok();
+}
+
+int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
+                     const std::string& jsonName,
+                     std::vector<std::pair<std::string, std::string>> files,
+                     const std::function<void(const std::string& dir)>& printTable) {
+    files.emplace_back(jsonName, doc.dump(2));
+    for (const auto& [name, text] : files)
+        if (Status s = writeText(out + "/" + name, text); !s) return fail(s);
+    if (json)
+        printJson(doc);
+    else
+        printTable(out + "/");
+    return kExitOk;
+}
 
 Command registerBench(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Run the papers' experiments (CSV, JSON, SVG)");
     bench->require_subcommand(1);
     std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench),
-                                    addBenchWarp(bench)};
+                                     addBenchWarp(bench), addBenchRemote(bench)};
     return {bench, [children] {
                 for (const Command& c : children)
                     if (c.app->parsed()) return c.run();

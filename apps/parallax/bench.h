@@ -2,12 +2,47 @@
 // Children of `parallax bench`, one source file each; the experiments they run live in
 // experiment_<name>.cpp, shared with the demo.
 
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "cli.h"
 
 namespace plx::cli {
 
+// The progress of an experiment that reports (done, total) after each step: the bar is made at
+// the first step, when the total is known.
+class StepProgress {
+public:
+    explicit StepProgress(std::string label) : mLabel(std::move(label)) {}
+    // A callback for run*Experiment; valid while this object lives.
+    std::function<void(size_t, size_t)> callback() {
+        return [this](size_t, size_t total) {
+            if (!mBar) mBar = std::make_unique<Progress>(mLabel, total);
+            mBar->step();
+        };
+    }
+
+private:
+    std::string mLabel;
+    std::unique_ptr<Progress> mBar;
+};
+
+// An experiment's output folder, created; errors ("cannot create ...") name it.
+Status createOutputFolder(const std::string& dir);
+// The end of an experiment command: writes `files` and the document (as `jsonName`) into the
+// folder `out`, then prints the document (--json) or the human table (printTable(out + "/")).
+// Returns the exit code.
+int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
+                     const std::string& jsonName,
+                     std::vector<std::pair<std::string, std::string>> files,
+                     const std::function<void(const std::string& dir)>& printTable);
+
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);
 Command addBenchWarp(CLI::App* bench);
+Command addBenchRemote(CLI::App* bench);
 
 }  // namespace plx::cli

@@ -2,8 +2,6 @@
 // rotation-only timewarp and the post-rendering warp against the round-trip time, plus the
 // warp's throughput, as CSV, JSON and SVG plots.
 
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include "bench.h"
@@ -105,27 +103,15 @@ void printTables(const WarpExperiment& e, const std::string& dir) {
 int runWarpBench(const WarpBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
-    std::unique_ptr<Progress> progress;
-    auto e = runWarpExperiment(*config, [&](size_t, size_t total) {
-        if (!progress) progress = std::make_unique<Progress>("bench warp", total);
-        progress->step();
-    });
+    if (Status s = createOutputFolder(a.out); !s) return fail(s);
+    StepProgress progress("bench warp");
+    auto e = runWarpExperiment(*config, progress.callback());
     if (!e) return fail(e.status());
-    std::string dir = a.out + "/";
-    nlohmann::json doc = warpExperimentJson(*e);
-    if (Status s = writeText(dir + "warp.json", doc.dump(2)); !s) return fail(s);
-    if (Status s = writeText(dir + "latency.csv", latencyCsv(*e)); !s) return fail(s);
-    if (Status s = writeText(dir + "throughput.csv", throughputCsv(*e)); !s) return fail(s);
-    for (const auto& [file, svg] : warpPlots(*e))
-        if (Status s = writeText(dir + file, svg); !s) return fail(s);
-    if (a.json)
-        printJson(doc);
-    else
-        printTables(*e, dir);
-    return kExitOk;
+    auto files = warpPlots(*e);
+    files.emplace_back("latency.csv", latencyCsv(*e));
+    files.emplace_back("throughput.csv", throughputCsv(*e));
+    return finishExperiment(a.out, a.json, warpExperimentJson(*e), "warp.json", std::move(files),
+                            [&](const std::string& dir) { printTables(*e, dir); });
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include <plx/warp/warp.h>
 
 #include "commands.h"
+#include "experiment_remote.h"
 #include "experiment_warp.h"
 #include "view.h"
 
@@ -106,23 +107,6 @@ Result<std::vector<Camera>> pathCameras(const ClientArgs& a, IVec2 size,
     return cameras;
 }
 
-// The pose message of display frame f: its camera and the eye's velocity along the path
-// (central difference at the display rate; the server predicts with it).
-remote::PoseMessage poseMessage(const std::vector<Camera>& cameras, int f) {
-    const int n = int(cameras.size());
-    const Camera& cam = cameras[size_t(f % n)];
-    remote::PoseMessage m;
-    m.timestampUs = remote::clientNowUs();
-    m.pose = poseOf(cam);
-    if (n > 1) {
-        const int prev = std::max(0, f % n - 1), next = std::min(n - 1, f % n + 1);
-        Vec3 v = (cameras[size_t(next)].eyePos() - cameras[size_t(prev)].eyePos()) *
-                 float(kDisplayHz / double(next - prev));
-        if (std::isfinite(v.x) && glm::length(v) < 1000.0f) m.hasVelocity = true, m.velocity = v;
-    }
-    return m;
-}
-
 struct FrameStat {
     int frame = 0;
     double warpMs = 0.0, referenceAgeMs = 0.0, psnrDb = -1.0;
@@ -162,7 +146,7 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
             start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                         std::chrono::duration<double>(f / kDisplayHz)));
         const Camera& cam = cameras[size_t(f % int(cameras.size()))];
-        client.setPose(poseMessage(cameras, f));
+        client.setPose(displayPoseMessage(cameras, f, kDisplayHz));
         std::shared_ptr<const remote::ReceivedSet> ref = client.newest();
         const warp::ReferenceSet* sets[] = {&ref->set};
         FrameStat s;
@@ -249,7 +233,7 @@ int runClient(const ClientArgs& a) {
                              remote::kMinFaceSize, remote::kMaxFaceSize);
     auto client = remote::Client::create(cc);
     if (!client) return fail(client.status().message(), kExitUsage);
-    (*client)->setPose(poseMessage(*cameras, 0));
+    (*client)->setPose(displayPoseMessage(*cameras, 0, kDisplayHz));
     if (!(*client)->waitForFirst(a.waitS * 1000.0)) {
         Status fatal = (*client)->fatal();
         (*client)->stop();

@@ -32,7 +32,8 @@ int runDemo(const DemoArgs& a) {
     using Section = Status (*)(DemoContext&);
     for (Section section :
          {Section(demoRasterSection), Section(demoStereoSection), Section(demoWarpSection),
-          Section(demoDisplaySection), Section(demoPtmSection), Section(demoStreamSection)}) {
+          Section(demoRemoteSection), Section(demoDisplaySection), Section(demoPtmSection),
+          Section(demoStreamSection)}) {
         if (Status s = section(ctx); !s) return fail(s);
     }
     std::string index = a.out + "/index.html";

@@ -26,6 +26,11 @@ Status demoStereoSection(DemoContext& ctx);
 // (stale, timewarped, warped, the truth) and the PSNR-against-RTT plot. ctx.quick: tiny sizes.
 Status demoWarpSection(DemoContext& ctx);
 
+// Remote rendering (Mark, Bishop, McMillan): a short loopback session of server and warping
+// client at a few round trips; one frame at RTT 100 ms as warp, plain video and timewarp showed
+// it, and the PSNR-against-RTT plot. ctx.quick: tiny sizes, two round trips.
+Status demoRemoteSection(DemoContext& ctx);
+
 // Curved displays (Bimber et al.): the cone showcase's adaptive grid, the predistorted frame,
 // uniform against adaptive and the speedup plot. ctx.quick: two thresholds, small sizes.
 Status demoDisplaySection(DemoContext& ctx);

@@ -5,7 +5,11 @@
 // pose: the same message decoded by libs/remote and warped by warp::Warper. The browser warps the
 // same bytes to the same pose, so the two frames differ only by the two warps.
 //
-// Usage: plx_browser_fixture OUTDIR
+// With a server's address it writes the native client's frame from a live session instead
+// (tests/browser/browser_live_test.mjs): a libs/remote Client receives the server's set for the
+// reference pose and warps it to the destination pose.
+//
+// Usage: plx_browser_fixture OUTDIR [ws://HOST:PORT]
 
 #include <cstdio>
 #include <filesystem>
@@ -16,7 +20,9 @@
 
 #include <plx/core/image_io.h>
 #include <plx/raster/raster.h>
+#include <plx/remote/client.h>
 #include <plx/remote/protocol.h>
+#include <plx/remote/transport.h>
 #include <plx/scene/generators.h>
 #include <plx/warp/reference.h>
 
@@ -54,40 +60,10 @@ std::string vec(const Vec3& v) {
     return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", v.x, v.y, v.z);
 }
 
-Status run(const fs::path& out) {
-    PLX_RETURN_IF_ERROR(writeWeb(out / "web"));
-    Result<scene::Scene> scene = scene::generateFromSpec(kScene);
-    if (!scene) return scene.status();
-    Result<std::unique_ptr<raster::Renderer>> renderer = raster::Renderer::create({2});
-    if (!renderer) return renderer.status();
-    const warp::Pose pose = warp::poseAt(scene->viewpoints.front());
-    warp::ReferenceSetOptions options;
-    options.faceSize = kFaceSize;
-    remote::ReferenceSetMessage message;
-    PLX_RETURN_IF_ERROR(
-        warp::renderReferenceSet(**renderer, *scene, pose, options, &message.set));
-
-    // What the server sends a browser: its hello, then the set with the codec it picks for
-    // ClientHello's mask of q16-deflate only.
-    remote::ServerHello hello;
-    hello.faceSize = kFaceSize;
-    hello.poseRateHz = 60;
-    Result<std::vector<uint8_t>> helloBytes = remote::encodeMessage(hello);
-    if (!helloBytes) return helloBytes.status();
-    remote::CodecOptions codec;
-    Result<remote::DisparityCodec> chosen = remote::chooseDisparityCodec(
-        remote::disparityCodecBit(remote::DisparityCodec::kQuantized16Deflate));
-    if (!chosen) return chosen.status();
-    codec.disparity = *chosen;
-    Result<std::vector<uint8_t>> setBytes = remote::encodeMessage(message, codec);
-    if (!setBytes) return setBytes.status();
-    PLX_RETURN_IF_ERROR(writeBytes(out / "server_hello.bin", *helloBytes));
-    PLX_RETURN_IF_ERROR(writeBytes(out / "reference_set.bin", *setBytes));
-
-    // The native client: the same bytes decoded and warped.
-    Result<remote::Message> decoded = remote::decodeMessage(*setBytes);
-    if (!decoded) return decoded.status();
-    const warp::ReferenceSet& set = std::get<remote::ReferenceSetMessage>(*decoded).set;
+// The native client's frames of `set` (rendered for `pose`) at the destination pose (the
+// derivative and the point kernel) and pose.json: both poses, the hole count, the set's bytes.
+Status writeNative(const fs::path& out, const warp::ReferenceSet& set, const warp::Pose& pose,
+                   size_t setBytes) {
     const Vec3 right = glm::normalize(glm::cross(pose.forward, pose.up));
     const float turn = radians(10.0f);
     const Vec3 eye = pose.eye + 0.15f * right + 0.1f * pose.forward;
@@ -125,21 +101,88 @@ Status run(const fs::path& out) {
         {reinterpret_cast<const uint8_t*>(frame.color.data()), frame.color.pixelCount() * 4}));
     const std::string json = fmt::format(
         "{{\"width\": {}, \"height\": {}, \"eye\": {}, \"forward\": {}, \"up\": {}, "
-        "\"holePixels\": {}, \"setBytes\": {}}}\n",
-        kWidth, kHeight, vec(eye), vec(forward), vec(pose.up), stats.holePixels,
-        setBytes->size());
-    return writeBytes(out / "pose.json", {reinterpret_cast<const uint8_t*>(json.data()),
-                                          json.size()});
+        "\"reference\": {{\"eye\": {}, \"forward\": {}, \"up\": {}}}, \"holePixels\": {}, "
+        "\"setBytes\": {}}}\n",
+        kWidth, kHeight, vec(eye), vec(forward), vec(pose.up), vec(pose.eye), vec(pose.forward),
+        vec(pose.up), stats.holePixels, setBytes);
+    return writeBytes(out / "pose.json",
+                      {reinterpret_cast<const uint8_t*>(json.data()), json.size()});
+}
+
+Status runOffline(const fs::path& out, const scene::Scene& scene) {
+    PLX_RETURN_IF_ERROR(writeWeb(out / "web"));
+    Result<std::unique_ptr<raster::Renderer>> renderer = raster::Renderer::create({2});
+    if (!renderer) return renderer.status();
+    const warp::Pose pose = warp::poseAt(scene.viewpoints.front());
+    warp::ReferenceSetOptions options;
+    options.faceSize = kFaceSize;
+    remote::ReferenceSetMessage message;
+    PLX_RETURN_IF_ERROR(warp::renderReferenceSet(**renderer, scene, pose, options, &message.set));
+
+    // What the server sends a browser: its hello, then the set with the codec it picks for
+    // ClientHello's mask of q16-deflate only.
+    remote::ServerHello hello;
+    hello.faceSize = kFaceSize;
+    hello.poseRateHz = 60;
+    Result<std::vector<uint8_t>> helloBytes = remote::encodeMessage(hello);
+    if (!helloBytes) return helloBytes.status();
+    remote::CodecOptions codec;
+    Result<remote::DisparityCodec> chosen = remote::chooseDisparityCodec(
+        remote::disparityCodecBit(remote::DisparityCodec::kQuantized16Deflate));
+    if (!chosen) return chosen.status();
+    codec.disparity = *chosen;
+    Result<std::vector<uint8_t>> setBytes = remote::encodeMessage(message, codec);
+    if (!setBytes) return setBytes.status();
+    PLX_RETURN_IF_ERROR(writeBytes(out / "server_hello.bin", *helloBytes));
+    PLX_RETURN_IF_ERROR(writeBytes(out / "reference_set.bin", *setBytes));
+
+    // The native client: the same bytes decoded and warped.
+    Result<remote::Message> decoded = remote::decodeMessage(*setBytes);
+    if (!decoded) return decoded.status();
+    return writeNative(out, std::get<remote::ReferenceSetMessage>(*decoded).set, pose,
+                       setBytes->size());
+}
+
+// Live: the native client's frame from a running server. A libs/remote Client (the code of
+// `parallax client`) asks `url` for a set at the reference pose and warps the first one it
+// receives, as the page does with its own session.
+Status runLive(const fs::path& out, const scene::Scene& scene, const std::string& url) {
+    Result<remote::WsUrl> where = remote::parseWsUrl(url);
+    if (!where) return where.status();
+    remote::ClientConfig config;
+    config.host = where->host;
+    config.port = where->port;
+    config.path = where->path;
+    config.faceSize = kFaceSize;
+    Result<std::unique_ptr<remote::Client>> client = remote::Client::create(config);
+    if (!client) return client.status();
+    const warp::Pose pose = warp::poseAt(scene.viewpoints.front());
+    remote::PoseMessage message;
+    message.timestampUs = remote::clientNowUs();
+    message.pose = pose;
+    (*client)->setPose(message);
+    const bool arrived = (*client)->waitForFirst(20000.0);
+    std::shared_ptr<const remote::ReceivedSet> received = (*client)->newest();
+    const Status fatal = (*client)->fatal();
+    (*client)->stop();
+    if (!arrived || !received)
+        return {ErrorCode::kIoError,
+                fmt::format("no reference set from {}{}", url,
+                            fatal.isOk() ? std::string() : ": " + fatal.message())};
+    return writeNative(out, received->set, received->set.pose, received->bytes);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 2) {
-        std::fprintf(stderr, "usage: plx_browser_fixture OUTDIR\n");
+    if (argc != 2 && argc != 3) {
+        std::fprintf(stderr, "usage: plx_browser_fixture OUTDIR [ws://HOST:PORT]\n");
         return 2;
     }
-    const Status s = run(argv[1]);
+    Result<scene::Scene> scene = scene::generateFromSpec(kScene);
+    const Status s = !scene      ? scene.status()
+                     : argc == 3 ? runLive(argv[1], *scene, argv[2])
+                                 : runOffline(argv[1], *scene);
     if (!s.isOk()) {
         std::fprintf(stderr, "plx_browser_fixture: error: %s\n", s.message().c_str());
         return 1;

@@ -14,33 +14,15 @@ import {execFileSync} from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
 import path from 'node:path';
-import zlib from 'node:zlib';
 
-const SKIP = 77;
-const CHROMIUM = '/usr/bin/chromium';
-// Measured agreement of the two warps on this fixture (docs/remote-browser.md): identical frames
-// with chromium's SwiftShader; the bounds leave room for another GPU's rounding of splat edges.
-const MIN_PSNR_DB = 40;
-const TOLERANCE = 16;  // per channel, of 255
-const MIN_FRACTION_WITHIN = 0.99;
-const MIN_FRACTION_IDENTICAL = 0.95;
+import {checkAgainstNative, checker, checkPointKernel, launchChromium} from './common.mjs';
+
 const DEADLINE_MS = 55000;
 
 const [fixtureExe, outDir] = process.argv.slice(2);
 if (!fixtureExe || !outDir) {
     console.error('usage: node browser_test.mjs FIXTURE_EXE OUTDIR');
     process.exit(2);
-}
-if (!fs.existsSync(CHROMIUM)) {
-    console.log(`SKIP: ${CHROMIUM} is absent (scripts/install-deps.sh installs chromium)`);
-    process.exit(SKIP);
-}
-let chromium;
-try {
-    ({chromium} = await import('playwright-core'));
-} catch {
-    console.log('SKIP: playwright-core is not installed (npm ci in tests/browser)');
-    process.exit(SKIP);
 }
 
 // A hard bound on the whole test; playwright stops the browser it launched when node exits.
@@ -74,17 +56,8 @@ const server = http.createServer((req, res) => {
 await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
 const origin = `http://127.0.0.1:${server.address().port}`;
 
-const browser = await chromium.launch({
-    executablePath: CHROMIUM,
-    headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
-let failed = false;
-const check = (ok, text) => {
-    console.log(`${ok ? 'ok' : 'FAIL'}: ${text}`);
-    if (!ok) failed = true;
-};
+const browser = await launchChromium();
+const {check, failed} = checker();
 
 try {
     const page = await browser.newPage({viewport: {width: pose.width + 40, height: pose.height + 40}});
@@ -105,25 +78,13 @@ try {
     console.log(`browser: decode ${stats.decodeMs.toFixed(1)} ms, decode + warp + read back ${Date.now() - t0} ms ` +
                 '(headless SwiftShader)');
 
-    const browserRgba = Buffer.from(frame.rgba, 'base64');
-    const nativeRgba = fs.readFileSync(path.join(outDir, 'native.rgba'));
-    check(browserRgba.length === nativeRgba.length, `frame sizes agree (${browserRgba.length} bytes)`);
-    const r = compare(browserRgba, nativeRgba, pose.width, pose.height);
-    writePng(path.join(outDir, 'browser.png'), browserRgba, pose.width, pose.height);
-    writePng(path.join(outDir, 'diff.png'), r.diff, pose.width, pose.height);
-    console.log(`browser vs native: PSNR ${r.psnr.toFixed(2)} dB, ${(100 * r.within).toFixed(2)}% of pixels ` +
-                `within ${TOLERANCE}/255, ${(100 * r.exact).toFixed(2)}% identical ` +
-                `(${pose.holePixels} native hole pixels of ${pose.width * pose.height}; set ${pose.setBytes} bytes)`);
-    check(r.psnr >= MIN_PSNR_DB, `PSNR ${r.psnr.toFixed(2)} dB >= ${MIN_PSNR_DB} dB`);
-    check(r.within >= MIN_FRACTION_WITHIN, `${(100 * r.within).toFixed(2)}% >= ${100 * MIN_FRACTION_WITHIN}% within tolerance`);
-    check(r.exact >= MIN_FRACTION_IDENTICAL, `${(100 * r.exact).toFixed(2)}% >= ${100 * MIN_FRACTION_IDENTICAL}% of pixels identical`);
+    checkAgainstNative(check, Buffer.from(frame.rgba, 'base64'), fs.readFileSync(path.join(outDir, 'native.rgba')),
+                       pose.width, pose.height, outDir,
+                       ` (${pose.holePixels} native hole pixels of ${pose.width * pose.height}; set ${pose.setBytes} bytes)`);
 
     const pointFrame = await page.evaluate(([w, h]) => plxTest.render(w, h, 1), [pose.width, pose.height]);
-    const pr = compare(Buffer.from(pointFrame.rgba, 'base64'), fs.readFileSync(path.join(outDir, 'native_point.rgba')),
-                       pose.width, pose.height);
-    console.log(`point kernel, browser vs native: PSNR ${pr.psnr.toFixed(2)} dB, ${(100 * pr.exact).toFixed(2)}% identical`);
-    check(pr.exact >= MIN_FRACTION_IDENTICAL, `point kernel: ${(100 * pr.exact).toFixed(2)}% >= ` +
-          `${100 * MIN_FRACTION_IDENTICAL}% of pixels identical`);
+    checkPointKernel(check, Buffer.from(pointFrame.rgba, 'base64'), fs.readFileSync(path.join(outDir, 'native_point.rgba')),
+                     pose.width, pose.height);
 
     // The page's parser and decoders on damaged bytes: every truncated prefix of both messages
     // refused, bit flips decoded or refused, never another exception.
@@ -150,57 +111,4 @@ try {
     server.close();
     clearTimeout(deadline);
 }
-process.exit(failed ? 1 : 0);
-
-// PSNR over RGB, the fraction of pixels whose channels all lie within TOLERANCE, the identical
-// fraction, and a diff image (absolute difference, x4).
-function compare(a, b, w, h) {
-    let se = 0, within = 0, exact = 0;
-    const diff = Buffer.alloc(w * h * 4);
-    for (let i = 0; i < w * h; ++i) {
-        let worst = 0;
-        for (let c = 0; c < 3; ++c) {
-            const d = a[4 * i + c] - b[4 * i + c];
-            se += d * d;
-            worst = Math.max(worst, Math.abs(d));
-            diff[4 * i + c] = Math.min(255, 4 * Math.abs(d));
-        }
-        diff[4 * i + 3] = 255;
-        if (worst <= TOLERANCE) ++within;
-        if (worst === 0) ++exact;
-    }
-    const mse = se / (w * h * 3);
-    return {psnr: mse === 0 ? Infinity : 10 * Math.log10(255 * 255 / mse), within: within / (w * h),
-            exact: exact / (w * h), diff};
-}
-
-// A minimal RGBA PNG (for a person to look at the frames).
-function writePng(file, rgba, w, h) {
-    const crcTable = Array.from({length: 256}, (_, n) => {
-        let c = n;
-        for (let k = 0; k < 8; ++k) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
-        return c >>> 0;
-    });
-    const crc = (buf) => {
-        let c = 0xffffffff;
-        for (const x of buf) c = crcTable[(c ^ x) & 0xff] ^ (c >>> 8);
-        return (c ^ 0xffffffff) >>> 0;
-    };
-    const chunk = (type, data) => {
-        const len = Buffer.alloc(4);
-        len.writeUInt32BE(data.length);
-        const body = Buffer.concat([Buffer.from(type, 'ascii'), data]);
-        const sum = Buffer.alloc(4);
-        sum.writeUInt32BE(crc(body));
-        return Buffer.concat([len, body, sum]);
-    };
-    const header = Buffer.alloc(13);
-    header.writeUInt32BE(w, 0);
-    header.writeUInt32BE(h, 4);
-    header.set([8, 6, 0, 0, 0], 8);
-    const raw = Buffer.alloc((w * 4 + 1) * h);
-    for (let y = 0; y < h; ++y) rgba.copy(raw, y * (w * 4 + 1) + 1, y * w * 4, (y + 1) * w * 4);
-    fs.writeFileSync(file, Buffer.concat([Buffer.from([137, 80, 78, 71, 13, 10, 26, 10]),
-                                          chunk('IHDR', header), chunk('IDAT', zlib.deflateSync(raw)),
-                                          chunk('IEND', Buffer.alloc(0))]));
-}
+process.exit(failed() ? 1 : 0);

@@ -2,52 +2,14 @@
 // the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
 // arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
 
-#include <csignal>
-#include <cstdio>
-
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
+#include "serve_process.h"
 
 namespace {
 
 using namespace plx::testing;
-
-// A `parallax serve` in the background: its pid and the port from its first JSON line.
-class ServeProcess {
-public:
-    explicit ServeProcess(const std::string& args) {
-        // The shell prints its pid, then becomes the server (exec keeps the pid).
-        std::string cmd = "sh -c 'echo $$; exec timeout 60 " + std::string(PARALLAX_EXE) +
-                          " serve " + args + " --port 0 --json --seconds 30' 2>/dev/null";
-        mPipe = popen(cmd.c_str(), "r");
-        if (!mPipe) return;
-        char line[4096];
-        if (fgets(line, sizeof line, mPipe)) mPid = std::atoi(line);
-        if (fgets(line, sizeof line, mPipe))
-            listening = nlohmann::json::parse(line, nullptr, false);
-    }
-    ~ServeProcess() { stop(); }
-    int port() const { return listening.is_object() ? listening.value("port", 0) : 0; }
-    std::string url() const { return "ws://127.0.0.1:" + std::to_string(port()); }
-    // SIGTERM; returns the "stopped" JSON line and the exit code.
-    std::pair<nlohmann::json, int> stop() {
-        if (!mPipe) return {{}, -1};
-        if (mPid > 0) kill(mPid, SIGTERM);
-        std::string rest;
-        char buf[4096];
-        while (fgets(buf, sizeof buf, mPipe)) rest += buf;
-        int status = pclose(mPipe);
-        mPipe = nullptr;
-        return {nlohmann::json::parse(rest, nullptr, false),
-                WIFEXITED(status) ? WEXITSTATUS(status) : -1};
-    }
-    nlohmann::json listening;
-
-private:
-    FILE* mPipe = nullptr;
-    int mPid = 0;
-};
 
 TEST(RemoteCli, ServeAndClientEndToEnd) {
     ServeProcess server("office:1 --face-size 64");
@@ -126,6 +88,41 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
     // Nobody listening: the client retries with backoff, then gives up after --wait.
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --wait 0.5"),
                        "no reference set");
+}
+
+// bench remote's quick run: one real loopback session per RTT, every method's row with the
+// issue's JSON fields, the files; bad settings are one-line usage errors.
+TEST(RemoteCli, BenchRemoteQuickHasEveryMethodAtEveryRtt) {
+    fs::path dir = scratchDir("remote_cli") / "bench";
+    RunResult r = runParallax("bench remote --quick --out " + dir.string() + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto doc = nlohmann::json::parse(r.out);
+    for (const char* method : {"warp", "video", "timewarp"})
+        for (double rtt : {0.0, 100.0}) {
+            int found = 0;
+            for (const auto& row : doc["rows"])
+                if (row["method"] == method && row["rtt_ms"].get<double>() == rtt) {
+                    ++found;
+                    for (const char* key :
+                         {"rtt_ms", "bandwidth_mbit", "method", "client_fps", "psnr_db_median",
+                          "bytes_per_reference", "warp_ms_median", "references_per_s"})
+                        EXPECT_TRUE(row.contains(key)) << key;
+                    EXPECT_GT(row["client_fps"].get<double>(), 0.0);
+                    EXPECT_GT(row["psnr_db_median"].get<double>(), 5.0);
+                    EXPECT_GT(row["bytes_per_reference"].get<double>(), 0.0);
+                    EXPECT_GT(row["psnr_frames"].get<int>(), 0);
+                }
+            EXPECT_EQ(found, 1) << method << " at " << rtt << " ms";
+        }
+    EXPECT_TRUE(fs::exists(dir / "remote.csv"));
+    EXPECT_TRUE(fs::exists(dir / "remote.json"));
+    EXPECT_TRUE(fs::exists(dir / "psnr_vs_rtt_office_2.svg"));
+    expectOneLineError(runParallax("bench remote --quick --rtts=-5 --out " + dir.string()), "RTT",
+                       2);
+    expectOneLineError(runParallax("bench remote --quick --bandwidths 0 --out " + dir.string()),
+                       "bandwidth", 2);
+    expectOneLineError(runParallax("bench remote --quick --size 4x4 --out " + dir.string()), "4x4",
+                       2);
 }
 
 }  // namespace

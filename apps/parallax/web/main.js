@@ -8,7 +8,8 @@
 //
 // URL parameters: ws=PATH (the WebSocket path on this origin, default /ws), token=T, face=N
 // (requested face size, default 512), test (no socket: window.plxTest feeds messages through
-// the same parsing, decoding and warping code and reads back the frame).
+// the same parsing, decoding and warping code and reads back the frame), script (a live
+// session whose pose comes from window.plxScript instead of the keyboard and mouse).
 
 import {encodeClientHello, encodeError, encodePing, encodePose, Layout, MessageType, parseMessage,
         ProtocolError} from './protocol.js';
@@ -51,6 +52,7 @@ class Client {
                       bytes: 0, decodeMs: 0, frames: 0};
         this.setsWaiting = 0;  // reference sets received and not yet handled
         this.error = '';
+        this.held = false;  // plxScript.hold: no poses sent
     }
 
     // Every received message, in arrival order (decoding is asynchronous): a bad one stops the
@@ -119,7 +121,7 @@ class Client {
         this.stats.decodeMs = performance.now() - t0;
         this.warper.upload(m.set, decoded);
         this.lastSequence = m.sequence;
-        this.reference = {requestTimestampUs: m.requestTimestampUs, sequence: m.sequence};
+        this.reference = {requestTimestampUs: m.requestTimestampUs, sequence: m.sequence, pose: m.set.pose};
         this.stats.references += 1;
         this.stats.bytes = m.bytes;
         if (!this.pose) this.setPose(m.set.pose);
@@ -168,7 +170,8 @@ class Client {
     }
 
     sendPose() {
-        if (!this.pose || this.state !== 'session' || this.socket.bufferedAmount > MAX_BUFFERED_BYTES) return;
+        if (!this.pose || this.held || this.state !== 'session' ||
+            this.socket.bufferedAmount > MAX_BUFFERED_BYTES) return;
         const moving = this.velocity.some((v) => v !== 0);
         this.send(encodePose(nowUs(), this.pose, moving ? this.velocity : null));
     }
@@ -264,6 +267,33 @@ function base64(bytes) {
     return btoa(s);
 }
 
+// Warps the newest set to the client's pose on a w x h canvas and reads the frame back (the
+// hooks). maxSplat: 1 for the point kernel; the derivative splat's cap when absent.
+function readFrame(client, w, h, maxSplat) {
+    canvas.width = w;
+    canvas.height = h;
+    canvas.style.width = `${w}px`;
+    canvas.style.height = `${h}px`;
+    if (!client.render(w, h, maxSplat)) throw new Error('nothing to render (no reference set yet)');
+    return {width: w, height: h, rgba: base64(client.warper.readPixels(w, h))};
+}
+
+// The scripted hook on a live session: the page connects and speaks the protocol as usual, but
+// its pose comes from the script (sent at the server's pose rate, without velocity); hold(true)
+// stops sending poses, so the newest set stays the newest while the script renders other poses
+// from it.
+function scriptHook(client) {
+    overlay.textContent = 'scripted';
+    window.plxScript = {
+        setPose(pose) { client.setPose(pose); },
+        hold(on) { client.held = on; },
+        newest: () => (client.reference ? {...client.reference} : null),
+        render: (w, h, maxSplat) => readFrame(client, w, h, maxSplat),
+        stats: () => ({...client.stats, error: client.error, state: client.state}),
+        ready: true,
+    };
+}
+
 // The test hook: messages from files through the socket path's code, an exact pose, the frame.
 function testHook(client) {
     overlay.textContent = 'test mode';
@@ -280,15 +310,7 @@ function testHook(client) {
             return client.error;
         },
         setPose(pose) { client.setPose(pose); },
-        // maxSplat: 1 for the point kernel; the derivative splat's cap when absent.
-        render(w, h, maxSplat) {
-            canvas.width = w;
-            canvas.height = h;
-            canvas.style.width = `${w}px`;
-            canvas.style.height = `${h}px`;
-            if (!client.render(w, h, maxSplat)) throw new Error('nothing to render (no reference set yet)');
-            return {width: w, height: h, rgba: base64(client.warper.readPixels(w, h))};
-        },
+        render: (w, h, maxSplat) => readFrame(client, w, h, maxSplat),
         stats: () => ({...client.stats, error: client.error, state: client.state}),
         // The message at `url` damaged: every truncated prefix must be refused by the parser, and
         // `flips` single-bit flips (a fixed pseudo-random sequence) must parse and decode or be
@@ -333,6 +355,9 @@ try {
     if (params.has('test')) {
         client.state = 'hello';
         testHook(client);
+    } else if (params.has('script')) {
+        scriptHook(client);
+        connect(client);
     } else {
         connect(client);
         interactive(client);

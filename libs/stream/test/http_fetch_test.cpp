@@ -4,10 +4,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
-#include <signal.h>
-#include <spawn.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,6 +20,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <plx_test/nginx.h>
 
 #include <plx/ptm/format.h>
 #include <plx/scene/generators.h>
@@ -32,8 +30,6 @@
 #include <plx/stream/http_fetch.h>
 #include <plx/stream/link_simulator.h>
 #include <plx/stream/visibility.h>
-
-extern char** environ;
 
 namespace plx::stream {
 namespace {
@@ -376,72 +372,22 @@ TEST(HttpFetchHostile, NoServerFailsAfterBoundedTries) {
     EXPECT_NE(done.status.message().find("(3 tries)"), std::string::npos);
 }
 
-// nginx (Debian nginx-light) over a built database, run as the current user with every path
-// inside a temporary folder, stopped when the test ends.
-class Nginx {
+// nginx (Debian nginx-light) over a built database: the configuration docs/stream-http.md shows,
+// serving `db` at /db/ and, throttled to `limitRate` bytes/s, at /slow/.
+class Nginx : public plx::testing::NginxProcess {
 public:
-    // Starts nginx serving `db` at /db/ and, throttled to `limitRate` bytes/s, at /slow/.
-    Nginx(const fs::path& tmp, const fs::path& db, uint64_t limitRate) : mTmp(tmp) {
-        mPort = freePort();
-        std::ofstream conf(tmp / "nginx.conf");
-        conf << nginxConfig(tmp, db, limitRate, mPort);
-        conf.close();
-        const std::string prefix = tmp.string() + "/", confPath = (tmp / "nginx.conf").string(),
-                          errorLog = (tmp / "error.log").string();
-        const char* argv[] = {kNginx,           "-p", prefix.c_str(),   "-c",
-                              confPath.c_str(), "-e", errorLog.c_str(), nullptr};
-        if (posix_spawn(&mPid, kNginx, nullptr, nullptr, const_cast<char**>(argv), environ) != 0) {
-            mPid = -1;
-        }
-    }
-    ~Nginx() {
-        if (mPid <= 0) return;
-        kill(mPid, SIGTERM);
-        int status = 0;
-        waitpid(mPid, &status, 0);
-    }
-    // Waits (at most 10 s) until nginx accepts connections; false when it exited or never did.
-    bool ready() {
-        for (int i = 0; i < 500 && mPid > 0; ++i) {
-            int status = 0;
-            if (waitpid(mPid, &status, WNOHANG) == mPid) {
-                mPid = -1;
-                return false;
-            }
-            int fd = socket(AF_INET, SOCK_STREAM, 0);
-            sockaddr_in a{};
-            a.sin_family = AF_INET;
-            a.sin_port = htons(mPort);
-            a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-            bool ok = ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-            close(fd);
-            if (ok) return true;
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
-        return false;
-    }
-    std::string url(const char* location) const {
-        return "http://127.0.0.1:" + std::to_string(mPort) + "/" + location;
-    }
-    std::string errorLog() const {
-        auto b = fileBytes(mTmp / "error.log");
-        return {b.begin(), b.end()};
-    }
+    Nginx(const fs::path& tmp, const fs::path& db, uint64_t limitRate)
+        : Nginx(tmp, db, limitRate, plx::testing::freeLoopbackPort()) {}
 
-    static constexpr const char* kNginx = "/usr/sbin/nginx";
+private:
+    Nginx(const fs::path& tmp, const fs::path& db, uint64_t limitRate, uint16_t port)
+        : NginxProcess(tmp, nginxConfig(tmp, db, limitRate, port), port) {}
 
-    // The configuration docs/stream-http.md shows.
     static std::string nginxConfig(const fs::path& tmp, const fs::path& db, uint64_t limitRate,
                                    uint16_t port) {
-        const std::string t = tmp.string(), d = db.string();
+        const std::string d = db.string();
         std::ostringstream c;
-        c << "daemon off;\nworker_processes 1;\npid " << t << "/nginx.pid;\nerror_log " << t
-          << "/error.log;\nevents { worker_connections 64; }\nhttp {\n"
-          << "    access_log " << t << "/access.log;\n"
-          << "    client_body_temp_path " << t << "/body;\n    proxy_temp_path " << t
-          << "/proxy;\n    fastcgi_temp_path " << t << "/fastcgi;\n    uwsgi_temp_path " << t
-          << "/uwsgi;\n    scgi_temp_path " << t << "/scgi;\n"
-          << "    types { application/json json; model/gltf-binary glb; }\n"
+        c << prelude(tmp) << "    types { application/json json; model/gltf-binary glb; }\n"
           << "    default_type application/octet-stream;\n"
           << "    server {\n        listen 127.0.0.1:" << port << ";\n"
           << "        location /db/ { alias " << d << "/; }\n"
@@ -449,23 +395,6 @@ public:
           << "    }\n}\n";
         return c.str();
     }
-
-private:
-    static uint16_t freePort() {
-        int fd = socket(AF_INET, SOCK_STREAM, 0);
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-        socklen_t len = sizeof a;
-        getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-        close(fd);
-        return ntohs(a.sin_port);
-    }
-
-    fs::path mTmp;
-    uint16_t mPort = 0;
-    pid_t mPid = -1;
 };
 
 struct Expected {

@@ -1,0 +1,56 @@
+#pragma once
+// A `parallax serve` started by a test in the background, on a free loopback port (--port 0),
+// stopping by itself after 30 s at most: the integration tests of remote sessions (the CLI's
+// own, the reverse-proxy test).
+
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+namespace plx::testing {
+
+// A `parallax serve` in the background: its pid and the port from its first JSON line.
+class ServeProcess {
+public:
+    explicit ServeProcess(const std::string& args) {
+        // The shell prints its pid, then becomes the server (exec keeps the pid).
+        std::string cmd = "sh -c 'echo $$; exec timeout 60 " + std::string(PARALLAX_EXE) +
+                          " serve " + args + " --port 0 --json --seconds 30' 2>/dev/null";
+        mPipe = popen(cmd.c_str(), "r");
+        if (!mPipe) return;
+        char line[4096];
+        if (fgets(line, sizeof line, mPipe)) mPid = std::atoi(line);
+        if (fgets(line, sizeof line, mPipe))
+            listening = nlohmann::json::parse(line, nullptr, false);
+    }
+    ServeProcess(const ServeProcess&) = delete;
+    ServeProcess& operator=(const ServeProcess&) = delete;
+    ~ServeProcess() { stop(); }
+    int port() const { return listening.is_object() ? listening.value("port", 0) : 0; }
+    std::string url() const { return "ws://127.0.0.1:" + std::to_string(port()); }
+    // SIGTERM; returns the "stopped" JSON line and the exit code.
+    std::pair<nlohmann::json, int> stop() {
+        if (!mPipe) return {{}, -1};
+        if (mPid > 0) kill(mPid, SIGTERM);
+        std::string rest;
+        char buf[4096];
+        while (fgets(buf, sizeof buf, mPipe)) rest += buf;
+        int status = pclose(mPipe);
+        mPipe = nullptr;
+        return {nlohmann::json::parse(rest, nullptr, false),
+                WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+    }
+    nlohmann::json listening;
+
+private:
+    FILE* mPipe = nullptr;
+    int mPid = 0;
+};
+
+}  // namespace plx::testing

@@ -5,6 +5,8 @@
 //   bench stereo       Heo, Jung, Wohn Table 1 and Fig. 17 (full vs P-buffer stereo pairs), with
 //                      the reproject method of Fu, Bao, Peng and its paper's timing table
 //   bench warp         Mark, Bishop, McMillan: stale, timewarp and warp against the RTT
+//   bench stream       Marvie, Bouatouch section 7 (texture streaming walks, frame time against a
+//                      full-resolution baseline) and the ACH allocation against LRU and equal split
 
 #include "bench.h"
 #include "commands.h"
@@ -15,7 +17,7 @@ Command registerBench(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Run the papers' experiments (CSV, JSON, SVG)");
     bench->require_subcommand(1);
     std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench),
-                                    addBenchWarp(bench)};
+                                     addBenchWarp(bench), addBenchStream(bench)};
     return {bench, [children] {
                 for (const Command& c : children)
                     if (c.app->parsed()) return c.run();

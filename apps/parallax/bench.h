@@ -8,6 +8,7 @@ namespace plx::cli {
 
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);
+Command addBenchStream(CLI::App* bench);
 Command addBenchWarp(CLI::App* bench);
 
 }  // namespace plx::cli

@@ -67,11 +67,11 @@ struct BandwidthRun {
     std::vector<std::pair<double, Image<Rgba8>>> shots;  // (simulated s, frame)
 };
 
-// The full-resolution baseline of Fig. 2 bottom: the whole scene, every texture decoded at full
-// resolution from the database before the walk, no budget.
+// The full-resolution baseline of Fig. 2 bottom: the whole scene with every texture at full
+// resolution (the generated scene's, which the lossless PTM files decode to), no budget.
 struct BaselineRun {
     std::vector<double> frameMs;  // render per frame
-    double loadMs = 0.0;          // decoding every PTM file and building the mip chains
+    double loadMs = 0.0;          // decoding every PTM file of the database, with mip chains
     uint64_t textureBytes = 0;    // resident texel bytes (every texture, full chain)
 };
 

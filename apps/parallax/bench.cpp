@@ -7,6 +7,8 @@
 //   bench warp         Mark, Bishop, McMillan: stale, timewarp and warp against the RTT
 //   bench remote       the same system over real sockets: warp vs video vs timewarp, RTT and
 //                      bandwidth emulated on loopback
+//   bench stream       Marvie, Bouatouch section 7 (texture streaming walks, frame time against a
+//                      full-resolution baseline) and the ACH allocation against LRU and equal split
 
 #include "bench.h"
 
@@ -45,7 +47,8 @@ Command registerBench(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Run the papers' experiments (CSV, JSON, SVG)");
     bench->require_subcommand(1);
     std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench),
-                                     addBenchWarp(bench), addBenchRemote(bench)};
+                                     addBenchWarp(bench), addBenchRemote(bench),
+                                     addBenchStream(bench)};
     return {bench, [children] {
                 for (const Command& c : children)
                     if (c.app->parsed()) return c.run();

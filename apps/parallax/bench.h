@@ -42,6 +42,7 @@ int finishExperiment(const std::string& out, bool json, const nlohmann::json& do
 
 Command addBenchPredistort(CLI::App* bench);
 Command addBenchStereo(CLI::App* bench);
+Command addBenchStream(CLI::App* bench);
 Command addBenchWarp(CLI::App* bench);
 Command addBenchRemote(CLI::App* bench);
 

@@ -12,6 +12,7 @@
 #include <plx/stereo/path.h>
 #include <plx/stream/client.h>
 #include <plx/stream/link_simulator.h>
+#include <plx/stream/tour.h>
 
 #include "commands.h"
 
@@ -26,6 +27,9 @@ struct WalkArgs {
     double tStaticS = 1.0;
     std::string path;
     int walk = -1;
+    bool tour = false;
+    std::string policy = "ach";
+    double stopS = stream::TourConfig{}.stopS;
     std::string size = "640x480";
     double fps = 30.0;
     std::string out;
@@ -53,33 +57,74 @@ Status checkArgs(const WalkArgs& a) {
     if (a.walk != -1 && (a.walk < 1 || a.walk > 100000))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--walk {} outside 1 .. 100000", a.walk));
-    if (a.walk > 0 && !a.path.empty())
-        return errorStatus(ErrorCode::kInvalidArgument, "--walk and --path exclude each other");
-    if (a.walk <= 0 && a.path.empty())
-        return errorStatus(ErrorCode::kInvalidArgument, "give --path P.json or --walk N");
+    PLX_RETURN_IF_ERROR(checkRange("--stop", a.stopS, 0.0, 3600.0));
+    const int walks = int(a.walk > 0) + int(!a.path.empty()) + int(a.tour);
+    if (walks > 1)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "--walk, --path and --tour exclude each other");
+    if (walks == 0)
+        return errorStatus(ErrorCode::kInvalidArgument, "give --path P.json, --walk N or --tour");
+    PLX_RETURN_IF_ERROR(stream::parsePolicy(a.policy).status());
     return parseSize(a.size).status();
 }
 
-// The root file through the transport, before the walk (the built-in walk starts from its
-// first viewpoint). Waits at most 30 s of wall time for a real transport.
-Result<stream::RootFile> fetchRoot(stream::Fetcher& fetcher) {
-    fetcher.submit({0, "root.json", std::nullopt, stream::kMaxRootBytes}, 0.0);
+// One whole file through the transport, before the walk (the root for the built-in walk's
+// first viewpoint, the cells for the tour). Waits at most 30 s of wall time for a real one.
+Result<std::vector<uint8_t>> fetchFile(stream::Fetcher& fetcher, const std::string& path,
+                                       uint64_t maxBytes) {
+    fetcher.submit({0, path, std::nullopt, maxBytes}, 0.0);
     auto start = std::chrono::steady_clock::now();
     for (;;) {
         double waited =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         for (stream::FetchCompletion& c : fetcher.poll(1e9)) {
             if (!c.status) return c.status;
-            return stream::parseRoot(c.bytes);
+            return std::move(c.bytes);
         }
-        if (waited > 30.0) return errorStatus(ErrorCode::kIoError, "root.json: no answer in 30 s");
+        if (waited > 30.0)
+            return errorStatus(ErrorCode::kIoError, fmt::format("{}: no answer in 30 s", path));
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
 }
 
-Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFile& root) {
+Result<stream::RootFile> fetchRoot(stream::Fetcher& fetcher) {
+    auto bytes = fetchFile(fetcher, "root.json", stream::kMaxRootBytes);
+    if (!bytes) return bytes.status();
+    return stream::parseRoot(*bytes);
+}
+
+// The tour through every cell (section 7.1) from the cells' hulls, each cell file fetched once.
+Result<std::vector<stereo::Pose>> tourPoses(stream::Fetcher& fetcher, const stream::RootFile& root,
+                                            double stopS, double fps) {
+    std::vector<Aabb> boxes;
+    for (uint32_t c = 0; c < root.cells; ++c) {
+        const std::string url = stream::cellUrl(c);
+        auto bytes = fetchFile(fetcher, url, stream::kMaxCellFileBytes);
+        if (!bytes) return bytes.status();
+        auto cell = stream::parseCell(*bytes);
+        if (!cell)
+            return errorStatus(cell.status().code(),
+                               fmt::format("{}: {}", url, cell.status().message()));
+        boxes.push_back({cell->hullMin, cell->hullMax});
+    }
+    stream::TourConfig config;
+    config.stopS = stopS;
+    config.fps = fps;
+    auto tour = stream::roomTour(boxes, config);
+    if (!tour) return tour.status();
     std::vector<stereo::Pose> poses;
-    if (a.walk > 0) {
+    for (const stream::TourPose& t : *tour) poses.push_back({t.eyePos, t.targetPos});
+    return poses;
+}
+
+Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFile& root,
+                                        stream::Fetcher& fetcher) {
+    std::vector<stereo::Pose> poses;
+    if (a.tour) {
+        auto tour = tourPoses(fetcher, root, a.stopS, a.fps);
+        if (!tour) return tour.status();
+        poses = std::move(tour).value();
+    } else if (a.walk > 0) {
         scene::Scene s;  // the built-in walk needs only the start viewpoint
         const stream::RootViewpoint& v = root.viewpoints.front();
         s.viewpoints.push_back({v.name, v.eyePos, v.targetPos, v.upDir, v.fovYDegrees});
@@ -124,13 +169,14 @@ int runWalk(const WalkArgs& a) {
     if (!probe) return fail(probe.status());
     auto root = fetchRoot(**probe);
     if (!root) return fail(root.status());
-    auto cameras = walkCameras(a, *root);
+    auto cameras = walkCameras(a, *root, **probe);
     if (!cameras) return fail(cameras.status());
 
     stream::ClientConfig config;
     config.budgetBytes = megabytes(a.budgetMb);
     config.staticBudgetBytes = megabytes(a.staticBudgetMb);
     config.dtMaxS = a.dtMaxS, config.dtMaxStaticS = a.dtMaxStaticS, config.tStaticS = a.tStaticS;
+    config.policy = stream::parsePolicy(a.policy).value();
     stream::StreamClient client(fetcher->get(), config);
 
     auto renderer = raster::Renderer::create();
@@ -194,6 +240,7 @@ int runWalk(const WalkArgs& a) {
                    {"quality_final", last.quality},
                    {"failed_requests", client.failedRequests()},
                    {"bandwidth_kbit", a.bandwidthKbit},
+                   {"policy", a.policy},
                    {"per_frame", frames}});
     } else {
         fmt::print(
@@ -214,8 +261,10 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         "Walk through a streaming database, simulated link or HTTP (Marvie & Bouatouch 6, 7)");
     walk->footer(
         "Example: parallax stream walk out/museum64 --bandwidth 56 --walk 600 --json\n"
+        "         parallax stream walk out/m16 --tour --stop 10 --bandwidth 56 --latency 50\n"
         "DIR is a database folder (a simulated link: --bandwidth, --latency) or "
         "http://HOST:PORT/PATH (any web server with Range requests; frames paced in real time). "
+        "--tour walks through every cell (centres in rows, at eye height, --stop s still in each). "
         "Frames advance a simulated clock at --fps. The budgets are M^mem (moving) and "
         "M^mem_static (after --t-static s unmoved); --dt-max caps a level's estimated download "
         "time. Frames draw the downloaded geometry with the resident levels only (grey where none "
@@ -236,8 +285,15 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         ->capture_default_str();
     walk->add_option("--t-static", a->tStaticS, "Seconds unmoved before the static parameters")
         ->capture_default_str();
+    walk->add_option("--policy", a->policy,
+                     "Budget allocation: ach (the paper), lru or equal (baselines)")
+        ->capture_default_str();
     walk->add_option("--path", a->path, "Walkthrough: a JSON list of poses");
     walk->add_option("--walk", a->walk, "Walkthrough: N poses of the built-in walk");
+    walk->add_flag("--tour", a->tour,
+                   "Walkthrough: every cell in serpentine order at 1.2 m/s (section 7.1)");
+    walk->add_option("--stop", a->stopS, "Seconds standing still in each cell of --tour")
+        ->capture_default_str();
     walk->add_option("--size", a->size, "Frame size WxH")->capture_default_str();
     walk->add_option("--fps", a->fps, "Frames per simulated second")->capture_default_str();
     walk->add_option("--out", a->out, "Folder for frames.csv");

@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <set>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
@@ -58,9 +60,35 @@ TEST(StreamWalkCli, StaticViewpointReachesFullQuality) {
     EXPECT_EQ(doc["failed_requests"], 0);
 }
 
+// The tour through every room (section 7.1): four rooms, 2 s still in each, under each policy.
+TEST(StreamWalkCli, TourThroughEveryRoom) {
+    for (const char* policy : {"ach", "lru", "equal"}) {
+        RunResult r = runParallax("stream walk " + walkDb().string() +
+                                  " --tour --stop 2 --size 64x48 --budget 0.25 --static-budget 0.5"
+                                  " --policy " +
+                                  policy + " --json");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        auto doc = nlohmann::json::parse(r.out);
+        EXPECT_EQ(doc["policy"], policy);
+        // museum:4 is 2 x 2 rooms of 10 m: three legs of 10 m at 1.2 m/s (250 frames each at
+        // 30 fps) and 60 still frames in each room.
+        EXPECT_EQ(doc["frames"], 3 * 250 + 4 * 60);
+        std::set<int> cells;
+        for (const auto& f : doc["per_frame"]) {
+            cells.insert(f["cell"].get<int>());
+            EXPECT_LE(f["resident_bytes"].get<uint64_t>(), f["budget_bytes"].get<uint64_t>());
+        }
+        cells.erase(-1);  // the frames before the first cell arrived
+        EXPECT_EQ(cells, (std::set<int>{0, 1, 2, 3}));
+    }
+}
+
 TEST(StreamWalkCli, BadArgumentsAreOneLineErrors) {
     const std::string db = walkDb().string();
-    expectOneLineError(runParallax("stream walk " + db), "--path P.json or --walk N", 2);
+    expectOneLineError(runParallax("stream walk " + db), "--walk N or --tour", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --tour --walk 5"), "exclude", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --tour --stop -1"), "--stop", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk 5 --policy fifo"), "policy", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 0"), "--walk", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --budget -1"), "--budget", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --fps 0"), "--fps", 2);
@@ -88,10 +116,14 @@ TEST(StreamWalkCli, DemoQuickHasTheStreamSection) {
     ASSERT_EQ(walks.size(), 4u);
     for (size_t i = 0; i < walks.size(); ++i) {
         EXPECT_LE(walks[i]["max_resident_bytes"], walks[i]["budget_bytes"]);
-        if (i > 0) EXPECT_GE(walks[i]["quality_final"], walks[i - 1]["quality_final"]);
+        if (i > 0) {
+            EXPECT_GE(walks[i]["quality_final"], walks[i - 1]["quality_final"]);
+        }
     }
     EXPECT_GT(walks.back()["quality_final"].get<double>(), 0.5);
-    for (const char* file : {"stream_quality.svg", "stream_resident.svg", "stream_10s.png"})
+    EXPECT_EQ(doc["stream"]["policies"].size(), 6u);  // three policies at two budgets
+    for (const char* file : {"stream_quality.svg", "stream_resident.svg", "stream_10s.png",
+                             "stream_frame_time.svg", "stream_policies.svg"})
         EXPECT_TRUE(fs::exists(dir / file)) << file;
 }
 

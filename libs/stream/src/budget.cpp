@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include <fmt/format.h>
+
 namespace plx::stream {
 
 uint64_t PtmNode::chainBytes(int levels) const {
@@ -72,6 +74,40 @@ uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
         used += cellUsed;
     }
     return used;
+}
+
+std::string_view policyName(AllocationPolicy policy) {
+    switch (policy) {
+        case AllocationPolicy::kAch:
+            return "ach";
+        case AllocationPolicy::kLru:
+            return "lru";
+        case AllocationPolicy::kEqualSplit:
+            return "equal";
+    }
+    return "ach";
+}
+
+Result<AllocationPolicy> parsePolicy(std::string_view name) {
+    for (AllocationPolicy p :
+         {AllocationPolicy::kAch, AllocationPolicy::kLru, AllocationPolicy::kEqualSplit})
+        if (policyName(p) == name) return p;
+    return errorStatus(
+        ErrorCode::kInvalidArgument,
+        fmt::format("unknown allocation policy '{}' (ach, lru or equal)", name.substr(0, 40)));
+}
+
+uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint64_t budget,
+                  std::vector<PtmNode>& nodes, double nowS) {
+    switch (policy) {
+        case AllocationPolicy::kAch:
+            return allocateBudget(std::move(cells), budget, nodes);
+        case AllocationPolicy::kLru:
+            return allocateLru(cells, budget, nodes, nowS);
+        case AllocationPolicy::kEqualSplit:
+            return allocateEqualSplit(cells, budget, nodes);
+    }
+    return 0;
 }
 
 }  // namespace plx::stream

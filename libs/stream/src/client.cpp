@@ -340,12 +340,13 @@ FrameReport StreamClient::frame(const Camera& camera, double nowS) {
         }
     }
 
-    // 6.1 and 6.2: every node's N is this frame's; nodes outside the visible cells get none.
+    // 6.1 and 6.2 (or a baseline policy): every node's N is this frame's; nodes outside the
+    // visible cells get none, except what the LRU policy lets them keep.
     for (PtmNode& n : mNodes) n.saved = 0;
     if (mCurrentCell >= 0) {
         std::vector<VisibleCell> visible = visibleCells(camera);
         report.visibleCells = int(visible.size());
-        allocateBudget(std::move(visible), budget, mNodes);
+        allocate(mConfig.policy, std::move(visible), budget, mNodes, nowS);
     }
     enforceCap(budget);
     uint64_t resident = 0;

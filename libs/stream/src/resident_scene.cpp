@@ -11,11 +11,18 @@ constexpr float kMissingGrey = 0.5f;
 
 }  // namespace
 
-Result<scene::Scene> StreamClient::residentScene() {
+Result<scene::Scene> StreamClient::residentScene(
+    const std::map<std::string, scene::Texture>* fullTextures) {
     scene::Scene out;
     if (mCurrentCell < 0 || !mCells[size_t(mCurrentCell)].file)
         return errorStatus(ErrorCode::kNotFound, "no cell downloaded yet");
-    std::map<int, int> textureOfNode;
+    // Each texture goes into the scene once, however many primitives use it.
+    std::map<const scene::Texture*, int> slotOf;
+    auto slot = [&](const scene::Texture& t) {
+        auto [it, added] = slotOf.emplace(&t, int(out.textures.size()));
+        if (added) out.textures.push_back(t);
+        return it->second;
+    };
     for (const PvsUrlEntry& e : mCells[size_t(mCurrentCell)].file->pvs) {
         auto idx = cellIndexOfUrl(e.url, mRoot->cells);
         if (!idx) continue;
@@ -23,10 +30,18 @@ Result<scene::Scene> StreamClient::residentScene() {
             if (p.indices.empty()) continue;
             scene::Material m;
             m.baseColor = p.baseColor;
-            auto node = mNodeOfUrl.find(p.ptmUrl);
             if (!p.ptmUrl.empty()) m.baseColor = Vec4(Vec3(kMissingGrey), 1.0f);
-            if (node != mNodeOfUrl.end() && mNodes[size_t(node->second)].resident > 0 &&
-                p.uvs.size() == p.positions.size()) {
+            const bool hasUvs = p.uvs.size() == p.positions.size();
+            auto node = mNodeOfUrl.find(p.ptmUrl);
+            const scene::Texture* full = nullptr;
+            if (fullTextures)
+                if (auto it = fullTextures->find(p.ptmUrl); it != fullTextures->end())
+                    full = &it->second;
+            if (hasUvs && full) {
+                m.baseColor = Vec4(1.0f);
+                m.baseColorTexture = slot(*full);
+            } else if (hasUvs && node != mNodeOfUrl.end() &&
+                       mNodes[size_t(node->second)].resident > 0) {
                 int n = node->second, r = mNodes[size_t(n)].resident;
                 CachedTexture& cached = mTextureCache[n];
                 if (cached.resident != r) {
@@ -37,10 +52,8 @@ Result<scene::Scene> StreamClient::residentScene() {
                     scene::buildMipChain(&cached.texture);
                     cached.resident = r;
                 }
-                auto [slot, added] = textureOfNode.emplace(n, int(out.textures.size()));
-                if (added) out.textures.push_back(cached.texture);
                 m.baseColor = Vec4(1.0f);
-                m.baseColorTexture = slot->second;
+                m.baseColorTexture = slot(cached.texture);
             }
             scene::Mesh mesh;
             mesh.positions = p.positions;

@@ -10,8 +10,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include <plx/core/status.h>
 
 namespace plx::stream {
 
@@ -25,6 +29,9 @@ struct PtmNode {
     bool downloading = false;               // a level request is queued or on the link
     bool failed = false;                    // skipped after its retries: never offered budget
     uint64_t saved = 0;                     // N: budget kept during this frame's computeVS calls
+    // When a visible cell last held the node (simulated seconds); -infinity: never. Only the
+    // LRU policy reads it.
+    double lastSeenS = -std::numeric_limits<double>::infinity();
 
     int total() const { return int(levelBytes.size()); }
     // S: bytes of the chain of the first `levels` levels (levels 0..levels-1).
@@ -65,5 +72,43 @@ struct VisibleCell {
 // Returns M_used over all cells (<= budget).
 uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
                         std::vector<PtmNode>& nodes);
+
+// How the client shares the memory budget among the PTM nodes of the visible cells each frame,
+// by setting every node's `saved` (N) before refreshResident. A closed set: the paper's rule
+// and two baselines for the comparison of section 7 (docs/stream-results.md). Every policy
+// hands out at most the budget (the sum of the nodes' `saved` stays <= budget).
+enum class AllocationPolicy {
+    kAch,  // Marvie 6.1 and 6.2: cells by normalised ACH, nodes keep or return (allocateBudget)
+    kLru,  // a texture cache: next levels on demand, least recently seen evicted (allocateLru)
+    kEqualSplit,  // every texture in view gets the same share (allocateEqualSplit)
+};
+
+// "ach", "lru", "equal".
+std::string_view policyName(AllocationPolicy policy);
+// The inverse of policyName. Errors: any other text (the message lists the names).
+Result<AllocationPolicy> parsePolicy(std::string_view name);
+
+// Equal split: the distinct nodes of `cells` (failed ones excepted) share `budget` equally; a
+// node whose whole chain needs less than its share keeps only that and the rest is shared again
+// among the others (water-filling, smallest chains first). A share is then rounded down to the
+// chain of whole levels it holds, and what rounding frees goes once more to the nodes, smallest
+// next level first, one level each while it fits. Nodes outside `cells` get nothing. Nodes'
+// `saved` must be reset before. Returns the bytes handed out (<= budget).
+uint64_t allocateEqualSplit(const std::vector<VisibleCell>& cells, uint64_t budget,
+                            std::vector<PtmNode>& nodes);
+
+// LRU: a texture cache over mipmap levels. The nodes of `cells` are seen at nowS; each keeps its
+// resident chain, then asks for its next level (a miss), served in node order (the order the
+// nodes were registered, which is the drawing order) while the budget left holds it; nodes not
+// seen this frame keep their levels with what is left after that, the most recently seen first,
+// so the least recently seen lose theirs first (top level first). A node seen this frame is
+// never evicted for another one seen this frame (no thrashing). Nodes' `saved` must be reset
+// before. Returns the bytes handed out (<= budget).
+uint64_t allocateLru(const std::vector<VisibleCell>& cells, uint64_t budget,
+                     std::vector<PtmNode>& nodes, double nowS);
+
+// The policy's allocation (one of the three above).
+uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint64_t budget,
+                  std::vector<PtmNode>& nodes, double nowS);
 
 }  // namespace plx::stream

@@ -33,6 +33,8 @@ struct ClientConfig {
     int maxRetries = 2;           // a failed request is retried this often, then skipped
     int maxInFlight = 2;          // requests on the link at once: one transferring, one waiting
     int bandwidthWindow = 8;      // K: the estimator looks at the last K completions
+    // Who gets the budget: the paper's ACH rule, or a baseline for the comparison of section 7.
+    AllocationPolicy policy = AllocationPolicy::kAch;
 };
 
 // One frame's figures.
@@ -85,8 +87,11 @@ public:
     // The geometry of the current cell's PVS as downloaded so far, for the renderer: textured
     // materials carry their highest resident level (with a mip chain built below it); a texture
     // with no level resident draws in flat grey (0.5 linear), as does its surface until then.
-    // Errors: no geometry yet.
-    Result<scene::Scene> residentScene();
+    // With `fullTextures` (URL -> texture with its mip chain), every texture it names draws from
+    // there instead of its resident level: the same geometry at full texture resolution, the
+    // reference frames of the allocation comparison. Errors: no geometry yet.
+    Result<scene::Scene> residentScene(
+        const std::map<std::string, scene::Texture>* fullTextures = nullptr);
     // Hostile or failed completions, each logged with its reason.
     uint64_t failedRequests() const { return mFailed; }
     const std::vector<std::string>& log() const { return mLog; }

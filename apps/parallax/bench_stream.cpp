@@ -127,10 +127,10 @@ void printTables(const StreamExperiment& e, const std::string& dir) {
             f["baseline_ms_median"].get<double>(), f["baseline_ms_p99"].get<double>(),
             f["baseline_texture_bytes"].get<uint64_t>(), f["baseline_load_ms"].get<double>());
     }
-    fmt::print("\n{:<8} {:>12} {:>9} {:>11} {:>8} {:>14} {:>14}\n", "policy", "budget", "PSNR dB",
+    fmt::print("\n{:<10} {:>12} {:>9} {:>11} {:>8} {:>14} {:>14}\n", "policy", "budget", "PSNR dB",
                "median dB", "frames", "mean resident", "max resident");
     for (const PolicyRow& p : e.policies)
-        fmt::print("{:<8} {:>12} {:>9.2f} {:>11.2f} {:>8} {:>14.0f} {:>14}\n",
+        fmt::print("{:<10} {:>12} {:>9.2f} {:>11.2f} {:>8} {:>14.0f} {:>14}\n",
                    stream::policyName(p.policy), p.budgetBytes, p.psnrDb, p.psnrMedianDb,
                    p.framesCompared, p.meanResidentBytes, p.maxResidentBytes);
     fmt::print(
@@ -183,8 +183,9 @@ Command addBenchStream(CLI::App* bench) {
         "Builds the database under OUT/db, walks the tour through every room (stream walk "
         "--tour) at each bandwidth with the --budget / --static-budget pair (Fig. 2), renders "
         "every frame of the unlimited walk and of a baseline holding every texture at full "
-        "resolution, and walks it again with each allocation policy (ach, lru, equal) at each "
-        "--policy-budgets value (moving and still alike), comparing every --psnr-every-th frame "
+        "resolution, and walks it again with each allocation policy (ach, ach-return, lru, equal) "
+        "at each --policy-budgets value (moving and still alike), comparing every --psnr-every-th "
+        "frame "
         "with the same frame at full texture resolution.\n"
         "JSON: walks [{bandwidth_kbit, quality_final, time_to_quality_90_s, max_resident_bytes, "
         "budget_bytes, ...}], frame_time {...}, policies [{policy, budget_bytes, psnr_db, ...}].");

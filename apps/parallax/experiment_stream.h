@@ -42,9 +42,9 @@ struct StreamExperimentConfig {
     std::vector<double> shotTimesS{10.0, 35.0, 80.0};
     // The allocation comparison: each policy at each budget (the same budget moving and
     // still), on a link of policyKbit, comparing every psnrEvery-th frame.
-    std::vector<stream::AllocationPolicy> policies{stream::AllocationPolicy::kAch,
-                                                   stream::AllocationPolicy::kLru,
-                                                   stream::AllocationPolicy::kEqualSplit};
+    std::vector<stream::AllocationPolicy> policies{
+        stream::AllocationPolicy::kAch, stream::AllocationPolicy::kAchReturn,
+        stream::AllocationPolicy::kLru, stream::AllocationPolicy::kEqualSplit};
     std::vector<uint64_t> policyBudgets{uint64_t(512) << 10, uint64_t(1) << 20, uint64_t(2) << 20,
                                         uint64_t(4) << 20};
     double policyKbit = 0.0;

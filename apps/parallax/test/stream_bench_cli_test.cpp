@@ -35,7 +35,7 @@ TEST(StreamBenchCli, QuickJsonRowsAndOrderByBandwidth) {
     EXPECT_EQ(walks[0]["bandwidth_kbit"], 56.0);
     EXPECT_GT(walks.back()["quality_final"], walks.front()["quality_final"]);
     const auto& policies = doc["policies"];
-    ASSERT_EQ(policies.size(), 3u);
+    ASSERT_EQ(policies.size(), 4u);
     for (const auto& p : policies) {
         EXPECT_EQ(p["budget_bytes"], 131072);
         EXPECT_LE(p["max_resident_bytes"], p["budget_bytes"]);

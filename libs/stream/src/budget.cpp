@@ -1,4 +1,5 @@
-// Marvie & Bouatouch 6.1 (budget by ACH) and 6.2 (PTM node rules, refreshResident).
+// Marvie & Bouatouch 6.1 (budget by ACH) and 6.2 (PTM node rules, refreshResident), and the
+// variant of 6.1 that returns what a node cannot use for a whole level (allocateAchReturning).
 #include <plx/stream/budget.h>
 
 #include <algorithm>
@@ -47,11 +48,25 @@ RefreshAction refreshResident(PtmNode& node, uint64_t freeBytes,
     return RefreshAction::kNone;
 }
 
-uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
-                        std::vector<PtmNode>& nodes) {
-    std::stable_sort(cells.begin(), cells.end(), [](const VisibleCell& a, const VisibleCell& b) {
-        return a.ach != b.ach ? a.ach > b.ach : a.cell < b.cell;
-    });
+namespace {
+
+// The variant's computeVS (not the paper's): of N + alloc the node keeps only the chain of whole
+// levels it buys, at most S(L+1) (S(L) when L is the top level), and returns the remainder.
+uint64_t offerWholeLevels(PtmNode& node, uint64_t alloc) {
+    if (node.failed || node.total() == 0) return 0;
+    int k = std::min(node.resident + 1, node.total());
+    while (k > 0 && node.chainBytes(k) > node.saved + alloc) --k;
+    const uint64_t chain = node.chainBytes(k);
+    const uint64_t kept = chain > node.saved ? chain - node.saved : 0;
+    node.saved += kept;
+    return kept;
+}
+
+// 6.1's split over the cells, each node's offer taken by `offer` (the paper's offerBudget or
+// offerWholeLevels); `cells` sorted by ACH. Returns the bytes kept.
+template <class Offer>
+uint64_t shareByAch(const std::vector<VisibleCell>& cells, uint64_t budget,
+                    std::vector<PtmNode>& nodes, Offer offer) {
     double achLeft = 0.0;
     for (const VisibleCell& c : cells) achLeft += std::max(0.0, c.ach);
     uint64_t remaining = budget, used = 0;
@@ -66,7 +81,7 @@ uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
         uint64_t cellLeft = share, cellUsed = 0;
         for (size_t n = 0; n < c.nodes.size(); ++n) {
             uint64_t alloc = cellLeft / (c.nodes.size() - n);
-            uint64_t kept = offerBudget(nodes[size_t(c.nodes[n])], alloc);
+            uint64_t kept = offer(nodes[size_t(c.nodes[n])], alloc);
             cellLeft -= kept;
             cellUsed += kept;
         }
@@ -76,10 +91,42 @@ uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
     return used;
 }
 
+void sortByAch(std::vector<VisibleCell>& cells) {
+    std::stable_sort(cells.begin(), cells.end(), [](const VisibleCell& a, const VisibleCell& b) {
+        return a.ach != b.ach ? a.ach > b.ach : a.cell < b.cell;
+    });
+}
+
+}  // namespace
+
+uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
+                        std::vector<PtmNode>& nodes) {
+    sortByAch(cells);
+    return shareByAch(cells, budget, nodes, offerBudget);
+}
+
+uint64_t allocateAchReturning(std::vector<VisibleCell> cells, uint64_t budget,
+                              std::vector<PtmNode>& nodes) {
+    sortByAch(cells);
+    // First pass: 6.1 as the paper has it; what a node returns stays in its cell's share for the
+    // nodes after it, and what the cell does not use goes on to the next cells (M - M_used).
+    uint64_t used = shareByAch(cells, budget, nodes, offerWholeLevels);
+    // Second pass: what the last cell left goes to the nodes in ACH order, each offered all of
+    // it and keeping its next level when that fits.
+    for (const VisibleCell& c : cells)
+        for (int n : c.nodes) {
+            if (used == budget) return used;
+            used += offerWholeLevels(nodes[size_t(n)], budget - used);
+        }
+    return used;
+}
+
 std::string_view policyName(AllocationPolicy policy) {
     switch (policy) {
         case AllocationPolicy::kAch:
             return "ach";
+        case AllocationPolicy::kAchReturn:
+            return "ach-return";
         case AllocationPolicy::kLru:
             return "lru";
         case AllocationPolicy::kEqualSplit:
@@ -89,12 +136,12 @@ std::string_view policyName(AllocationPolicy policy) {
 }
 
 Result<AllocationPolicy> parsePolicy(std::string_view name) {
-    for (AllocationPolicy p :
-         {AllocationPolicy::kAch, AllocationPolicy::kLru, AllocationPolicy::kEqualSplit})
+    for (AllocationPolicy p : {AllocationPolicy::kAch, AllocationPolicy::kAchReturn,
+                               AllocationPolicy::kLru, AllocationPolicy::kEqualSplit})
         if (policyName(p) == name) return p;
-    return errorStatus(
-        ErrorCode::kInvalidArgument,
-        fmt::format("unknown allocation policy '{}' (ach, lru or equal)", name.substr(0, 40)));
+    return errorStatus(ErrorCode::kInvalidArgument,
+                       fmt::format("unknown allocation policy '{}' (ach, ach-return, lru or equal)",
+                                   name.substr(0, 40)));
 }
 
 uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint64_t budget,
@@ -102,6 +149,8 @@ uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint6
     switch (policy) {
         case AllocationPolicy::kAch:
             return allocateBudget(std::move(cells), budget, nodes);
+        case AllocationPolicy::kAchReturn:
+            return allocateAchReturning(std::move(cells), budget, nodes);
         case AllocationPolicy::kLru:
             return allocateLru(cells, budget, nodes, nowS);
         case AllocationPolicy::kEqualSplit:

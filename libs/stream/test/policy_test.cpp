@@ -1,5 +1,6 @@
 // The allocation policies of the comparison (budget.h): the equal split's shares, LRU's eviction
-// order, every policy under the hard cap on random walks; and the tour through every cell.
+// order, ACH with unusable shares returned against the paper's rule, every policy under the hard
+// cap on random walks; and the tour through every cell.
 
 #include <unistd.h>
 
@@ -23,8 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr AllocationPolicy kPolicies[] = {AllocationPolicy::kAch, AllocationPolicy::kLru,
-                                          AllocationPolicy::kEqualSplit};
+constexpr AllocationPolicy kPolicies[] = {AllocationPolicy::kAch, AllocationPolicy::kAchReturn,
+                                          AllocationPolicy::kLru, AllocationPolicy::kEqualSplit};
 
 // Levels of 1, 4, 16, 64 bytes: chains S = 1, 5, 21, 85.
 PtmNode node(int resident = 0) {
@@ -44,7 +45,7 @@ TEST(StreamPolicy, NamesRoundTrip) {
     for (AllocationPolicy p : kPolicies) EXPECT_EQ(parsePolicy(policyName(p)).value(), p);
     auto bad = parsePolicy("fifo");
     ASSERT_FALSE(bad.isOk());
-    EXPECT_NE(bad.status().message().find("ach, lru or equal"), std::string::npos);
+    EXPECT_NE(bad.status().message().find("ach, ach-return, lru or equal"), std::string::npos);
 }
 
 TEST(StreamPolicy, EqualSplitGivesEqualShares) {
@@ -118,6 +119,74 @@ TEST(StreamPolicy, LruNeverEvictsTheWorkingSetForItself) {
     // A budget below the working set keeps whole chains in node order.
     for (PtmNode& n : nodes) n.saved = 0;
     EXPECT_EQ(allocateLru(cells, 24, nodes, 2.0), 21u + 1u);
+}
+
+// The bytes of whole levels a node's N buys: what refreshResident can make resident.
+uint64_t usableBytes(const PtmNode& n) {
+    int k = n.total();
+    while (k > 0 && n.chainBytes(k) > n.saved) --k;
+    return n.chainBytes(k);
+}
+
+TEST(StreamPolicy, AchReturnGivesTheIdleShareToTheNextCell) {
+    // Two cells of equal ACH, a node each holding levels 0-1 (S(L) = 5) and wanting level 2
+    // (S(L+1) = 21). Budget 30: the first cell's share is 15.
+    std::vector<PtmNode> paper = {node(2), node(2)}, variant = paper;
+    std::vector<VisibleCell> cells = {{0, 0.5, {0}}, {1, 0.5, {1}}};
+    // The paper (6.2): 15 < 21, so node 0 saves all 15 and the second cell gets the other 15,
+    // which node 1 saves too: 30 handed out, 10 usable, 20 idle for the frame.
+    EXPECT_EQ(allocateBudget(cells, 30, paper), 30u);
+    EXPECT_EQ(paper[0].saved, 15u);
+    EXPECT_EQ(paper[1].saved, 15u);
+    EXPECT_EQ(usableBytes(paper[0]) + usableBytes(paper[1]), 10u);
+    // The variant: node 0 keeps its 5 bytes of whole levels and returns 10, so the second cell
+    // gets 25 and node 1 its level 2; the 4 left buy no level.
+    EXPECT_EQ(allocateAchReturning(cells, 30, variant), 26u);
+    EXPECT_EQ(variant[0].saved, 5u);
+    EXPECT_EQ(variant[1].saved, 21u);
+    // Level 2 is not downloaded yet: only the variant's node 1 asks for it.
+    auto always = [](uint64_t) { return true; };
+    EXPECT_EQ(refreshResident(paper[1], 1000, always), RefreshAction::kNone);
+    EXPECT_EQ(refreshResident(variant[1], 1000, always), RefreshAction::kDownload);
+}
+
+TEST(StreamPolicy, AchReturnOffersWhatTheLastCellLeavesAgain) {
+    // Node 0 (cell of ACH 0.5) wants S(3) = 21, node 1 (ACH 0.5) only its level 0. Budget 30:
+    // node 0 keeps 5 of its 15, node 1 keeps 1 of 25, and the second pass gives node 0 the 16
+    // its level 2 still needs. The paper's rule: node 0 saves 15 (5 usable), node 1 keeps 1.
+    std::vector<PtmNode> paper = {node(2), node(0)}, variant = paper;
+    std::vector<VisibleCell> cells = {{0, 0.5, {0}}, {1, 0.5, {1}}};
+    EXPECT_EQ(allocateBudget(cells, 30, paper), 16u);
+    EXPECT_EQ(paper[0].saved, 15u);
+    EXPECT_EQ(allocateAchReturning(cells, 30, variant), 22u);
+    EXPECT_EQ(variant[0].saved, 21u);
+    EXPECT_EQ(variant[1].saved, 1u);
+}
+
+TEST(StreamPolicy, AchReturnBuysAtLeastThePapersLevels) {
+    // Scripted budgets over three cells of different ACH and five nodes at various levels (each
+    // node in one cell): every node's whole levels under the variant hold at least what the
+    // paper's rule buys it, so the usable total is never below the paper's, and all the
+    // variant hands out is usable.
+    std::vector<PtmNode> start = {node(0), node(1), node(2), node(3), node(4)};
+    std::vector<VisibleCell> cells = {{0, 0.2, {0, 1}}, {1, 0.7, {2}}, {2, 0.1, {3, 4}}};
+    uint64_t paperTotal = 0, variantTotal = 0;
+    for (uint64_t budget = 0; budget <= 300; ++budget) {
+        std::vector<PtmNode> paper = start, variant = start;
+        allocateBudget(cells, budget, paper);
+        const uint64_t used = allocateAchReturning(cells, budget, variant);
+        EXPECT_LE(used, budget);
+        uint64_t usable = 0;
+        for (size_t n = 0; n < start.size(); ++n) {
+            EXPECT_GE(usableBytes(variant[n]), usableBytes(paper[n])) << budget << " " << n;
+            EXPECT_EQ(usableBytes(variant[n]), variant[n].saved) << budget << " " << n;
+            paperTotal += usableBytes(paper[n]);
+            variantTotal += usableBytes(variant[n]);
+            usable += variant[n].saved;
+        }
+        EXPECT_EQ(usable, used);
+    }
+    EXPECT_GT(variantTotal, paperTotal);
 }
 
 TEST(StreamPolicy, EveryPolicyHandsOutAtMostTheBudget) {

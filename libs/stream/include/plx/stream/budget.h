@@ -21,14 +21,14 @@ namespace plx::stream {
 
 struct PtmNode {
     std::string url;
-    uint64_t fileBytes = 0;                 // as the cell file states it
-    std::vector<uint64_t> levelBytes;       // texel bytes per level; empty until the header arrived
-    std::vector<uint64_t> groupBytes;       // download bytes per level group
-    int resident = 0;                       // levels resident (L + 1)
-    int downloaded = 0;                     // levels downloaded (L_max + 1)
-    bool downloading = false;               // a level request is queued or on the link
-    bool failed = false;                    // skipped after its retries: never offered budget
-    uint64_t saved = 0;                     // N: budget kept during this frame's computeVS calls
+    uint64_t fileBytes = 0;            // as the cell file states it
+    std::vector<uint64_t> levelBytes;  // texel bytes per level; empty until the header arrived
+    std::vector<uint64_t> groupBytes;  // download bytes per level group
+    int resident = 0;                  // levels resident (L + 1)
+    int downloaded = 0;                // levels downloaded (L_max + 1)
+    bool downloading = false;          // a level request is queued or on the link
+    bool failed = false;               // skipped after its retries: never offered budget
+    uint64_t saved = 0;                // N: budget kept during this frame's computeVS calls
     // When a visible cell last held the node (simulated seconds); -infinity: never. Only the
     // LRU policy reads it.
     double lastSeenS = -std::numeric_limits<double>::infinity();
@@ -73,17 +73,30 @@ struct VisibleCell {
 uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
                         std::vector<PtmNode>& nodes);
 
+// Beyond the paper: 6.1's split by normalised ACH, from the highest cell to the lowest, but a
+// node keeps of N + alloc only the chain of whole levels it buys (at most S(L+1), S(L) at the
+// top level) and returns the remainder, which goes to the next nodes of its cell and the next
+// cells; what the last cell leaves is offered once more to the nodes in ACH order, each keeping
+// its next level when it fits. The paper's 6.2 computeVS (offerBudget) instead keeps the whole
+// offer while N + alloc < S(L+1) ("saving up"), so a share that buys no level sits idle for the
+// frame (docs/stream-results.md). Nodes' `saved` must be reset before. Returns the bytes kept
+// (<= budget), all of them usable: each node's `saved` is a chain of whole levels.
+uint64_t allocateAchReturning(std::vector<VisibleCell> cells, uint64_t budget,
+                              std::vector<PtmNode>& nodes);
+
 // How the client shares the memory budget among the PTM nodes of the visible cells each frame,
-// by setting every node's `saved` (N) before refreshResident. A closed set: the paper's rule
-// and two baselines for the comparison of section 7 (docs/stream-results.md). Every policy
-// hands out at most the budget (the sum of the nodes' `saved` stays <= budget).
+// by setting every node's `saved` (N) before refreshResident. A closed set: the paper's rule, a
+// variant of it that passes unusable shares on, and two baselines for the comparison of
+// section 7 (docs/stream-results.md). Every policy hands out at most the budget (the sum of the
+// nodes' `saved` stays <= budget).
 enum class AllocationPolicy {
     kAch,  // Marvie 6.1 and 6.2: cells by normalised ACH, nodes keep or return (allocateBudget)
+    kAchReturn,  // 6.1's split, unusable remainders go on (allocateAchReturning; not the paper)
     kLru,  // a texture cache: next levels on demand, least recently seen evicted (allocateLru)
     kEqualSplit,  // every texture in view gets the same share (allocateEqualSplit)
 };
 
-// "ach", "lru", "equal".
+// "ach", "ach-return", "lru", "equal".
 std::string_view policyName(AllocationPolicy policy);
 // The inverse of policyName. Errors: any other text (the message lists the names).
 Result<AllocationPolicy> parsePolicy(std::string_view name);
@@ -107,7 +120,7 @@ uint64_t allocateEqualSplit(const std::vector<VisibleCell>& cells, uint64_t budg
 uint64_t allocateLru(const std::vector<VisibleCell>& cells, uint64_t budget,
                      std::vector<PtmNode>& nodes, double nowS);
 
-// The policy's allocation (one of the three above).
+// The policy's allocation (one of the four above).
 uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint64_t budget,
                   std::vector<PtmNode>& nodes, double nowS);
 

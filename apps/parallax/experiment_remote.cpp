@@ -78,10 +78,6 @@ double cappedPsnr(const Image<Rgba8>& a, const Image<Rgba8>& b) {
     return std::min(psnr(a, b), kMaxPsnrDb);
 }
 
-double medianOr0(std::vector<double> v) {
-    return v.empty() ? 0.0 : median(std::move(v));
-}
-
 // The display cameras of a walkthrough at 60 Hz: builtinWalk's 30 Hz poses, interpolated, so the
 // walk has bench warp's pace whatever the display rate.
 Result<std::vector<Camera>> walkCameras(const scene::Scene& scene, int frames, int width,
@@ -273,21 +269,21 @@ Status addRows(const std::string& spec, const scene::Scene& scene,
         r.psnrFrames = int(s.kept.size());
         r.clientFps = s.seconds > 0.0 ? double(s.warpMs.size()) / s.seconds : 0.0;
         r.referencesPerS = sets;
-        r.referenceAgeMsMedian = medianOr0(s.ageMs);
+        r.referenceAgeMsMedian = median(s.ageMs);
         r.rttMeasuredMs = s.rttMs;
-        r.psnrDbMedian = medianOr0(psnrs[size_t(m)]);
+        r.psnrDbMedian = median(psnrs[size_t(m)]);
         switch (m) {
             case RemoteMethod::kWarp:
-                r.warpMsMedian = medianOr0(s.warpMs);
+                r.warpMsMedian = median(s.warpMs);
                 r.bytesPerReference =
                     s.references ? double(s.bytes) / double(s.references) : double(s.bytes);
                 break;
             case RemoteMethod::kVideo:
-                r.bytesPerReference = medianOr0(videoBytes);
+                r.bytesPerReference = median(videoBytes);
                 break;
             case RemoteMethod::kTimewarp:
-                r.warpMsMedian = medianOr0(timewarpMs);
-                r.bytesPerReference = medianOr0(videoBytes);
+                r.warpMsMedian = median(timewarpMs);
+                r.bytesPerReference = median(videoBytes);
                 break;
         }
         rows->push_back(r);

@@ -28,7 +28,7 @@ struct RemoteBenchArgs {
 };
 
 // The quick configuration runs in seconds (tests); the default one makes the docs' table.
-RemoteExperimentConfig baseConfig(bool quick) {
+RemoteExperimentConfig remoteBaseConfig(bool quick) {
     RemoteExperimentConfig c;
     if (!quick) return c;
     c.scenes = {"office:2"};
@@ -41,7 +41,7 @@ RemoteExperimentConfig baseConfig(bool quick) {
 }
 
 Result<RemoteExperimentConfig> configFrom(const RemoteBenchArgs& a) {
-    RemoteExperimentConfig c = baseConfig(a.quick);
+    RemoteExperimentConfig c = remoteBaseConfig(a.quick);
     if (!a.scenes.empty()) c.scenes = a.scenes;
     // --rtts sweeps at the first --bandwidths (default 1000); the other bandwidths are run at
     // RTT 100 ms, as the default does.

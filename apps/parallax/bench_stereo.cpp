@@ -26,7 +26,7 @@ struct StereoBenchArgs {
 };
 
 double finiteDb(double db) {
-    return std::isfinite(db) ? db : 99.0;
+    return std::isfinite(db) ? db : kIdenticalPsnrDb;
 }
 
 void printTable(const std::vector<StereoExperimentRow>& rows) {

@@ -36,12 +36,8 @@ struct StreamBenchArgs {
 
 constexpr double kMaxBudgetMb = 1 << 20;  // 1 TiB: beyond any graphics memory
 
-uint64_t megabytes(double mb) {
-    return uint64_t(std::llround(mb * double(1 << 20)));
-}
-
 // The quick configuration runs in seconds (tests, CI); the default one makes the docs' tables.
-StreamExperimentConfig baseConfig(bool quick) {
+StreamExperimentConfig streamBaseConfig(bool quick) {
     StreamExperimentConfig c;
     if (!quick) return c;
     c.scene = "museum:4";
@@ -61,22 +57,22 @@ Status checkMb(const char* name, double mb) {
 }
 
 Result<StreamExperimentConfig> configFrom(const StreamBenchArgs& a) {
-    StreamExperimentConfig c = baseConfig(a.quick);
+    StreamExperimentConfig c = streamBaseConfig(a.quick);
     if (!a.scene.empty()) c.scene = a.scene;
     if (!a.bandwidthsKbit.empty()) c.bandwidthsKbit = a.bandwidthsKbit;
     if (a.budgetMb != 0.0) {
         PLX_RETURN_IF_ERROR(checkMb("--budget", a.budgetMb));
-        c.budgetBytes = megabytes(a.budgetMb);
+        c.budgetBytes = mebibytes(a.budgetMb);
     }
     if (a.staticBudgetMb != 0.0) {
         PLX_RETURN_IF_ERROR(checkMb("--static-budget", a.staticBudgetMb));
-        c.staticBudgetBytes = megabytes(a.staticBudgetMb);
+        c.staticBudgetBytes = mebibytes(a.staticBudgetMb);
     }
     if (!a.policyBudgetsMb.empty()) {
         c.policyBudgets.clear();
         for (double mb : a.policyBudgetsMb) {
             PLX_RETURN_IF_ERROR(checkMb("--policy-budgets", mb));
-            c.policyBudgets.push_back(megabytes(mb));
+            c.policyBudgets.push_back(mebibytes(mb));
         }
     }
     c.policyKbit = a.policyKbit;
@@ -135,7 +131,7 @@ void printTables(const StreamExperiment& e, const std::string& dir) {
                    p.framesCompared, p.meanResidentBytes, p.maxResidentBytes);
     fmt::print(
         "largest room PVS: {} texel bytes at full resolution; wrote {}walks.csv, policies.csv, "
-        "stream.json, SVG plots and frames\n",
+        "policy_frames.csv, stream.json, SVG plots and frames\n",
         e.pvsTextureBytesMax, dir);
 }
 
@@ -156,6 +152,8 @@ int runStreamBench(const StreamBenchArgs& a) {
     if (Status s = writeText(dir + "stream.json", doc.dump(2)); !s) return fail(s);
     if (Status s = writeText(dir + "walks.csv", streamWalksCsv(*e)); !s) return fail(s);
     if (Status s = writeText(dir + "policies.csv", streamPoliciesCsv(*e)); !s) return fail(s);
+    if (Status s = writeText(dir + "policy_frames.csv", streamPolicyFramesCsv(*e)); !s)
+        return fail(s);
     for (const auto& [file, svg] : streamPlots(*e))
         if (Status s = writeText(dir + file, svg); !s) return fail(s);
     for (const BandwidthRun& run : e->runs)

@@ -28,7 +28,7 @@ struct WarpBenchArgs {
 };
 
 // The quick configuration runs in seconds (tests, CI); the default one makes the docs' tables.
-WarpExperimentConfig baseConfig(bool quick) {
+WarpExperimentConfig warpBaseConfig(bool quick) {
     WarpExperimentConfig c;
     c.modelPath = std::string(PLX_SHARED_DATA_DIR) + "/models/DamagedHelmet/DamagedHelmet.glb";
     if (!quick) return c;
@@ -47,7 +47,7 @@ WarpExperimentConfig baseConfig(bool quick) {
 }
 
 Result<WarpExperimentConfig> configFrom(const WarpBenchArgs& a) {
-    WarpExperimentConfig c = baseConfig(a.quick);
+    WarpExperimentConfig c = warpBaseConfig(a.quick);
     if (!a.scenes.empty()) c.scenes = a.scenes;
     if (!a.rttsMs.empty()) c.rttsMs = a.rttsMs;
     if (!a.size.empty()) {

@@ -2,6 +2,8 @@
 // Shared pieces of the parallax command line: subcommand registration, argument parsing helpers,
 // one-line errors and JSON output.
 
+#include <cmath>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -50,6 +52,12 @@ int fail(const Status& status);
 // "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
 Result<Vec3> parseVec3(const std::string& text);
 inline Result<IVec2> parseSize(const std::string& text) { return parseImageSize(text); }
+
+// Bytes of a size given in MiB on the command line (--budget 1.5).
+inline uint64_t mebibytes(double mb) { return uint64_t(std::llround(mb * double(1 << 20))); }
+
+// JSON has no infinity: identical images (infinite PSNR) are reported as this many dB.
+inline constexpr double kIdenticalPsnrDb = 99.0;
 
 // Writes the JSON document as the only thing on stdout.
 void printJson(const nlohmann::json& doc);

@@ -26,7 +26,6 @@ namespace {
 
 constexpr double kDisplayHz = 60.0;
 constexpr float kEyeSeparation = 0.065f;  // metres, as `parallax stereo`'s default
-constexpr double kMaxPsnrDb = 99.0;       // JSON has no infinity
 
 struct ClientArgs {
     std::string url;
@@ -176,7 +175,7 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
                 }
                 truth.resize(truthCam.width(), truthCam.height());
                 truthRenderer->render(*scene, truthCam, {}, truth.targets());
-                s.psnrDb = std::min(psnr(left.color, truth.color), kMaxPsnrDb);
+                s.psnrDb = std::min(psnr(left.color, truth.color), kIdenticalPsnrDb);
             }
             if (!a.out.empty()) {
                 Image<Rgba8> image = a.stereo ? stereo::composeStereo(left.color, right.color,

@@ -32,6 +32,7 @@
 #include <plx/stereo/path.h>
 
 #include "experiment_warp.h"
+#include "cli.h"
 #include "report.h"
 #include "view.h"
 
@@ -69,13 +70,12 @@ namespace {
 
 constexpr double kDisplayHz = 60.0;
 constexpr double kPathHz = 30.0;     // builtinWalk's pose rate (about 1.2 m/s)
-constexpr double kMaxPsnrDb = 99.0;  // JSON has no infinity
 // The first set of a session includes the server's first render of the scene; a loaded machine
 // can take seconds over it.
 constexpr double kFirstSetWaitMs = 60000.0;
 
 double cappedPsnr(const Image<Rgba8>& a, const Image<Rgba8>& b) {
-    return std::min(psnr(a, b), kMaxPsnrDb);
+    return std::min(psnr(a, b), kIdenticalPsnrDb);
 }
 
 // The display cameras of a walkthrough at 60 Hz: builtinWalk's 30 Hz poses, interpolated, so the

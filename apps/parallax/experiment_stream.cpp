@@ -21,13 +21,12 @@
 #include <plx/stream/database.h>
 #include <plx/stream/link_simulator.h>
 
+#include "cli.h"
 #include "report.h"
 
 namespace plx::cli {
 namespace {
 
-// PSNR given to identical frames in medians (the warp experiment's convention).
-constexpr double kIdenticalPsnrDb = 99.0;
 // Plot points: one per this many frames (the CSV keeps every frame).
 constexpr size_t kPlotStride = 15;
 
@@ -154,6 +153,7 @@ struct WalkPlan {
 struct WalkOutcome {
     BandwidthRun run;
     std::vector<double> psnrDb, mse;
+    std::vector<size_t> comparedFrames;  // the frame index of each psnrDb entry
     double residentSum = 0.0;
 };
 
@@ -187,6 +187,7 @@ WalkOutcome walk(const std::string& db, double latencyS, const std::vector<Camer
                 auto full = client.residentScene(plan.fullTextures);
                 const double dB = psnr(image, r.draw(*full, cameras[i]));
                 out.psnrDb.push_back(std::isfinite(dB) ? dB : kIdenticalPsnrDb);
+                out.comparedFrames.push_back(i);
                 out.mse.push_back(std::isfinite(dB) ? 255.0 * 255.0 / std::pow(10.0, dB / 10.0)
                                                     : 0.0);
             }
@@ -219,6 +220,8 @@ PolicyRow policyRow(stream::AllocationPolicy policy, uint64_t budget, const Walk
     for (double m : w.mse) meanMse += m / double(std::max<size_t>(1, w.mse.size()));
     row.psnrDb = meanMse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / meanMse) : kIdenticalPsnrDb;
     row.psnrMedianDb = median(w.psnrDb);
+    for (size_t k = 0; k < w.psnrDb.size(); ++k)
+        row.framePsnrDb.emplace_back(w.comparedFrames[k], w.psnrDb[k]);
     row.meanResidentBytes = w.residentSum / double(std::max<size_t>(1, w.run.frames.size()));
     row.maxResidentBytes = w.run.maxResidentBytes;
     row.framesOverBudget = w.run.framesOverBudget;
@@ -435,6 +438,16 @@ std::string streamPoliciesCsv(const StreamExperiment& e) {
                            stream::policyName(p.policy), p.budgetBytes, p.psnrDb, p.psnrMedianDb,
                            p.framesCompared, p.meanResidentBytes, p.maxResidentBytes,
                            p.framesOverBudget, p.downloadedBytes, p.qualityFinal);
+    return csv;
+}
+
+std::string streamPolicyFramesCsv(const StreamExperiment& e) {
+    const double fps = e.config.tour.fps;
+    std::string csv = "policy,budget_bytes,frame,time_s,psnr_db\n";
+    for (const PolicyRow& p : e.policies)
+        for (const auto& [frame, dB] : p.framePsnrDb)
+            csv += fmt::format("{},{},{},{:.4f},{:.3f}\n", stream::policyName(p.policy),
+                               p.budgetBytes, frame, double(frame) / fps, dB);
     return csv;
 }
 

@@ -87,6 +87,7 @@ struct PolicyRow {
     int framesOverBudget = 0;
     uint64_t downloadedBytes = 0;
     double qualityFinal = 0.0;
+    std::vector<std::pair<size_t, double>> framePsnrDb;  // (frame, PSNR) of each compared frame
 };
 
 struct StreamExperiment {
@@ -118,6 +119,8 @@ nlohmann::json streamExperimentJson(const StreamExperiment& experiment);
 // ms), the baseline's frame times, and the policy rows, as CSV.
 std::string streamWalksCsv(const StreamExperiment& experiment);
 std::string streamPoliciesCsv(const StreamExperiment& experiment);
+// Every compared frame of the policy walks: policy, budget, frame, time, PSNR.
+std::string streamPolicyFramesCsv(const StreamExperiment& experiment);
 
 // Quality over time (Fig. 2 top), resident bytes against the budget, frame time against the
 // baseline (Fig. 2 bottom), PSNR against budget per policy: (file name, SVG) pairs.

@@ -19,6 +19,7 @@
 #include <plx/scene/import.h>
 #include <plx/stereo/path.h>
 
+#include "cli.h"
 #include "report.h"
 #include "view.h"
 
@@ -85,12 +86,11 @@ warp::ReferenceSetOptions referenceDensityFor(const Camera& display, warp::Refer
 
 namespace {
 
-constexpr double kMaxPsnrDb = 99.0;       // JSON has no infinity: identical images read 99 dB
 constexpr double kPathHz = 30.0;          // builtinWalk's pose rate
 constexpr double kArrivalSlackMs = 0.01;  // far below a frame; above a typed refresh's rounding
 
 double cappedPsnr(const Image<Rgba8>& a, const Image<Rgba8>& b) {
-    return std::min(psnr(a, b), kMaxPsnrDb);
+    return std::min(psnr(a, b), kIdenticalPsnrDb);
 }
 
 // A camera path sampled at kPathHz and linearly interpolated between samples; times before the

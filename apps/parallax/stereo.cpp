@@ -110,7 +110,7 @@ Status writeFrame(const stereo::StereoFrame& frame, stereo::Layout layout,
 }
 
 double jsonDb(double db) {
-    return std::isfinite(db) ? db : 99.0;
+    return std::isfinite(db) ? db : kIdenticalPsnrDb;
 }
 
 // The cameras of a walkthrough: --walk N poses of the built-in walk, or the --path file's.

@@ -155,10 +155,6 @@ Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFil
 // The paper's screenshot moments (Fig. 3: 10 s, 35 s and 80 s after the downloads start).
 constexpr double kShotTimesS[] = {10.0, 35.0, 80.0};
 
-uint64_t megabytes(double mb) {
-    return uint64_t(std::llround(mb * double(1 << 20)));
-}
-
 int runWalk(const WalkArgs& a) {
     if (Status s = checkArgs(a); !s) return fail(s.message(), kExitUsage);
     stream::LinkOptions link{a.bandwidthKbit * 1e3, a.latencyMs * 1e-3};
@@ -173,8 +169,8 @@ int runWalk(const WalkArgs& a) {
     if (!cameras) return fail(cameras.status());
 
     stream::ClientConfig config;
-    config.budgetBytes = megabytes(a.budgetMb);
-    config.staticBudgetBytes = megabytes(a.staticBudgetMb);
+    config.budgetBytes = mebibytes(a.budgetMb);
+    config.staticBudgetBytes = mebibytes(a.staticBudgetMb);
     config.dtMaxS = a.dtMaxS, config.dtMaxStaticS = a.dtMaxStaticS, config.tStaticS = a.tStaticS;
     config.policy = stream::parsePolicy(a.policy).value();
     stream::StreamClient client(fetcher->get(), config);

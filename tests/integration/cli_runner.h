@@ -55,6 +55,9 @@ inline void writeFile(const fs::path& path, const std::string& bytes) {
     std::ofstream(path, std::ios::binary) << bytes;
 }
 
+// A path single-quoted for the shell command line of runParallax.
+inline std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
 // A failed command: the expected non-zero exit (not a crash or timeout), exactly one line on
 // stderr naming the problem, nothing on stdout.
 inline void expectOneLineError(const RunResult& r, const std::string& mentions, int code = 1) {

@@ -9,10 +9,10 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() { return plx::testing::scratchDir("cli"); }
+fs::path cliDir() { return plx::testing::scratchDir("cli"); }
 
 TEST(Cli, RenderWritesTargetsAndJson) {
-    fs::path prefix = scratchDir() / "office2";
+    fs::path prefix = cliDir() / "office2";
     RunResult r = runParallax("render office:2 --size 96x64 --frames 2 --threads 2 --out " +
                               prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -29,7 +29,7 @@ TEST(Cli, RenderWritesTargetsAndJson) {
 }
 
 TEST(Cli, RenderWithExplicitCamera) {
-    fs::path prefix = scratchDir() / "eye";
+    fs::path prefix = cliDir() / "eye";
     RunResult r = runParallax("render office:1 --size 64x48 --eye 1,1.6,1 --target 4,1,4 "
                               "--shading gouraud --out " + prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -48,7 +48,7 @@ TEST(Cli, MissingFile) {
 }
 
 TEST(Cli, CorruptAndTruncatedModels) {
-    fs::path dir = scratchDir();
+    fs::path dir = cliDir();
     writeFile(dir / "garbage.glb", std::string("glTF\x02\0\0\0\xff\xff\xff\x7f", 12) + "junk");
     expectOneLineError(runParallax("render " + (dir / "garbage.glb").string() + " --out x"),
                        "garbage.glb");
@@ -61,7 +61,7 @@ TEST(Cli, CorruptAndTruncatedModels) {
 }
 
 TEST(Cli, AbsurdElementCounts) {
-    fs::path path = scratchDir() / "huge.ply";
+    fs::path path = cliDir() / "huge.ply";
     writeFile(path, "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
                     "property float y\nproperty float z\nelement face 4000000000\n"
                     "property list uchar int vertex_indices\nend_header\n0 0 0\n");
@@ -69,13 +69,13 @@ TEST(Cli, AbsurdElementCounts) {
 }
 
 TEST(Cli, ModelWithoutTriangles) {
-    fs::path path = scratchDir() / "lines.obj";
+    fs::path path = cliDir() / "lines.obj";
     writeFile(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
     expectOneLineError(runParallax("render " + path.string() + " --out x"), "triangles");
 }
 
 TEST(Cli, NonFiniteVertices) {
-    fs::path path = scratchDir() / "nan.obj";
+    fs::path path = cliDir() / "nan.obj";
     writeFile(path, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
     expectOneLineError(runParallax("render " + path.string() + " --out x"), "nan.obj");
 }
@@ -111,7 +111,7 @@ TEST(Cli, BadCameraAndOptions) {
 }
 
 TEST(Cli, DemoQuickWritesReport) {
-    fs::path dir = scratchDir() / "demo";
+    fs::path dir = cliDir() / "demo";
     RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);

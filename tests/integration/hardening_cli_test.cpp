@@ -16,46 +16,42 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path dir() {
+fs::path hardDir() {
     return plx::testing::scratchDir("hardening_cli");
 }
 
-std::string q(const fs::path& p) {
-    return "'" + p.string() + "'";
-}
-
 fs::path makeFifo(const std::string& name) {
-    fs::path p = dir() / name;
+    fs::path p = hardDir() / name;
     fs::remove(p);
     EXPECT_EQ(mkfifo(p.c_str(), 0600), 0);
     return p;
 }
 
 TEST(HardeningCli, DirectoriesAndFifosAreRefusedAtOnce) {
-    fs::path folder = dir() / "a_folder";
+    fs::path folder = hardDir() / "a_folder";
     fs::create_directories(folder);
     fs::path fifo = makeFifo("input.fifo");
-    const std::string out = " -o " + (dir() / "x.png").string();
+    const std::string out = " -o " + (hardDir() / "x.png").string();
     for (const std::string cmd : {"ptm info ", "ptm verify ", "ptm decode "}) {
         expectOneLineError(runParallax(cmd + q(folder) + (cmd == "ptm decode " ? out : "")),
                            "is a directory, not a regular file");
         expectOneLineError(runParallax(cmd + q(fifo) + (cmd == "ptm decode " ? out : "")),
                            "is a FIFO (named pipe), not a regular file");
     }
-    const std::string pre = " --error 1 --out " + (dir() / "p").string();
+    const std::string pre = " --error 1 --out " + (hardDir() / "p").string();
     expectOneLineError(runParallax("predistort " + q(folder) + pre), "is a directory");
     expectOneLineError(runParallax("predistort " + q(fifo) + pre), "FIFO");
-    const std::string st = "stereo office:1 --size 32x24 --out " + (dir() / "s").string();
+    const std::string st = "stereo office:1 --size 32x24 --out " + (hardDir() / "s").string();
     expectOneLineError(runParallax(st + " --path " + q(folder)), "is a directory");
     expectOneLineError(runParallax(st + " --path " + q(fifo)), "FIFO");
     expectOneLineError(runParallax("info " + q(fifo)), "FIFO");
     expectOneLineError(
-        runParallax("ptm verify " + q(dir() / "none.ptm") + " --against " + q(folder)),
+        runParallax("ptm verify " + q(hardDir() / "none.ptm") + " --against " + q(folder)),
         "file not found");
 }
 
 TEST(HardeningCli, SymlinkLoopIsNamed) {
-    fs::path a = dir() / "loop_a", b = dir() / "loop_b";
+    fs::path a = hardDir() / "loop_a", b = hardDir() / "loop_b";
     fs::remove(a);
     fs::remove(b);
     fs::create_symlink(b, a);
@@ -91,13 +87,13 @@ std::string pngDeclaring(uint32_t width, uint32_t height) {
 }
 
 TEST(HardeningCli, PtmEncodeRefusesImagesOverThePixelLimit) {
-    fs::path big = dir() / "zeros16k.png";
+    fs::path big = hardDir() / "zeros16k.png";
     writeFile(big, pngDeclaring(16384, 16384));
-    const std::string out = " -o " + (dir() / "big.ptm").string();
+    const std::string out = " -o " + (hardDir() / "big.ptm").string();
     expectOneLineError(runParallax("ptm encode " + q(big) + out),
                        "declares 16384x16384 pixels, more than the limit of 67108864 pixels");
     plx::ByteImage small{8, 8, 1, std::vector<uint8_t>(64, 7)};
-    fs::path png = dir() / "small.png";
+    fs::path png = hardDir() / "small.png";
     ASSERT_TRUE(plx::writePng(png.string(), small).isOk());
     expectOneLineError(runParallax("ptm encode " + q(png) + out + " --max-pixels 63"),
                        "limit of 63 pixels");
@@ -105,20 +101,20 @@ TEST(HardeningCli, PtmEncodeRefusesImagesOverThePixelLimit) {
 }
 
 TEST(HardeningCli, DeclaredCountsAndInstancingFailFast) {
-    fs::path off = dir() / "huge.off";
+    fs::path off = hardDir() / "huge.off";
     writeFile(off, "OFF\n200000000 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
     expectOneLineError(runParallax("info " + q(off)), "OFF header declares 200000000 vertices");
-    fs::path faces = dir() / "faces.off";
+    fs::path faces = hardDir() / "faces.off";
     writeFile(faces, "OFF\n3 200000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
     expectOneLineError(runParallax("info " + q(faces)), "200000000 faces");
-    fs::path index = dir() / "index.off";
+    fs::path index = hardDir() / "index.off";
     writeFile(index, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1000000\n");
-    expectOneLineError(runParallax("render " + q(index) + " --out " + (dir() / "r").string()),
+    expectOneLineError(runParallax("render " + q(index) + " --out " + (hardDir() / "r").string()),
                        "OFF face 0 (line 6) refers to vertex 1000000 of 3");
     std::string nodes;
     for (int i = 0; i < 40; ++i)
         nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
-    fs::path doubled = dir() / "doubled.gltf";
+    fs::path doubled = hardDir() / "doubled.gltf";
     writeFile(doubled, R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[)" + nodes +
                            R"({"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
 "accessors":[{"componentType":5126,"count":3,"type":"VEC3"}]})");
@@ -126,7 +122,7 @@ TEST(HardeningCli, DeclaredCountsAndInstancingFailFast) {
 }
 
 TEST(HardeningCli, ReferencesStayInTheModelsFolder) {
-    fs::path model = dir() / "refs" / "model";
+    fs::path model = hardDir() / "refs" / "model";
     fs::create_directories(model);
     fs::path gltf = model / "passwd.gltf";
     writeFile(gltf, R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
@@ -143,7 +139,7 @@ TEST(HardeningCli, ReferencesStayInTheModelsFolder) {
     expectOneLineError(r, "points outside the model's folder");
     EXPECT_EQ(r.err.find("root:"), std::string::npos) << r.err;
     // The option lets a trusted model reach out: the texture then loads.
-    fs::path png = dir() / "refs" / "outside.png";
+    fs::path png = hardDir() / "refs" / "outside.png";
     ASSERT_TRUE(
         plx::writePng(png.string(), plx::ByteImage{2, 2, 3, std::vector<uint8_t>(12, 9)}).isOk());
     writeFile(model / "up.mtl", "newmtl a\nmap_Kd ../outside.png\n");
@@ -158,7 +154,7 @@ TEST(HardeningCli, ReferencesStayInTheModelsFolder) {
 }
 
 TEST(HardeningCli, TextureFailuresWarnAndStrictFails) {
-    fs::path model = dir() / "badtex";
+    fs::path model = hardDir() / "badtex";
     fs::create_directories(model);
     writeFile(model / "corrupt.png", std::string("\x89PNG\r\n\x1a\n", 8) + "not a png at all");
     writeFile(model / "m.mtl", "newmtl a\nmap_Kd corrupt.png\n");
@@ -174,19 +170,19 @@ TEST(HardeningCli, TextureFailuresWarnAndStrictFails) {
     expectOneLineError(runParallax("render " + q(obj) +
                                    " --shading textured --strict --size "
                                    "32x24 --out " +
-                                   (dir() / "t").string()),
+                                   (hardDir() / "t").string()),
                        "texture 'corrupt.png' not loaded");
 }
 
 TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
-    const std::string render = "render office:1 --size 32x24 --out " + (dir() / "r").string();
+    const std::string render = "render office:1 --size 32x24 --out " + (hardDir() / "r").string();
     expectOneLineError(runParallax(render + " --fov 0"), "--fov 0 must lie strictly between", 2);
     expectOneLineError(runParallax(render + " --fov 180"), "--fov 180", 2);
     expectOneLineError(runParallax(render + " --fov -5"), "--fov -5", 2);
     expectOneLineError(runParallax(render + " --target 1,1,1"), "--target needs --eye", 2);
     expectOneLineError(runParallax(render + " --eye 1e38,1,1 --target 0,0,0"),
                        "camera eye (1e+38, 1, 1) is too far from the origin", 2);
-    const std::string stereo = "stereo office:1 --size 32x24 --out " + (dir() / "s").string();
+    const std::string stereo = "stereo office:1 --size 32x24 --out " + (hardDir() / "s").string();
     expectOneLineError(runParallax(stereo + " --walk 0"), "--walk 0 outside 1 .. 100000", 2);
     // Once "PSNR 99 dB" and blank images: the eyes, 5e29 to each side, are refused up front.
     expectOneLineError(runParallax(stereo + " --separation 1e30"), "too far from the origin", 2);
@@ -194,12 +190,12 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax(stereo + " --separation 1e6 --rig parallel"),
                        "the first eye sees none of the scene");
     expectOneLineError(runParallax("predistort cone_showcase --viewer=0,-5000,0 --error 1 --out " +
-                                   (dir() / "p").string()),
+                                   (hardDir() / "p").string()),
                        "sees none of the display's content");
 }
 
 TEST(HardeningCli, InvalidJsonGivesLineAndColumn) {
-    fs::path bad = dir() / "bad.json";
+    fs::path bad = hardDir() / "bad.json";
     writeFile(bad, "{\n  \"a\": [1,\n    2,, 3]\n}\n");
     expectOneLineError(runParallax("predistort " + q(bad) + " --error 1 --out x"),
                        "not valid JSON at line 3, column 7");

@@ -11,12 +11,8 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path dir() {
+fs::path isolationDir() {
     return plx::testing::scratchDir("isolation_cli");
-}
-
-std::string q(const fs::path& p) {
-    return "'" + p.string() + "'";
 }
 
 void le(std::string* s, uint32_t x, int bytes) {
@@ -84,7 +80,7 @@ std::string triangleAse(const std::string& corners) {
 }
 
 TEST(IsolationCli, AseWithAHugeIndexIsOneLine) {
-    fs::path good = dir() / "good.ase", bad = dir() / "huge_index.ase";
+    fs::path good = isolationDir() / "good.ase", bad = isolationDir() / "huge_index.ase";
     writeFile(good, triangleAse("A: 0 B: 1 C: 2"));
     writeFile(bad, triangleAse("A: 0 B: 2147483647 C: 2"));
     EXPECT_EQ(runParallax("info " + q(good)).exitCode, 0);
@@ -94,15 +90,15 @@ TEST(IsolationCli, AseWithAHugeIndexIsOneLine) {
 
 TEST(IsolationCli, Damaged3mfArchivesAreOneLineEach) {
     const std::string good = triangle3mf();
-    writeFile(dir() / "good.3mf", good);
-    RunResult ok = runParallax("info " + q(dir() / "good.3mf"));
+    writeFile(isolationDir() / "good.3mf", good);
+    RunResult ok = runParallax("info " + q(isolationDir() / "good.3mf"));
     EXPECT_EQ(ok.exitCode, 0) << ok.err;
     // Every 16th byte inverted: about half of these made assimp abort on an internal assertion.
     int crashes = 0;
     for (size_t i = 0; i < good.size(); i += 16) {
         std::string bytes = good;
         bytes[i] = char(~bytes[i]);
-        fs::path p = dir() / "flipped.3mf";
+        fs::path p = isolationDir() / "flipped.3mf";
         writeFile(p, bytes);
         RunResult r = runParallax("info " + q(p));
         if (r.exitCode == 0) continue;  // a byte the reader does not need

@@ -9,12 +9,12 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() { return plx::testing::scratchDir("predistort_cli"); }
+fs::path predistortDir() { return plx::testing::scratchDir("predistort_cli"); }
 
 std::string coneDisplay() { return std::string(PLX_SOURCE_DIR) + "/examples/displays/cone_showcase.json"; }
 
 TEST(PredistortCli, AdaptiveJsonMeetsThresholdAndWritesFiles) {
-    fs::path prefix = scratchDir() / "cone";
+    fs::path prefix = predistortDir() / "cone";
     RunResult r = runParallax("predistort " + coneDisplay() + " --error 1 --out " +
                               prefix.string() + " --json --pass1-size 128 --grid-level 7");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -30,7 +30,7 @@ TEST(PredistortCli, AdaptiveJsonMeetsThresholdAndWritesFiles) {
 }
 
 TEST(PredistortCli, UniformObjAndAdaptivePfm) {
-    fs::path u = scratchDir() / "uniform", p = scratchDir() / "pfm";
+    fs::path u = predistortDir() / "uniform", p = predistortDir() / "pfm";
     RunResult r = runParallax("predistort " + coneDisplay() + " --error 2 --method uniform " +
                               "--format obj --pass1-size 128 --out " + u.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -56,9 +56,9 @@ TEST(PredistortCli, ExampleDisplayByNameEqualsItsFile) {
     std::string args = " --error 2 --pass1-size 64 --grid-level 6 --json --out ";
     RunResult byFile = runParallax("predistort " + std::string(PLX_SOURCE_DIR) +
                                    "/examples/displays/cylinder_mirror.json" + args +
-                                   (scratchDir() / "file").string());
+                                   (predistortDir() / "file").string());
     RunResult byName = runParallax("predistort cylinder_mirror --scene showcase" + args +
-                                   (scratchDir() / "name").string());
+                                   (predistortDir() / "name").string());
     ASSERT_EQ(byFile.exitCode, 0) << byFile.err;
     ASSERT_EQ(byName.exitCode, 0) << byName.err;
     auto a = nlohmann::json::parse(byFile.out), b = nlohmann::json::parse(byName.out);
@@ -67,16 +67,16 @@ TEST(PredistortCli, ExampleDisplayByNameEqualsItsFile) {
     EXPECT_EQ(a["scene"], "built-in exhibit");
     EXPECT_EQ(b["scene"], "showcase");
     expectOneLineError(runParallax("predistort no_such_display --error 1 --out " +
-                                   (scratchDir() / "none").string()),
+                                   (predistortDir() / "none").string()),
                        "no_such_display", 1);
 }
 
 TEST(PredistortCli, BadInputGivesOneLineErrors) {
-    std::string out = " --out " + (scratchDir() / "bad").string();
-    expectOneLineError(runParallax("predistort " + (scratchDir() / "missing.json").string() +
+    std::string out = " --out " + (predistortDir() / "bad").string();
+    expectOneLineError(runParallax("predistort " + (predistortDir() / "missing.json").string() +
                                    " --error 1" + out),
                        "missing.json", 1);
-    fs::path malformed = scratchDir() / "malformed.json";
+    fs::path malformed = predistortDir() / "malformed.json";
     std::ofstream(malformed) << "{\"optics\": {\"type\": \"cone_mirror\"";
     expectOneLineError(runParallax("predistort " + malformed.string() + " --error 1" + out),
                        "malformed.json", 1);
@@ -98,7 +98,7 @@ TEST(PredistortCli, BadInputGivesOneLineErrors) {
 }
 
 TEST(PredistortCli, BenchWritesTableAndPlots) {
-    fs::path dir = scratchDir() / "bench";
+    fs::path dir = predistortDir() / "bench";
     RunResult r = runParallax("bench predistort --display " + coneDisplay() +
                               " --thresholds 4,1 --repetitions 1 --out " + dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;

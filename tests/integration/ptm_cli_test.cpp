@@ -10,7 +10,7 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() {
+fs::path ptmDir() {
     return plx::testing::scratchDir("ptm_cli");
 }
 
@@ -21,7 +21,7 @@ fs::path writeTexture(const std::string& name, uint32_t seed) {
         for (int x = 0; x < img.width; ++x)
             for (int k = 0; k < 3; ++k)
                 img.pixel(x, y)[k] = uint8_t((x * 5 + y * 3 + k * 50 + (x * y + seed) % 11) & 255);
-    const fs::path path = scratchDir() / name;
+    const fs::path path = ptmDir() / name;
     EXPECT_TRUE(plx::writePng(path.string(), img).isOk());
     return path;
 }
@@ -32,7 +32,7 @@ std::string readAll(const fs::path& path) {
 }
 
 TEST(PtmCli, EncodeInfoDecodeVerify) {
-    const fs::path png = writeTexture("tex.png", 1), ptm = scratchDir() / "tex.ptm";
+    const fs::path png = writeTexture("tex.png", 1), ptm = ptmDir() / "tex.ptm";
     RunResult enc = runParallax("ptm encode " + png.string() + " -o " + ptm.string() + " --json");
     ASSERT_EQ(enc.exitCode, 0) << enc.err;
     const auto e = nlohmann::json::parse(enc.out);
@@ -64,7 +64,7 @@ TEST(PtmCli, EncodeInfoDecodeVerify) {
     RunResult text = runParallax("ptm info " + ptm.string());
     EXPECT_NE(text.out.find(":1, stored)"), std::string::npos) << text.out;
 
-    const fs::path top = scratchDir() / "top.png", low = scratchDir() / "low.png";
+    const fs::path top = ptmDir() / "top.png", low = ptmDir() / "low.png";
     ASSERT_EQ(runParallax("ptm decode " + ptm.string() + " -o " + top.string()).exitCode, 0);
     EXPECT_EQ(*plx::readImage(top.string()), *plx::readImage(png.string()));
     ASSERT_EQ(runParallax("ptm decode " + ptm.string() + " --level 1 -o " + low.string()).exitCode,
@@ -81,7 +81,7 @@ TEST(PtmCli, EncodeInfoDecodeVerify) {
 }
 
 TEST(PtmCli, EveryCoderAndShapeWeightRoundTrips) {
-    const fs::path png = writeTexture("coders.png", 2), ptm = scratchDir() / "coders.ptm";
+    const fs::path png = writeTexture("coders.png", 2), ptm = ptmDir() / "coders.ptm";
     auto roundTrips = [&](const std::string& option) {
         RunResult enc =
             runParallax("ptm encode " + png.string() + " -o " + ptm.string() + " " + option);
@@ -94,7 +94,7 @@ TEST(PtmCli, EveryCoderAndShapeWeightRoundTrips) {
 }
 
 TEST(PtmCli, PrefixesAndDamagedFiles) {
-    const fs::path png = writeTexture("bad.png", 3), ptm = scratchDir() / "bad.ptm";
+    const fs::path png = writeTexture("bad.png", 3), ptm = ptmDir() / "bad.ptm";
     ASSERT_EQ(runParallax("ptm encode " + png.string() + " -o " + ptm.string()).exitCode, 0);
     const std::string bytes = readAll(ptm);
     auto doc = nlohmann::json::parse(runParallax("ptm info " + ptm.string() + " --json").out);
@@ -102,7 +102,7 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
                                doc["level_groups"][2]["bytes"].get<uint64_t>();
 
     // A prefix that holds levels 0-2: info says so, level 2 decodes, level 3 does not.
-    const fs::path prefix = scratchDir() / "prefix.ptm";
+    const fs::path prefix = ptmDir() / "prefix.ptm";
     writeFile(prefix, bytes.substr(0, level2End));
     auto part =
         nlohmann::json::parse(runParallax("ptm info " + prefix.string() + " --json --partial").out);
@@ -115,7 +115,7 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
                            std::to_string(bytes.size()) +
                            " bytes its header declares (levels "
                            "0..2 of 0..6 complete");
-    const fs::path out = scratchDir() / "prefix.png";
+    const fs::path out = ptmDir() / "prefix.png";
     EXPECT_EQ(
         runParallax("ptm decode " + prefix.string() + " --level 2 -o " + out.string()).exitCode, 0);
     expectOneLineError(
@@ -124,14 +124,14 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
     // Damage in the last group: its checksum names it.
     std::string damaged = bytes;
     damaged[damaged.size() - 5] = char(damaged[damaged.size() - 5] ^ 0x40);
-    const fs::path bad = scratchDir() / "damaged.ptm";
+    const fs::path bad = ptmDir() / "damaged.ptm";
     writeFile(bad, damaged);
     expectOneLineError(runParallax("ptm verify " + bad.string()), "level 6 checksum mismatch");
 
-    const fs::path shortFile = scratchDir() / "short.ptm";
+    const fs::path shortFile = ptmDir() / "short.ptm";
     writeFile(shortFile, bytes.substr(0, 20));
     expectOneLineError(runParallax("ptm info " + shortFile.string()), "PTM");
-    expectOneLineError(runParallax("ptm info " + (scratchDir() / "none.ptm").string()), "none.ptm");
+    expectOneLineError(runParallax("ptm info " + (ptmDir() / "none.ptm").string()), "none.ptm");
     expectOneLineError(runParallax("ptm encode " + ptm.string() + " -o x.ptm"), "bad.ptm");
     expectOneLineError(runParallax("ptm verify " + ptm.string() + " --against " +
                                    writeTexture("other.png", 4).string()),

@@ -8,12 +8,12 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() {
+fs::path stereoDir() {
     return plx::testing::scratchDir("stereo_cli");
 }
 
 TEST(StereoCli, PBufferPairJsonAndLayouts) {
-    fs::path prefix = scratchDir() / "pair";
+    fs::path prefix = stereoDir() / "pair";
     RunResult r = runParallax("stereo office:4 --method pbuffer --size 96x72 --frames 2 --out " +
                               prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -31,7 +31,7 @@ TEST(StereoCli, PBufferPairJsonAndLayouts) {
     EXPECT_TRUE(fs::exists(prefix.string() + ".right.png"));
     EXPECT_TRUE(fs::exists(prefix.string() + ".diff.png"));
     for (const char* format : {"sbs", "tb", "anaglyph", "interleaved"}) {
-        fs::path p = scratchDir() / format;
+        fs::path p = stereoDir() / format;
         RunResult f =
             runParallax(std::string("stereo office:1 --method full --size 32x24 --format ") +
                         format + " --out " + p.string());
@@ -43,7 +43,7 @@ TEST(StereoCli, PBufferPairJsonAndLayouts) {
 TEST(StereoCli, ReprojectPairJsonHasHolesAndQuality) {
     // 640x480: at smaller sizes the half-pixel shifts of reprojected polygon edges alone make
     // more than 1% of the pixels differ from the full render.
-    fs::path prefix = scratchDir() / "reproject";
+    fs::path prefix = stereoDir() / "reproject";
     RunResult r = runParallax(
         "stereo office:1 --method reproject --shading flat --size 640x480 "
         "--frames 2 --threads 2 --out " +
@@ -74,7 +74,7 @@ TEST(StereoCli, ReprojectPairJsonHasHolesAndQuality) {
 
 TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
     for (const char* format : {"sbs", "anaglyph"}) {
-        fs::path p = scratchDir() / (std::string("reproject_") + format);
+        fs::path p = stereoDir() / (std::string("reproject_") + format);
         RunResult f = runParallax(std::string("stereo office:1 --method reproject --size 48x32 "
                                               "--frames 1 --first-eye right --rig parallel "
                                               "--format ") +
@@ -82,7 +82,7 @@ TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
         ASSERT_EQ(f.exitCode, 0) << f.err;
         EXPECT_TRUE(fs::exists(p.string() + "." + format + ".png")) << format;
     }
-    fs::path prefix = scratchDir() / "reproject_walk";
+    fs::path prefix = stereoDir() / "reproject_walk";
     RunResult r = runParallax(
         "stereo office:2 --method reproject --reproject-lut --walk 2 "
         "--size 48x32 --frames 1 --out " +
@@ -97,7 +97,7 @@ TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
 }
 
 TEST(StereoCli, WalkthroughReportsPerPoseTimings) {
-    fs::path prefix = scratchDir() / "walk";
+    fs::path prefix = stereoDir() / "walk";
     RunResult r = runParallax("stereo office:2 --walk 3 --size 48x32 --conservative --out " +
                               prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -106,18 +106,18 @@ TEST(StereoCli, WalkthroughReportsPerPoseTimings) {
     EXPECT_EQ(doc["frames"], 9);  // timed pairs per pose, the default
     EXPECT_EQ(doc["per_pose"].size(), 3u);
     EXPECT_TRUE(fs::exists(prefix.string() + "_0002.left.png"));
-    fs::path path = scratchDir() / "path.json";
+    fs::path path = stereoDir() / "path.json";
     writeFile(
         path,
         R"({"poses":[{"eye":[1,1.6,1],"target":[5,1,5]},{"eye":[1.2,1.6,1],"target":[5,1,5]}]})");
     r = runParallax("stereo office:1 --path " + path.string() + " --size 32x24 --out " +
-                    (scratchDir() / "p").string() + " --json");
+                    (stereoDir() / "p").string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(nlohmann::json::parse(r.out)["poses"], 2);
 }
 
 TEST(StereoCli, BadParametersGiveOneLineErrors) {
-    std::string out = " --out " + (scratchDir() / "bad").string();
+    std::string out = " --out " + (stereoDir() / "bad").string();
     expectOneLineError(runParallax("stereo office:1 --separation -0.1" + out), "separation", 2);
     expectOneLineError(runParallax("stereo office:1 --convergence 0" + out), "convergence", 2);
     expectOneLineError(runParallax("stereo office:1 --method magic" + out), "magic", 2);
@@ -132,13 +132,13 @@ TEST(StereoCli, BadParametersGiveOneLineErrors) {
     for (const char* frames : {"0", "-1", "abc", "100001"})
         expectOneLineError(runParallax(std::string("stereo office:1 --frames ") + frames + out),
                            "--frames", 2);
-    fs::path bad = scratchDir() / "bad_path.json";
+    fs::path bad = stereoDir() / "bad_path.json";
     writeFile(bad, R"({"poses":[{"eye":[0,1,0]}]})");
     expectOneLineError(runParallax("stereo office:1 --path " + bad.string() + out), "target");
 }
 
 TEST(StereoCli, BenchStereoWritesTableAndPlots) {
-    fs::path dir = scratchDir() / "bench";
+    fs::path dir = stereoDir() / "bench";
     RunResult r = runParallax("bench stereo --rooms 1,2 --size 64x48 --frames 1 --out " +
                               dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;

@@ -43,8 +43,9 @@ TEST(StreamBenchCli, QuickJsonRowsAndOrderByBandwidth) {
         EXPECT_GT(p["psnr_db"].get<double>(), 10.0);
     }
     EXPECT_FALSE(doc.contains("frame_time"));  // --no-frame-times
-    for (const char* file : {"stream.json", "walks.csv", "policies.csv", "stream_quality.svg",
-                             "stream_resident.svg", "stream_policies.svg", "stream_10s.png"})
+    for (const char* file :
+         {"stream.json", "walks.csv", "policies.csv", "policy_frames.csv", "stream_quality.svg",
+          "stream_resident.svg", "stream_policies.svg", "stream_10s.png"})
         EXPECT_TRUE(fs::exists(dir / file)) << file;
 }
 

@@ -9,7 +9,7 @@ namespace {
 
 using namespace plx::testing;
 
-fs::path scratchDir() {
+fs::path warpDir() {
     return plx::testing::scratchDir("warp_cli");
 }
 
@@ -17,7 +17,7 @@ fs::path scratchDir() {
 const std::string kFrom = " --eye 1.0,1.6,1.0 --target 4.0,1.2,5.0 --size 160x120";
 
 nlohmann::json warpJson(const std::string& toEye, const std::string& name) {
-    fs::path prefix = scratchDir() / name;
+    fs::path prefix = warpDir() / name;
     RunResult r = runParallax("warp office:2" + kFrom + " --to-eye " + toEye +
                               " --frames 2 --out " + prefix.string() + " --json");
     EXPECT_EQ(r.exitCode, 0) << r.err;
@@ -56,7 +56,7 @@ TEST(WarpCli, JsonFieldsAndQualityFallWithTheMove) {
 TEST(WarpCli, EveryLayoutAndSplatRuns) {
     for (const char* refs : {"cube4", "cube6", "wide"})
         for (const char* splat : {"derivative", "point", "fixed", "mesh"}) {
-            fs::path prefix = scratchDir() / (std::string(refs) + "_" + splat);
+            fs::path prefix = warpDir() / (std::string(refs) + "_" + splat);
             RunResult r =
                 runParallax(std::string("warp office:1 --size 48x36 --to-eye 1.1,1.6,1.1 "
                                         "--frames 1 --refs ") +
@@ -70,7 +70,7 @@ TEST(WarpCli, EveryLayoutAndSplatRuns) {
 }
 
 TEST(WarpCli, FirstPoseFromANamedViewpoint) {
-    fs::path prefix = scratchDir() / "vista";
+    fs::path prefix = warpDir() / "vista";
     RunResult r = runParallax(
         "warp office:2 --viewpoint vista --size 48x36 --to-eye 0.6,1.6,0.6 "
         "--frames 1 --out " +
@@ -83,7 +83,7 @@ TEST(WarpCli, FirstPoseFromANamedViewpoint) {
 }
 
 TEST(WarpCli, BadParametersGiveOneLineErrors) {
-    std::string out = " --out " + (scratchDir() / "bad").string();
+    std::string out = " --out " + (warpDir() / "bad").string();
     std::string base = "warp office:1 --size 32x24";
     expectOneLineError(runParallax(base + " --to-eye nan,1,1" + out), "nan", 2);
     expectOneLineError(runParallax(base + " --to-eye 1,1,1 --to-target 1,inf,2" + out),
@@ -102,7 +102,7 @@ TEST(WarpCli, BadParametersGiveOneLineErrors) {
 }
 
 TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
-    fs::path dir = scratchDir() / "bench";
+    fs::path dir = warpDir() / "bench";
     RunResult r = runParallax("bench warp --quick --out " + dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
@@ -132,7 +132,7 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
 }
 
 TEST(WarpCli, DemoQuickHasTheWarpSection) {
-    fs::path dir = scratchDir() / "demo";
+    fs::path dir = warpDir() / "demo";
     RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);

@@ -5,6 +5,7 @@
 
 #include <plx/ptm/decoder.h>
 
+#include "corrupt.h"
 #include "kernels.h"
 #include "lowest.h"
 #include "raw_layout.h"
@@ -13,10 +14,6 @@ static_assert(std::endian::native == std::endian::little, "the bit reader assume
 
 namespace plx::ptm {
 namespace {
-
-Status corrupt(std::string message) {
-    return errorStatus(ErrorCode::kCorruptData, "PTM: " + std::move(message));
-}
 
 // The image a group decodes into: the level's size, all bytes allocated.
 ByteImage levelImage(LevelSize size, int comps) {

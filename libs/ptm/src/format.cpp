@@ -4,6 +4,8 @@
 
 #include <plx/ptm/format.h>
 
+#include "corrupt.h"
+
 namespace plx::ptm {
 namespace {
 
@@ -17,9 +19,6 @@ void putU32(std::vector<uint8_t>& out, uint32_t v) {
 void putU64(std::vector<uint8_t>& out, uint64_t v) {
     putU32(out, uint32_t(v));
     putU32(out, uint32_t(v >> 32));
-}
-Status corrupt(std::string message) {
-    return errorStatus(ErrorCode::kCorruptData, "PTM: " + std::move(message));
 }
 
 }  // namespace

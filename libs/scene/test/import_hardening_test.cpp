@@ -23,7 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tempDir(const std::string& name) { return freshTestDir("scene_hardening", name); }
+fs::path testDir(const std::string& name) { return freshTestDir("scene_hardening", name); }
 
 std::string writeFile(const fs::path& path, const std::string& bytes) {
     return writeTestFile(path, bytes);
@@ -47,7 +47,7 @@ const char* kTriangleBase64 =
     "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
 
 TEST(ImportLimits, OffCountsAreCheckedAgainstTheFileSize) {
-    fs::path dir = tempDir("off");
+    fs::path dir = testDir("off");
     const std::string body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     expectError(writeFile(dir / "vertices.off", "OFF\n200000000 1 0\n" + body),
                 "OFF header declares 200000000 vertices");
@@ -59,7 +59,7 @@ TEST(ImportLimits, OffCountsAreCheckedAgainstTheFileSize) {
 }
 
 TEST(ImportLimits, OffFaceIndexOutOfRangeIsAnError) {
-    fs::path dir = tempDir("off_index");
+    fs::path dir = testDir("off_index");
     expectError(writeFile(dir / "index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1000000\n"),
                 "OFF face 0 (line 6) refers to vertex 1000000 of 3");
     expectError(writeFile(dir / "negative.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"),
@@ -76,7 +76,7 @@ std::string xFile(const std::string& faces, int count) {
 
 TEST(ImportLimits, XFaceIndexOutOfRangeIsAnError) {
     // assimp dropped the face without a word.
-    fs::path dir = tempDir("x_index");
+    fs::path dir = testDir("x_index");
     expectError(writeFile(dir / "index.x", xFile(" 3;0,1,2;,\n 3;0,1,2147483647;", 2)),
                 ".x mesh 0 face 1 refers to vertex 2147483647 of 3");
     auto ok = importFile(writeFile(dir / "fine.x", xFile(" 3;0,1,2;,\n 3;0,2,1;", 2)));
@@ -86,7 +86,7 @@ TEST(ImportLimits, XFaceIndexOutOfRangeIsAnError) {
 
 TEST(ImportLimits, XCountsBeyondTheFileAreErrors) {
     // One count changed to 2^31-1: assimp reserved that many and crashed.
-    fs::path dir = tempDir("x_count");
+    fs::path dir = testDir("x_count");
     expectError(writeFile(dir / "faces.x", xFile(" 3;0,1,2;,\n 3;0,2,1;", 2147483647)),
                 ".x mesh 0 declares 2147483647 faces, more than the");
     std::string vertices = xFile(" 3;0,1,2;", 1);
@@ -105,7 +105,7 @@ ImportOptions contained() {
 
 TEST(ImportLimits, SmdEndingInsideASectionIsTruncated) {
     // The reader looped forever at the end of a file inside its "nodes" block.
-    fs::path dir = tempDir("smd");
+    fs::path dir = testDir("smd");
     const std::string nodes = "version 1\nnodes\n0 \"root\" -1\n";
     expectError(writeFile(dir / "nodes.smd", nodes), "SMD section 'nodes' (line 2) has no 'end'",
                 contained());
@@ -132,7 +132,7 @@ std::string ac3dQuad(int subdiv) {
 
 TEST(ImportLimits, Ac3dSubdivisionIsCountedBeforeAssimpSubdivides) {
     // "subdiv 9" (2^19 triangles from one quad) took 1.7 s; "subdiv 12" 24 s and 4 GB.
-    fs::path dir = tempDir("ac3d");
+    fs::path dir = testDir("ac3d");
     expectError(writeFile(dir / "subdiv9.ac", ac3dQuad(9)),
                 "AC3D subdivision (subdiv 9) makes more than the limit of 131072 triangles");
     expectError(writeFile(dir / "subdiv40.ac", ac3dQuad(40)), "(subdiv 40)");
@@ -156,7 +156,7 @@ TEST(ImportLimits, GlbChunkLengthBeyondTheFileIsAnError) {
     u32(uint32_t(12 + 8 + json.size()));
     u32(0xFFFFFFF0u);
     glb += "JSON" + json;
-    fs::path dir = tempDir("glb_chunk");
+    fs::path dir = testDir("glb_chunk");
     expectError(writeFile(dir / "chunk.glb", glb), "GLB has no complete JSON chunk");
 }
 
@@ -166,7 +166,7 @@ TEST(ImportLimits, DoubledGltfChildrenFailFastNamingTheLimit) {
     for (int i = 0; i < 40; ++i)
         nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
     nodes += "{\"mesh\":0}]";
-    fs::path dir = tempDir("doubled");
+    fs::path dir = testDir("doubled");
     expectError(writeFile(dir / "doubled.gltf", gltfWithBuffer(kTriangleBase64, nodes)),
                 "limit of 1048576 node copies");
     ImportOptions few;
@@ -200,7 +200,7 @@ TEST(ImportLimits, PolygonWithTooManyCornersIsRefused) {
         obj += line;
     }
     obj += "\n";
-    fs::path dir = tempDir("polygon");
+    fs::path dir = testDir("polygon");
     expectError(writeFile(dir / "polygon.obj", obj),
                 "face 0 has 100000 corners, more than the limit of 4096");
 }
@@ -264,7 +264,7 @@ TEST(ImportNormals, LinearMethodEqualsTheReference) {
 TEST(ImportNormals, CornersShareAVertexOnlyWhenEveryAttributeIsEqual) {
     // Two coplanar triangles sharing an edge (one vertex each way), and a third over the same
     // corners facing the other way, one of its corners with another UV.
-    fs::path dir = tempDir("join");
+    fs::path dir = testDir("join");
     auto s = importFile(writeFile(dir / "join.obj",
                                   "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
                                   "vt 0 1\nvt 0.5 0.5\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\nf 1/5 4/4 3/3\n"));
@@ -292,7 +292,7 @@ TEST(ImportNormals, HugeFanAroundOneVertexImports) {
         std::snprintf(line, sizeof(line), "f 1 %d %d\n", i + 2, i + 3);
         obj += line;
     }
-    fs::path dir = tempDir("fan");
+    fs::path dir = testDir("fan");
     auto s = importFile(writeFile(dir / "fan.obj", obj));
     ASSERT_TRUE(s.isOk()) << s.status().message();
     EXPECT_GT(s->triangleCount(), size_t(n) * 99 / 100);  // a few sliver triangles may be zero area
@@ -314,7 +314,7 @@ std::string triangleBuffer() {
 }
 
 TEST(ImportRefs, GltfBufferOutsideTheFolderIsRefused) {
-    fs::path dir = tempDir("gltf_buffer");
+    fs::path dir = testDir("gltf_buffer");
     writeFile(dir / "outside.bin", triangleBuffer());
     std::string path = writeFile(dir / "model" / "up.gltf", gltfWithBuffer("../outside.bin"));
     expectError(path, "points outside the model's folder");
@@ -342,7 +342,7 @@ TEST(ImportRefs, GltfBufferOutsideTheFolderIsRefused) {
 }
 
 TEST(ImportRefs, ObjMaterialLibraryOutsideIsRefusedWithoutQuotingIt) {
-    fs::path dir = tempDir("obj_mtllib");
+    fs::path dir = testDir("obj_mtllib");
     writeFile(dir / "secret.txt", "SECRET-CONTENT line one\nSECRET-CONTENT line two\n");
     std::string path = writeFile(dir / "model" / "m.obj", std::string("mtllib ../secret.txt\n") +
                                                               kTriangleObj + "usemtl x\nf 1 2 3\n");
@@ -355,7 +355,7 @@ TEST(ImportRefs, ObjMaterialLibraryOutsideIsRefusedWithoutQuotingIt) {
 }
 
 TEST(ImportRefs, TexturesOutsideTheFolderAreRefused) {
-    fs::path dir = tempDir("obj_texture");
+    fs::path dir = testDir("obj_texture");
     fs::copy_file(std::string(PLX_SOURCE_DIR) + "/libs/scene/test/fixtures/tiny.png",
                   dir / "outside.png");
     auto objWithTexture = [&](const std::string& name, const std::string& texture) {
@@ -374,7 +374,7 @@ TEST(ImportRefs, TexturesOutsideTheFolderAreRefused) {
 }
 
 TEST(ImportTextures, DecodeFailuresAreWarningsNamingTheTexture) {
-    fs::path dir = tempDir("bad_textures");
+    fs::path dir = testDir("bad_textures");
     writeFile(dir / "corrupt.png", std::string("\x89PNG\r\n\x1a\n", 8) + std::string(64, 'x'));
     writeFile(dir / "corrupt.jpg", std::string("\xff\xd8\xff\xe0", 4) + std::string(64, 'x'));
     fs::copy_file(std::string(PLX_SOURCE_DIR) + "/libs/scene/test/fixtures/tiny.png",
@@ -409,7 +409,7 @@ TEST(ImportTextures, HugeDeclaredAndUndecodableEmbeddedTexturesAreWarnings) {
     // A PNG declaring 100000x100000 pixels (57 bytes) is refused from its header, before
     // decoding. An embedded image of unknown format (the base64 decodes to garbage) is a warning
     // naming it too; it once failed the whole import without naming the texture.
-    fs::path dir = tempDir("huge_texture");
+    fs::path dir = testDir("huge_texture");
     fs::copy_file(std::string(PLX_SOURCE_DIR) + "/libs/scene/test/fixtures/declares_100000x100000.png",
                   dir / "huge.png");
     writeFile(dir / "m.mtl", "newmtl a\nmap_Kd huge.png\n");
@@ -440,7 +440,7 @@ TEST(ImportTextures, HugeDeclaredAndUndecodableEmbeddedTexturesAreWarnings) {
 }
 
 TEST(ImportTextures, DevicesAndFifosAreNotRead) {
-    fs::path dir = tempDir("texture_fifo");
+    fs::path dir = testDir("texture_fifo");
     ASSERT_EQ(mkfifo((dir / "fifo.png").c_str(), 0600), 0);
     writeFile(dir / "m.mtl", "newmtl a\nmap_Kd fifo.png\n");
     auto s = importFile(writeFile(
@@ -462,7 +462,7 @@ TEST(ImportTextures, DevicesAndFifosAreNotRead) {
 }
 
 TEST(ImportErrors, AssimpMessagesDoNotQuoteFileContent) {
-    fs::path dir = tempDir("quoted");
+    fs::path dir = testDir("quoted");
     std::string gltf = gltfWithBuffer("data:application/octet-stream;base64,SECRET!!!***");
     std::string path = writeFile(dir / "b64.gltf", gltf);
     auto s = importFile(path);

@@ -24,11 +24,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tempDir(const std::string& name) {
+fs::path jailDir(const std::string& name) {
     return freshTestDir("scene_isolated", name);
 }
 
-std::string writeFile(const fs::path& path, const std::string& bytes) {
+std::string writeInput(const fs::path& path, const std::string& bytes) {
     return writeTestFile(path, bytes);
 }
 
@@ -102,9 +102,9 @@ TEST(IsolatedImport, GoodFilesComeBackAsImportedInProcess) {
 }
 
 TEST(IsolatedImport, ErrorsOfTheImportPassThrough) {
-    fs::path dir = tempDir("errors");
+    fs::path dir = jailDir("errors");
     expectError((dir / "missing.obj").string(), "not found", isolated());
-    expectError(writeFile(dir / "empty.obj", ""), "empty", isolated());
+    expectError(writeInput(dir / "empty.obj", ""), "empty", isolated());
 }
 
 TEST(IsolatedImport, EachChildFailureIsOneLineNamingTheFile) {
@@ -157,8 +157,8 @@ TEST(IsolatedImport, DeeplyNestedGltfIsAnError) {
 "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
 "bufferViews":[{"buffer":0,"byteLength":36}],
 "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]})";
-    fs::path dir = tempDir("deep");
-    std::string path = writeFile(dir / "deep.gltf", gltf);
+    fs::path dir = jailDir("deep");
+    std::string path = writeInput(dir / "deep.gltf", gltf);
     ImportOptions o = isolated();
     o.isolation.maxStackBytes = size_t(8) << 20;
     auto s = importFile(path, o);
@@ -180,13 +180,13 @@ std::string aseWith(const std::string& numVertex, const std::string& face) {
 }
 
 TEST(IsolatedImport, AseWithAHugeIndexIsAnError) {
-    fs::path dir = tempDir("ase");
-    ASSERT_TRUE(
-        importFile(writeFile(dir / "good.ase", aseWith("3", "A: 0 B: 1 C: 2")), isolated()).isOk());
+    fs::path dir = jailDir("ase");
+    const std::string good = writeInput(dir / "good.ase", aseWith("3", "A: 0 B: 1 C: 2"));
+    ASSERT_TRUE(importFile(good, isolated()).isOk());
     for (const auto& [name, numVertex, face] :
          {std::tuple{"face.ase", "3", "A: 0 B: 2147483647 C: 2"},
           std::tuple{"count.ase", "2147483647", "A: 0 B: 1 C: 2"}}) {
-        std::string path = writeFile(dir / name, aseWith(numVertex, face));
+        std::string path = writeInput(dir / name, aseWith(numVertex, face));
         auto s = importFile(path, isolated(20.0));
         if (s.isOk()) continue;  // a reader that drops the bad face is fine too
         EXPECT_NE(s.status().message().find(path), std::string::npos) << s.status().message();

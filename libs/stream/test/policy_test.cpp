@@ -218,7 +218,7 @@ TEST(StreamPolicy, EveryPolicyHandsOutAtMostTheBudget) {
     }
 }
 
-fs::path testDir(const std::string& name) {
+fs::path policyTestDir(const std::string& name) {
     fs::path dir =
         fs::path(PLX_TEST_OUTPUT_DIR) / "stream_policy" / (name + "-" + std::to_string(getpid()));
     fs::remove_all(dir);
@@ -234,7 +234,7 @@ struct Museum {
 const Museum& museum() {
     static const Museum m = [] {
         Museum out;
-        out.db = testDir("museum4");
+        out.db = policyTestDir("museum4");
         auto scene = scene::generateMuseum(4).value();
         out.cells = makeCells(scene).value();
         VisibilityConfig config;

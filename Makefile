@@ -23,8 +23,11 @@ demo: build
 # build (PLX_NO_SIMD), ASan + UBSan, and a bounded fuzz run of every decoder of untrusted bytes.
 test: test-release test-scalar test-asan test-fuzz
 
-# One preset's build and tests.
-test-one: build
+# One preset's build and tests; the build's wall time is printed for CI's log (ctest prints the
+# tests' own).
+test-one:
+	@start=$$(date +%s); $(MAKE) --no-print-directory build && \
+		echo "== $(PRESET) build: $$(( $$(date +%s) - start )) s wall"
 	ctest --preset $(PRESET) -j $(JOBS)
 
 test-release:
@@ -46,7 +49,8 @@ fuzz:
 # The fuzz run inside `make test`: seven targets of 45 s, two at a time, 3 minutes of wall time
 # on CI's 2 cores (`make fuzz` runs longer).
 test-fuzz:
-	$(MAKE) fuzz FUZZ_SECONDS=45
+	@start=$$(date +%s); $(MAKE) --no-print-directory fuzz FUZZ_SECONDS=45 && \
+		echo "== fuzz build and runs: $$(( $$(date +%s) - start )) s wall"
 
 bench: build
 	scripts/run-benchmarks.sh $(BUILD_DIR)

@@ -80,9 +80,12 @@ Status demoStreamSection(DemoContext& ctx) {
     for (const PolicyRow& p : e->policies)
         policies.push_back({std::string(stream::policyName(p.policy)),
                             fmt::format("{:.2f}", double(p.budgetBytes) / double(1 << 20)),
-                            fmt::format("{:.2f}", p.psnrDb), std::to_string(p.framesCompared),
+                            fmt::format("{:.2f}", p.psnrDb),
+                            fmt::format("{:.2f}", p.psnrAfterFirstStopDb),
+                            std::to_string(p.framesCompared),
                             fmt::format("{} / {}", p.maxResidentBytes, p.budgetBytes)});
-    rep.table({"policy", "budget MiB", "texture PSNR dB", "frames compared",
+    rep.table({"policy", "budget MiB", "texture PSNR dB", "after the first stop dB",
+               "frames compared",
                "max resident / budget bytes"},
               policies);
     (*ctx.summary)["stream"] = streamExperimentJson(*e);

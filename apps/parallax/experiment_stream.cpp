@@ -211,14 +211,24 @@ WalkOutcome walk(const std::string& db, double latencyS, const std::vector<Camer
     return out;
 }
 
-PolicyRow policyRow(stream::AllocationPolicy policy, uint64_t budget, const WalkOutcome& w) {
+// The PSNR of the mean squared error of the compared frames from index `firstFrame` on.
+double psnrFromFrame(const WalkOutcome& w, size_t firstFrame) {
+    double sum = 0.0;
+    size_t n = 0;
+    for (size_t k = 0; k < w.mse.size(); ++k)
+        if (w.comparedFrames[k] >= firstFrame) sum += w.mse[k], ++n;
+    const double meanMse = n ? sum / double(n) : 0.0;
+    return meanMse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / meanMse) : kIdenticalPsnrDb;
+}
+
+PolicyRow policyRow(stream::AllocationPolicy policy, uint64_t budget, const WalkOutcome& w,
+                    const stream::TourConfig& tour) {
     PolicyRow row;
     row.policy = policy;
     row.budgetBytes = budget;
     row.framesCompared = int(w.mse.size());
-    double meanMse = 0.0;
-    for (double m : w.mse) meanMse += m / double(std::max<size_t>(1, w.mse.size()));
-    row.psnrDb = meanMse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / meanMse) : kIdenticalPsnrDb;
+    row.psnrDb = psnrFromFrame(w, 0);
+    row.psnrAfterFirstStopDb = psnrFromFrame(w, size_t(std::ceil(tour.stopS * tour.fps)));
     row.psnrMedianDb = median(w.psnrDb);
     for (size_t k = 0; k < w.psnrDb.size(); ++k)
         row.framePsnrDb.emplace_back(w.comparedFrames[k], w.psnrDb[k]);
@@ -343,7 +353,7 @@ Result<StreamExperiment> runStreamExperiment(const StreamExperimentConfig& confi
             plan.compareEvery = config.psnrEvery;
             plan.fullTextures = &decoded->textures;
             WalkOutcome w = walk(config.dbDir, config.latencyS, *cameras, plan, r, config.tour.fps);
-            e.policies.push_back(policyRow(policy, budget, w));
+            e.policies.push_back(policyRow(policy, budget, w, config.tour));
             step();
         }
     }
@@ -401,6 +411,7 @@ nlohmann::json streamExperimentJson(const StreamExperiment& e) {
         policies.push_back({{"policy", stream::policyName(p.policy)},
                             {"budget_bytes", p.budgetBytes},
                             {"psnr_db", p.psnrDb},
+                            {"psnr_after_first_stop_db", p.psnrAfterFirstStopDb},
                             {"psnr_median_db", p.psnrMedianDb},
                             {"frames_compared", p.framesCompared},
                             {"mean_resident_bytes", p.meanResidentBytes},
@@ -431,11 +442,13 @@ std::string streamWalksCsv(const StreamExperiment& e) {
 
 std::string streamPoliciesCsv(const StreamExperiment& e) {
     std::string csv =
-        "policy,budget_bytes,psnr_db,psnr_median_db,frames_compared,mean_resident_bytes,"
-        "max_resident_bytes,frames_over_budget,downloaded_bytes,quality_final\n";
+        "policy,budget_bytes,psnr_db,psnr_after_first_stop_db,psnr_median_db,frames_compared,"
+        "mean_resident_bytes,max_resident_bytes,frames_over_budget,downloaded_bytes,"
+        "quality_final\n";
     for (const PolicyRow& p : e.policies)
-        csv += fmt::format("{},{},{:.3f},{:.3f},{},{:.0f},{},{},{},{:.4f}\n",
-                           stream::policyName(p.policy), p.budgetBytes, p.psnrDb, p.psnrMedianDb,
+        csv += fmt::format("{},{},{:.3f},{:.3f},{:.3f},{},{:.0f},{},{},{},{:.4f}\n",
+                           stream::policyName(p.policy), p.budgetBytes, p.psnrDb,
+                           p.psnrAfterFirstStopDb, p.psnrMedianDb,
                            p.framesCompared, p.meanResidentBytes, p.maxResidentBytes,
                            p.framesOverBudget, p.downloadedBytes, p.qualityFinal);
     return csv;

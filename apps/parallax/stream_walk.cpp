@@ -283,8 +283,8 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         ->capture_default_str();
     walk->add_option(
             "--policy", a->policy,
-            "Budget allocation: ach (the paper), ach-return (ACH, unusable shares go on), lru or "
-            "equal (baselines)")
+            "Budget allocation: ach (the paper), ach-return (ACH, unusable shares go on), "
+            "ach-texture (ACH per texture), lru or equal (baselines)")
         ->capture_default_str();
     walk->add_option("--path", a->path, "Walkthrough: a JSON list of poses");
     walk->add_option("--walk", a->walk, "Walkthrough: N poses of the built-in walk");

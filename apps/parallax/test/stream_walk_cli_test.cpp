@@ -62,7 +62,7 @@ TEST(StreamWalkCli, StaticViewpointReachesFullQuality) {
 
 // The tour through every room (section 7.1): four rooms, 2 s still in each, under each policy.
 TEST(StreamWalkCli, TourThroughEveryRoom) {
-    for (const char* policy : {"ach", "ach-return", "lru", "equal"}) {
+    for (const char* policy : {"ach", "ach-return", "ach-texture", "lru", "equal"}) {
         RunResult r = runParallax("stream walk " + walkDb().string() +
                                   " --tour --stop 2 --size 64x48 --budget 0.25 --static-budget 0.5"
                                   " --policy " +
@@ -121,7 +121,7 @@ TEST(StreamWalkCli, DemoQuickHasTheStreamSection) {
         }
     }
     EXPECT_GT(walks.back()["quality_final"].get<double>(), 0.5);
-    EXPECT_EQ(doc["stream"]["policies"].size(), 8u);  // four policies at two budgets
+    EXPECT_EQ(doc["stream"]["policies"].size(), 10u);  // five policies at two budgets
     for (const char* file : {"stream_quality.svg", "stream_resident.svg", "stream_10s.png",
                              "stream_frame_time.svg", "stream_policies.svg"})
         EXPECT_TRUE(fs::exists(dir / file)) << file;

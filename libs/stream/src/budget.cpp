@@ -121,12 +121,62 @@ uint64_t allocateAchReturning(std::vector<VisibleCell> cells, uint64_t budget,
     return used;
 }
 
+// allocateByTextureCoverage's floor: each node first gets 1/kFloorDivisor of an equal share.
+constexpr uint64_t kFloorDivisor = 4;
+
+uint64_t allocateByTextureCoverage(std::vector<VisibleCell> cells, uint64_t budget,
+                                   std::vector<PtmNode>& nodes) {
+    // Each distinct node once, with its hint; a node of several visible cells (a texture used in
+    // several rooms) has the same hint in each.
+    std::vector<std::pair<double, int>> byHint;  // (hint, node)
+    std::vector<bool> listed(nodes.size(), false);
+    double hintLeft = 0.0;
+    for (const VisibleCell& c : cells)
+        for (size_t k = 0; k < c.nodes.size(); ++k) {
+            const int n = c.nodes[k];
+            if (listed[size_t(n)] || nodes[size_t(n)].failed) continue;
+            listed[size_t(n)] = true;
+            const double hint = k < c.coverage.size() ? std::max(0.0, c.coverage[k]) : 0.0;
+            byHint.emplace_back(hint, n);
+            hintLeft += hint;
+        }
+    if (!(hintLeft > 0.0)) return allocateAchReturning(std::move(cells), budget, nodes);
+    std::stable_sort(byHint.begin(), byHint.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    // A floor first: every node keeps the whole levels that a quarter of an equal share buys, so
+    // that a texture the sampling missed (hint 0: seen through a gap no sample point lined up
+    // with) is never drawn without levels while it is in view.
+    uint64_t used = 0;
+    const uint64_t floorShare = budget / (kFloorDivisor * byHint.size());
+    for (const auto& [hint, n] : byHint) used += offerWholeLevels(nodes[size_t(n)], floorShare);
+    // M_t = normalised hint_t * (M - M_used), as 6.1 gives a cell its share; the last node gets
+    // all that is left.
+    for (size_t i = 0; i < byHint.size(); ++i) {
+        const auto [hint, n] = byHint[i];
+        const uint64_t remaining = budget - used;
+        uint64_t share = hintLeft > 0.0
+                             ? uint64_t(double(remaining) * std::min(1.0, hint / hintLeft))
+                             : remaining / (byHint.size() - i);
+        if (i + 1 == byHint.size()) share = remaining;
+        hintLeft -= hint;
+        used += offerWholeLevels(nodes[size_t(n)], share);
+    }
+    for (const auto& [hint, n] : byHint) {
+        if (used == budget) break;
+        used += offerWholeLevels(nodes[size_t(n)], budget - used);
+    }
+    return used;
+}
+
 std::string_view policyName(AllocationPolicy policy) {
     switch (policy) {
         case AllocationPolicy::kAch:
             return "ach";
         case AllocationPolicy::kAchReturn:
             return "ach-return";
+        case AllocationPolicy::kAchTexture:
+            return "ach-texture";
         case AllocationPolicy::kLru:
             return "lru";
         case AllocationPolicy::kEqualSplit:
@@ -137,10 +187,12 @@ std::string_view policyName(AllocationPolicy policy) {
 
 Result<AllocationPolicy> parsePolicy(std::string_view name) {
     for (AllocationPolicy p : {AllocationPolicy::kAch, AllocationPolicy::kAchReturn,
-                               AllocationPolicy::kLru, AllocationPolicy::kEqualSplit})
+                               AllocationPolicy::kAchTexture, AllocationPolicy::kLru,
+                               AllocationPolicy::kEqualSplit})
         if (policyName(p) == name) return p;
     return errorStatus(ErrorCode::kInvalidArgument,
-                       fmt::format("unknown allocation policy '{}' (ach, ach-return, lru or equal)",
+                       fmt::format("unknown allocation policy '{}' (ach, ach-return, "
+                                   "ach-texture, lru or equal)",
                                    name.substr(0, 40)));
 }
 
@@ -151,6 +203,8 @@ uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint6
             return allocateBudget(std::move(cells), budget, nodes);
         case AllocationPolicy::kAchReturn:
             return allocateAchReturning(std::move(cells), budget, nodes);
+        case AllocationPolicy::kAchTexture:
+            return allocateByTextureCoverage(std::move(cells), budget, nodes);
         case AllocationPolicy::kLru:
             return allocateLru(cells, budget, nodes, nowS);
         case AllocationPolicy::kEqualSplit:

@@ -242,8 +242,25 @@ void StreamClient::prefetchAlong(Vec3 eyePos, double nowS) {
         if (auto idx = cellIndexOfUrl(e.url, mRoot->cells)) requestCell(int(*idx));
 }
 
+// Beyond the paper: the texture coverage hint of each of `nodes` in `current`'s sampling, its
+// pixels over all the sampling's pixels (0 for a texture it did not see); empty without hints.
+std::vector<double> StreamClient::coverageHints(const CellFile& current,
+                                                const std::vector<int>& nodes) const {
+    std::vector<double> hints;
+    if (current.textureCoverage.empty() || current.totalPixels == 0) return hints;
+    for (int n : nodes) {
+        const std::string& url = mNodes[size_t(n)].url;
+        auto it = std::lower_bound(
+            current.textureCoverage.begin(), current.textureCoverage.end(), url,
+            [](const UrlPixels& t, const std::string& u) { return t.url < u; });
+        const bool seen = it != current.textureCoverage.end() && it->url == url;
+        hints.push_back(seen ? double(it->pixels) / double(current.totalPixels) : 0.0);
+    }
+    return hints;
+}
+
 // Section 6.1: the cells of the current cell's PVS whose hulls meet the frustum, plus the
-// current cell, with their ACHs.
+// current cell, with their ACHs; and each node's texture coverage hint from the current cell.
 std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) const {
     std::vector<VisibleCell> out;
     const Cell& current = mCells[size_t(mCurrentCell)];
@@ -256,7 +273,7 @@ std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) const 
         if (int(*idx) != mCurrentCell &&
             !boxInFrustum(camera.clipFromWorld(), c.file->hullMin, c.file->hullMax))
             continue;
-        out.push_back({int(*idx), e.ach, c.nodes});
+        out.push_back({int(*idx), e.ach, c.nodes, coverageHints(*current.file, c.nodes)});
     }
     return out;
 }

@@ -145,6 +145,7 @@ public:
         }
         return v;
     }
+    bool has(const char* key) const { return mObj.contains(key); }
     const json* array(const char* key, size_t maxEntries) {
         const json* j = get(key, json::value_t::array, "an array");
         if (j && j->size() > maxEntries)
@@ -229,6 +230,41 @@ void parsePvs(Fields& f, const json* arr, CellFile* cell, const std::string& sel
     if (std::abs(achSum - 1.0) > 1e-6) f.fail("pvs", fmt::format("ACHs sum to {}", achSum));
 }
 
+// Beyond the paper: each texture's pixels of the cell's sampling, ascending URLs, summing to at
+// most total_pixels (a pixel shows one texture at most).
+void parseTextureCoverage(Fields& f, const json* arr, CellFile* cell) {
+    if (!arr) return;
+    uint64_t pixelSum = 0;
+    for (size_t i = 0; i < arr->size(); ++i) {
+        Fields e = f.element(*arr, i, "texture_coverage");
+        UrlPixels t{e.url("url"), e.integer("pixels", 1, kMaxPixels)};
+        if (i > 0 && !(cell->textureCoverage.back().url < t.url))
+            e.fail("url", "not in ascending order");
+        pixelSum += t.pixels;  // each term <= 2^53: no overflow before the check below fails
+        if (pixelSum > cell->totalPixels)
+            return f.fail("texture_coverage", fmt::format("pixels sum to more than total_pixels {}",
+                                                          cell->totalPixels));
+        cell->textureCoverage.push_back(std::move(t));
+    }
+}
+
+// A part file's list of [index, pixels] pairs: index < `count`, pixels > 0, ascending indices.
+void pairList(Fields& f, const json* arr, const char* key, uint64_t count,
+              std::vector<std::pair<uint32_t, uint64_t>>* out) {
+    for (size_t k = 0; arr && k < arr->size(); ++k) {
+        const json& e = (*arr)[k];
+        bool pair = e.is_array() && e.size() == 2 && e[0].is_number_unsigned() &&
+                    e[1].is_number_unsigned();
+        uint64_t index = pair ? e[0].get<uint64_t>() : 0, px = pair ? e[1].get<uint64_t>() : 0;
+        if (!pair || index >= count || px == 0 || px > kMaxPixels ||
+            (k > 0 && out->back().first >= index)) {
+            return f.fail(fmt::format("{}[{}]", key, k),
+                          "not an ascending [index, pixels] pair");
+        }
+        out->emplace_back(uint32_t(index), px);
+    }
+}
+
 // Parses a whole document: size, depth and syntax, the format string and version, then `body`
 // reads the fields into a T; the first failure is the result.
 template <class T, class Body>
@@ -272,6 +308,9 @@ std::string serializeCell(const CellFile& cell) {
         textures.push_back({{"url", t.url}, {"bytes", t.bytes}});
     for (const PvsUrlEntry& p : cell.pvs)
         pvs.push_back({{"url", p.url}, {"pixels", p.pixels}, {"ach", p.ach}});
+    json coverage = json::array();
+    for (const UrlPixels& t : cell.textureCoverage)
+        coverage.push_back({{"url", t.url}, {"pixels", t.pixels}});
     json doc = {{"format", kCellFormat},
                 {"version", kFormatVersion},
                 {"index", cell.index},
@@ -284,6 +323,7 @@ std::string serializeCell(const CellFile& cell) {
                 {"adjacent", cell.adjacent},
                 {"pvs", pvs},
                 {"total_pixels", cell.totalPixels},
+                {"texture_coverage", coverage},
                 {"samples", cell.samples},
                 {"face_size", cell.faceSize}};
     return doc.dump();
@@ -292,9 +332,10 @@ std::string serializeCell(const CellFile& cell) {
 std::string serializePart(const PartFile& part) {
     json vis = json::array();
     for (const CellVisibility& v : part.visibility) {
-        json seen = json::array();
+        json seen = json::array(), textures = json::array();
         for (const auto& [cell, pixels] : v.seen) seen.push_back({cell, pixels});
-        vis.push_back({{"cell", v.cell}, {"seen", seen}});
+        for (const auto& [texture, pixels] : v.textures) textures.push_back({texture, pixels});
+        vis.push_back({{"cell", v.cell}, {"seen", seen}, {"textures", textures}});
     }
     json doc = {
         {"format", kPartFormat},   {"version", kFormatVersion},  {"scene_hash", part.sceneHash},
@@ -360,6 +401,8 @@ Result<CellFile> parseCell(std::span<const uint8_t> bytes) {
             cell.samples = int(f.integer("samples", 1, kMaxSamples));
             cell.faceSize = int(f.integer("face_size", kMinFaceSize, kMaxFaceSize));
             parsePvs(f, f.array("pvs", kMaxListEntries), &cell, self);
+            if (f.has("texture_coverage"))
+                parseTextureCoverage(f, f.array("texture_coverage", kMaxListEntries), &cell);
         });
 }
 
@@ -380,20 +423,10 @@ Result<PartFile> parsePart(std::span<const uint8_t> bytes) {
                 Fields v = f.element(*vis, i, "visibility");
                 CellVisibility cv;
                 cv.cell = uint32_t(v.integer("cell", part.first + i, part.first + i));
-                const json* seen = v.array("seen", part.cells);
-                for (size_t k = 0; seen && status.isOk() && k < seen->size(); ++k) {
-                    const json& e = (*seen)[k];
-                    bool pair = e.is_array() && e.size() == 2 && e[0].is_number_unsigned() &&
-                                e[1].is_number_unsigned();
-                    uint64_t c = pair ? e[0].get<uint64_t>() : 0,
-                             px = pair ? e[1].get<uint64_t>() : 0;
-                    if (!pair || c >= part.cells || px == 0 || px > kMaxPixels ||
-                        (k > 0 && cv.seen.back().first >= c)) {
-                        v.fail(fmt::format("seen[{}]", k), "not an ascending [cell, pixels] pair");
-                        break;
-                    }
-                    cv.seen.emplace_back(uint32_t(c), px);
-                }
+                pairList(v, v.array("seen", part.cells), "seen", part.cells, &cv.seen);
+                if (v.has("textures"))
+                    pairList(v, v.array("textures", kMaxListEntries), "textures",
+                             kMaxListEntries, &cv.textures);
                 part.visibility.push_back(std::move(cv));
             }
         });

@@ -62,6 +62,8 @@ CellFile makeCellFile(const scene::Scene& scene, const Cells& cells, const CellV
         cell.pvs.push_back({cellUrl(e.cell), e.pixels, e.ach});
         cell.totalPixels += e.pixels;
     }
+    for (const auto& [texture, pixels] : vis.textures)
+        cell.textureCoverage.push_back({textureUrl(texture), pixels});
     cell.samples = sampling.samples;
     cell.faceSize = sampling.faceSize;
     return cell;
@@ -126,9 +128,16 @@ Result<BuildStats> writeDatabase(const scene::Scene& scene, const Cells& cells,
     const size_t cellCount = cells.boxes.size();
     if (visibility.size() != cellCount)
         return errorStatus(ErrorCode::kInvalidArgument, "visibility does not cover every cell");
-    for (size_t c = 0; c < cellCount; ++c)
+    for (size_t c = 0; c < cellCount; ++c) {
         if (visibility[c].cell != c)
             return errorStatus(ErrorCode::kInvalidArgument, "visibility out of cell order");
+        if (!visibility[c].textures.empty() &&
+            visibility[c].textures.back().first >= scene.textures.size())
+            return errorStatus(ErrorCode::kInvalidArgument,
+                               fmt::format("visibility of cell {} names texture {} of {}", c,
+                                           visibility[c].textures.back().first,
+                                           scene.textures.size()));
+    }
     if (scene.textures.size() > size_t(kMaxTextures))
         return errorStatus(
             ErrorCode::kOutOfRange,

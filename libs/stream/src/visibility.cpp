@@ -27,36 +27,67 @@ float radicalInverse(uint32_t i, uint32_t base) {
     return float(r);
 }
 
-// Counts each pixel's cell (Marvie eq. 1, N_ij summed over the cameras of one sample) into a
-// dense per-cell array; the renderer runs on one thread here, so one slot.
+using PixelCounts = std::vector<std::pair<uint32_t, uint64_t>>;  // (index, pixels) ascending
+
+// The non-zero entries of a dense count array as (index, pixels) ascending; clears the array.
+PixelCounts takeNonZero(std::vector<uint64_t>& counts) {
+    PixelCounts out;
+    for (size_t k = 0; k < counts.size(); ++k)
+        if (counts[k] != 0) {
+            out.emplace_back(uint32_t(k), counts[k]);
+            counts[k] = 0;
+        }
+    return out;
+}
+
+// Per triangle, its material's base colour texture + 1, or 0 when untextured.
+std::vector<uint32_t> textureOfTriangles(const scene::Scene& scene) {
+    std::vector<uint32_t> out(scene.triangleCount(), 0);
+    for (uint32_t t = 0; t < out.size(); ++t) {
+        const int material = scene.meshes[scene.meshOfTriangle(t)].materialIndex;
+        const int texture = material >= 0 && size_t(material) < scene.materials.size()
+                                ? scene.materials[size_t(material)].baseColorTexture
+                                : -1;
+        out[t] = texture >= 0 ? uint32_t(texture) + 1 : 0;
+    }
+    return out;
+}
+
+// Counts each pixel's cell (Marvie eq. 1, N_ij summed over the cameras of one sample) and its
+// texture into dense arrays; the renderer runs on one thread here, so one slot.
 class CellCounter : public raster::TileIdVisitor {
 public:
-    CellCounter(const std::vector<uint32_t>& cellOfTriangle, size_t cellCount)
-        : mCellOf(cellOfTriangle), mCounts(cellCount, 0) {}
+    CellCounter(const std::vector<uint32_t>& cellOfTriangle, size_t cellCount,
+                const std::vector<uint32_t>& textureOfTriangle, size_t textureCount)
+        : mCellOf(cellOfTriangle),
+          mTextureOf(textureOfTriangle),
+          mCells(cellCount, 0),
+          mTextures(textureCount + 1, 0) {}
 
     void visitTile(const ImageView<uint32_t>& ids, int x0, int y0, int x1, int y1,
                    int /*slot*/) override {
         for (int y = y0; y <= y1; ++y) {
             const uint32_t* row = ids.row(y);
             for (int x = x0; x <= x1; ++x)
-                if (row[x] != 0) ++mCounts[mCellOf[row[x] - 1]];
+                if (row[x] != 0) {
+                    ++mCells[mCellOf[row[x] - 1]];
+                    ++mTextures[mTextureOf[row[x] - 1]];
+                }
         }
     }
 
-    // Moves the non-zero counts out as (cell, pixels) ascending and clears the array.
-    std::vector<std::pair<uint32_t, uint64_t>> take() {
-        std::vector<std::pair<uint32_t, uint64_t>> seen;
-        for (size_t c = 0; c < mCounts.size(); ++c)
-            if (mCounts[c] != 0) {
-                seen.emplace_back(uint32_t(c), mCounts[c]);
-                mCounts[c] = 0;
-            }
-        return seen;
+    // Moves the counts out (cells, then textures, untextured pixels dropped) and clears them.
+    std::pair<PixelCounts, PixelCounts> take() {
+        mTextures[0] = 0;
+        PixelCounts textures = takeNonZero(mTextures);
+        for (auto& [texture, pixels] : textures) --texture;
+        return {takeNonZero(mCells), std::move(textures)};
     }
 
 private:
     const std::vector<uint32_t>& mCellOf;
-    std::vector<uint64_t> mCounts;
+    const std::vector<uint32_t>& mTextureOf;
+    std::vector<uint64_t> mCells, mTextures;
 };
 
 // One worker's renderer and counter, made on first use by each thread.
@@ -85,10 +116,9 @@ std::vector<Camera> renderingBox(const scene::Scene& scene, const Vec3& eyePos, 
     return cameras;
 }
 
-// Pixels per cell seen from one sample point: the six faces rendered ID-only.
-std::vector<std::pair<uint32_t, uint64_t>> sampleCoverage(const scene::Scene& scene,
-                                                          const Vec3& eyePos, int faceSize,
-                                                          Worker& worker) {
+// Pixels per cell and per texture seen from one sample point: the six faces rendered ID-only.
+std::pair<PixelCounts, PixelCounts> sampleCoverage(const scene::Scene& scene, const Vec3& eyePos,
+                                                   int faceSize, Worker& worker) {
     raster::RenderOptions options;
     options.clearTargets = true;
     raster::RenderTargets targets;  // no colour, depth or ID views: tile memory only
@@ -98,10 +128,9 @@ std::vector<std::pair<uint32_t, uint64_t>> sampleCoverage(const scene::Scene& sc
     return worker.counter->take();
 }
 
-// Adds sparse ascending (cell, pixels) lists: Marvie eq. 1 summed over samples.
-void accumulate(std::vector<std::pair<uint32_t, uint64_t>>* sum,
-                const std::vector<std::pair<uint32_t, uint64_t>>& add) {
-    std::vector<std::pair<uint32_t, uint64_t>> out;
+// Adds sparse ascending (index, pixels) lists: Marvie eq. 1 summed over samples.
+void accumulate(PixelCounts* sum, const PixelCounts& add) {
+    PixelCounts out;
     out.reserve(sum->size() + add.size());
     size_t i = 0, j = 0;
     while (i < sum->size() || j < add.size()) {
@@ -158,7 +187,8 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
     PLX_RETURN_IF_ERROR(checkRequest(cells, config, first, last));
     const size_t cellCount = last - first + 1, samples = size_t(config.samples);
     // One slot per (cell, sample) pair, so that a range of one cell still uses every core.
-    std::vector<std::vector<std::pair<uint32_t, uint64_t>>> perSample(cellCount * samples);
+    std::vector<std::pair<PixelCounts, PixelCounts>> perSample(cellCount * samples);
+    const std::vector<uint32_t> textureOf = textureOfTriangles(scene);
     std::vector<std::vector<Vec3>> points(cellCount);
     for (size_t c = 0; c < cellCount; ++c)
         points[c] = samplePoints(cells.boxes[first + c], config.samples, config.margin);
@@ -174,8 +204,9 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
                               Worker& w = workers.local();
                               if (!w.renderer) {
                                   w.renderer = raster::Renderer::create({1, 128}).value();
-                                  w.counter = std::make_unique<CellCounter>(cells.cellOfTriangle,
-                                                                            cells.boxes.size());
+                                  w.counter = std::make_unique<CellCounter>(
+                                      cells.cellOfTriangle, cells.boxes.size(), textureOf,
+                                      scene.textures.size());
                               }
                               for (size_t k = r.begin(); k < r.end(); ++k) {
                                   const size_t c = k / samples;
@@ -192,8 +223,10 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
     std::vector<CellVisibility> result(cellCount);
     for (size_t c = 0; c < cellCount; ++c) {
         result[c].cell = uint32_t(first + c);
-        for (size_t s = 0; s < samples; ++s)
-            accumulate(&result[c].seen, perSample[c * samples + s]);
+        for (size_t s = 0; s < samples; ++s) {
+            accumulate(&result[c].seen, perSample[c * samples + s].first);
+            accumulate(&result[c].textures, perSample[c * samples + s].second);
+        }
     }
     return result;
 }

@@ -1,6 +1,7 @@
 // The allocation policies of the comparison (budget.h): the equal split's shares, LRU's eviction
-// order, ACH with unusable shares returned against the paper's rule, every policy under the hard
-// cap on random walks; and the tour through every cell.
+// order, ACH with unusable shares returned against the paper's rule, the split by texture
+// coverage hints, every policy under the hard cap on random walks; and the tour through every
+// cell.
 
 #include <unistd.h>
 
@@ -25,7 +26,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr AllocationPolicy kPolicies[] = {AllocationPolicy::kAch, AllocationPolicy::kAchReturn,
-                                          AllocationPolicy::kLru, AllocationPolicy::kEqualSplit};
+                                          AllocationPolicy::kAchTexture, AllocationPolicy::kLru,
+                                          AllocationPolicy::kEqualSplit};
 
 // Levels of 1, 4, 16, 64 bytes: chains S = 1, 5, 21, 85.
 PtmNode node(int resident = 0) {
@@ -45,7 +47,7 @@ TEST(StreamPolicy, NamesRoundTrip) {
     for (AllocationPolicy p : kPolicies) EXPECT_EQ(parsePolicy(policyName(p)).value(), p);
     auto bad = parsePolicy("fifo");
     ASSERT_FALSE(bad.isOk());
-    EXPECT_NE(bad.status().message().find("ach, ach-return, lru or equal"), std::string::npos);
+    EXPECT_NE(bad.status().message().find("ach, ach-return, ach-texture, lru or equal"), std::string::npos);
 }
 
 TEST(StreamPolicy, EqualSplitGivesEqualShares) {
@@ -189,6 +191,50 @@ TEST(StreamPolicy, AchReturnBuysAtLeastThePapersLevels) {
     EXPECT_GT(variantTotal, paperTotal);
 }
 
+TEST(StreamPolicy, TextureCoverageServesTheTexturesMostSeenFirst) {
+    // Three nodes holding levels 0-2 (S(L) = 21) and wanting level 3 (S(L+1) = 85). Nodes 0 and
+    // 1 are in the room of high ACH but hardly seen (hints 0.1, 0.2); node 2 is in the room of
+    // low ACH and covers most of the view (0.7). Budget 180.
+    std::vector<PtmNode> byCell = {node(3), node(3), node(3)}, byTexture = byCell;
+    std::vector<VisibleCell> cells = {{0, 0.9, {0, 1}, {0.1, 0.2}}, {1, 0.1, {2}, {0.7}}};
+    // By cells (6.1 with returns): the high-ACH room's share buys node 1 its level 3.
+    EXPECT_EQ(allocateAchReturning(cells, 180, byCell), 127u);
+    EXPECT_EQ(byCell[1].saved, 85u);
+    EXPECT_EQ(byCell[2].saved, 21u);
+    // By textures: a floor of 180 / 12 = 15 (5 kept each), then node 2's 0.7 of the 165 left
+    // buys its level 3; nodes 1 and 0 keep their 21.
+    EXPECT_EQ(allocateByTextureCoverage(cells, 180, byTexture), 127u);
+    EXPECT_EQ(byTexture[0].saved, 21u);
+    EXPECT_EQ(byTexture[1].saved, 21u);
+    EXPECT_EQ(byTexture[2].saved, 85u);
+}
+
+TEST(StreamPolicy, TextureCoverageFloorKeepsUnhintedTexturesInView) {
+    // Node 0 (hint 1) holds levels 0-2 and wants level 3 (85 bytes); node 1 was never seen by
+    // the sampling (hint 0) and holds nothing. Budget 85: without the floor node 0 would take
+    // all 85; the floor (85 / 8 = 10) keeps node 1's level 0 and leaves node 0 its 21.
+    std::vector<PtmNode> nodes = {node(3), node(0)};
+    std::vector<VisibleCell> cells = {{0, 1.0, {0, 1}, {1.0, 0.0}}};
+    EXPECT_EQ(allocateByTextureCoverage(cells, 85, nodes), 22u);
+    EXPECT_EQ(nodes[0].saved, 21u);
+    EXPECT_EQ(nodes[1].saved, 1u);
+    // One byte more and both fit.
+    for (PtmNode& n : nodes) n.saved = 0;
+    EXPECT_EQ(allocateByTextureCoverage(cells, 86, nodes), 86u);
+    EXPECT_EQ(nodes[0].saved, 85u);
+}
+
+TEST(StreamPolicy, TextureCoverageWithoutHintsIsAchReturn) {
+    std::vector<PtmNode> start = {node(0), node(1), node(2), node(3), node(4)};
+    std::vector<VisibleCell> cells = {{0, 0.2, {0, 1}}, {1, 0.7, {2}}, {2, 0.1, {3, 4}}};
+    for (uint64_t budget = 0; budget <= 300; budget += 7) {
+        std::vector<PtmNode> cellWise = start, textureWise = start;
+        EXPECT_EQ(allocateByTextureCoverage(cells, budget, textureWise),
+                  allocateAchReturning(cells, budget, cellWise));
+        for (size_t n = 0; n < start.size(); ++n) EXPECT_EQ(textureWise[n].saved, cellWise[n].saved);
+    }
+}
+
 TEST(StreamPolicy, EveryPolicyHandsOutAtMostTheBudget) {
     std::mt19937 rng(5);
     for (int trial = 0; trial < 500; ++trial) {
@@ -205,8 +251,12 @@ TEST(StreamPolicy, EveryPolicyHandsOutAtMostTheBudget) {
         std::vector<VisibleCell> cells(1 + rng() % 4);
         for (size_t c = 0; c < cells.size(); ++c) {
             cells[c] = {int(c), double(rng() % 100) / 100.0, {}};
+            const bool hinted = rng() % 2;
             for (size_t n = 0; n < nodes.size(); ++n)
-                if (rng() % 2) cells[c].nodes.push_back(int(n));
+                if (rng() % 2) {
+                    cells[c].nodes.push_back(int(n));
+                    if (hinted) cells[c].coverage.push_back(double(rng() % 10) / 10.0);
+                }
         }
         const uint64_t budget = rng() % 3000;
         for (AllocationPolicy p : kPolicies) {

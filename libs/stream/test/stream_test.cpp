@@ -169,6 +169,33 @@ TEST(StreamVisibility, AchMatchesHandCountsOnTwoRooms) {
     EXPECT_DOUBLE_EQ(pvs[0].ach + pvs[1].ach, 1.0);
 }
 
+// Texture coverage hints, by the same hand count: room B's walls (a second mesh) take their
+// base colour from texture 0, A's are untextured. From A's centre the texture covers the N^2
+// pixels seen through the opening; from B's, its 5 N^2. Untextured pixels are not listed.
+TEST(StreamVisibility, TextureCountsMatchHandCountsOnTwoRooms) {
+    scene::Scene s;
+    scene::Mesh a, b;
+    addCubeWalls(&a, 0.0f, true, false, 0.0f);
+    addCubeWalls(&b, 2.0f, false, true, 0.0f);
+    b.materialIndex = 1;
+    s.meshes = {a, b};
+    scene::Texture texture;
+    texture.mips.push_back(Image<Rgba8>(2, 2));
+    scene::buildMipChain(&texture);
+    s.textures.push_back(texture);
+    s.materials.resize(2);
+    s.materials[1].baseColorTexture = 0;
+    ASSERT_TRUE(s.finalize().isOk());
+    s.rooms = {{Vec3(0, 0, 0), Vec3(2, 3, 5)}, {Vec3(2, 0, 0), Vec3(4, 3, 5)}};
+    auto cells = makeCells(s).value();
+    const uint64_t n2 = 40 * 40;
+    auto vis = visibilityOf(s, cells, centreSampling(40));
+    ASSERT_EQ(vis.size(), 2u);
+    using Seen = std::vector<std::pair<uint32_t, uint64_t>>;
+    EXPECT_EQ(vis[0].textures, (Seen{{0, n2}}));
+    EXPECT_EQ(vis[1].textures, (Seen{{0, 5 * n2}}));
+}
+
 TEST(StreamVisibility, PvsOfAClosedRoomHoldsOnlyItself) {
     auto s = twoClosedRooms();
     auto cells = makeCells(s).value();
@@ -291,6 +318,13 @@ TEST(StreamDatabase, RangesMergedEqualTheWholeBuild) {
     auto a = filesBelow(whole), m = filesBelow(merged);
     EXPECT_EQ(a.size(), 1 + 2 * 4 + b.scene.textures.size());
     EXPECT_TRUE(a == m);
+    // A part naming a texture the scene does not have is refused.
+    auto hostile = *all;
+    hostile[1].textures.emplace_back(uint32_t(b.scene.textures.size()), 1);
+    auto refused =
+        writeDatabase(b.scene, b.cells, hostile, b.config, "museum:4", freshDir("bad").string());
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_NE(refused.status().message().find("names texture"), std::string::npos);
     // Merge refuses gaps, overlaps and other scenes.
     EXPECT_FALSE(mergeParts({parts[0]}, hash, 4).isOk());
     EXPECT_FALSE(mergeParts({parts[0], parts[1], parts[1]}, hash, 4).isOk());
@@ -319,6 +353,18 @@ TEST(StreamDatabase, RoundTripThroughTheReaders) {
         for (const UrlBytes& t : cell->textures)
             EXPECT_EQ(t.bytes, fs::file_size(dir / t.url)) << t.url;
         EXPECT_EQ(cell->adjacent.size(), 3u);
+        // Texture coverage hints: textures of the database, in URL order, within the sampling.
+        ASSERT_FALSE(cell->textureCoverage.empty());
+        uint64_t covered = 0;
+        for (size_t k = 0; k < cell->textureCoverage.size(); ++k) {
+            const UrlPixels& t = cell->textureCoverage[k];
+            EXPECT_TRUE(fs::exists(dir / t.url)) << t.url;
+            if (k > 0) {
+                EXPECT_LT(cell->textureCoverage[k - 1].url, t.url);
+            }
+            covered += t.pixels;
+        }
+        EXPECT_LE(covered, cell->totalPixels);
         // The geometry reads back with a real glTF importer, every triangle of the cell.
         auto glb = scene::importFile((dir / cell->geometry.url).string());
         ASSERT_TRUE(glb.isOk()) << glb.status().toString();
@@ -348,6 +394,20 @@ TEST(StreamDatabase, ReadersRefuseEveryTruncatedPrefixAndFlippedBytes) {
             EXPECT_TRUE(parseCell(bytesOf(serializeCell(*r))).isOk());
         }
     }
+    // Texture coverage hints out of order, empty, or covering more than the sampling saw.
+    const CellFile good = parseCell(bytesOf(cell)).value();
+    ASSERT_GE(good.textureCoverage.size(), 2u);
+    auto refusedWhen = [&](auto edit, const char* what) {
+        CellFile bad = good;
+        edit(bad.textureCoverage);
+        auto r = parseCell(bytesOf(serializeCell(bad)));
+        ASSERT_FALSE(r.isOk()) << what;
+        EXPECT_NE(r.status().message().find("texture_coverage"), std::string::npos) << what;
+    };
+    refusedWhen([](auto& t) { std::swap(t[0], t[1]); }, "descending");
+    refusedWhen([](auto& t) { t[0].pixels = 0; }, "zero pixels");
+    refusedWhen([&](auto& t) { t[0].pixels = good.totalPixels; }, "over the total");
+    refusedWhen([](auto& t) { t[0].url = "../x.ptm"; }, "outside");
     // Errors are one line.
     auto e = parseCell(bytesOf(cell.substr(0, cell.size() / 2)));
     EXPECT_EQ(e.status().message().find('\n'), std::string::npos);

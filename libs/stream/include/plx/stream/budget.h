@@ -63,6 +63,10 @@ struct VisibleCell {
     int cell = 0;
     double ach = 0.0;
     std::vector<int> nodes;
+    // Beyond the paper: each node's texture coverage hint from the current cell (the pixels of
+    // the current cell's sampling that show the texture, over all its pixels), parallel to
+    // `nodes`; empty when the database has no hints.
+    std::vector<double> coverage{};
 };
 
 // Marvie 6.1: the cells share out `budget` from the highest ACH to the lowest. Each cell gets
@@ -84,6 +88,17 @@ uint64_t allocateBudget(std::vector<VisibleCell> cells, uint64_t budget,
 uint64_t allocateAchReturning(std::vector<VisibleCell> cells, uint64_t budget,
                               std::vector<PtmNode>& nodes);
 
+// Beyond the paper: 6.1's rule with textures in place of cells. First a floor: every distinct
+// node of `cells` is offered a quarter of an equal share (so a texture the sampling missed still
+// gets its coarse levels). Then the nodes share what is left from the highest texture coverage
+// hint to the lowest, each its normalised hint
+// (over the nodes not yet served) of what is left; a node keeps of it the chain of whole levels
+// it buys (at most S(L+1)) and the rest goes on; what the last node leaves is offered once more
+// in the same order, each keeping its next level when it fits. Where no node has a hint, this is
+// allocateAchReturning. Nodes' `saved` must be reset before. Returns the bytes kept (<= budget).
+uint64_t allocateByTextureCoverage(std::vector<VisibleCell> cells, uint64_t budget,
+                                   std::vector<PtmNode>& nodes);
+
 // How the client shares the memory budget among the PTM nodes of the visible cells each frame,
 // by setting every node's `saved` (N) before refreshResident. A closed set: the paper's rule, a
 // variant of it that passes unusable shares on, and two baselines for the comparison of
@@ -92,11 +107,12 @@ uint64_t allocateAchReturning(std::vector<VisibleCell> cells, uint64_t budget,
 enum class AllocationPolicy {
     kAch,  // Marvie 6.1 and 6.2: cells by normalised ACH, nodes keep or return (allocateBudget)
     kAchReturn,  // 6.1's split, unusable remainders go on (allocateAchReturning; not the paper)
+    kAchTexture,  // 6.1's split over textures by coverage hints (allocateByTextureCoverage)
     kLru,  // a texture cache: next levels on demand, least recently seen evicted (allocateLru)
     kEqualSplit,  // every texture in view gets the same share (allocateEqualSplit)
 };
 
-// "ach", "ach-return", "lru", "equal".
+// "ach", "ach-return", "ach-texture", "lru", "equal".
 std::string_view policyName(AllocationPolicy policy);
 // The inverse of policyName. Errors: any other text (the message lists the names).
 Result<AllocationPolicy> parsePolicy(std::string_view name);
@@ -120,7 +136,7 @@ uint64_t allocateEqualSplit(const std::vector<VisibleCell>& cells, uint64_t budg
 uint64_t allocateLru(const std::vector<VisibleCell>& cells, uint64_t budget,
                      std::vector<PtmNode>& nodes, double nowS);
 
-// The policy's allocation (one of the four above).
+// The policy's allocation (one of the five above).
 uint64_t allocate(AllocationPolicy policy, std::vector<VisibleCell> cells, uint64_t budget,
                   std::vector<PtmNode>& nodes, double nowS);
 

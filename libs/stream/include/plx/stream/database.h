@@ -51,6 +51,12 @@ struct UrlBytes {
     friend bool operator==(const UrlBytes&, const UrlBytes&) = default;
 };
 
+struct UrlPixels {
+    std::string url;
+    uint64_t pixels = 0;
+    friend bool operator==(const UrlPixels&, const UrlPixels&) = default;
+};
+
 struct PvsUrlEntry {
     std::string url;
     uint64_t pixels = 0;
@@ -67,6 +73,9 @@ struct CellFile {
     std::vector<std::string> adjacent;
     std::vector<PvsUrlEntry> pvs;
     uint64_t totalPixels = 0;
+    // Beyond the paper: the pixels of the sampling per texture (texture coverage hints), sorted
+    // by URL; empty in databases written before them.
+    std::vector<UrlPixels> textureCoverage;
     int samples = 0;
     int faceSize = 0;
     friend bool operator==(const CellFile&, const CellFile&) = default;

@@ -32,10 +32,13 @@ struct VisibilityConfig {
 };
 
 // What the sampling of one cell saw: N_j^total (Marvie eq. 1) for every cell j with at least one
-// pixel, sorted by j.
+// pixel, sorted by j; and, beyond the paper, the same count per texture: the pixels whose
+// polygon's material takes its base colour from texture t, over all cells (texture coverage
+// hints: the ACH of eq. 3 with textures in place of cells).
 struct CellVisibility {
     uint32_t cell = 0;
-    std::vector<std::pair<uint32_t, uint64_t>> seen;  // (cell j, pixels > 0), ascending j
+    std::vector<std::pair<uint32_t, uint64_t>> seen;      // (cell j, pixels > 0), ascending j
+    std::vector<std::pair<uint32_t, uint64_t>> textures;  // (texture t, pixels > 0), ascending t
 };
 
 // One PVS entry: a cell, its pixel count and ACH_j = pixels / total (Marvie eq. 3).

@@ -1,6 +1,8 @@
 // Runs the parallax binary as a user would and checks exit codes, JSON output, written files and
 // one-line errors for bad input.
 
+#include <fstream>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
@@ -110,20 +112,69 @@ TEST(Cli, BadCameraAndOptions) {
     expectOneLineError(runParallax("render office:1 --frames 0 --out x"), "frames", 2);
 }
 
-TEST(Cli, DemoQuickWritesReport) {
+// The demo's sections, checked on one `demo --quick` run (each run is tens of seconds under the
+// sanitizers).
+std::string readText(const fs::path& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+void expectRasterAndPtm(const nlohmann::json& doc, const std::string& html) {
+    EXPECT_TRUE(doc.contains("raster"));
+    ASSERT_TRUE(doc.contains("ptm"));
+    EXPECT_GT(doc["ptm"]["levels"].get<int>(), 1);
+    EXPECT_NE(html.find("<svg"), std::string::npos);
+    EXPECT_NE(html.find("office1.id.png"), std::string::npos);
+    EXPECT_NE(html.find("ptm_level"), std::string::npos);
+}
+
+// The warp section, and the remote section: a real loopback session (experiment_remote.h) at two
+// round trips.
+void expectWarpAndRemote(const nlohmann::json& doc, const fs::path& dir, const std::string& html) {
+    ASSERT_TRUE(doc.contains("warp"));
+    EXPECT_FALSE(doc["warp"]["rows"].empty());
+    for (const char* file : {"warp_truth.png", "warp_stale.png", "warp_timewarp.png",
+                             "warp_warp2.png", "warp_psnr_vs_rtt_office_8.svg"})
+        EXPECT_TRUE(fs::exists(dir / file)) << file;
+    EXPECT_NE(html.find("warp_warp2.png"), std::string::npos);
+    EXPECT_NE(html.find("PSNR against round trip"), std::string::npos);
+    ASSERT_TRUE(doc.contains("remote"));
+    EXPECT_EQ(doc["remote"]["rows"].size(), 6u);
+    for (const char* file : {"remote_truth.png", "remote_warp.png", "remote_video.png",
+                             "remote_timewarp.png", "remote_psnr_vs_rtt_office_8.svg"})
+        EXPECT_TRUE(fs::exists(dir / file)) << file;
+    EXPECT_NE(html.find("remote_video.png"), std::string::npos);
+}
+
+// The streaming section: four walks, each under its budget, quality ordered by bandwidth as in
+// the paper's Fig. 2, the policy comparison, the plots and a frame written.
+void expectStream(const nlohmann::json& doc, const fs::path& dir) {
+    ASSERT_TRUE(doc.contains("stream"));
+    const auto& walks = doc["stream"]["walks"];
+    ASSERT_EQ(walks.size(), 4u);
+    for (size_t i = 0; i < walks.size(); ++i) {
+        EXPECT_LE(walks[i]["max_resident_bytes"], walks[i]["budget_bytes"]);
+        if (i > 0) {
+            EXPECT_GE(walks[i]["quality_final"], walks[i - 1]["quality_final"]);
+        }
+    }
+    EXPECT_GT(walks.back()["quality_final"].get<double>(), 0.5);
+    EXPECT_EQ(doc["stream"]["policies"].size(), 10u);  // five policies at two budgets
+    for (const char* file : {"stream_quality.svg", "stream_resident.svg", "stream_10s.png",
+                             "stream_frame_time.svg", "stream_policies.svg"})
+        EXPECT_TRUE(fs::exists(dir / file)) << file;
+}
+
+TEST(Cli, DemoQuickWritesEverySection) {
     fs::path dir = cliDir() / "demo";
     RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
-    EXPECT_TRUE(doc.contains("raster"));
-    ASSERT_TRUE(doc.contains("ptm"));
-    EXPECT_GT(doc["ptm"]["levels"].get<int>(), 1);
     ASSERT_TRUE(fs::exists(dir / "index.html"));
-    std::ifstream html(dir / "index.html");
-    std::string text((std::istreambuf_iterator<char>(html)), {});
-    EXPECT_NE(text.find("<svg"), std::string::npos);
-    EXPECT_NE(text.find("office1.id.png"), std::string::npos);
-    EXPECT_NE(text.find("ptm_level"), std::string::npos);
+    const std::string html = readText(dir / "index.html");
+    expectRasterAndPtm(doc, html);
+    expectWarpAndRemote(doc, dir, html);
+    expectStream(doc, dir);
 }
 
 TEST(Cli, UsageErrorsExitWithTwo) {

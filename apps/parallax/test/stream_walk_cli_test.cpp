@@ -104,27 +104,4 @@ TEST(StreamWalkCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("stream walk " + db + " --path " + bad.string()), "pose");
 }
 
-// The demo's streaming section: four walks, each under its budget, quality ordered by bandwidth
-// as in the paper's Fig. 2, the plots and a frame written.
-TEST(StreamWalkCli, DemoQuickHasTheStreamSection) {
-    fs::path dir = scratchDir("stream_walk_cli") / ("demo-" + std::to_string(getpid()));
-    RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    auto doc = nlohmann::json::parse(r.out);
-    ASSERT_TRUE(doc.contains("stream"));
-    const auto& walks = doc["stream"]["walks"];
-    ASSERT_EQ(walks.size(), 4u);
-    for (size_t i = 0; i < walks.size(); ++i) {
-        EXPECT_LE(walks[i]["max_resident_bytes"], walks[i]["budget_bytes"]);
-        if (i > 0) {
-            EXPECT_GE(walks[i]["quality_final"], walks[i - 1]["quality_final"]);
-        }
-    }
-    EXPECT_GT(walks.back()["quality_final"].get<double>(), 0.5);
-    EXPECT_EQ(doc["stream"]["policies"].size(), 10u);  // five policies at two budgets
-    for (const char* file : {"stream_quality.svg", "stream_resident.svg", "stream_10s.png",
-                             "stream_frame_time.svg", "stream_policies.svg"})
-        EXPECT_TRUE(fs::exists(dir / file)) << file;
-}
-
 }  // namespace

@@ -131,27 +131,4 @@ TEST(WarpCli, BenchWarpQuickHasEveryMethodAtEveryRtt) {
                        2);
 }
 
-TEST(WarpCli, DemoQuickHasTheWarpSection) {
-    fs::path dir = warpDir() / "demo";
-    RunResult r = runParallax("demo --quick --out " + dir.string() + " --json");
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    auto doc = nlohmann::json::parse(r.out);
-    ASSERT_TRUE(doc.contains("warp"));
-    EXPECT_FALSE(doc["warp"]["rows"].empty());
-    for (const char* file : {"warp_truth.png", "warp_stale.png", "warp_timewarp.png",
-                             "warp_warp2.png", "warp_psnr_vs_rtt_office_8.svg"})
-        EXPECT_TRUE(fs::exists(dir / file)) << file;
-    std::ifstream html(dir / "index.html");
-    std::string text((std::istreambuf_iterator<char>(html)), {});
-    EXPECT_NE(text.find("warp_warp2.png"), std::string::npos);
-    EXPECT_NE(text.find("PSNR against round trip"), std::string::npos);
-    // The remote section: a real loopback session (experiment_remote.h) at two round trips.
-    ASSERT_TRUE(doc.contains("remote"));
-    EXPECT_EQ(doc["remote"]["rows"].size(), 6u);
-    for (const char* file : {"remote_truth.png", "remote_warp.png", "remote_video.png",
-                             "remote_timewarp.png", "remote_psnr_vs_rtt_office_8.svg"})
-        EXPECT_TRUE(fs::exists(dir / file)) << file;
-    EXPECT_NE(text.find("remote_video.png"), std::string::npos);
-}
-
 }  // namespace

@@ -242,20 +242,15 @@ void StreamClient::prefetchAlong(Vec3 eyePos, double nowS) {
         if (auto idx = cellIndexOfUrl(e.url, mRoot->cells)) requestCell(int(*idx));
 }
 
-// Beyond the paper: the texture coverage hint of each of `nodes` in `current`'s sampling, its
-// pixels over all the sampling's pixels (0 for a texture it did not see); empty without hints.
-std::vector<double> StreamClient::coverageHints(const CellFile& current,
-                                                const std::vector<int>& nodes) const {
+// Beyond the paper: every node's texture coverage hint in `current`'s sampling, its pixels over
+// all the sampling's pixels (0 for a texture it did not see); empty without hints.
+std::vector<double> StreamClient::coverageHintOfNodes(const CellFile& current) const {
     std::vector<double> hints;
     if (current.textureCoverage.empty() || current.totalPixels == 0) return hints;
-    for (int n : nodes) {
-        const std::string& url = mNodes[size_t(n)].url;
-        auto it = std::lower_bound(
-            current.textureCoverage.begin(), current.textureCoverage.end(), url,
-            [](const UrlPixels& t, const std::string& u) { return t.url < u; });
-        const bool seen = it != current.textureCoverage.end() && it->url == url;
-        hints.push_back(seen ? double(it->pixels) / double(current.totalPixels) : 0.0);
-    }
+    hints.assign(mNodes.size(), 0.0);
+    for (const auto& [texture, pixels] : current.textureCoverage)
+        if (auto it = mNodeOfUrl.find(textureUrl(texture)); it != mNodeOfUrl.end())
+            hints[size_t(it->second)] = double(pixels) / double(current.totalPixels);
     return hints;
 }
 
@@ -265,6 +260,7 @@ std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) const 
     std::vector<VisibleCell> out;
     const Cell& current = mCells[size_t(mCurrentCell)];
     if (!current.file) return out;
+    const std::vector<double> hintOfNode = coverageHintOfNodes(*current.file);
     for (const PvsUrlEntry& e : current.file->pvs) {
         auto idx = cellIndexOfUrl(e.url, mRoot->cells);
         if (!idx) continue;
@@ -273,7 +269,10 @@ std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) const 
         if (int(*idx) != mCurrentCell &&
             !boxInFrustum(camera.clipFromWorld(), c.file->hullMin, c.file->hullMax))
             continue;
-        out.push_back({int(*idx), e.ach, c.nodes, coverageHints(*current.file, c.nodes)});
+        std::vector<double> hints;
+        if (!hintOfNode.empty())
+            for (int n : c.nodes) hints.push_back(hintOfNode[size_t(n)]);
+        out.push_back({int(*idx), e.ach, c.nodes, std::move(hints)});
     }
     return out;
 }

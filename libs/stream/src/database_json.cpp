@@ -230,24 +230,6 @@ void parsePvs(Fields& f, const json* arr, CellFile* cell, const std::string& sel
     if (std::abs(achSum - 1.0) > 1e-6) f.fail("pvs", fmt::format("ACHs sum to {}", achSum));
 }
 
-// Beyond the paper: each texture's pixels of the cell's sampling, ascending URLs, summing to at
-// most total_pixels (a pixel shows one texture at most).
-void parseTextureCoverage(Fields& f, const json* arr, CellFile* cell) {
-    if (!arr) return;
-    uint64_t pixelSum = 0;
-    for (size_t i = 0; i < arr->size(); ++i) {
-        Fields e = f.element(*arr, i, "texture_coverage");
-        UrlPixels t{e.url("url"), e.integer("pixels", 1, kMaxPixels)};
-        if (i > 0 && !(cell->textureCoverage.back().url < t.url))
-            e.fail("url", "not in ascending order");
-        pixelSum += t.pixels;  // each term <= 2^53: no overflow before the check below fails
-        if (pixelSum > cell->totalPixels)
-            return f.fail("texture_coverage", fmt::format("pixels sum to more than total_pixels {}",
-                                                          cell->totalPixels));
-        cell->textureCoverage.push_back(std::move(t));
-    }
-}
-
 // A part file's list of [index, pixels] pairs: index < `count`, pixels > 0, ascending indices.
 void pairList(Fields& f, const json* arr, const char* key, uint64_t count,
               std::vector<std::pair<uint32_t, uint64_t>>* out) {
@@ -263,6 +245,17 @@ void pairList(Fields& f, const json* arr, const char* key, uint64_t count,
         }
         out->emplace_back(uint32_t(index), px);
     }
+}
+
+// Beyond the paper: each texture's pixels of the cell's sampling as [texture, pixels] pairs,
+// summing to at most total_pixels (a pixel shows one texture at most).
+void parseTextureCoverage(Fields& f, const json* arr, CellFile* cell) {
+    pairList(f, arr, "texture_coverage", kMaxTextures, &cell->textureCoverage);
+    uint64_t pixelSum = 0;  // each term <= 2^53: no overflow before the check fails
+    for (const auto& [texture, pixels] : cell->textureCoverage) pixelSum += pixels;
+    if (pixelSum > cell->totalPixels)
+        f.fail("texture_coverage",
+               fmt::format("pixels sum to more than total_pixels {}", cell->totalPixels));
 }
 
 // Parses a whole document: size, depth and syntax, the format string and version, then `body`
@@ -309,8 +302,7 @@ std::string serializeCell(const CellFile& cell) {
     for (const PvsUrlEntry& p : cell.pvs)
         pvs.push_back({{"url", p.url}, {"pixels", p.pixels}, {"ach", p.ach}});
     json coverage = json::array();
-    for (const UrlPixels& t : cell.textureCoverage)
-        coverage.push_back({{"url", t.url}, {"pixels", t.pixels}});
+    for (const auto& [texture, pixels] : cell.textureCoverage) coverage.push_back({texture, pixels});
     json doc = {{"format", kCellFormat},
                 {"version", kFormatVersion},
                 {"index", cell.index},

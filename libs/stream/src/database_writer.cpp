@@ -62,8 +62,7 @@ CellFile makeCellFile(const scene::Scene& scene, const Cells& cells, const CellV
         cell.pvs.push_back({cellUrl(e.cell), e.pixels, e.ach});
         cell.totalPixels += e.pixels;
     }
-    for (const auto& [texture, pixels] : vis.textures)
-        cell.textureCoverage.push_back({textureUrl(texture), pixels});
+    cell.textureCoverage = vis.textures;
     cell.samples = sampling.samples;
     cell.faceSize = sampling.faceSize;
     return cell;

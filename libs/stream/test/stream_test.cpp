@@ -353,16 +353,16 @@ TEST(StreamDatabase, RoundTripThroughTheReaders) {
         for (const UrlBytes& t : cell->textures)
             EXPECT_EQ(t.bytes, fs::file_size(dir / t.url)) << t.url;
         EXPECT_EQ(cell->adjacent.size(), 3u);
-        // Texture coverage hints: textures of the database, in URL order, within the sampling.
+        // Texture coverage hints: textures of the database, ascending, within the sampling.
         ASSERT_FALSE(cell->textureCoverage.empty());
         uint64_t covered = 0;
         for (size_t k = 0; k < cell->textureCoverage.size(); ++k) {
-            const UrlPixels& t = cell->textureCoverage[k];
-            EXPECT_TRUE(fs::exists(dir / t.url)) << t.url;
+            const auto [texture, pixels] = cell->textureCoverage[k];
+            EXPECT_TRUE(fs::exists(dir / textureUrl(texture))) << texture;
             if (k > 0) {
-                EXPECT_LT(cell->textureCoverage[k - 1].url, t.url);
+                EXPECT_LT(cell->textureCoverage[k - 1].first, texture);
             }
-            covered += t.pixels;
+            covered += pixels;
         }
         EXPECT_LE(covered, cell->totalPixels);
         // The geometry reads back with a real glTF importer, every triangle of the cell.
@@ -405,9 +405,9 @@ TEST(StreamDatabase, ReadersRefuseEveryTruncatedPrefixAndFlippedBytes) {
         EXPECT_NE(r.status().message().find("texture_coverage"), std::string::npos) << what;
     };
     refusedWhen([](auto& t) { std::swap(t[0], t[1]); }, "descending");
-    refusedWhen([](auto& t) { t[0].pixels = 0; }, "zero pixels");
-    refusedWhen([&](auto& t) { t[0].pixels = good.totalPixels; }, "over the total");
-    refusedWhen([](auto& t) { t[0].url = "../x.ptm"; }, "outside");
+    refusedWhen([](auto& t) { t[0].second = 0; }, "zero pixels");
+    refusedWhen([&](auto& t) { t[0].second = good.totalPixels; }, "over the total");
+    refusedWhen([](auto& t) { t.back().first = uint32_t(kMaxTextures); }, "no such texture");
     // Errors are one line.
     auto e = parseCell(bytesOf(cell.substr(0, cell.size() / 2)));
     EXPECT_EQ(e.status().message().find('\n'), std::string::npos);

@@ -129,7 +129,7 @@ private:
     int locate(Vec3 eyePos) const;
     void prefetchAlong(Vec3 eyePos, double nowS);
     std::vector<VisibleCell> visibleCells(const Camera& camera) const;
-    std::vector<double> coverageHints(const CellFile& current, const std::vector<int>& nodes) const;
+    std::vector<double> coverageHintOfNodes(const CellFile& current) const;
     void enforceCap(uint64_t budget);
     double quality() const;
 

@@ -51,12 +51,6 @@ struct UrlBytes {
     friend bool operator==(const UrlBytes&, const UrlBytes&) = default;
 };
 
-struct UrlPixels {
-    std::string url;
-    uint64_t pixels = 0;
-    friend bool operator==(const UrlPixels&, const UrlPixels&) = default;
-};
-
 struct PvsUrlEntry {
     std::string url;
     uint64_t pixels = 0;
@@ -73,9 +67,10 @@ struct CellFile {
     std::vector<std::string> adjacent;
     std::vector<PvsUrlEntry> pvs;
     uint64_t totalPixels = 0;
-    // Beyond the paper: the pixels of the sampling per texture (texture coverage hints), sorted
-    // by URL; empty in databases written before them.
-    std::vector<UrlPixels> textureCoverage;
+    // Beyond the paper: the pixels of the sampling per texture (texture coverage hints), as
+    // (texture k, pixels) ascending in k (texture k's file is textureUrl(k)); empty in databases
+    // written before them.
+    std::vector<std::pair<uint32_t, uint64_t>> textureCoverage;
     int samples = 0;
     int faceSize = 0;
     friend bool operator==(const CellFile&, const CellFile&) = default;

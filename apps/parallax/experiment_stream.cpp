@@ -448,9 +448,9 @@ std::string streamPoliciesCsv(const StreamExperiment& e) {
     for (const PolicyRow& p : e.policies)
         csv += fmt::format("{},{},{:.3f},{:.3f},{:.3f},{},{:.0f},{},{},{},{:.4f}\n",
                            stream::policyName(p.policy), p.budgetBytes, p.psnrDb,
-                           p.psnrAfterFirstStopDb, p.psnrMedianDb,
-                           p.framesCompared, p.meanResidentBytes, p.maxResidentBytes,
-                           p.framesOverBudget, p.downloadedBytes, p.qualityFinal);
+                           p.psnrAfterFirstStopDb, p.psnrMedianDb, p.framesCompared,
+                           p.meanResidentBytes, p.maxResidentBytes, p.framesOverBudget,
+                           p.downloadedBytes, p.qualityFinal);
     return csv;
 }
 

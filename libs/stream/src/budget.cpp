@@ -186,9 +186,9 @@ std::string_view policyName(AllocationPolicy policy) {
 }
 
 Result<AllocationPolicy> parsePolicy(std::string_view name) {
-    for (AllocationPolicy p : {AllocationPolicy::kAch, AllocationPolicy::kAchReturn,
-                               AllocationPolicy::kAchTexture, AllocationPolicy::kLru,
-                               AllocationPolicy::kEqualSplit})
+    for (AllocationPolicy p :
+         {AllocationPolicy::kAch, AllocationPolicy::kAchReturn, AllocationPolicy::kAchTexture,
+          AllocationPolicy::kLru, AllocationPolicy::kEqualSplit})
         if (policyName(p) == name) return p;
     return errorStatus(ErrorCode::kInvalidArgument,
                        fmt::format("unknown allocation policy '{}' (ach, ach-return, "

@@ -230,18 +230,18 @@ void parsePvs(Fields& f, const json* arr, CellFile* cell, const std::string& sel
     if (std::abs(achSum - 1.0) > 1e-6) f.fail("pvs", fmt::format("ACHs sum to {}", achSum));
 }
 
-// A part file's list of [index, pixels] pairs: index < `count`, pixels > 0, ascending indices.
+// A list of [index, pixels] pairs (a part file's `seen` and `textures`, a cell file's
+// `texture_coverage`): index < `count`, pixels > 0, ascending indices.
 void pairList(Fields& f, const json* arr, const char* key, uint64_t count,
               std::vector<std::pair<uint32_t, uint64_t>>* out) {
     for (size_t k = 0; arr && k < arr->size(); ++k) {
         const json& e = (*arr)[k];
-        bool pair = e.is_array() && e.size() == 2 && e[0].is_number_unsigned() &&
-                    e[1].is_number_unsigned();
+        bool pair =
+            e.is_array() && e.size() == 2 && e[0].is_number_unsigned() && e[1].is_number_unsigned();
         uint64_t index = pair ? e[0].get<uint64_t>() : 0, px = pair ? e[1].get<uint64_t>() : 0;
         if (!pair || index >= count || px == 0 || px > kMaxPixels ||
             (k > 0 && out->back().first >= index)) {
-            return f.fail(fmt::format("{}[{}]", key, k),
-                          "not an ascending [index, pixels] pair");
+            return f.fail(fmt::format("{}[{}]", key, k), "not an ascending [index, pixels] pair");
         }
         out->emplace_back(uint32_t(index), px);
     }
@@ -302,7 +302,8 @@ std::string serializeCell(const CellFile& cell) {
     for (const PvsUrlEntry& p : cell.pvs)
         pvs.push_back({{"url", p.url}, {"pixels", p.pixels}, {"ach", p.ach}});
     json coverage = json::array();
-    for (const auto& [texture, pixels] : cell.textureCoverage) coverage.push_back({texture, pixels});
+    for (const auto& [texture, pixels] : cell.textureCoverage)
+        coverage.push_back({texture, pixels});
     json doc = {{"format", kCellFormat},
                 {"version", kFormatVersion},
                 {"index", cell.index},
@@ -417,8 +418,8 @@ Result<PartFile> parsePart(std::span<const uint8_t> bytes) {
                 cv.cell = uint32_t(v.integer("cell", part.first + i, part.first + i));
                 pairList(v, v.array("seen", part.cells), "seen", part.cells, &cv.seen);
                 if (v.has("textures"))
-                    pairList(v, v.array("textures", kMaxListEntries), "textures",
-                             kMaxListEntries, &cv.textures);
+                    pairList(v, v.array("textures", kMaxListEntries), "textures", kMaxListEntries,
+                             &cv.textures);
                 part.visibility.push_back(std::move(cv));
             }
         });

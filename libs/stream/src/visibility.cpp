@@ -199,25 +199,25 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
     tbb::enumerable_thread_specific<Worker> workers;
     tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, perSample.size(), 1),
-                          [&](const tbb::blocked_range<size_t>& r) {
-                              Worker& w = workers.local();
-                              if (!w.renderer) {
-                                  w.renderer = raster::Renderer::create({1, 128}).value();
-                                  w.counter = std::make_unique<CellCounter>(
-                                      cells.cellOfTriangle, cells.boxes.size(), textureOf,
-                                      scene.textures.size());
-                              }
-                              for (size_t k = r.begin(); k < r.end(); ++k) {
-                                  const size_t c = k / samples;
-                                  perSample[k] = sampleCoverage(scene, points[c][k % samples],
-                                                                config.faceSize, w);
-                                  if (samplesLeft[c].fetch_sub(1) == 1 && progress) {
-                                      std::lock_guard lock(progressMutex);
-                                      progress(++cellsDone);
-                                  }
-                              }
-                          });
+        tbb::parallel_for(
+            tbb::blocked_range<size_t>(0, perSample.size(), 1),
+            [&](const tbb::blocked_range<size_t>& r) {
+                Worker& w = workers.local();
+                if (!w.renderer) {
+                    w.renderer = raster::Renderer::create({1, 128}).value();
+                    w.counter = std::make_unique<CellCounter>(
+                        cells.cellOfTriangle, cells.boxes.size(), textureOf, scene.textures.size());
+                }
+                for (size_t k = r.begin(); k < r.end(); ++k) {
+                    const size_t c = k / samples;
+                    perSample[k] =
+                        sampleCoverage(scene, points[c][k % samples], config.faceSize, w);
+                    if (samplesLeft[c].fetch_sub(1) == 1 && progress) {
+                        std::lock_guard lock(progressMutex);
+                        progress(++cellsDone);
+                    }
+                }
+            });
     });
     // Sum the samples in a fixed order: the result does not depend on the schedule.
     std::vector<CellVisibility> result(cellCount);

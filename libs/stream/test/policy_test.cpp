@@ -47,7 +47,8 @@ TEST(StreamPolicy, NamesRoundTrip) {
     for (AllocationPolicy p : kPolicies) EXPECT_EQ(parsePolicy(policyName(p)).value(), p);
     auto bad = parsePolicy("fifo");
     ASSERT_FALSE(bad.isOk());
-    EXPECT_NE(bad.status().message().find("ach, ach-return, ach-texture, lru or equal"), std::string::npos);
+    EXPECT_NE(bad.status().message().find("ach, ach-return, ach-texture, lru or equal"),
+              std::string::npos);
 }
 
 TEST(StreamPolicy, EqualSplitGivesEqualShares) {
@@ -231,7 +232,8 @@ TEST(StreamPolicy, TextureCoverageWithoutHintsIsAchReturn) {
         std::vector<PtmNode> cellWise = start, textureWise = start;
         EXPECT_EQ(allocateByTextureCoverage(cells, budget, textureWise),
                   allocateAchReturning(cells, budget, cellWise));
-        for (size_t n = 0; n < start.size(); ++n) EXPECT_EQ(textureWise[n].saved, cellWise[n].saved);
+        for (size_t n = 0; n < start.size(); ++n)
+            EXPECT_EQ(textureWise[n].saved, cellWise[n].saved);
     }
 }
 

@@ -1,4 +1,8 @@
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -73,39 +77,61 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
     return Status::ok();
 }
 
-// One row (Fu section 2): clear it to holes, then move every first-eye pixel by its offset,
-// keeping the nearest on collisions. `offset(invW)` returns the offset plus the pixel centre.
+// A row's landings, kept apart from the images: the nearest 1/w that reached each second-eye
+// pixel and the first-eye column it came from (-infinity and -1 where none did), plus one spare
+// slot that takes every landing outside the row, so the scatter needs no range branch.
+struct RowLandings {
+    std::vector<float> invW;
+    std::vector<int32_t> from;
+    explicit RowLandings(int w) : invW(size_t(w) + 1), from(size_t(w) + 1) {}
+};
+
+// One row (Fu section 2): every first-eye pixel moves by its offset, the nearest kept on
+// collisions; `offset(invW)` returns the offset plus the pixel centre. The scatter touches only
+// the row's landings (two small arrays that stay in L1), and a second pass writes each
+// second-eye pixel once, in order. Scattering colour, depth, ID and the hole byte straight into
+// the images, after clearing them, took 2.2 times as long (BM_Reproject,
+// docs/stereo-results.md).
 template <class Offset>
 void reprojectRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                  const Offset& offset) {
-    int w = first.color.width;
-    const Rgba8* srcColor = first.color.row(y);
+                  const Offset& rowOffset, RowLandings& landings) {
+    // A copy: through a reference the compiler reloaded the coefficients at every pixel, since
+    // the stores below might change them.
+    const Offset offset = rowOffset;
+    const int w = first.color.width;
     const float* srcDepth = first.depth.row(y);
+    float* bestInvW = landings.invW.data();
+    int32_t* from = landings.from.data();
+    std::fill_n(bestInvW, w, -std::numeric_limits<float>::infinity());
+    std::fill_n(from, w, -1);
+    const float limit = float(w);
+    for (int x = 0; x < w; ++x) {
+        float invW = srcDepth[x];
+        // Landing position x + 0.5 + offset; its pixel is floor() of it. The range test in float
+        // also drops positions too large for int (and NaN); those land in the spare slot w.
+        float pos = float(x) + offset(invW);
+        int tx = pos >= 0.0f && pos < limit ? int(pos) : w;
+        if (invW > bestInvW[tx]) {
+            bestInvW[tx] = invW;
+            from[tx] = x;
+        }
+    }
+    const Rgba8* srcColor = first.color.row(y);
     const uint32_t* srcId = first.id.row(y);
     Rgba8* dstColor = second.color.row(y);
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
     uint8_t* hole = second.holeMask.row(y);
-    for (int x = 0; x < w; ++x) {
-        dstColor[x] = Rgba8{};
-        dstDepth[x] = 0.0f;
-        dstId[x] = 0;
-        hole[x] = 1;
-    }
-    float limit = float(w);
-    for (int x = 0; x < w; ++x) {
-        float invW = srcDepth[x];
-        // Landing position x + 0.5 + offset; its pixel is floor() of it. The range test in float
-        // also drops positions too large for int.
-        float pos = float(x) + offset(invW);
-        if (!(pos >= 0.0f && pos < limit)) continue;
-        int tx = int(pos);
-        if (hole[tx] || invW > dstDepth[tx]) {
-            dstColor[tx] = srcColor[x];
-            dstDepth[tx] = invW;
-            dstId[tx] = srcId[x];
-            hole[tx] = 0;
-        }
+    for (int t = 0; t < w; ++t) {
+        int32_t x = from[t];
+        bool landed = x >= 0;
+        int32_t s = landed ? x : 0;
+        Rgba8 color = srcColor[s];
+        uint32_t id = srcId[s];
+        dstColor[t] = landed ? color : Rgba8{};
+        dstDepth[t] = landed ? bestInvW[t] : 0.0f;
+        dstId[t] = landed ? id : 0u;
+        hole[t] = uint8_t(!landed);
     }
 }
 
@@ -116,7 +142,8 @@ template <class Offset>
 void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second, ThreadPool* pool,
                    const Offset& offset) {
     auto body = [&](size_t begin, size_t end) {
-        for (size_t y = begin; y < end; ++y) reprojectRow(first, second, int(y), offset);
+        RowLandings landings(first.color.width);
+        for (size_t y = begin; y < end; ++y) reprojectRow(first, second, int(y), offset, landings);
     };
     size_t rows = size_t(first.color.height);
     if (pool)

@@ -301,6 +301,62 @@ TEST(Reproject, ParallelRowsEqualOneThread) {
     }
 }
 
+// Fu section 2 as written, pixel by pixel: clear the second eye to holes, move each first-eye
+// pixel to floor(x + 0.5 + offset), and keep it where the target is a hole or lies farther.
+void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
+                        SecondEye* second) {
+    const int w = first.color.width(), h = first.color.height();
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            second->buffers.color.at(x, y) = Rgba8{};
+            second->buffers.depth.at(x, y) = 0.0f;
+            second->buffers.id.at(x, y) = 0;
+            second->holeMask.at(x, y) = 1;
+        }
+        for (int x = 0; x < w; ++x) {
+            float invW = first.depth.at(x, y);
+            float pos = float(x) + (line.perInvW * invW + (line.offsetPx + 0.5f));
+            if (!(pos >= 0.0f && pos < float(w))) continue;
+            int tx = int(pos);
+            if (second->holeMask.at(tx, y) || invW > second->buffers.depth.at(tx, y)) {
+                second->buffers.color.at(tx, y) = first.color.at(x, y);
+                second->buffers.depth.at(tx, y) = invW;
+                second->buffers.id.at(tx, y) = first.id.at(x, y);
+                second->holeMask.at(tx, y) = 0;
+            }
+        }
+    }
+}
+
+TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
+    // Random 1/w from 13 levels (0 is the background) and disparity ranges wider than the image,
+    // so rows have collisions, gaps and landings outside on both sides.
+    const int w = 97, h = 23;
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<int> level(0, 12);
+    std::uniform_int_distribution<uint32_t> any;
+    raster::FrameBuffers first;
+    first.resize(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            first.depth.at(x, y) = float(level(rng)) * 0.25f;
+            uint32_t c = any(rng);
+            first.color.at(x, y) = Rgba8{uint8_t(c), uint8_t(c >> 8), uint8_t(c >> 16), 255};
+            first.id.at(x, y) = 1 + (any(rng) % 1000);
+        }
+    for (DisparityLine line :
+         {DisparityLine{-40.0f, 12.0f}, DisparityLine{55.0f, -30.0f}, DisparityLine{-3.0f, 0.7f}}) {
+        SecondEye expected(w, h), got(w, h);
+        reprojectByTheBook(first, line, &expected);
+        ThreadPool pool(2);
+        ASSERT_TRUE(reproject(firstTargets(first), line, got.targets(), &pool).isOk());
+        EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
+        EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
+        EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
+        EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+    }
+}
+
 TEST(Reproject, BadParametersAreRejected) {
     StereoRigDesc nan;
     nan.separation = std::nanf("");

@@ -242,25 +242,30 @@ void StreamClient::prefetchAlong(Vec3 eyePos, double nowS) {
         if (auto idx = cellIndexOfUrl(e.url, mRoot->cells)) requestCell(int(*idx));
 }
 
-// Beyond the paper: every node's texture coverage hint in `current`'s sampling, its pixels over
-// all the sampling's pixels (0 for a texture it did not see); empty without hints.
-std::vector<double> StreamClient::coverageHintOfNodes(const CellFile& current) const {
-    std::vector<double> hints;
-    if (current.textureCoverage.empty() || current.totalPixels == 0) return hints;
-    hints.assign(mNodes.size(), 0.0);
+// Beyond the paper: every node's texture coverage hint in the current cell's sampling, its
+// pixels over all the sampling's pixels (0 for a texture it did not see); empty without hints.
+// Rebuilt only when the current cell or the node list changed, not every frame.
+const std::vector<double>& StreamClient::coverageHintOfNodes() {
+    if (mHintCell == mCurrentCell && mHintNodes == mNodes.size()) return mHintOfNode;
+    mHintCell = mCurrentCell;
+    mHintNodes = mNodes.size();
+    mHintOfNode.clear();
+    const CellFile& current = *mCells[size_t(mCurrentCell)].file;
+    if (current.textureCoverage.empty() || current.totalPixels == 0) return mHintOfNode;
+    mHintOfNode.assign(mNodes.size(), 0.0);
     for (const auto& [texture, pixels] : current.textureCoverage)
         if (auto it = mNodeOfUrl.find(textureUrl(texture)); it != mNodeOfUrl.end())
-            hints[size_t(it->second)] = double(pixels) / double(current.totalPixels);
-    return hints;
+            mHintOfNode[size_t(it->second)] = double(pixels) / double(current.totalPixels);
+    return mHintOfNode;
 }
 
 // Section 6.1: the cells of the current cell's PVS whose hulls meet the frustum, plus the
 // current cell, with their ACHs; and each node's texture coverage hint from the current cell.
-std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) const {
+std::vector<VisibleCell> StreamClient::visibleCells(const Camera& camera) {
     std::vector<VisibleCell> out;
     const Cell& current = mCells[size_t(mCurrentCell)];
     if (!current.file) return out;
-    const std::vector<double> hintOfNode = coverageHintOfNodes(*current.file);
+    const std::vector<double>& hintOfNode = coverageHintOfNodes();
     for (const PvsUrlEntry& e : current.file->pvs) {
         auto idx = cellIndexOfUrl(e.url, mRoot->cells);
         if (!idx) continue;

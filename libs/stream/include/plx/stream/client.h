@@ -128,8 +128,8 @@ private:
     int nodeFor(const std::string& url, uint64_t fileBytes);
     int locate(Vec3 eyePos) const;
     void prefetchAlong(Vec3 eyePos, double nowS);
-    std::vector<VisibleCell> visibleCells(const Camera& camera) const;
-    std::vector<double> coverageHintOfNodes(const CellFile& current) const;
+    std::vector<VisibleCell> visibleCells(const Camera& camera);
+    const std::vector<double>& coverageHintOfNodes();
     void enforceCap(uint64_t budget);
     double quality() const;
 
@@ -149,6 +149,11 @@ private:
     std::vector<std::string> mLog;
     std::map<int, CachedTexture> mTextureCache;  // by node
     int mCurrentCell = -1;
+    // coverageHintOfNodes' answer and what it was built from: a cell's file is set once, and new
+    // nodes come only with new cell files.
+    int mHintCell = -1;
+    size_t mHintNodes = 0;
+    std::vector<double> mHintOfNode;
     Vec3 mLastEye{0.0f}, mLastTarget{0.0f};
     double mLastMoveS = 0.0, mLastFrameS = -1.0;
     Vec3 mVelocity{0.0f};

@@ -24,6 +24,8 @@
 #include <plx/warp/reference.h>
 #include <plx/warp/warp.h>
 
+#include "payloads.h"
+
 namespace {
 
 using namespace plx;
@@ -287,6 +289,72 @@ BENCHMARK(BM_PhotoColor)
     ->ArgName("choice")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
+
+// The disparity hot paths of a server and a client, per cube4 set of office:1 (four 512-pixel
+// faces, one thread): the view's range, the q16 residual planes and zstd (encode), and back
+// (decode); arg 0 the pixel-by-pixel reference (disparity_q16_reference.cpp), arg 1 the codec's
+// per-ISA kernels (disparity_kernels.inl, the active path: PLX_FORCE_ISA picks another). The
+// ratio of the two is the kernels' worth; zstd's share is common to both.
+void BM_DisparityQ16(benchmark::State& state) {
+    const Setup* setup = cached(kScenes[0]);
+    if (!setup) return state.SkipWithError("scene absent");
+    const bool staged = state.range(0) == 1;
+    const bool decode = state.range(1) == 1;
+    state.SetLabel(std::string(staged ? "kernels" : "reference") +
+                   (decode ? " decode" : " encode"));
+    struct Encoded {
+        DisparityRange range;
+        std::vector<uint8_t> bytes;
+    };
+    std::vector<Encoded> encoded;
+    for (const warp::ReferenceView& v : setup->set.views) {
+        Encoded e{disparityRange(v.disparity), {}};
+        if (!encodeDisparityQ16(v.disparity, e.range, DisparityCodec::kQuantized16, 3, &e.bytes))
+            std::abort();
+        encoded.push_back(std::move(e));
+    }
+    Image<float> out(512, 512);
+    std::vector<uint8_t> bytes;
+    for (auto _ : state) {
+        for (size_t i = 0; i < encoded.size(); ++i) {
+            const warp::ReferenceView& v = setup->set.views[i];
+            if (decode) {
+                Status s = staged
+                               ? decodeDisparityQ16(encoded[i].bytes, DisparityCodec::kQuantized16,
+                                                    encoded[i].range, v.rowMinDisparity,
+                                                    v.rowMaxDisparity, &out)
+                               : reference::decodeDisparityQ16(
+                                     encoded[i].bytes, DisparityCodec::kQuantized16,
+                                     encoded[i].range, v.rowMinDisparity, v.rowMaxDisparity, &out);
+                if (!s) std::abort();
+                benchmark::DoNotOptimize(out.data());
+                continue;
+            }
+            const DisparityRange r =
+                staged ? disparityRange(v.disparity) : reference::disparityRange(v.disparity);
+            Status s =
+                staged ? encodeDisparityQ16(v.disparity, r, DisparityCodec::kQuantized16, 3, &bytes)
+                       : reference::encodeDisparityQ16(v.disparity, r, DisparityCodec::kQuantized16,
+                                                       3, &bytes);
+            if (!s) std::abort();
+            benchmark::DoNotOptimize(bytes.data());
+        }
+    }
+}
+BENCHMARK(BM_DisparityQ16)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"staged", "decode"})
+    ->Unit(benchmark::kMillisecond);
+
+// computeRowDisparityRange over the same set: a server runs it after every view it renders.
+void BM_RowDisparityRange(benchmark::State& state) {
+    const Setup* setup = cached(kScenes[0]);
+    if (!setup) return state.SkipWithError("scene absent");
+    warp::ReferenceSet set = setup->set;
+    for (auto _ : state)
+        for (warp::ReferenceView& v : set.views) warp::computeRowDisparityRange(&v);
+}
+BENCHMARK(BM_RowDisparityRange)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

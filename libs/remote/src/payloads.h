@@ -55,6 +55,17 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity);
 
+// The pixel-by-pixel forms of the three above (disparity_q16_reference.cpp): what their per-ISA
+// kernels must equal byte for byte (white-box tests) and are timed against (benches).
+namespace reference {
+DisparityRange disparityRange(const Image<float>& disparity);
+Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, DisparityCodec codec,
+                          int level, std::vector<uint8_t>* out);
+Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
+                          std::span<const float> rowMin, std::span<const float> rowMax,
+                          Image<float>* disparity);
+}  // namespace reference
+
 // Raw: zstd of the little-endian floats; decoding checks each is finite, >= 0 and in its row's
 // range.
 Status encodeDisparityRaw(const Image<float>& disparity, int level, std::vector<uint8_t>* out);

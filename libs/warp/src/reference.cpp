@@ -2,8 +2,12 @@
 // raster::Renderer, and each row's disparity range for the row clip (clip.h).
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
+#include <utility>
 
 #include <plx/core/timing.h>
 #include <plx/warp/reference.h>
@@ -112,15 +116,41 @@ Pose poseAt(const scene::Viewpoint& viewpoint) {
     return pose;
 }
 
+namespace {
+
+// A float's bit pattern made an integer that orders as the float does (negative values' magnitude
+// bits flipped; -0 just below +0), and back: integer min and max reductions vectorise where IEEE
+// rules forbid the compiler the float ones (std::minmax_element took 15% of a server's CPU time
+// at 1248-pixel faces).
+int32_t orderedKey(float v) {
+    const auto b = std::bit_cast<int32_t>(v);
+    return b ^ int32_t(uint32_t(b >> 31) >> 1);
+}
+float fromOrderedKey(int32_t k) {
+    return std::bit_cast<float>(k ^ int32_t(uint32_t(k >> 31) >> 1));
+}
+
+// The smallest and largest value of a row without NaN.
+std::pair<float, float> rowMinMax(const float* row, int width) {
+    int32_t lo = std::numeric_limits<int32_t>::max(), hi = std::numeric_limits<int32_t>::min();
+    for (int x = 0; x < width; ++x) {
+        lo = std::min(lo, orderedKey(row[x]));
+        hi = std::max(hi, orderedKey(row[x]));
+    }
+    return {fromOrderedKey(lo), fromOrderedKey(hi)};
+}
+
+}  // namespace
+
 void computeRowDisparityRange(ReferenceView* view) {
     const Image<float>& disparity = view->disparity;
     view->rowMinDisparity.assign(size_t(disparity.height()), 0.0f);
     view->rowMaxDisparity.assign(size_t(disparity.height()), 0.0f);
+    if (disparity.width() == 0) return;
     for (int y = 0; y < disparity.height(); ++y) {
-        const float* row = disparity.row(y);
-        const auto [lo, hi] = std::minmax_element(row, row + disparity.width());
-        view->rowMinDisparity[size_t(y)] = disparity.width() ? *lo : 0.0f;
-        view->rowMaxDisparity[size_t(y)] = disparity.width() ? *hi : 0.0f;
+        const auto [lo, hi] = rowMinMax(disparity.row(y), disparity.width());
+        view->rowMinDisparity[size_t(y)] = lo;
+        view->rowMaxDisparity[size_t(y)] = hi;
     }
 }
 

@@ -24,7 +24,8 @@ Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSe
 // The pose of a scene viewpoint: its eye, the unit direction to its target, its up.
 Pose poseAt(const scene::Viewpoint& viewpoint);
 
-// Fills view->rowMinDisparity and rowMaxDisparity from view->disparity.
+// Fills view->rowMinDisparity and rowMaxDisparity from view->disparity (without NaN; a -0 counts
+// as below +0).
 void computeRowDisparityRange(ReferenceView* view);
 
 }  // namespace plx::warp

@@ -1,0 +1,32 @@
+#pragma once
+// Private: the per-ISA entry points of the q16 disparity codec's pixel loops
+// (disparity_kernels.inl), compiled once per ISA by plx_add_isa_kernels and picked per view with
+// PLX_ISA_PICK (<plx/core/cpu.h>). Arguments are plain pointers into caller-owned buffers; images
+// are contiguous rows of `width` values. Every tier computes the same values (the build keeps
+// fp-contract off), which the white-box tests check against disparity_q16_reference.cpp.
+#include <cstddef>
+#include <cstdint>
+
+#include <plx/core/cpu.h>
+
+namespace plx::remote::detail {
+
+// The smallest positive and the largest of n non-NaN disparities (lo = +inf when none is
+// positive; hi >= 0).
+struct PositiveRange {
+    float lo = 0.0f;
+    float hi = 0.0f;
+};
+
+// encode: the codes of every row (docs/remote-protocol.md, "Disparity, q16"; step > 0) and their
+// zigzagged residuals, low bytes in planes[0, w h), high bytes in planes[w h, 2 w h). `codes`
+// holds one row.
+// decode: the reverse, each drawn pixel clamped to its row's [rowMin, rowMax].
+PLX_ISA_DECLARE(PositiveRange positiveRange(const float* d, size_t n));
+PLX_ISA_DECLARE(void encodeQ16Planes(const float* disparity, int width, int height, double dmin,
+                                     double step, uint16_t* codes, uint8_t* planes));
+PLX_ISA_DECLARE(void decodeQ16Planes(const uint8_t* planes, int width, int height, double dmin,
+                                     double step, const float* rowMin, const float* rowMax,
+                                     uint16_t* codes, float* disparity));
+
+}  // namespace plx::remote::detail

@@ -1,0 +1,40 @@
+#pragma once
+// The codes of the q16 disparity payload (docs/remote-protocol.md, "Disparity, q16"), shared by
+// the row-staged codec (disparity_q16.cpp) and its pixel-by-pixel reference.
+
+#include <algorithm>
+#include <cstdint>
+
+#include "payloads.h"
+
+namespace plx::remote::q16 {
+
+// 65535 codes for drawn pixels: q = 1 + round((d - dmin) / step), 0 = nothing drawn.
+inline constexpr double kSteps = 65534.0;
+
+inline double quantStep(DisparityRange r) {
+    return (double(r.dmax) - double(r.dmin)) / kSteps;
+}
+
+// The prediction of q[x] from the row so far (x >= 1) or the row above's first code (x == 0).
+// Next to an empty pixel (q = 0) the plane predictor would extrapolate from "infinitely far", so
+// the left neighbour is used alone.
+inline int predict(const uint16_t* row, int x, int aboveFirst) {
+    if (x == 0) return aboveFirst;
+    const int a = row[x - 1];
+    if (x == 1) return a;
+    const int b = row[x - 2];
+    if (a == 0 || b == 0) return a;
+    return std::clamp(2 * a - b, 0, 65535);
+}
+
+inline uint16_t zigzag(int residual) {
+    const auto r = int16_t(uint16_t(residual));  // (q - pred) mod 2^16, as signed
+    return uint16_t((uint16_t(r) << 1) ^ uint16_t(r >> 15));
+}
+
+inline int unzigzag(uint16_t z) {
+    return int(z >> 1) ^ -int(z & 1);
+}
+
+}  // namespace plx::remote::q16

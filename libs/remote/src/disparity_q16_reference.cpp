@@ -1,0 +1,90 @@
+// The q16 disparity codec and the disparity range written pixel by pixel, as
+// docs/remote-protocol.md states them: the reference the row-staged versions of
+// disparity_q16.cpp must equal byte for byte (white-box tests) and are timed against (benches).
+
+#include <algorithm>
+#include <cmath>
+
+#include "disparity_q16_codes.h"
+
+namespace plx::remote::reference {
+using q16::predict;
+using q16::quantStep;
+using q16::unzigzag;
+using q16::zigzag;
+
+DisparityRange disparityRange(const Image<float>& disparity) {
+    DisparityRange r{0.0f, 0.0f};
+    float lo = INFINITY;
+    for (size_t i = 0; i < disparity.pixelCount(); ++i) {
+        const float d = disparity.data()[i];
+        if (d > 0.0f) lo = std::min(lo, d);
+        r.dmax = std::max(r.dmax, d);
+    }
+    r.dmin = r.dmax > 0.0f ? lo : 0.0f;
+    return r;
+}
+
+Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, DisparityCodec codec,
+                          int level, std::vector<uint8_t>* out) {
+    const int w = disparity.width(), h = disparity.height();
+    const size_t n = disparity.pixelCount();
+    const double step = quantStep(range);
+    std::vector<uint16_t> q(static_cast<size_t>(w));
+    std::vector<uint8_t> planes(2 * n);  // low bytes of every residual, then high bytes
+    int aboveFirst = 0;
+    for (int y = 0; y < h; ++y) {
+        const float* src = disparity.row(y);
+        for (int x = 0; x < w; ++x) {
+            const double d = src[x];
+            q[size_t(x)] =
+                d == 0.0
+                    ? 0
+                    : uint16_t(
+                          step > 0.0
+                              ? std::clamp(1.0 + std::floor((d - range.dmin) * (1.0 / step) + 0.5),
+                                           1.0, 65535.0)
+                              : 1.0);
+        }
+        for (int x = 0; x < w; ++x) {
+            const uint16_t z = zigzag(int(q[size_t(x)]) - predict(q.data(), x, aboveFirst));
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            planes[i] = uint8_t(z);
+            planes[n + i] = uint8_t(z >> 8);
+        }
+        aboveFirst = q[0];
+    }
+    return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(planes, level, out)
+                                                        : zstdCompress(planes, level, out);
+}
+
+Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
+                          std::span<const float> rowMin, std::span<const float> rowMax,
+                          Image<float>* disparity) {
+    const int w = disparity->width(), h = disparity->height();
+    const size_t n = disparity->pixelCount();
+    std::vector<uint8_t> planes(2 * n);
+    PLX_RETURN_IF_ERROR(codec == DisparityCodec::kQuantized16Deflate
+                            ? zlibInflateExact(in, planes, "disparity")
+                            : zstdDecompressExact(in, planes, "disparity"));
+    const double step = quantStep(range);
+    std::vector<uint16_t> q(static_cast<size_t>(w));
+    int aboveFirst = 0;
+    for (int y = 0; y < h; ++y) {
+        float* dst = disparity->row(y);
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            const auto z = uint16_t(planes[i] | (planes[n + i] << 8));
+            q[size_t(x)] = uint16_t(predict(q.data(), x, aboveFirst) + unzigzag(z));
+            const uint16_t c = q[size_t(x)];
+            // Clamped to the row's exact range so that the warp's row clipping stays true.
+            dst[x] = c == 0 ? 0.0f
+                            : std::clamp(float(double(range.dmin) + double(c - 1) * step),
+                                         rowMin[size_t(y)], rowMax[size_t(y)]);
+        }
+        aboveFirst = q[0];
+    }
+    return {};
+}
+
+}  // namespace plx::remote::reference

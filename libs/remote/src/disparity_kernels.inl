@@ -45,7 +45,7 @@ void residualRow(const uint16_t* q, int w, int aboveFirst, uint8_t* low, uint8_t
     for (int x = 2; x < w; ++x) {
         const int a = q[x - 1], b = q[x - 2];
         const int plane = std::clamp(2 * a - b, 0, 65535);
-        const int prediction = (a == 0) | (b == 0) ? a : plane;
+        const int prediction = ((a == 0) | (b == 0)) ? a : plane;
         const uint16_t z = zigzag(int(q[x]) - prediction);
         low[x] = uint8_t(z);
         high[x] = uint8_t(z >> 8);
@@ -59,7 +59,7 @@ void reconstructRow(const uint8_t* low, const uint8_t* high, int w, int aboveFir
     int b = w > 0 ? q[0] : 0, a = w > 1 ? q[1] : 0;
     for (int x = 2; x < w; ++x) {
         const int plane = std::clamp(2 * a - b, 0, 65535);
-        const int prediction = (a == 0) | (b == 0) ? a : plane;
+        const int prediction = ((a == 0) | (b == 0)) ? a : plane;
         const auto c = uint16_t(prediction + unzigzag(uint16_t(low[x] | (high[x] << 8))));
         q[x] = c;
         b = a;

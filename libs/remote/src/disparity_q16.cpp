@@ -12,6 +12,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -37,11 +39,13 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
     // One value drawn (every drawn pixel code 1) or none: the kernels need a step.
     if (!(step > 0.0)) return reference::encodeDisparityQ16(disparity, range, codec, level, out);
     std::vector<uint16_t> codes(static_cast<size_t>(w));
-    std::vector<uint8_t> planes(2 * n);  // low bytes of every residual, then high bytes
-    PLX_ISA_PICK(encodeQ16Planes)
-    (disparity.data(), w, h, range.dmin, step, codes.data(), planes.data());
-    return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(planes, level, out)
-                                                        : zstdCompress(planes, level, out);
+    // Low bytes of every residual, then high bytes; the kernel writes each byte, so no fill.
+    const std::unique_ptr<uint8_t[]> planes(new uint8_t[2 * n]);
+    const auto encodePlanes = PLX_ISA_PICK(encodeQ16Planes);
+    encodePlanes(disparity.data(), w, h, range.dmin, step, codes.data(), planes.get());
+    const std::span<const uint8_t> bytes(planes.get(), 2 * n);
+    return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(bytes, level, out)
+                                                        : zstdCompress(bytes, level, out);
 }
 
 Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
@@ -54,9 +58,9 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
                             ? zlibInflateExact(in, planes, "disparity")
                             : zstdDecompressExact(in, planes, "disparity"));
     std::vector<uint16_t> codes(static_cast<size_t>(w));
-    PLX_ISA_PICK(decodeQ16Planes)
-    (planes.data(), w, h, range.dmin, quantStep(range), rowMin.data(), rowMax.data(), codes.data(),
-     disparity->data());
+    const auto decodePlanes = PLX_ISA_PICK(decodeQ16Planes);
+    decodePlanes(planes.data(), w, h, range.dmin, quantStep(range), rowMin.data(), rowMax.data(),
+                 codes.data(), disparity->data());
     return {};
 }
 

@@ -169,8 +169,13 @@ Status renderReferenceSet(raster::Renderer& renderer, const scene::Scene& scene,
     for (size_t v = 0; v < cameras->size(); ++v) {
         ReferenceView& view = out->views[v];
         view.camera = (*cameras)[v];
-        view.color.resize(view.camera.width(), view.camera.height());
-        view.disparity.resize(view.camera.width(), view.camera.height());
+        // The render clears every pixel (clearTargets, all tiles): buffers of the right size
+        // from the set before are reused without filling them first (a server renders into the
+        // same set for every session frame).
+        const int w = view.camera.width(), h = view.camera.height();
+        if (view.color.width() != w || view.color.height() != h) view.color.resize(w, h);
+        if (view.disparity.width() != w || view.disparity.height() != h)
+            view.disparity.resize(w, h);
         raster::RenderTargets targets{view.color.view(), view.disparity.view(), {}, {}};
         renderer.render(scene, view.camera, render, targets);
         computeRowDisparityRange(&view);

@@ -3,6 +3,7 @@
 // the warp's derivatives, every ISA path equals the scalar one, the two visibility orders
 // agree, and bad input gets one-line errors.
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <random>
 #include <string>
@@ -80,6 +81,30 @@ ReferenceSet firstViewOnly(const ReferenceSet& set) {
     one.pose = set.pose;
     one.views.push_back(set.views.front());
     return one;
+}
+
+// A server renders every set into the same buffers: what an earlier set left there must not show.
+TEST(ReferenceSet, ReusedBuffersHoldOnlyTheNewSet) {
+    Office o;
+    Pose turned = o.pose;
+    turned.eye += Vec3(0.4f, 0.1f, -0.3f);
+    turned.forward = glm::normalize(o.pose.forward + Vec3(0.3f, 0.0f, 0.2f));
+    ReferenceSetOptions options;
+    options.faceSize = 96;
+    ReferenceSet fresh;
+    ASSERT_TRUE(renderReferenceSet(*o.renderer, o.scene, turned, options, &fresh).isOk());
+    ReferenceSet reused = o.set;  // holds the first pose's pixels
+    ASSERT_TRUE(renderReferenceSet(*o.renderer, o.scene, turned, options, &reused).isOk());
+    ASSERT_EQ(reused.views.size(), fresh.views.size());
+    for (size_t v = 0; v < fresh.views.size(); ++v) {
+        EXPECT_EQ(std::memcmp(reused.views[v].color.data(), fresh.views[v].color.data(),
+                              fresh.views[v].color.pixelCount() * sizeof(Rgba8)),
+                  0);
+        EXPECT_EQ(std::memcmp(reused.views[v].disparity.data(), fresh.views[v].disparity.data(),
+                              fresh.views[v].disparity.pixelCount() * sizeof(float)),
+                  0);
+        EXPECT_EQ(reused.views[v].rowMaxDisparity, fresh.views[v].rowMaxDisparity);
+    }
 }
 
 TEST(Warp, OwnPoseReproducesTheReference) {

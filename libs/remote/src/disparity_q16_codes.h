@@ -1,13 +1,23 @@
 #pragma once
 // The codes of the q16 disparity payload (docs/remote-protocol.md, "Disparity, q16"), shared by
-// the row-staged codec (disparity_q16.cpp) and its pixel-by-pixel reference.
+// the codec's per-ISA kernels (disparity_kernels.inl) and its pixel-by-pixel reference. The kernels
+// include this header once per ISA, so its inline functions sit in a namespace named after the
+// including translation unit's ISA: otherwise the linker could keep one ISA's copy for all
+// callers (an AVX-512 copy for a CPU without it).
 
 #include <algorithm>
 #include <cstdint>
 
 #include "payloads.h"
 
+#if defined(PLX_ISA_NS)
+#define PLX_Q16_CODES_NS PLX_ISA_NS
+#else
+#define PLX_Q16_CODES_NS isa_baseline
+#endif
+
 namespace plx::remote::q16 {
+inline namespace PLX_Q16_CODES_NS {
 
 // 65535 codes for drawn pixels: q = 1 + round((d - dmin) / step), 0 = nothing drawn.
 inline constexpr double kSteps = 65534.0;
@@ -37,4 +47,5 @@ inline int unzigzag(uint16_t z) {
     return int(z >> 1) ^ -int(z & 1);
 }
 
+}  // namespace PLX_Q16_CODES_NS
 }  // namespace plx::remote::q16

@@ -1,6 +1,7 @@
 // The q16 disparity codec and the disparity range written pixel by pixel, as
-// docs/remote-protocol.md states them: the reference the row-staged versions of
-// disparity_q16.cpp must equal byte for byte (white-box tests) and are timed against (benches).
+// docs/remote-protocol.md states them: the reference the per-ISA kernels of disparity_q16.cpp
+// (disparity_kernels.inl) must equal byte for byte (white-box tests) and are timed against
+// (benches).
 
 #include <algorithm>
 #include <cmath>

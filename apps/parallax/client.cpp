@@ -269,6 +269,7 @@ int runClient(const ClientArgs& a) {
         {"reference_age_ms_median", medianOf(loop->frames, &FrameStat::referenceAgeMs)},
         {"references_received", cs.referencesReceived},
         {"references_per_s", double(cs.referencesReceived) / loop->seconds},
+        {"references_dropped", cs.referencesDropped},
         {"bytes_per_reference", bytesPerRef},
         {"raw_bytes_per_reference", rawBytes},
         {"face_size", cs.faceSize},

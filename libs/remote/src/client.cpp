@@ -1,16 +1,20 @@
-// The client's I/O thread: connect, handshake, send poses and pings, receive sets; reconnect
-// with exponential backoff.
+// The client's I/O thread (connect, handshake, send poses and pings, receive sets; reconnect with
+// exponential backoff) and its decode thread (the newest received set, decoded into the buffers
+// of one the display loop has let go).
 
 #include <plx/remote/client.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <utility>
 
 #include <fmt/format.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <plx/remote/transport.h>
 
@@ -54,35 +58,35 @@ struct Client::Impl {
     Status fatal;
     ClientStats stats;
     std::shared_ptr<Connection> conn;
+    std::shared_ptr<Link> current;  // conn's link
 
+    // A set waiting for the decode thread, with the connection it came on.
+    struct PendingSet {
+        std::vector<uint8_t> bytes;
+        std::shared_ptr<Link> link;
+        uint64_t arrivalUs = 0;
+    };
+    std::optional<PendingSet> pending;  // the newest undecoded set; a newer one replaces it
+    std::thread decoder;
+    // The set the display loop held last, taken back for its buffers once nobody else holds it.
+    std::shared_ptr<ReceivedSet> retired;
+
+    // Runs on the transport's I/O thread, which must stay free for pings and pongs: a set
+    // (tens of milliseconds to decode at 1280x720) goes to the decode thread, so a pong is read
+    // when it arrives and the RTT, and the server's prediction lead with it, is the network's.
     void onMessage(const std::shared_ptr<Link>& link, std::vector<uint8_t>&& bytes, bool binary) {
         if (!binary) return;
         const uint64_t arrival = clientNowUs();
-        Clock::time_point decodeStart = Clock::now();
-        auto m = decodeMessage(bytes, config.limits);
-        if (!m) {
-            // A server that breaks the protocol is told so; the session ends and is retried.
-            if (auto e = encodeMessage(ErrorMessage{ErrorKind::kProtocol,
-                                                    m.status().message().substr(0, kMaxTextBytes)}))
-                sendNow(std::move(e).value());
-            closeNow();
+        if (!bytes.empty() && bytes[0] == uint8_t(MessageType::kReferenceSet)) {
+            std::lock_guard lock(mutex);
+            if (pending) ++stats.referencesDropped;
+            pending = PendingSet{std::move(bytes), link, arrival};
+            changed.notify_all();
             return;
         }
-        if (auto* set = std::get_if<ReferenceSetMessage>(&*m)) {
-            auto r = std::make_shared<ReceivedSet>();
-            r->set = std::move(set->set);
-            r->sequence = set->sequence;
-            r->requestTimestampUs = set->requestTimestampUs;
-            r->arrivalUs = arrival;
-            r->bytes = bytes.size();
-            double ms =
-                std::chrono::duration<double, std::milli>(Clock::now() - decodeStart).count();
-            std::lock_guard lock(mutex);
-            newest = std::move(r);  // the newest wins; an older one is dropped with its last user
-            ++stats.referencesReceived;
-            stats.bytesReceived += int64_t(bytes.size());
-            stats.decodeMsMean += (ms - stats.decodeMsMean) / double(stats.referencesReceived);
-            changed.notify_all();
+        auto m = decodeMessage(bytes, config.limits);
+        if (!m) {
+            refuse(link, m.status());
             return;
         }
         std::lock_guard lock(mutex);
@@ -104,13 +108,67 @@ struct Client::Impl {
         changed.notify_all();
     }
 
-    void sendNow(std::vector<uint8_t> bytes) {
+    // A server that breaks the protocol is told so; the session ends and is retried. Only the
+    // connection the bad message came on is closed (a set decoded late may be from an old one).
+    void refuse(const std::shared_ptr<Link>& link, const Status& why) {
+        auto e = encodeMessage(
+            ErrorMessage{ErrorKind::kProtocol, why.message().substr(0, kMaxTextBytes)});
         std::lock_guard lock(mutex);
-        if (conn) conn->send(std::move(bytes));
+        if (!conn || link != current) return;
+        if (e) conn->send(std::move(e).value());
+        conn->close();
     }
-    void closeNow() {
-        std::lock_guard lock(mutex);
-        if (conn) conn->close();
+
+    // The decode thread: the newest pending set, decoded into the buffers of a set the display
+    // loop no longer holds, published as the newest.
+    void decodeLoop() {
+        // One slot: the set's views decode one after the other on this thread. Spread over the
+        // TBB workers (the codec's per-view tasks) they held workers that the display loop's
+        // warp then waited for: at 1280x720 with the server on the same two cores the loop ran
+        // at 41 frames/s against 47.5 serially, for the same sets per second
+        // (docs/remote-results.md).
+        tbb::task_arena serial(1);
+        std::unique_lock lock(mutex);
+        while (true) {
+            changed.wait(lock, [&] { return stopping || pending; });
+            if (stopping) return;
+            PendingSet job = std::move(*pending);
+            pending.reset();
+            std::shared_ptr<ReceivedSet> r = std::move(retired);
+            lock.unlock();
+            // Only this thread can reach `retired`; a count of 1 means no display frame still
+            // reads it. The count fell by a release decrement, so the fence orders the reuse
+            // after the last reader's reads.
+            if (r && r.use_count() == 1)
+                std::atomic_thread_fence(std::memory_order_acquire);
+            else
+                r = std::make_shared<ReceivedSet>();
+            Clock::time_point decodeStart = Clock::now();
+            ReferenceSetMessage m;
+            m.set = std::move(r->set);
+            Status s;
+            serial.execute([&] { s = decodeReferenceSetMessage(job.bytes, config.limits, &m); });
+            const double ms =
+                std::chrono::duration<double, std::milli>(Clock::now() - decodeStart).count();
+            r->set = std::move(m.set);
+            if (!s.isOk()) {
+                refuse(job.link, s);
+                lock.lock();
+                retired = std::move(r);  // its buffers serve the next set
+                continue;
+            }
+            r->sequence = m.sequence;
+            r->requestTimestampUs = m.requestTimestampUs;
+            r->arrivalUs = job.arrivalUs;
+            r->bytes = job.bytes.size();
+            lock.lock();
+            // The newest wins; the one it replaces is kept for its buffers.
+            retired = std::const_pointer_cast<ReceivedSet>(std::exchange(newest, std::move(r)));
+            ++stats.referencesReceived;
+            stats.bytesReceived += int64_t(newest->bytes);
+            stats.decodeMsMean += (ms - stats.decodeMsMean) / double(stats.referencesReceived);
+            changed.notify_all();
+        }
     }
 
     // Waits for `until` or for stop; false when stopping.
@@ -132,6 +190,7 @@ struct Client::Impl {
                 std::lock_guard lock(mutex);
                 stats.connected = false;
                 conn.reset();
+                current.reset();
                 if (stopping || !fatal.isOk()) break;
                 if (stats.connects > 0 && ended.isOk()) backoffMs = config.backoffMinMs;
             }
@@ -167,6 +226,7 @@ struct Client::Impl {
         {
             std::lock_guard lock(mutex);
             conn = *c;
+            current = link;
         }
         if (auto bytes = encodeMessage(hello)) (*c)->send(std::move(bytes).value());
         ServerHello answer;
@@ -259,6 +319,7 @@ Result<std::unique_ptr<Client>> Client::create(const ClientConfig& config) {
     impl->transport = std::move(transport).value();
     Impl* p = impl.get();
     impl->thread = std::thread([p] { p->run(); });
+    impl->decoder = std::thread([p] { p->decodeLoop(); });
     return std::unique_ptr<Client>(new Client(std::move(impl)));
 }
 
@@ -299,6 +360,7 @@ void Client::stop() {
         mImpl->changed.notify_all();
     }
     if (mImpl->thread.joinable()) mImpl->thread.join();
+    if (mImpl->decoder.joinable()) mImpl->decoder.join();
     mImpl->transport->stop();
 }
 

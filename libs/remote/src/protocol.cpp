@@ -243,19 +243,6 @@ Result<Message> finish(ByteReader& r, T&& m) {
     return Message(std::forward<T>(m));
 }
 
-Result<Message> decodeReferenceSetMessage(std::span<const uint8_t> bytes,
-                                          const DecodeLimits& limits) {
-    ByteReader r(bytes, "reference set message");
-    r.u8("type");
-    ReferenceSetMessage m;
-    m.sequence = r.u32("sequence");
-    m.requestTimestampUs = r.u64("requestTimestampUs");
-    if (!r.ok()) return r.status();
-    const Status s = decodeReferenceSet(bytes.subspan(r.position()), limits, &m.set);
-    if (!s.isOk()) return Status(s.code(), "reference set message: " + s.message());
-    return Message(std::move(m));
-}
-
 }  // namespace
 
 MessageType messageType(const Message& message) {
@@ -278,6 +265,25 @@ Result<std::vector<uint8_t>> encodeMessage(const Message& message, const CodecOp
     return out;
 }
 
+Status decodeReferenceSetMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits,
+                                 ReferenceSetMessage* out) {
+    if (bytes.empty() || bytes[0] != uint8_t(MessageType::kReferenceSet))
+        return Status(ErrorCode::kCorruptData, "reference set message: wrong type byte");
+    if (bytes.size() > kMaxReferenceSetMessageBytes) {
+        return Status(ErrorCode::kOutOfRange,
+                      fmt::format("reference set message: {} bytes over the limit {}", bytes.size(),
+                                  kMaxReferenceSetMessageBytes));
+    }
+    ByteReader r(bytes, "reference set message");
+    r.u8("type");
+    out->sequence = r.u32("sequence");
+    out->requestTimestampUs = r.u64("requestTimestampUs");
+    if (!r.ok()) return r.status();
+    const Status s = decodeReferenceSet(bytes.subspan(r.position()), limits, &out->set);
+    if (!s.isOk()) return Status(s.code(), "reference set message: " + s.message());
+    return Status::ok();
+}
+
 Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits) {
     if (bytes.empty()) return Status(ErrorCode::kCorruptData, "message: empty");
     const auto type = MessageType(bytes[0]);
@@ -290,7 +296,11 @@ Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits
                       fmt::format("{} message: {} bytes over the limit {}", messageTypeName(type),
                                   bytes.size(), limit));
     }
-    if (type == MessageType::kReferenceSet) return decodeReferenceSetMessage(bytes, limits);
+    if (type == MessageType::kReferenceSet) {
+        ReferenceSetMessage m;
+        if (Status s = decodeReferenceSetMessage(bytes, limits, &m); !s.isOk()) return s;
+        return Message(std::move(m));
+    }
     ByteReader r(bytes, std::string(messageTypeName(type)) + " message");
     r.u8("type");
     switch (type) {

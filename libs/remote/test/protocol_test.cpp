@@ -124,6 +124,41 @@ TEST(Protocol, EveryTruncatedPrefixIsRefused) {
     }
 }
 
+// The client decodes each set into the buffers of the one before it: the result must not depend
+// on what those buffers held (another scene, face size and view count), and a refused message
+// names its problem as decodeMessage does.
+TEST(Protocol, SetDecodedIntoReusedBuffersEqualsAFreshDecode) {
+    ReferenceSetMessage small;
+    small.sequence = 3;
+    small.set = renderedSet("office:1", 16);
+    ReferenceSetMessage big;
+    big.sequence = 4;
+    big.requestTimestampUs = 99;
+    big.set = renderedSet("museum:1", 24);
+    const std::vector<uint8_t> bigBytes = encoded(big);
+    ReferenceSetMessage reused;
+    ASSERT_TRUE(decodeReferenceSetMessage(encoded(small), {}, &reused).isOk());
+    ASSERT_TRUE(decodeReferenceSetMessage(bigBytes, {}, &reused).isOk());
+    auto fresh = decodeMessage(bigBytes);
+    ASSERT_TRUE(fresh.isOk());
+    const ReferenceSetMessage& f = std::get<ReferenceSetMessage>(*fresh);
+    EXPECT_EQ(reused.sequence, 4u);
+    EXPECT_EQ(reused.requestTimestampUs, 99u);
+    ASSERT_EQ(reused.set.views.size(), f.set.views.size());
+    for (size_t i = 0; i < f.set.views.size(); ++i) {
+        const warp::ReferenceView& a = reused.set.views[i];
+        const warp::ReferenceView& b = f.set.views[i];
+        EXPECT_TRUE(a.color == b.color) << "view " << i;
+        EXPECT_TRUE(a.disparity == b.disparity) << "view " << i;
+        EXPECT_EQ(a.rowMinDisparity, b.rowMinDisparity);
+        EXPECT_EQ(a.rowMaxDisparity, b.rowMaxDisparity);
+    }
+    for (size_t n = 0; n < bigBytes.size(); n += 97)
+        expectOneLineError(decodeReferenceSetMessage(std::span(bigBytes).first(n), {}, &reused));
+    const std::vector<uint8_t> ping = encoded(Ping{1, 2});
+    expectOneLineError(decodeReferenceSetMessage(ping, {}, &reused));
+}
+
 TEST(Protocol, FlippedBitsNeverCrash) {
     std::mt19937 rng(11);
     for (const Message& m : sampleMessages()) {

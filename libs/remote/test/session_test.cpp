@@ -23,6 +23,8 @@
 #include <plx/scene/generators.h>
 #include <plx/warp/reference.h>
 
+#include "test_sets.h"
+
 namespace plx::remote {
 namespace {
 
@@ -501,6 +503,87 @@ TEST(RemoteSession, ClientReconnectsAfterServerRestart) {
         return client->stats().referencesReceived > before;
     }));
     EXPECT_EQ(client->stats().connects, 2);
+}
+
+// A hostile server: answers every ClientHello, then sends one good set and, on the first
+// connection only, a corrupt one; records the Error messages it gets back.
+class HostileServer {
+public:
+    explicit HostileServer(std::vector<uint8_t> good, std::vector<uint8_t> bad)
+        : mGood(std::move(good)), mBad(std::move(bad)) {
+        mTransport = std::move(Transport::create()).value();
+        ConnectionConfig cc;
+        cc.maxMessageBytes = 4096;
+        auto port = mTransport->listen("127.0.0.1", 0, cc, [this](std::shared_ptr<Connection> c) {
+            ConnectionEvents ev;
+            ev.onMessage = [this, c](std::vector<uint8_t>&& m, bool) { onMessage(*c, m); };
+            ev.onClosed = [](const Status&) {};
+            std::lock_guard lock(mMutex);
+            mConnections.push_back(c);
+            return ev;
+        });
+        EXPECT_TRUE(port.isOk());
+        mPort = port ? *port : 0;
+    }
+    ~HostileServer() {
+        mConnections.clear();
+        mTransport->stop();
+    }
+    int port() const { return mPort; }
+    std::vector<ErrorMessage> errors() {
+        std::lock_guard lock(mMutex);
+        return mErrors;
+    }
+
+private:
+    void onMessage(Connection& c, const std::vector<uint8_t>& bytes) {
+        auto m = decodeMessage(bytes);
+        if (!m) return;
+        std::lock_guard lock(mMutex);
+        if (std::holds_alternative<ClientHello>(*m)) {
+            ServerHello hello;
+            hello.faceSize = 32;
+            c.send(std::move(encodeMessage(hello)).value());
+            c.send(mGood);
+            if (mHellos++ == 0) c.send(mBad);
+        } else if (auto* e = std::get_if<ErrorMessage>(&*m)) {
+            mErrors.push_back(*e);
+        }
+    }
+
+    std::unique_ptr<Transport> mTransport;
+    std::vector<uint8_t> mGood, mBad;
+    int mPort = 0;
+    std::mutex mMutex;
+    std::vector<std::shared_ptr<Connection>> mConnections;
+    std::vector<ErrorMessage> mErrors;
+    int mHellos = 0;
+};
+
+TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
+    ReferenceSetMessage set;
+    set.sequence = 7;
+    set.set = renderedSet("office:1", 32);
+    std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
+    std::vector<uint8_t> bad(good.begin(), good.end() - 9);  // a view cut short
+    HostileServer server(good, bad);
+    ClientConfig config;
+    config.port = server.port();
+    config.faceSize = 32;
+    config.backoffMinMs = 50.0;
+    config.backoffMaxMs = 100.0;
+    auto client = std::move(Client::create(config)).value();
+    // The client tells the server what was wrong, hangs up, keeps the good set and reconnects.
+    ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }));
+    const ErrorMessage e = server.errors().front();
+    EXPECT_EQ(e.kind, ErrorKind::kProtocol);
+    EXPECT_NE(e.text.find("reference set"), std::string::npos) << e.text;
+    EXPECT_TRUE(eventually([&] { return client->stats().connects >= 2; }));
+    // (The good set of the first connection may have been replaced, undecoded, by the bad one.)
+    ASSERT_TRUE(eventually([&] { return client->stats().referencesReceived >= 1; }));
+    ASSERT_NE(client->newest(), nullptr);
+    EXPECT_EQ(client->newest()->sequence, 7u);
+    EXPECT_TRUE(client->fatal().isOk());
 }
 
 TEST(RemoteSession, LinkEmulationDelaysBothDirections) {

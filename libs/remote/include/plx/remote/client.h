@@ -1,7 +1,9 @@
 #pragma once
 // The warping client's network side (Mark, Bishop, McMillan, "The Remote Rendering System"): an
 // I/O thread that keeps a session with a render server, sends the newest head pose (with its
-// velocity) at the server's pose rate and pings, and receives and decodes reference sets. The
+// velocity) at the server's pose rate and pings, and receives reference sets, and a decode
+// thread that decodes the newest received set (one that arrives while another decodes replaces
+// any still waiting). The
 // display loop (the caller) takes the newest set whenever it likes and never waits for the
 // network. When the server goes away the client reconnects with exponential backoff and keeps
 // the last set meanwhile.
@@ -36,14 +38,15 @@ struct ReceivedSet {
     warp::ReferenceSet set;
     uint32_t sequence = 0;
     uint64_t requestTimestampUs = 0;  // the pose's timestamp (client clock, clientNowUs)
-    uint64_t arrivalUs = 0;           // when it was decoded (client clock)
+    uint64_t arrivalUs = 0;           // when its message arrived (client clock)
     size_t bytes = 0;                 // the message's bytes
 };
 
 struct ClientStats {
-    int64_t referencesReceived = 0;
-    int64_t bytesReceived = 0;  // reference set messages
-    int64_t connects = 0;       // successful handshakes (1 + reconnections)
+    int64_t referencesReceived = 0;  // sets decoded and offered by newest()
+    int64_t bytesReceived = 0;       // their messages' bytes
+    int64_t referencesDropped = 0;   // sets replaced by a newer one before their decode began
+    int64_t connects = 0;            // successful handshakes (1 + reconnections)
     int64_t posesSent = 0;
     double rttMs = -1.0;  // smoothed ping round trip; < 0 before the first Pong
     double decodeMsMean = 0.0;

@@ -128,4 +128,10 @@ Result<std::vector<uint8_t>> encodeMessage(const Message& message, const CodecOp
 // every other message is version 1 by the session's handshake.
 Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits = {});
 
+// Decodes a reference set message (type byte kReferenceSet) into *out, reusing its buffers: the
+// same checks and errors as decodeMessage. A client that keeps one set while it decodes the next
+// allocates nothing per set.
+Status decodeReferenceSetMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits,
+                                 ReferenceSetMessage* out);
+
 }  // namespace plx::remote

@@ -1,12 +1,11 @@
 #pragma once
 // The warping client's network side (Mark, Bishop, McMillan, "The Remote Rendering System"): an
 // I/O thread that keeps a session with a render server, sends the newest head pose (with its
-// velocity) at the server's pose rate and pings, and receives reference sets, and a decode
-// thread that decodes the newest received set (one that arrives while another decodes replaces
-// any still waiting). The
-// display loop (the caller) takes the newest set whenever it likes and never waits for the
-// network. When the server goes away the client reconnects with exponential backoff and keeps
-// the last set meanwhile.
+// velocity) at the server's pose rate and pings, and receives reference sets; a decode thread
+// decodes the newest received set (one that arrives while another decodes replaces any still
+// waiting). The display loop (the caller) takes the newest set whenever it likes and never
+// waits for the network. When the server goes away the client reconnects with exponential
+// backoff and keeps the last set meanwhile.
 
 #include <cstdint>
 #include <memory>

@@ -287,19 +287,18 @@ Status decodeReferenceSetMessage(std::span<const uint8_t> bytes, const DecodeLim
 Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits) {
     if (bytes.empty()) return Status(ErrorCode::kCorruptData, "message: empty");
     const auto type = MessageType(bytes[0]);
-    const size_t limit = type == MessageType::kReferenceSet  ? kMaxReferenceSetMessageBytes
-                         : type == MessageType::kPose        ? kMaxPoseMessageBytes
+    if (type == MessageType::kReferenceSet) {  // its own size limit and checks
+        ReferenceSetMessage m;
+        if (Status s = decodeReferenceSetMessage(bytes, limits, &m); !s.isOk()) return s;
+        return Message(std::move(m));
+    }
+    const size_t limit = type == MessageType::kPose          ? kMaxPoseMessageBytes
                          : type == MessageType::kClientHello ? 512
                                                              : 2048;
     if (bytes.size() > limit) {
         return Status(ErrorCode::kOutOfRange,
                       fmt::format("{} message: {} bytes over the limit {}", messageTypeName(type),
                                   bytes.size(), limit));
-    }
-    if (type == MessageType::kReferenceSet) {
-        ReferenceSetMessage m;
-        if (Status s = decodeReferenceSetMessage(bytes, limits, &m); !s.isOk()) return s;
-        return Message(std::move(m));
     }
     ByteReader r(bytes, std::string(messageTypeName(type)) + " message");
     r.u8("type");

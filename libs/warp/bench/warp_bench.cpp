@@ -1,7 +1,9 @@
 // Google Benchmark: warp throughput (source Mpix/s, display frames/s) of a cube4 set of 512-pixel
-// faces to a 1280x720 60-degree view per splat kind and thread count; the z-buffer against the
-// occlusion-compatible order; office:1 against a large office (the warp's cost does not depend
-// on the scene); and the splat kinds' quality (hole fraction, PSNR against the true render).
+// faces to a 1280x720 60-degree view per splat kind and thread count; the remote client's 1280x720
+// display loop (faces at the display's density) and the server's render of its sets; the z-buffer
+// against the occlusion-compatible order; office:1 against a large office (the warp's cost does
+// not depend on the scene); and the splat kinds' quality (hole fraction, PSNR against the true
+// render).
 #include <algorithm>
 #include <cmath>
 #include <ctime>
@@ -121,6 +123,36 @@ BENCHMARK(BM_Warp)
     ->ArgNames({"splat", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// Arg: 1 and 2 threads, milliseconds of wall clock.
+void oneAndTwoThreads(benchmark::internal::Benchmark* b) {
+    b->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+// The remote client's display loop at 1280x720 (docs/remote-results.md): office:8's cube4 set at
+// the display's density (1248-pixel faces, 6.2 M source pixels) warped as in BM_Warp; args:
+// threads.
+void BM_WarpDisplay720(benchmark::State& state) {
+    const Setup& s = cached("office:8", ReferenceLayout::kCube4, 1248);
+    runWarp(state, s, s.destination(0.1f, 0.1f, 10.0f), {}, int(state.range(0)));
+}
+BENCHMARK(BM_WarpDisplay720)->Apply(oneAndTwoThreads);
+
+// What the remote server renders per set for that display: the four 1248-pixel faces of
+// office:8 with disparity and row ranges (renderReferenceSet); args: render threads.
+void BM_ReferenceSet720(benchmark::State& state) {
+    const Setup& s = cached("office:8", ReferenceLayout::kCube4, 1248);
+    auto renderer = std::move(raster::Renderer::create({int(state.range(0))})).value();
+    ReferenceSetOptions o;
+    o.layout = ReferenceLayout::kCube4;
+    o.faceSize = 1248;
+    ReferenceSet set;
+    const double cpu0 = processCpuMs();
+    for (auto _ : state)
+        if (!renderReferenceSet(*renderer, s.scene, s.pose, o, &set).isOk()) std::abort();
+    state.counters["cpu_ms/set"] = (processCpuMs() - cpu0) / double(state.iterations());
+}
+BENCHMARK(BM_ReferenceSet720)->Apply(oneAndTwoThreads);
 
 // Write conflicts with 2 threads: 0 destination bands (plain stores), 1 row chunks written with
 // compare-and-swap (WarpOptions::atomicWrites).

@@ -4,6 +4,7 @@
 # client's summary and the server's totals. Tables: docs/remote-results.md.
 #
 #   scripts/remote-measure.sh [PARALLAX] [SECONDS]
+#   ONLY=REGEX scripts/remote-measure.sh ...   # only the rows whose name matches REGEX
 set -euo pipefail
 B=${1:-build/release/apps/parallax/parallax}
 SECONDS_PER_ROW=${2:-10}
@@ -13,6 +14,7 @@ SCENE=office:8
 # row NAME "SERVE OPTIONS" "CLIENT OPTIONS" [SERVER NICENESS]
 row() {
     local name=$1 serve=$2 client=$3 niceness=${4:-0} out port pid
+    [[ -z ${ONLY:-} || $name =~ $ONLY ]] || return 0
     out=$(mktemp)
     nice -n "$niceness" $B serve $SCENE --port 0 --json $serve >"$out" 2>/dev/null &
     pid=$!

@@ -12,6 +12,7 @@
 #include <optional>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
@@ -68,8 +69,12 @@ struct Client::Impl {
     };
     std::optional<PendingSet> pending;  // the newest undecoded set; a newer one replaces it
     std::thread decoder;
-    // The set the display loop held last, taken back for its buffers once nobody else holds it.
-    std::shared_ptr<ReceivedSet> retired;
+    // Sets the display loop held last, kept for their buffers; only the decode thread reaches
+    // them. Two: a display frame that began before a set was published still reads the set it
+    // replaced when the next decode starts, and a new set is fresh memory to fault in and clear
+    // (50 MB at 1248-pixel cube4 faces; with one spare that took a fifth of the decode).
+    static constexpr size_t kSpareSets = 2;
+    std::vector<std::shared_ptr<ReceivedSet>> spares;  // oldest first
 
     // Runs on the transport's I/O thread, which must stay free for pings and pongs: a set
     // (tens of milliseconds to decode at 1280x720) goes to the decode thread, so a pong is read
@@ -119,6 +124,26 @@ struct Client::Impl {
         conn->close();
     }
 
+    // A spare no display frame reads any more, or a new set. A count of 1 means no frame holds
+    // it; the count fell by a release decrement, so the fence orders the reuse after the last
+    // reader's reads.
+    std::shared_ptr<ReceivedSet> takeSpare() {
+        for (auto it = spares.begin(); it != spares.end(); ++it) {
+            if (it->use_count() != 1) continue;
+            std::shared_ptr<ReceivedSet> r = std::move(*it);
+            spares.erase(it);
+            std::atomic_thread_fence(std::memory_order_acquire);
+            return r;
+        }
+        return std::make_shared<ReceivedSet>();
+    }
+
+    void keepSpare(std::shared_ptr<ReceivedSet> r) {
+        if (!r) return;
+        spares.push_back(std::move(r));
+        if (spares.size() > kSpareSets) spares.erase(spares.begin());
+    }
+
     // The decode thread: the newest pending set, decoded into the buffers of a set the display
     // loop no longer holds, published as the newest.
     void decodeLoop() {
@@ -134,15 +159,8 @@ struct Client::Impl {
             if (stopping) return;
             PendingSet job = std::move(*pending);
             pending.reset();
-            std::shared_ptr<ReceivedSet> r = std::move(retired);
             lock.unlock();
-            // Only this thread can reach `retired`; a count of 1 means no display frame still
-            // reads it. The count fell by a release decrement, so the fence orders the reuse
-            // after the last reader's reads.
-            if (r && r.use_count() == 1)
-                std::atomic_thread_fence(std::memory_order_acquire);
-            else
-                r = std::make_shared<ReceivedSet>();
+            std::shared_ptr<ReceivedSet> r = takeSpare();
             Clock::time_point decodeStart = Clock::now();
             ReferenceSetMessage m;
             m.set = std::move(r->set);
@@ -153,8 +171,8 @@ struct Client::Impl {
             r->set = std::move(m.set);
             if (!s.isOk()) {
                 refuse(job.link, s);
+                keepSpare(std::move(r));  // its buffers serve the next set
                 lock.lock();
-                retired = std::move(r);  // its buffers serve the next set
                 continue;
             }
             r->sequence = m.sequence;
@@ -162,12 +180,17 @@ struct Client::Impl {
             r->arrivalUs = job.arrivalUs;
             r->bytes = job.bytes.size();
             lock.lock();
-            // The newest wins; the one it replaces is kept for its buffers.
-            retired = std::const_pointer_cast<ReceivedSet>(std::exchange(newest, std::move(r)));
+            // The newest wins; the one it replaces is kept for its buffers (outside the lock: a
+            // spare dropped there frees tens of megabytes).
+            auto replaced =
+                std::const_pointer_cast<ReceivedSet>(std::exchange(newest, std::move(r)));
             ++stats.referencesReceived;
             stats.bytesReceived += int64_t(newest->bytes);
             stats.decodeMsMean += (ms - stats.decodeMsMean) / double(stats.referencesReceived);
             changed.notify_all();
+            lock.unlock();
+            keepSpare(std::move(replaced));
+            lock.lock();
         }
     }
 

@@ -22,16 +22,18 @@ Status encodeJpeg(const Image<Rgba8>& color, const CodecOptions& o, std::vector<
     TjHandle tj(tjInitCompress());
     if (!tj) return {ErrorCode::kInternal, "TurboJPEG: cannot create a compressor"};
     const int samp = o.chroma == ChromaSubsampling::k444 ? TJSAMP_444 : TJSAMP_420;
-    // Compress straight into a buffer of the worst-case size (no TurboJPEG allocation, no copy).
-    out->resize(tjBufSize(color.width(), color.height(), samp));
-    unsigned char* dst = out->data();
-    unsigned long size = out->size();
+    // Compress into an uninitialised buffer of the worst-case size (no TurboJPEG reallocation),
+    // then copy the JPEG out: a vector of that size would first be cleared, four bytes a pixel
+    // for a JPEG of a fraction of a byte a pixel.
+    unsigned long size = tjBufSize(color.width(), color.height(), samp);
+    const std::unique_ptr<unsigned char[]> jpeg(new unsigned char[size]);
+    unsigned char* dst = jpeg.get();
     if (tjCompress2(tj.get(), reinterpret_cast<const unsigned char*>(color.data()), color.width(),
                     0, color.height(), TJPF_RGBX, &dst, &size, samp, o.jpegQuality,
                     TJFLAG_NOREALLOC) != 0) {
         return {ErrorCode::kInternal, fmt::format("TurboJPEG: {}", tjGetErrorStr2(tj.get()))};
     }
-    out->resize(size);
+    out->assign(jpeg.get(), jpeg.get() + size);
     return {};
 }
 

@@ -18,13 +18,13 @@ struct PositiveRange {
     float hi = 0.0f;
 };
 
-// encode: the codes of every row (docs/remote-protocol.md, "Disparity, q16"; step > 0) and their
-// zigzagged residuals, low bytes in planes[0, w h), high bytes in planes[w h, 2 w h). `codes`
-// holds one row.
+// encode: the codes of every row (docs/remote-protocol.md, "Disparity, q16"; inverseStep is
+// 1 / step, or 0 where the range has no step) and their zigzagged residuals, low bytes in
+// planes[0, w h), high bytes in planes[w h, 2 w h). `codes` holds one row.
 // decode: the reverse, each drawn pixel clamped to its row's [rowMin, rowMax].
 PLX_ISA_DECLARE(PositiveRange positiveRange(const float* d, size_t n));
 PLX_ISA_DECLARE(void encodeQ16Planes(const float* disparity, int width, int height, double dmin,
-                                     double step, uint16_t* codes, uint8_t* planes));
+                                     double inverseStep, uint16_t* codes, uint8_t* planes));
 PLX_ISA_DECLARE(void decodeQ16Planes(const uint8_t* planes, int width, int height, double dmin,
                                      double step, const float* rowMin, const float* rowMax,
                                      uint16_t* codes, float* disparity));

@@ -36,13 +36,13 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
     const int w = disparity.width(), h = disparity.height();
     const size_t n = disparity.pixelCount();
     const double step = quantStep(range);
-    // One value drawn (every drawn pixel code 1) or none: the kernels need a step.
-    if (!(step > 0.0)) return reference::encodeDisparityQ16(disparity, range, codec, level, out);
+    // One value drawn (every drawn pixel code 1) or none: an inverse step of 0.
+    const double inverseStep = step > 0.0 ? 1.0 / step : 0.0;
     std::vector<uint16_t> codes(static_cast<size_t>(w));
     // Low bytes of every residual, then high bytes; the kernel writes each byte, so no fill.
     const std::unique_ptr<uint8_t[]> planes(new uint8_t[2 * n]);
     const auto encodePlanes = PLX_ISA_PICK(encodeQ16Planes);
-    encodePlanes(disparity.data(), w, h, range.dmin, step, codes.data(), planes.get());
+    encodePlanes(disparity.data(), w, h, range.dmin, inverseStep, codes.data(), planes.get());
     const std::span<const uint8_t> bytes(planes.get(), 2 * n);
     return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(bytes, level, out)
                                                         : zstdCompress(bytes, level, out);
@@ -53,7 +53,10 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
                           Image<float>* disparity) {
     using namespace detail;
     const int w = disparity->width(), h = disparity->height();
-    std::vector<uint8_t> planes(2 * disparity->pixelCount());
+    // Both decompressors fill every byte or fail, so no fill beforehand.
+    const size_t planeBytes = 2 * disparity->pixelCount();
+    const std::unique_ptr<uint8_t[]> owner(new uint8_t[planeBytes]);
+    const std::span<uint8_t> planes(owner.get(), planeBytes);
     PLX_RETURN_IF_ERROR(codec == DisparityCodec::kQuantized16Deflate
                             ? zlibInflateExact(in, planes, "disparity")
                             : zstdDecompressExact(in, planes, "disparity"));

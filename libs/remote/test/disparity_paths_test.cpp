@@ -11,6 +11,7 @@
 #include <plx/core/cpu.h>
 #include <plx/warp/reference.h>
 
+#include "disparity_q16_codes.h"
 #include "payloads.h"
 #include "test_sets.h"
 
@@ -84,6 +85,72 @@ TEST(DisparityPaths, EveryKernelEqualsTheReference) {
                         .isOk());
                 ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
             }
+        }
+    }
+}
+
+// Residual planes of code rows built to reach every branch of the decoder: runs of empty
+// pixels, ramps that run into 0 and 65535 (where the predictor clamps), random codes; and, as a
+// hostile payload would be, random bytes.
+std::vector<uint8_t> codeRowPlanes(int w, int h, std::mt19937& rng) {
+    std::vector<uint16_t> codes(size_t(w) * size_t(h));
+    for (int y = 0; y < h; ++y) {
+        uint16_t* row = codes.data() + size_t(y) * size_t(w);
+        for (int x = 0; x < w;) {
+            const int run = 1 + int(rng() % 24);
+            const int kind = int(rng() % 4);
+            const int start = int(rng() % 65536), slope = int(rng() % 8193) - 4096;
+            for (int i = 0; i < run && x < w; ++i, ++x) {
+                row[x] = kind == 0   ? 0
+                         : kind == 1 ? uint16_t(rng())
+                                     : uint16_t(std::clamp(start + slope * i, 0, 65535));
+            }
+        }
+    }
+    const size_t n = codes.size();
+    std::vector<uint8_t> planes(2 * n);
+    int aboveFirst = 0;
+    for (int y = 0; y < h; ++y) {
+        const uint16_t* row = codes.data() + size_t(y) * size_t(w);
+        for (int x = 0; x < w; ++x) {
+            const uint16_t z = q16::zigzag(int(row[x]) - q16::predict(row, x, aboveFirst));
+            planes[size_t(y) * size_t(w) + size_t(x)] = uint8_t(z);
+            planes[n + size_t(y) * size_t(w) + size_t(x)] = uint8_t(z >> 8);
+        }
+        aboveFirst = row[0];
+    }
+    return planes;
+}
+
+TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
+    RestoreIsa restore;
+    std::mt19937 rng(11);
+    std::vector<std::vector<uint8_t>> cases;
+    std::vector<int> widths;
+    for (int w : {1, 2, 3, 9, 10, 17, 18, 64, 133}) {
+        cases.push_back(codeRowPlanes(w, 7, rng));
+        widths.push_back(w);
+        std::vector<uint8_t> noise(size_t(w) * 7 * 2);
+        for (uint8_t& b : noise) b = uint8_t(rng() % 3 == 0 ? rng() : 0);
+        cases.push_back(std::move(noise));
+        widths.push_back(w);
+    }
+    const DisparityRange range{0.125f, 2.0f};
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        for (size_t i = 0; i < cases.size(); ++i) {
+            SCOPED_TRACE(std::string(isaName(isa)) + " case " + std::to_string(i));
+            std::vector<uint8_t> bytes;
+            ASSERT_TRUE(zstdCompress(cases[i], 1, &bytes).isOk());
+            const int w = widths[i];
+            const std::vector<float> lo(7, 0.25f), hi(7, 1.5f);
+            Image<float> out(w, 7), referenceOut(w, 7);
+            ASSERT_TRUE(
+                decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range, lo, hi, &out).isOk());
+            ASSERT_TRUE(reference::decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range,
+                                                      lo, hi, &referenceOut)
+                            .isOk());
+            ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
         }
     }
 }

@@ -356,6 +356,46 @@ void BM_RowDisparityRange(benchmark::State& state) {
 }
 BENCHMARK(BM_RowDisparityRange)->Unit(benchmark::kMillisecond);
 
+// The session's set: office:8, cube4 faces of 1248 px (1280x720 at 60 degrees, the display's
+// density; scripts/remote-measure.sh), at the scene's first viewpoint.
+const warp::ReferenceSet& sessionSet() {
+    static const warp::ReferenceSet set = [] {
+        const scene::Scene scene = std::move(scene::loadScene("office:8")).value();
+        auto renderer = std::move(raster::Renderer::create({2})).value();
+        warp::ReferenceSetOptions o;
+        o.faceSize = 1248;
+        warp::ReferenceSet s;
+        const warp::Pose pose = warp::poseAt(scene::defaultViewpoint(scene));
+        if (!warp::renderReferenceSet(*renderer, scene, pose, o, &s).isOk()) std::abort();
+        return s;
+    }();
+    return set;
+}
+
+// A server's encode and a client's decode of the session's set, the default codec at the zstd
+// level of arg 0, one thread (taskset -c 0 for the CPU time alone); KiB per set reported.
+void BM_SessionSetCodec(benchmark::State& state) {
+    const warp::ReferenceSet& set = sessionSet();
+    CodecOptions o;
+    o.zstdLevel = int(state.range(0));
+    const bool decode = state.range(1) == 1;
+    const std::vector<uint8_t> bytes = std::move(encodeReferenceSet(set, o)).value();
+    warp::ReferenceSet out;
+    for (auto _ : state) {
+        if (decode) {
+            if (!decodeReferenceSet(bytes, {}, &out).isOk()) std::abort();
+        } else {
+            benchmark::DoNotOptimize(encodeReferenceSet(set, o));
+        }
+    }
+    state.counters["KiB/set"] = double(bytes.size()) / 1024.0;
+    state.SetLabel(decode ? "decode" : "encode");
+}
+BENCHMARK(BM_SessionSetCodec)
+    ->ArgsProduct({{1, 3}, {0, 1}})
+    ->ArgNames({"zstd_level", "decode"})
+    ->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -32,7 +32,33 @@ using q16::zigzag;
 // returns its first argument then). An inverse step of 0 gives every drawn pixel code 1, as the
 // format asks of a view with one value (or none) drawn.
 void quantiseRow(const float* src, int w, double dmin, double inverseStep, uint16_t* q) {
-    for (int x = 0; x < w; ++x) {
+    int x = 0;
+#if defined(__AVX2__)
+    // The same double arithmetic eight pixels at a time, written out: the compiler's version of
+    // the loop below shuffled lanes between its conversions (three times the instructions). Max
+    // returns its second operand for a NaN, as std::max(0.5, NaN) returns 0.5.
+    const __m256d minus = _mm256_set1_pd(dmin), scale = _mm256_set1_pd(inverseStep);
+    const __m256d half = _mm256_set1_pd(0.5), top = _mm256_set1_pd(kSteps + 0.5);
+    const auto halfUp = [&](__m128 d) {
+        const __m256d t = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_cvtps_pd(d), minus),
+                                                      scale),
+                                        half);
+        return _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, half), top));
+    };
+    for (; x + 8 <= w; x += 8) {
+        const __m256 d = _mm256_loadu_ps(src + x);
+        const __m256i truncated = _mm256_set_m128i(halfUp(_mm256_extractf128_ps(d, 1)),
+                                                   halfUp(_mm256_castps256_ps128(d)));
+        const __m256i drawn = _mm256_castps_si256(
+            _mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_NEQ_UQ));  // NaN counts as drawn
+        const __m256i codes =
+            _mm256_and_si256(_mm256_add_epi32(truncated, _mm256_set1_epi32(1)), drawn);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(q + x),
+                         _mm_packus_epi32(_mm256_castsi256_si128(codes),
+                                          _mm256_extracti128_si256(codes, 1)));
+    }
+#endif
+    for (; x < w; ++x) {
         const double halfUp = (double(src[x]) - dmin) * inverseStep + 0.5;
         const double clamped = std::min(std::max(0.5, halfUp), kSteps + 0.5);
         const int code = 1 + int(clamped);

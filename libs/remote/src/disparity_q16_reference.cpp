@@ -38,14 +38,10 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
         const float* src = disparity.row(y);
         for (int x = 0; x < w; ++x) {
             const double d = src[x];
-            q[size_t(x)] =
-                d == 0.0
-                    ? 0
-                    : uint16_t(
-                          step > 0.0
-                              ? std::clamp(1.0 + std::floor((d - range.dmin) * (1.0 / step) + 0.5),
-                                           1.0, 65535.0)
-                              : 1.0);
+            // Clamped to 1..65535; a NaN (which std::clamp would pass through) takes code 1.
+            const double code =
+                step > 0.0 ? 1.0 + std::floor((d - range.dmin) * (1.0 / step) + 0.5) : 1.0;
+            q[size_t(x)] = d == 0.0 ? 0 : uint16_t(code >= 1.0 ? std::min(code, 65535.0) : 1.0);
         }
         for (int x = 0; x < w; ++x) {
             const uint16_t z = zigzag(int(q[size_t(x)]) - predict(q.data(), x, aboveFirst));

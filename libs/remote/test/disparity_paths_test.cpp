@@ -4,6 +4,8 @@
 // std::minmax_element.
 #include <algorithm>
 #include <cstring>
+#include <iterator>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -151,6 +153,41 @@ TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
                                                       lo, hi, &referenceOut)
                             .isOk());
             ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
+        }
+    }
+}
+
+// Values a caller's view could hold outside its range (the codec clamps them to codes 1 and
+// 65535), NaN (code 1), infinities and -0 (not drawn), at every position of a vector.
+TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
+    RestoreIsa restore;
+    const float specials[] = {std::numeric_limits<float>::quiet_NaN(),
+                              std::numeric_limits<float>::infinity(),
+                              -std::numeric_limits<float>::infinity(),
+                              -0.0f,
+                              -1.0f,
+                              0.0f,
+                              1e-30f,
+                              0.125f,
+                              0.1250001f,
+                              2.0f,
+                              1e30f};
+    Image<float> img(37, 5);
+    std::mt19937 rng(5);
+    for (size_t i = 0; i < img.pixelCount(); ++i)
+        img.data()[i] = rng() % 2 ? specials[rng() % std::size(specials)]
+                                  : 0.125f + float(rng() % 1000) * 0.001875f;
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        SCOPED_TRACE(isaName(isa));
+        for (DisparityRange range : {DisparityRange{0.125f, 2.0f}, DisparityRange{0.5f, 0.5f}}) {
+            std::vector<uint8_t> bytes, referenceBytes;
+            ASSERT_TRUE(encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1, &bytes)
+                            .isOk());
+            ASSERT_TRUE(reference::encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1,
+                                                      &referenceBytes)
+                            .isOk());
+            ASSERT_EQ(bytes, referenceBytes);
         }
     }
 }

@@ -37,7 +37,14 @@ struct RowOutput {
     uint32_t* key;
 };
 
-PLX_ISA_DECLARE(void transformRow(const RowInput& in, const RowOutput& out))
+// The destination rows [y0, y1) that a transformed row's non-empty splats reach (destHeight and
+// 0 when none does).
+struct RowReach {
+    int32_t y0;
+    int32_t y1;
+};
+
+PLX_ISA_DECLARE(RowReach transformRow(const RowInput& in, const RowOutput& out))
 
 inline auto activeTransformRow() {
     return PLX_ISA_PICK_UP_TO_AVX2(transformRow);

@@ -3,6 +3,7 @@
 // unit takes eight pixels per step with the same operations in the same order as the scalar
 // path (no fused multiply-adds; -ffp-contract=off), so both give the same bits.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -100,20 +101,43 @@ inline __m256 smaller8(__m256 back, __m256 fwd) {
 inline __m256 ceil8(__m256 v) {
     return _mm256_round_ps(v, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
 }
+inline int32_t minLane(__m256i v) {
+    __m128i m = _mm_min_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+    m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm_cvtsi128_si32(_mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1))));
+}
+inline int32_t maxLane(__m256i v) {
+    __m128i m = _mm_max_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+    m = _mm_max_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm_cvtsi128_si32(_mm_max_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1))));
+}
 #endif
 
 }  // namespace
 
-void transformRow(const RowInput& in, const RowOutput& out) {
+RowReach transformRow(const RowInput& in, const RowOutput& out) {
     // rowTerms (equation.h), spelled out: an inline function from a header, if the compiler
     // kept it out of line here, would be an AVX2 copy the linker might give scalar callers.
     const float fy = float(in.y);
     const RowTerms t{in.w.b * fy + in.w.k, in.w.e * fy + in.w.l, in.w.h * fy + in.w.m};
+    // The rows the splats reach, gathered as they are made: a pass over the row afterwards (its
+    // loop stayed scalar) took a third of the transform.
+    const int32_t none = int32_t(in.destHeight);
+    RowReach reach{none, 0};
+    const auto pixel = [&](int x) {
+        const int i = x - in.x0;
+        transformPixel(in, t.nx, t.ny, t.nd, x, out, i);
+        if (out.rx0[i] < out.rx1[i]) {
+            reach.y0 = std::min(reach.y0, out.ry0[i]);
+            reach.y1 = std::max(reach.y1, out.ry1[i]);
+        }
+    };
     int x = in.x0;
 #if defined(__AVX2__)
     // Vector lanes need both row neighbours inside the row (the derivative's differences).
     const int vecBegin = in.x0 > 1 ? in.x0 : 1;
-    for (; x < vecBegin && x < in.x1; ++x) transformPixel(in, t.nx, t.ny, t.nd, x, out, x - in.x0);
+    for (; x < vecBegin && x < in.x1; ++x) pixel(x);
+    __m256i reachTop = _mm256_set1_epi32(none), reachBottom = _mm256_setzero_si256();
     const WarpCoefficients& w = in.w;
     const __m256 a = _mm256_set1_ps(w.a), c = _mm256_set1_ps(w.c), d = _mm256_set1_ps(w.d),
                  f = _mm256_set1_ps(w.f), g = _mm256_set1_ps(w.g), ii = _mm256_set1_ps(w.i);
@@ -178,15 +202,21 @@ void transformRow(const RowInput& in, const RowOutput& out) {
         const __m256i key = _mm256_and_si256(
             valid, _mm256_add_epi32(_mm256_castps_si256(dd), _mm256_set1_epi32(1)));
         const int i = x - in.x0;
+        const __m256i rx1 = _mm256_blendv_epi8(bx0, bx1, valid);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.rx0 + i), bx0);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.rx1 + i),
-                            _mm256_blendv_epi8(bx0, bx1, valid));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.rx1 + i), rx1);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ry0 + i), by0);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ry1 + i), by1);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.key + i), key);
+        const __m256i live = _mm256_cmpgt_epi32(rx1, bx0);
+        reachTop = _mm256_min_epi32(reachTop, _mm256_blendv_epi8(reachTop, by0, live));
+        reachBottom = _mm256_max_epi32(reachBottom, _mm256_and_si256(by1, live));
     }
+    reach.y0 = std::min(reach.y0, minLane(reachTop));
+    reach.y1 = std::max(reach.y1, maxLane(reachBottom));
 #endif
-    for (; x < in.x1; ++x) transformPixel(in, t.nx, t.ny, t.nd, x, out, x - in.x0);
+    for (; x < in.x1; ++x) pixel(x);
+    return reach;
 }
 
 }  // namespace plx::warp::detail::PLX_ISA_NS

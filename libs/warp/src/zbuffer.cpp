@@ -39,15 +39,12 @@ std::pair<int32_t, int32_t> transformRowJob(const ViewJob& view, const RowJob& r
     in.destWidth = float(dest.width);
     in.destHeight = float(dest.height);
     in.maxSplat = kMaxSplatSize;
-    activeTransformRow()(in, out->at(row.offset));
-    int32_t lo = dest.height, hi = 0;
-    for (size_t i = row.offset, end = i + size_t(row.x1 - row.x0); i < end; ++i) {
-        if (out->rx0[i] >= out->rx1[i]) continue;
-        if (view.depthScale != 1.0f) out->key[i] = scaledKey(out->key[i], view.depthScale);
-        lo = std::min(lo, out->ry0[i]);
-        hi = std::max(hi, out->ry1[i]);
+    const RowReach reach = activeTransformRow()(in, out->at(row.offset));
+    if (view.depthScale != 1.0f) {
+        for (size_t i = row.offset, end = i + size_t(row.x1 - row.x0); i < end; ++i)
+            if (out->rx0[i] < out->rx1[i]) out->key[i] = scaledKey(out->key[i], view.depthScale);
     }
-    return {lo, hi};
+    return {reach.y0, reach.y1};
 }
 
 namespace {

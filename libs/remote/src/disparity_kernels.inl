@@ -39,7 +39,7 @@ void quantiseRow(const float* src, int w, double dmin, double inverseStep, uint1
     // returns its second operand for a NaN, as std::max(0.5, NaN) returns 0.5.
     const __m256d minus = _mm256_set1_pd(dmin), scale = _mm256_set1_pd(inverseStep);
     const __m256d half = _mm256_set1_pd(0.5), top = _mm256_set1_pd(kSteps + 0.5);
-    const auto halfUp = [&](__m128 d) {
+    const auto truncatedHalfUp = [&](__m128 d) {
         const __m256d t = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_cvtps_pd(d), minus),
                                                       scale),
                                         half);
@@ -47,8 +47,8 @@ void quantiseRow(const float* src, int w, double dmin, double inverseStep, uint1
     };
     for (; x + 8 <= w; x += 8) {
         const __m256 d = _mm256_loadu_ps(src + x);
-        const __m256i truncated = _mm256_set_m128i(halfUp(_mm256_extractf128_ps(d, 1)),
-                                                   halfUp(_mm256_castps256_ps128(d)));
+        const __m256i truncated = _mm256_set_m128i(truncatedHalfUp(_mm256_extractf128_ps(d, 1)),
+                                                   truncatedHalfUp(_mm256_castps256_ps128(d)));
         const __m256i drawn = _mm256_castps_si256(
             _mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_NEQ_UQ));  // NaN counts as drawn
         const __m256i codes =

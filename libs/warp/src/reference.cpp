@@ -12,6 +12,8 @@
 #include <plx/core/timing.h>
 #include <plx/warp/reference.h>
 
+#include "row_kernel.h"
+
 namespace plx::warp {
 
 Result<ReferenceLayout> parseReferenceLayout(const std::string& name) {
@@ -118,26 +120,18 @@ Pose poseAt(const scene::Viewpoint& viewpoint) {
 
 namespace {
 
-// A float's bit pattern made an integer that orders as the float does (negative values' magnitude
-// bits flipped; -0 just below +0), and back: integer min and max reductions vectorise where IEEE
-// rules forbid the compiler the float ones (std::minmax_element took 15% of a server's CPU time
-// at 1248-pixel faces).
-int32_t orderedKey(float v) {
-    const auto b = std::bit_cast<int32_t>(v);
-    return b ^ int32_t(uint32_t(b >> 31) >> 1);
-}
+// The float of an ordered key: its bit pattern made an integer that orders as the float does
+// (negative values' magnitude bits flipped; -0 just below +0; row_range.inl), so that min and
+// max reductions are integer ones, which vectorise where IEEE rules forbid the compiler the float
+// ones (std::minmax_element took 15% of a server's CPU time at 1248-pixel faces).
 float fromOrderedKey(int32_t k) {
     return std::bit_cast<float>(k ^ int32_t(uint32_t(k >> 31) >> 1));
 }
 
 // The smallest and largest value of a row without NaN.
 std::pair<float, float> rowMinMax(const float* row, int width) {
-    int32_t lo = std::numeric_limits<int32_t>::max(), hi = std::numeric_limits<int32_t>::min();
-    for (int x = 0; x < width; ++x) {
-        lo = std::min(lo, orderedKey(row[x]));
-        hi = std::max(hi, orderedKey(row[x]));
-    }
-    return {fromOrderedKey(lo), fromOrderedKey(hi)};
+    const detail::KeyRange k = detail::activeRowKeyRange()(row, width);
+    return {fromOrderedKey(k.lo), fromOrderedKey(k.hi)};
 }
 
 }  // namespace

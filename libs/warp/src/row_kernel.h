@@ -81,6 +81,19 @@ inline auto activeUnpackRow() {
     return PLX_ISA_PICK_UP_TO_AVX2(unpackRow);
 }
 
+// The smallest and largest ordered key (a float's bits made an integer that orders as the float
+// does; reference.cpp) of a row of `width` floats without NaN (row_range.inl).
+struct KeyRange {
+    int32_t lo;
+    int32_t hi;
+};
+
+PLX_ISA_DECLARE(KeyRange rowKeyRange(const float* row, int width))
+
+inline auto activeRowKeyRange() {
+    return PLX_ISA_PICK_UP_TO_AVX2(rowKeyRange);
+}
+
 inline auto activeSplatRow() {
     return PLX_ISA_PICK_UP_TO_AVX2(splatRow);
 }

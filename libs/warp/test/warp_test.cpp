@@ -2,8 +2,11 @@
 // plane lands on its true render, clipping and threads never change the image, splat sizes are
 // the warp's derivatives, every ISA path equals the scalar one, the two visibility orders
 // agree, and bad input gets one-line errors.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -105,6 +108,53 @@ TEST(ReferenceSet, ReusedBuffersHoldOnlyTheNewSet) {
                   0);
         EXPECT_EQ(reused.views[v].rowMaxDisparity, fresh.views[v].rowMaxDisparity);
     }
+}
+
+// The row ranges on every ISA path (row_range.inl) are std::min_element's and
+// std::max_element's: rendered views of every layout and rows of negative values, -0, +-inf and
+// denormals, widths no multiple of a vector.
+TEST(ReferenceSet, RowRangesAreEachRowsMinAndMaxOnEveryIsa) {
+    const scene::Scene scene = *scene::generateMuseum(2);
+    const Pose pose = poseAt(scene.viewpoints.front());
+    auto renderer = makeRenderer();
+    std::vector<ReferenceView> views;
+    for (ReferenceLayout layout :
+         {ReferenceLayout::kCube4, ReferenceLayout::kCube6, ReferenceLayout::kWide}) {
+        ReferenceSetOptions o;
+        o.layout = layout;
+        o.faceSize = 75;
+        ReferenceSet set;
+        ASSERT_TRUE(renderReferenceSet(*renderer, scene, pose, o, &set).isOk());
+        views.insert(views.end(), set.views.begin(), set.views.end());
+    }
+    const float specials[] = {-0.0f, 0.0f, -1.5f, 2.5f, 1e-42f, -1e-42f,
+                              std::numeric_limits<float>::infinity(),
+                              -std::numeric_limits<float>::infinity()};
+    std::mt19937 rng(3);
+    for (int width : {1, 7, 8, 9, 33}) {
+        ReferenceView v;
+        v.disparity.resize(width, 11);
+        for (size_t i = 0; i < v.disparity.pixelCount(); ++i)
+            v.disparity.data()[i] = specials[rng() % std::size(specials)];
+        views.push_back(std::move(v));
+    }
+    const Isa saved = activeIsa();
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        for (ReferenceView v : views) {
+            computeRowDisparityRange(&v);
+            for (int y = 0; y < v.disparity.height(); ++y) {
+                const float* row = v.disparity.row(y);
+                const int w = v.disparity.width();
+                // (As floats: the keys put -0 below +0, min_element takes the first of the two.)
+                EXPECT_EQ(v.rowMinDisparity[size_t(y)], *std::min_element(row, row + w))
+                    << isaName(isa) << " row " << y;
+                EXPECT_EQ(v.rowMaxDisparity[size_t(y)], *std::max_element(row, row + w))
+                    << isaName(isa) << " row " << y;
+            }
+        }
+    }
+    ASSERT_TRUE(setActiveIsa(saved).isOk());
 }
 
 TEST(Warp, OwnPoseReproducesTheReference) {

@@ -23,6 +23,11 @@ struct PositiveRange {
 // planes[0, w h), high bytes in planes[w h, 2 w h). `codes` holds one row.
 // decode: the reverse, each drawn pixel clamped to its row's [rowMin, rowMax].
 PLX_ISA_DECLARE(PositiveRange positiveRange(const float* d, size_t n));
+// positiveRange of a width x height image and, in the same pass, the count of pixels outside
+// their row's [rowMin[y], rowMax[y]] (NaN counts as outside; the range is then meaningless).
+PLX_ISA_DECLARE(PositiveRange positiveRangeInRows(const float* d, int width, int height,
+                                                  const float* rowMin, const float* rowMax,
+                                                  int64_t* outside));
 PLX_ISA_DECLARE(void encodeQ16Planes(const float* disparity, int width, int height, double dmin,
                                      double inverseStep, uint16_t* codes, uint8_t* planes));
 PLX_ISA_DECLARE(void decodeQ16Planes(const uint8_t* planes, int width, int height, double dmin,

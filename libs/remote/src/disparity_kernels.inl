@@ -202,6 +202,29 @@ PositiveRange positiveRange(const float* d, size_t n) {
     return {lo, std::bit_cast<float>(hi)};
 }
 
+PositiveRange positiveRangeInRows(const float* d, int width, int height, const float* rowMin,
+                                  const float* rowMax, int64_t* outside) {
+    constexpr uint32_t kInfinityBits = 0x7f800000u;
+    uint32_t loLessOne = 0xffffffffu;
+    int32_t hi = 0;
+    int64_t count = 0;
+    for (int y = 0; y < height; ++y) {
+        const float* row = d + size_t(y) * size_t(width);
+        const float rowLo = rowMin[y], rowHi = rowMax[y];
+        int rowOutside = 0;
+        for (int x = 0; x < width; ++x) {
+            loLessOne = std::min(loLessOne, std::bit_cast<uint32_t>(row[x]) - 1u);
+            hi = std::max(hi, std::bit_cast<int32_t>(row[x]));
+            rowOutside += int(!(row[x] >= rowLo) | !(row[x] <= rowHi));
+        }
+        count += rowOutside;
+    }
+    *outside = count;
+    const float lo = loLessOne < kInfinityBits ? std::bit_cast<float>(loLessOne + 1u)
+                                               : std::numeric_limits<float>::infinity();
+    return {lo, std::bit_cast<float>(hi)};
+}
+
 void encodeQ16Planes(const float* disparity, int width, int height, double dmin,
                      double inverseStep, uint16_t* codes, uint8_t* planes) {
     const size_t n = size_t(width) * size_t(height);

@@ -30,6 +30,19 @@ DisparityRange disparityRange(const Image<float>& disparity) {
     return r.hi > 0.0f ? DisparityRange{r.lo, r.hi} : DisparityRange{};
 }
 
+DisparityRange disparityRangeInRows(const Image<float>& disparity, std::span<const float> rowMin,
+                                    std::span<const float> rowMax, bool* inside) {
+    using namespace detail;
+    PLX_CHECK(rowMin.size() == size_t(disparity.height()) &&
+              rowMax.size() == size_t(disparity.height()));
+    int64_t outside = 0;
+    const PositiveRange r =
+        PLX_ISA_PICK(positiveRangeInRows)(disparity.data(), disparity.width(), disparity.height(),
+                                          rowMin.data(), rowMax.data(), &outside);
+    *inside = outside == 0;
+    return r.hi > 0.0f ? DisparityRange{r.lo, r.hi} : DisparityRange{};
+}
+
 Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, DisparityCodec codec,
                           int level, std::vector<uint8_t>* out) {
     using namespace detail;

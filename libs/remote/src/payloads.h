@@ -44,6 +44,10 @@ struct DisparityRange {
     float dmax = 0.0f;
 };
 DisparityRange disparityRange(const Image<float>& disparity);
+// The same in one pass with checkView's pixel test (each pixel within its row's [rowMin, rowMax],
+// NaN outside): false in *inside when a pixel is not, and the range is then meaningless.
+DisparityRange disparityRangeInRows(const Image<float>& disparity, std::span<const float> rowMin,
+                                    std::span<const float> rowMax, bool* inside);
 
 // q16: quantised, row-predicted residual planes (docs/remote-protocol.md, "Disparity, q16"),
 // compressed with zstd (kQuantized16) or zlib (kQuantized16Deflate) at `level`.

@@ -3,6 +3,7 @@
 // every path this process can run; and the row ranges the warp computes against
 // std::minmax_element.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <iterator>
 #include <limits>
@@ -188,6 +189,38 @@ TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
                                                       &referenceBytes)
                             .isOk());
             ASSERT_EQ(bytes, referenceBytes);
+        }
+    }
+}
+
+// The encoder's one pass for range and check: the range of disparityRange, and "inside" exactly
+// when no pixel lies outside its row's bounds (a bound moved inwards, a NaN pixel).
+TEST(DisparityPaths, RangeInRowsIsTheRangeAndTheCheck) {
+    RestoreIsa restore;
+    const std::vector<Image<float>> images = disparityImages();
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        for (size_t i = 0; i < images.size(); ++i) {
+            SCOPED_TRACE(std::string(isaName(isa)) + " image " + std::to_string(i));
+            const Image<float>& img = images[i];
+            std::vector<float> lo = rowBound(img, false), hi = rowBound(img, true);
+            bool inside = false;
+            const DisparityRange range = disparityRangeInRows(img, lo, hi, &inside);
+            const DisparityRange expected = reference::disparityRange(img);
+            EXPECT_TRUE(inside);
+            EXPECT_EQ(range.dmin, expected.dmin);
+            EXPECT_EQ(range.dmax, expected.dmax);
+            const int y = img.height() / 2;
+            if (hi[size_t(y)] > lo[size_t(y)]) {
+                std::vector<float> narrower = hi;
+                narrower[size_t(y)] = std::nextafter(hi[size_t(y)], 0.0f);
+                disparityRangeInRows(img, lo, narrower, &inside);
+                EXPECT_FALSE(inside);
+            }
+            Image<float> withNan = img;
+            withNan.at(img.width() - 1, y) = std::numeric_limits<float>::quiet_NaN();
+            disparityRangeInRows(withNan, lo, hi, &inside);
+            EXPECT_FALSE(inside);
         }
     }
 }

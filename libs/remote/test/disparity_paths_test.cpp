@@ -60,36 +60,41 @@ std::vector<float> rowBound(const Image<float>& img, bool max) {
     return out;
 }
 
-TEST(DisparityPaths, EveryKernelEqualsTheReference) {
+// Runs `check` on each of disparityImages() on every ISA path this process can run.
+template <class Check>
+void onEveryIsaAndImage(Check check) {
     RestoreIsa restore;
     const std::vector<Image<float>> images = disparityImages();
     for (Isa isa : runnableIsas()) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         for (size_t i = 0; i < images.size(); ++i) {
             SCOPED_TRACE(std::string(isaName(isa)) + " image " + std::to_string(i));
-            const Image<float>& img = images[i];
-            const DisparityRange range = disparityRange(img);
-            const DisparityRange expected = reference::disparityRange(img);
-            ASSERT_EQ(range.dmin, expected.dmin);
-            ASSERT_EQ(range.dmax, expected.dmax);
-            for (DisparityCodec codec :
-                 {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate}) {
-                std::vector<uint8_t> bytes, referenceBytes;
-                ASSERT_TRUE(encodeDisparityQ16(img, range, codec, 3, &bytes).isOk());
-                ASSERT_TRUE(
-                    reference::encodeDisparityQ16(img, range, codec, 3, &referenceBytes).isOk());
-                ASSERT_EQ(bytes, referenceBytes);
-                const std::vector<float> lo = rowBound(img, false), hi = rowBound(img, true);
-                Image<float> out(img.width(), img.height()),
-                    referenceOut(img.width(), img.height());
-                ASSERT_TRUE(decodeDisparityQ16(bytes, codec, range, lo, hi, &out).isOk());
-                ASSERT_TRUE(
-                    reference::decodeDisparityQ16(bytes, codec, range, lo, hi, &referenceOut)
-                        .isOk());
-                ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
-            }
+            check(images[i]);
         }
     }
+}
+
+TEST(DisparityPaths, EveryKernelEqualsTheReference) {
+    onEveryIsaAndImage([](const Image<float>& img) {
+        const DisparityRange range = disparityRange(img);
+        const DisparityRange expected = reference::disparityRange(img);
+        ASSERT_EQ(range.dmin, expected.dmin);
+        ASSERT_EQ(range.dmax, expected.dmax);
+        for (DisparityCodec codec :
+             {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate}) {
+            std::vector<uint8_t> bytes, referenceBytes;
+            ASSERT_TRUE(encodeDisparityQ16(img, range, codec, 3, &bytes).isOk());
+            ASSERT_TRUE(
+                reference::encodeDisparityQ16(img, range, codec, 3, &referenceBytes).isOk());
+            ASSERT_EQ(bytes, referenceBytes);
+            const std::vector<float> lo = rowBound(img, false), hi = rowBound(img, true);
+            Image<float> out(img.width(), img.height()), referenceOut(img.width(), img.height());
+            ASSERT_TRUE(decodeDisparityQ16(bytes, codec, range, lo, hi, &out).isOk());
+            ASSERT_TRUE(
+                reference::decodeDisparityQ16(bytes, codec, range, lo, hi, &referenceOut).isOk());
+            ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
+        }
+    });
 }
 
 // Residual planes of code rows built to reach every branch of the decoder: runs of empty
@@ -196,33 +201,26 @@ TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
 // The encoder's one pass for range and check: the range of disparityRange, and "inside" exactly
 // when no pixel lies outside its row's bounds (a bound moved inwards, a NaN pixel).
 TEST(DisparityPaths, RangeInRowsIsTheRangeAndTheCheck) {
-    RestoreIsa restore;
-    const std::vector<Image<float>> images = disparityImages();
-    for (Isa isa : runnableIsas()) {
-        ASSERT_TRUE(setActiveIsa(isa).isOk());
-        for (size_t i = 0; i < images.size(); ++i) {
-            SCOPED_TRACE(std::string(isaName(isa)) + " image " + std::to_string(i));
-            const Image<float>& img = images[i];
-            std::vector<float> lo = rowBound(img, false), hi = rowBound(img, true);
-            bool inside = false;
-            const DisparityRange range = disparityRangeInRows(img, lo, hi, &inside);
-            const DisparityRange expected = reference::disparityRange(img);
-            EXPECT_TRUE(inside);
-            EXPECT_EQ(range.dmin, expected.dmin);
-            EXPECT_EQ(range.dmax, expected.dmax);
-            const int y = img.height() / 2;
-            if (hi[size_t(y)] > lo[size_t(y)]) {
-                std::vector<float> narrower = hi;
-                narrower[size_t(y)] = std::nextafter(hi[size_t(y)], 0.0f);
-                disparityRangeInRows(img, lo, narrower, &inside);
-                EXPECT_FALSE(inside);
-            }
-            Image<float> withNan = img;
-            withNan.at(img.width() - 1, y) = std::numeric_limits<float>::quiet_NaN();
-            disparityRangeInRows(withNan, lo, hi, &inside);
+    onEveryIsaAndImage([](const Image<float>& img) {
+        const std::vector<float> lo = rowBound(img, false), hi = rowBound(img, true);
+        bool inside = false;
+        const DisparityRange range = disparityRangeInRows(img, lo, hi, &inside);
+        const DisparityRange expected = reference::disparityRange(img);
+        EXPECT_TRUE(inside);
+        EXPECT_EQ(range.dmin, expected.dmin);
+        EXPECT_EQ(range.dmax, expected.dmax);
+        const int y = img.height() / 2;
+        if (hi[size_t(y)] > lo[size_t(y)]) {
+            std::vector<float> narrower = hi;
+            narrower[size_t(y)] = std::nextafter(hi[size_t(y)], 0.0f);
+            disparityRangeInRows(img, lo, narrower, &inside);
             EXPECT_FALSE(inside);
         }
-    }
+        Image<float> withNan = img;
+        withNan.at(img.width() - 1, y) = std::numeric_limits<float>::quiet_NaN();
+        disparityRangeInRows(withNan, lo, hi, &inside);
+        EXPECT_FALSE(inside);
+    });
 }
 
 TEST(DisparityPaths, RowRangesEqualMinmaxElement) {

@@ -40,9 +40,8 @@ void quantiseRow(const float* src, int w, double dmin, double inverseStep, uint1
     const __m256d minus = _mm256_set1_pd(dmin), scale = _mm256_set1_pd(inverseStep);
     const __m256d half = _mm256_set1_pd(0.5), top = _mm256_set1_pd(kSteps + 0.5);
     const auto truncatedHalfUp = [&](__m128 d) {
-        const __m256d t = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_cvtps_pd(d), minus),
-                                                      scale),
-                                        half);
+        const __m256d t =
+            _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_cvtps_pd(d), minus), scale), half);
         return _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, half), top));
     };
     for (; x + 8 <= w; x += 8) {
@@ -53,9 +52,9 @@ void quantiseRow(const float* src, int w, double dmin, double inverseStep, uint1
             _mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_NEQ_UQ));  // NaN counts as drawn
         const __m256i codes =
             _mm256_and_si256(_mm256_add_epi32(truncated, _mm256_set1_epi32(1)), drawn);
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(q + x),
-                         _mm_packus_epi32(_mm256_castsi256_si128(codes),
-                                          _mm256_extracti128_si256(codes, 1)));
+        _mm_storeu_si128(
+            reinterpret_cast<__m128i*>(q + x),
+            _mm_packus_epi32(_mm256_castsi256_si128(codes), _mm256_extracti128_si256(codes, 1)));
     }
 #endif
     for (; x < w; ++x) {
@@ -118,11 +117,11 @@ int reconstructBlocks(const uint8_t* low, const uint8_t* high, int w, uint16_t* 
     __m128i before = _mm_insert_epi16(_mm_insert_epi16(zero, q[0], 6), q[1], 7);
     int x = 2;
     for (; x + 8 <= w; x += 8) {
-        const __m128i bytes = _mm_unpacklo_epi8(
-            _mm_loadl_epi64(reinterpret_cast<const __m128i*>(low + x)),
-            _mm_loadl_epi64(reinterpret_cast<const __m128i*>(high + x)));
-        const __m128i r = _mm_xor_si128(_mm_srli_epi16(bytes, 1),
-                                        _mm_sub_epi16(zero, _mm_and_si128(bytes, one)));
+        const __m128i bytes =
+            _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(low + x)),
+                              _mm_loadl_epi64(reinterpret_cast<const __m128i*>(high + x)));
+        const __m128i r =
+            _mm_xor_si128(_mm_srli_epi16(bytes, 1), _mm_sub_epi16(zero, _mm_and_si128(bytes, one)));
         __m128i sums = _mm_add_epi16(r, _mm_slli_si128(r, 2));  // sum_{j <= i} r[j]
         sums = _mm_add_epi16(sums, _mm_slli_si128(sums, 4));
         sums = _mm_add_epi16(sums, _mm_slli_si128(sums, 8));
@@ -131,8 +130,7 @@ int reconstructBlocks(const uint8_t* low, const uint8_t* high, int w, uint16_t* 
         sums2 = _mm_add_epi16(sums2, _mm_slli_si128(sums2, 8));
         const __m128i a = _mm_shuffle_epi8(before, lane7);
         const __m128i slope = _mm_sub_epi16(a, _mm_shuffle_epi8(before, lane6));
-        const __m128i codes =
-            _mm_add_epi16(_mm_add_epi16(a, _mm_mullo_epi16(slope, iota1)), sums2);
+        const __m128i codes = _mm_add_epi16(_mm_add_epi16(a, _mm_mullo_epi16(slope, iota1)), sums2);
         // Each pixel's two neighbours: the codes shifted by one and two lanes.
         const __m128i left = _mm_alignr_epi8(codes, before, 14);
         const __m128i left2 = _mm_alignr_epi8(codes, before, 12);
@@ -142,8 +140,7 @@ int reconstructBlocks(const uint8_t* low, const uint8_t* high, int w, uint16_t* 
             _mm_subs_epu16(_mm_subs_epu16(left, left2), _mm_xor_si128(left, _mm_set1_epi16(-1)));
         const __m128i fails = _mm_or_si128(
             _mm_or_si128(_mm_cmpeq_epi16(left, zero), _mm_cmpeq_epi16(left2, zero)),
-            _mm_xor_si128(_mm_cmpeq_epi16(_mm_or_si128(below, above), zero),
-                          _mm_set1_epi16(-1)));
+            _mm_xor_si128(_mm_cmpeq_epi16(_mm_or_si128(below, above), zero), _mm_set1_epi16(-1)));
         if (_mm_testz_si128(fails, fails)) {
             _mm_storeu_si128(reinterpret_cast<__m128i*>(q + x), codes);
             before = codes;
@@ -225,8 +222,8 @@ PositiveRange positiveRangeInRows(const float* d, int width, int height, const f
     return {lo, std::bit_cast<float>(hi)};
 }
 
-void encodeQ16Planes(const float* disparity, int width, int height, double dmin,
-                     double inverseStep, uint16_t* codes, uint8_t* planes) {
+void encodeQ16Planes(const float* disparity, int width, int height, double dmin, double inverseStep,
+                     uint16_t* codes, uint8_t* planes) {
     const size_t n = size_t(width) * size_t(height);
     int aboveFirst = 0;
     for (int y = 0; y < height; ++y) {

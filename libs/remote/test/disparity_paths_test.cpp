@@ -153,8 +153,8 @@ TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
             const int w = widths[i];
             const std::vector<float> lo(7, 0.25f), hi(7, 1.5f);
             Image<float> out(w, 7), referenceOut(w, 7);
-            ASSERT_TRUE(
-                decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range, lo, hi, &out).isOk());
+            ASSERT_TRUE(decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range, lo, hi, &out)
+                            .isOk());
             ASSERT_TRUE(reference::decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range,
                                                       lo, hi, &referenceOut)
                             .isOk());
@@ -188,8 +188,8 @@ TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
         SCOPED_TRACE(isaName(isa));
         for (DisparityRange range : {DisparityRange{0.125f, 2.0f}, DisparityRange{0.5f, 0.5f}}) {
             std::vector<uint8_t> bytes, referenceBytes;
-            ASSERT_TRUE(encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1, &bytes)
-                            .isOk());
+            ASSERT_TRUE(
+                encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1, &bytes).isOk());
             ASSERT_TRUE(reference::encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1,
                                                       &referenceBytes)
                             .isOk());

@@ -127,7 +127,12 @@ TEST(ReferenceSet, RowRangesAreEachRowsMinAndMaxOnEveryIsa) {
         ASSERT_TRUE(renderReferenceSet(*renderer, scene, pose, o, &set).isOk());
         views.insert(views.end(), set.views.begin(), set.views.end());
     }
-    const float specials[] = {-0.0f, 0.0f, -1.5f, 2.5f, 1e-42f, -1e-42f,
+    const float specials[] = {-0.0f,
+                              0.0f,
+                              -1.5f,
+                              2.5f,
+                              1e-42f,
+                              -1e-42f,
                               std::numeric_limits<float>::infinity(),
                               -std::numeric_limits<float>::infinity()};
     std::mt19937 rng(3);

@@ -105,8 +105,8 @@ void reconstructSerial(const uint8_t* low, const uint8_t* high, int x0, int x1, 
 // is checked on the speculated codes (both neighbours drawn, 0 <= 2a - b <= 65535); by induction
 // along the block, when all hold the speculated codes are the serial ones. A block where one
 // fails (an empty pixel, the edge of the range; any byte of a hostile payload) is decoded
-// serially instead, except a run of empty pixels (a = 0, residuals 0), which stays 0. The serial
-// chain costs about seven cycles a pixel; this one about one.
+// serially instead, except a run of empty pixels (a = 0, residuals 0), which stays 0. With it the
+// whole q16 decode of a 512-px cube4 set fell from 3.05 to 1.49 ms (BM_DisparityQ16).
 int reconstructBlocks(const uint8_t* low, const uint8_t* high, int w, uint16_t* q) {
     const __m128i zero = _mm_setzero_si128();
     const __m128i one = _mm_set1_epi16(1);
@@ -179,31 +179,38 @@ void dequantiseRow(const uint16_t* q, int w, double dmin, double step, float lo,
     }
 }
 
-}  // namespace
-
 // Non-negative floats order as their bit patterns do as integers, and the compiler vectorises
 // integer min and max reductions where IEEE rules (NaN, signed zeros) forbid it the float ones.
 // Less one, as unsigned, the pattern of +0 wraps to the largest value and a negative one (sign
 // bit set) stays above every positive one, so the minimum is the smallest positive value's; the
 // signed maximum from 0 ignores negatives. Non-NaN inputs only: a NaN's pattern lies above +inf.
-PositiveRange positiveRange(const float* d, size_t n) {
+// The reductions start from these and end in rangeOf.
+constexpr uint32_t kNoLoLessOne = 0xffffffffu;
+constexpr int32_t kNoHi = 0;
+
+PositiveRange rangeOf(uint32_t loLessOne, int32_t hi) {
     constexpr uint32_t kInfinityBits = 0x7f800000u;
-    uint32_t loLessOne = 0xffffffffu;
-    int32_t hi = 0;
-    for (size_t i = 0; i < n; ++i) {
-        loLessOne = std::min(loLessOne, std::bit_cast<uint32_t>(d[i]) - 1u);
-        hi = std::max(hi, std::bit_cast<int32_t>(d[i]));
-    }
     const float lo = loLessOne < kInfinityBits ? std::bit_cast<float>(loLessOne + 1u)
                                                : std::numeric_limits<float>::infinity();
     return {lo, std::bit_cast<float>(hi)};
 }
 
+}  // namespace
+
+PositiveRange positiveRange(const float* d, size_t n) {
+    uint32_t loLessOne = kNoLoLessOne;
+    int32_t hi = kNoHi;
+    for (size_t i = 0; i < n; ++i) {
+        loLessOne = std::min(loLessOne, std::bit_cast<uint32_t>(d[i]) - 1u);
+        hi = std::max(hi, std::bit_cast<int32_t>(d[i]));
+    }
+    return rangeOf(loLessOne, hi);
+}
+
 PositiveRange positiveRangeInRows(const float* d, int width, int height, const float* rowMin,
                                   const float* rowMax, int64_t* outside) {
-    constexpr uint32_t kInfinityBits = 0x7f800000u;
-    uint32_t loLessOne = 0xffffffffu;
-    int32_t hi = 0;
+    uint32_t loLessOne = kNoLoLessOne;
+    int32_t hi = kNoHi;
     int64_t count = 0;
     for (int y = 0; y < height; ++y) {
         const float* row = d + size_t(y) * size_t(width);
@@ -217,9 +224,7 @@ PositiveRange positiveRangeInRows(const float* d, int width, int height, const f
         count += rowOutside;
     }
     *outside = count;
-    const float lo = loLessOne < kInfinityBits ? std::bit_cast<float>(loLessOne + 1u)
-                                               : std::numeric_limits<float>::infinity();
-    return {lo, std::bit_cast<float>(hi)};
+    return rangeOf(loLessOne, hi);
 }
 
 void encodeQ16Planes(const float* disparity, int width, int height, double dmin, double inverseStep,

@@ -107,25 +107,33 @@ std::vector<Choice> choices() {
     CodecOptions level1 = jpeg(90, C::k420), level9 = jpeg(90, C::k420);
     level1.zstdLevel = 1;
     level9.zstdLevel = 9;
+    // q16's residual planes under zstd (what q16-packed re-codes), at levels 1, 3 and 9.
+    CodecOptions planes1 = jpeg(90, C::k420), planes3 = planes1, planes9 = planes1;
+    planes1.disparity = planes3.disparity = planes9.disparity = DisparityCodec::kQuantized16;
+    planes1.zstdLevel = 1;
+    planes9.zstdLevel = 9;
     // q16 with deflate (what a browser decodes), at zlib levels 1, 6 (the default) and 9.
     CodecOptions deflate1 = jpeg(90, C::k420), deflate6 = deflate1, deflate9 = deflate1;
     deflate1.disparity = deflate6.disparity = deflate9.disparity =
         DisparityCodec::kQuantized16Deflate;
     deflate1.deflateLevel = 1;
     deflate9.deflateLevel = 9;
-    return {{"jpeg75-420/q16", jpeg(75, C::k420)},
-            {"jpeg85-420/q16", jpeg(85, C::k420)},
-            {"jpeg90-420/q16", jpeg(90, C::k420)},
-            {"jpeg95-420/q16", jpeg(95, C::k420)},
-            {"jpeg85-444/q16", jpeg(85, C::k444)},
-            {"jpeg90-444/q16", jpeg(90, C::k444)},
-            {"jpeg95-444/q16", jpeg(95, C::k444)},
-            {"jpeg90-420/q16-zstd1", level1},
-            {"jpeg90-420/q16-zstd9", level9},
+    return {{"jpeg75-420/q16-packed", jpeg(75, C::k420)},
+            {"jpeg85-420/q16-packed", jpeg(85, C::k420)},
+            {"jpeg90-420/q16-packed", jpeg(90, C::k420)},
+            {"jpeg95-420/q16-packed", jpeg(95, C::k420)},
+            {"jpeg85-444/q16-packed", jpeg(85, C::k444)},
+            {"jpeg90-444/q16-packed", jpeg(90, C::k444)},
+            {"jpeg95-444/q16-packed", jpeg(95, C::k444)},
+            {"jpeg90-420/q16-packed-zstd1", level1},
+            {"jpeg90-420/q16-packed-zstd9", level9},
+            {"jpeg90-420/q16-zstd1", planes1},
+            {"jpeg90-420/q16-zstd3", planes3},
+            {"jpeg90-420/q16-zstd9", planes9},
             {"jpeg90-420/q16-deflate1", deflate1},
             {"jpeg90-420/q16-deflate6", deflate6},
             {"jpeg90-420/q16-deflate9", deflate9},
-            {"zstd-rgb/q16", zstdColor},
+            {"zstd-rgb/q16-packed", zstdColor},
             {"zstd-rgb/zstd-float (lossless)", lossless}};
 }
 
@@ -294,12 +302,14 @@ BENCHMARK(BM_PhotoColor)
 // faces, one thread): the view's range, the q16 residual planes and zstd (encode), and back
 // (decode); arg 0 the pixel-by-pixel reference (disparity_q16_reference.cpp), arg 1 the codec's
 // per-ISA kernels (disparity_kernels.inl, the active path: PLX_FORCE_ISA picks another). The
-// ratio of the two is the kernels' worth; zstd's share is common to both.
+// ratio of the two is the kernels' worth; zstd's share is common to both. Arg 2: the codec, q16
+// (residual planes under zstd) or q16-packed (two-bit symbols under zstd, and escapes).
 void BM_DisparityQ16(benchmark::State& state) {
     const Setup* setup = cached(kScenes[0]);
     if (!setup) return state.SkipWithError("scene absent");
     const bool staged = state.range(0) == 1;
     const bool decode = state.range(1) == 1;
+    const auto codec = DisparityCodec(state.range(2));
     state.SetLabel(std::string(staged ? "kernels" : "reference") +
                    (decode ? " decode" : " encode"));
     struct Encoded {
@@ -309,8 +319,7 @@ void BM_DisparityQ16(benchmark::State& state) {
     std::vector<Encoded> encoded;
     for (const warp::ReferenceView& v : setup->set.views) {
         Encoded e{disparityRange(v.disparity), {}};
-        if (!encodeDisparityQ16(v.disparity, e.range, DisparityCodec::kQuantized16, 3, &e.bytes))
-            std::abort();
+        if (!encodeDisparityQ16(v.disparity, e.range, codec, 3, &e.bytes)) std::abort();
         encoded.push_back(std::move(e));
     }
     Image<float> out(512, 512);
@@ -319,31 +328,29 @@ void BM_DisparityQ16(benchmark::State& state) {
         for (size_t i = 0; i < encoded.size(); ++i) {
             const warp::ReferenceView& v = setup->set.views[i];
             if (decode) {
-                Status s = staged
-                               ? decodeDisparityQ16(encoded[i].bytes, DisparityCodec::kQuantized16,
-                                                    encoded[i].range, v.rowMinDisparity,
-                                                    v.rowMaxDisparity, &out)
-                               : reference::decodeDisparityQ16(
-                                     encoded[i].bytes, DisparityCodec::kQuantized16,
-                                     encoded[i].range, v.rowMinDisparity, v.rowMaxDisparity, &out);
+                Status s = staged ? decodeDisparityQ16(encoded[i].bytes, codec, encoded[i].range,
+                                                       v.rowMinDisparity, v.rowMaxDisparity, &out)
+                                  : reference::decodeDisparityQ16(
+                                        encoded[i].bytes, codec, encoded[i].range,
+                                        v.rowMinDisparity, v.rowMaxDisparity, &out);
                 if (!s) std::abort();
                 benchmark::DoNotOptimize(out.data());
                 continue;
             }
             const DisparityRange r =
                 staged ? disparityRange(v.disparity) : reference::disparityRange(v.disparity);
-            Status s =
-                staged ? encodeDisparityQ16(v.disparity, r, DisparityCodec::kQuantized16, 3, &bytes)
-                       : reference::encodeDisparityQ16(v.disparity, r, DisparityCodec::kQuantized16,
-                                                       3, &bytes);
+            Status s = staged ? encodeDisparityQ16(v.disparity, r, codec, 3, &bytes)
+                              : reference::encodeDisparityQ16(v.disparity, r, codec, 3, &bytes);
             if (!s) std::abort();
             benchmark::DoNotOptimize(bytes.data());
         }
     }
 }
 BENCHMARK(BM_DisparityQ16)
-    ->ArgsProduct({{0, 1}, {0, 1}})
-    ->ArgNames({"staged", "decode"})
+    ->ArgsProduct({{0, 1},
+                   {0, 1},
+                   {int(DisparityCodec::kQuantized16), int(DisparityCodec::kQuantized16Packed)}})
+    ->ArgNames({"staged", "decode", "disparity"})
     ->Unit(benchmark::kMillisecond);
 
 // computeRowDisparityRange over the same set: a server runs it after every view it renders.
@@ -372,13 +379,15 @@ const warp::ReferenceSet& sessionSet() {
     return set;
 }
 
-// A server's encode and a client's decode of the session's set, the default codec at the zstd
-// level of arg 0, one thread (taskset -c 0 for the CPU time alone); KiB per set reported.
+// A server's encode and a client's decode of the session's set, JPEG colour and the disparity
+// codec of arg 2 at the zstd level of arg 0, one thread (taskset -c 0 for the CPU time alone);
+// KiB per set reported.
 void BM_SessionSetCodec(benchmark::State& state) {
     const warp::ReferenceSet& set = sessionSet();
     CodecOptions o;
     o.zstdLevel = int(state.range(0));
     const bool decode = state.range(1) == 1;
+    o.disparity = DisparityCodec(state.range(2));
     const std::vector<uint8_t> bytes = std::move(encodeReferenceSet(set, o)).value();
     warp::ReferenceSet out;
     for (auto _ : state) {
@@ -392,8 +401,10 @@ void BM_SessionSetCodec(benchmark::State& state) {
     state.SetLabel(decode ? "decode" : "encode");
 }
 BENCHMARK(BM_SessionSetCodec)
-    ->ArgsProduct({{1, 3}, {0, 1}})
-    ->ArgNames({"zstd_level", "decode"})
+    ->ArgsProduct({{1, 3},
+                   {0, 1},
+                   {int(DisparityCodec::kQuantized16), int(DisparityCodec::kQuantized16Packed)}})
+    ->ArgNames({"zstd_level", "decode", "disparity"})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

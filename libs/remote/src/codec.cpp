@@ -20,11 +20,11 @@ constexpr size_t kViewHeaderBytes = 72;  // up to the row ranges
 constexpr size_t kSetHeaderBytes = 44;   // up to the first view
 
 bool knownDisparityCodec(int c) {
-    return c >= int(DisparityCodec::kQuantized16) && c <= int(DisparityCodec::kQuantized16Deflate);
+    return c >= int(DisparityCodec::kQuantized16) && c <= int(DisparityCodec::kQuantized16Packed);
 }
-// Both q16 codecs share the quantisation, the range fields and the residual planes.
+// The q16 codecs share the quantisation, the range fields and the residuals.
 bool isQ16(DisparityCodec c) {
-    return c == DisparityCodec::kQuantized16 || c == DisparityCodec::kQuantized16Deflate;
+    return c != DisparityCodec::kFloatZstd;
 }
 
 Status checkOptions(const CodecOptions& o) {
@@ -202,6 +202,21 @@ void readDisparityRange(ByteReader& r, DisparityCodec codec, DisparityRange* ran
     }
 }
 
+// A disparity payload's framing and recorded sizes against the view's, without decompressing.
+Status checkDisparityHeader(const ViewHeader& h, std::span<const uint8_t> payload, size_t pixels) {
+    switch (h.disparity) {
+        case DisparityCodec::kQuantized16Deflate:
+            return checkZlibHeader(payload, "disparity");
+        case DisparityCodec::kQuantized16Packed:
+            return splitPackedQ16(payload, h.camera.width, h.camera.height).status();
+        case DisparityCodec::kQuantized16:
+            return checkZstdFrame(payload, pixels * 2, "disparity");
+        case DisparityCodec::kFloatZstd:
+            break;
+    }
+    return checkZstdFrame(payload, pixels * 4, "disparity");
+}
+
 ViewHeader readViewHeader(ByteReader& r, const DecodeLimits& limits) {
     ViewHeader h;
     readCodecs(r, &h);
@@ -344,11 +359,7 @@ Status decodeReferenceView(std::span<const uint8_t> bytes, const DecodeLimits& l
     const size_t pixels = size_t(h.camera.width) * size_t(h.camera.height);
     PLX_RETURN_IF_ERROR(withContext(
         checkColorHeader(h.color, color, h.camera.width, h.camera.height), "reference view"));
-    PLX_RETURN_IF_ERROR(withContext(
-        h.disparity == DisparityCodec::kQuantized16Deflate
-            ? checkZlibHeader(disparity, "disparity")
-            : checkZstdFrame(disparity, pixels * (isQ16(h.disparity) ? 2 : 4), "disparity"),
-        "reference view"));
+    PLX_RETURN_IF_ERROR(withContext(checkDisparityHeader(h, disparity, pixels), "reference view"));
     out->camera = *camera;
     // The decoders below write every pixel (or the view is refused), so buffers of the right size
     // (a spare set's) are kept as they are: clearing them was 50 MB of stores per set of 1248-px

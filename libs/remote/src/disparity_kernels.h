@@ -34,4 +34,19 @@ PLX_ISA_DECLARE(void decodeQ16Planes(const uint8_t* planes, int width, int heigh
                                      double step, const float* rowMin, const float* rowMax,
                                      uint16_t* codes, float* disparity));
 
+// q16-packed (docs/remote-protocol.md, "Disparity, q16-packed"): the same codes and residuals,
+// each row's zigzag values as two-bit symbols (ceil(width / 4) bytes a row) and escapes (u16
+// little-endian, 2 bytes each). `low` and `high` are row scratch of width + 32 bytes.
+// encode: returns the escapes written; `escapes` holds 2 width height bytes.
+// decode: returns the escapes used, or -1 when a row needs more than escapeCount holds (the
+// rows before it are decoded); each drawn pixel clamped to its row's [rowMin, rowMax].
+PLX_ISA_DECLARE(size_t encodeQ16Packed(const float* disparity, int width, int height, double dmin,
+                                       double inverseStep, uint16_t* codes, uint8_t* low,
+                                       uint8_t* high, uint8_t* symbols, uint8_t* escapes));
+PLX_ISA_DECLARE(ptrdiff_t decodeQ16Packed(const uint8_t* symbols, const uint8_t* escapes,
+                                          size_t escapeCount, int width, int height, double dmin,
+                                          double step, const float* rowMin, const float* rowMax,
+                                          uint16_t* codes, uint8_t* low, uint8_t* high,
+                                          float* disparity));
+
 }  // namespace plx::remote::detail

@@ -6,6 +6,8 @@
 // (-ftrapping-math), so a comparison that picks a value must be a select the compiler can keep.
 #include <algorithm>
 #include <bit>
+#include <cstddef>
+#include <cstring>
 #include <limits>
 
 #if defined(__AVX2__)
@@ -179,6 +181,104 @@ void dequantiseRow(const uint16_t* q, int w, double dmin, double step, float lo,
     }
 }
 
+// q16-packed: one row's zigzag residuals (low and high bytes) as two-bit symbols min(z, 3), four
+// pixels a byte from bit 0, and the escapes (z >= 3, two bytes each) appended at `escapes`.
+// Returns the escapes written.
+size_t packRow(const uint8_t* low, const uint8_t* high, int w, uint8_t* symbols, uint8_t* escapes) {
+    size_t count = 0;
+    int x = 0;
+#if defined(__AVX2__)
+    const __m256i three = _mm256_set1_epi8(3);
+    for (; x + 32 <= w; x += 32) {
+        const __m256i lo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(low + x));
+        const __m256i hi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(high + x));
+        const __m256i highSet = _mm256_andnot_si256(_mm256_cmpeq_epi8(hi, _mm256_setzero_si256()),
+                                                    three);  // 3 where z >= 256
+        const __m256i sym = _mm256_or_si256(_mm256_min_epu8(lo, three), highSet);
+        // Four symbols to a byte: s0 + 4 s1 per 16-bit lane, then p0 + 16 p1 per 32-bit lane.
+        const __m256i pairs = _mm256_maddubs_epi16(sym, _mm256_set1_epi16(0x0401));
+        const __m256i quads = _mm256_madd_epi16(pairs, _mm256_set1_epi32(0x00100001));
+        const __m256i bytes =
+            _mm256_packus_epi16(_mm256_packus_epi32(quads, quads), _mm256_setzero_si256());
+        const auto first = uint32_t(_mm256_cvtsi256_si32(bytes));
+        const auto second = uint32_t(_mm256_extract_epi32(bytes, 4));
+        std::memcpy(symbols + x / 4, &first, 4);
+        std::memcpy(symbols + x / 4 + 4, &second, 4);
+        for (auto m = uint32_t(_mm256_movemask_epi8(_mm256_cmpeq_epi8(sym, three))); m != 0;
+             m &= m - 1) {
+            const int i = x + std::countr_zero(m);
+            escapes[2 * count] = low[i];
+            escapes[2 * count + 1] = high[i];
+            ++count;
+        }
+    }
+#endif
+    for (; x < w; x += 4) {
+        unsigned byte = 0;
+        for (int k = 0; k < 4 && x + k < w; ++k) {
+            const int i = x + k;
+            const bool escape = high[i] != 0 || low[i] >= 3;
+            byte |= unsigned(escape ? 3 : low[i]) << (2 * k);
+            if (escape) {
+                escapes[2 * count] = low[i];
+                escapes[2 * count + 1] = high[i];
+                ++count;
+            }
+        }
+        symbols[x / 4] = uint8_t(byte);
+    }
+    return count;
+}
+
+// The reverse: a row's residual bytes from its symbols and the escapes from `escapes` on, at most
+// `left` of them. Returns the escapes used, or -1 when the row needs more.
+ptrdiff_t unpackRow(const uint8_t* symbols, int w, const uint8_t* escapes, size_t left,
+                    uint8_t* low, uint8_t* high) {
+    size_t used = 0;
+    int x = 0;
+#if defined(__AVX2__)
+    const __m256i three = _mm256_set1_epi8(3);
+    // Byte k of a 128-bit lane takes symbol byte k / 4 (of the lane's four), masked to its field
+    // (bits 2 (k mod 4)); fields 2 and 3 shifted down a nibble; a table maps s << 0 or s << 2 to s.
+    const __m256i spread = _mm256_setr_epi8(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4,
+                                            4, 5, 5, 5, 5, 6, 6, 6, 6, 7, 7, 7, 7);
+    const __m256i fields = _mm256_set1_epi32(int32_t(0xc0300c03u));
+    const __m256i table = _mm256_setr_epi8(0, 1, 2, 3, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 0, 1, 2,
+                                           3, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0);
+    for (; x + 32 <= w; x += 32) {
+        const __m128i eight = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(symbols + x / 4));
+        const __m256i t = _mm256_and_si256(
+            _mm256_shuffle_epi8(_mm256_broadcastsi128_si256(eight), spread), fields);
+        const __m256i nibbles = _mm256_or_si256(
+            _mm256_and_si256(t, _mm256_set1_epi32(0x00000f0f)),
+            _mm256_and_si256(_mm256_srli_epi16(t, 4), _mm256_set1_epi32(0x0f0f0000)));
+        const __m256i sym = _mm256_shuffle_epi8(table, nibbles);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(low + x), sym);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(high + x), _mm256_setzero_si256());
+        for (auto m = uint32_t(_mm256_movemask_epi8(_mm256_cmpeq_epi8(sym, three))); m != 0;
+             m &= m - 1) {
+            if (used == left) return -1;
+            const int i = x + std::countr_zero(m);
+            low[i] = escapes[2 * used];
+            high[i] = escapes[2 * used + 1];
+            ++used;
+        }
+    }
+#endif
+    for (; x < w; ++x) {
+        const int sym = (symbols[x / 4] >> (2 * (x % 4))) & 3;
+        low[x] = uint8_t(sym);
+        high[x] = 0;
+        if (sym == 3) {
+            if (used == left) return -1;
+            low[x] = escapes[2 * used];
+            high[x] = escapes[2 * used + 1];
+            ++used;
+        }
+    }
+    return ptrdiff_t(used);
+}
+
 // Non-negative floats order as their bit patterns do as integers, and the compiler vectorises
 // integer min and max reductions where IEEE rules (NaN, signed zeros) forbid it the float ones.
 // Less one, as unsigned, the pattern of +0 wraps to the largest value and a negative one (sign
@@ -249,6 +349,41 @@ void decodeQ16Planes(const uint8_t* planes, int width, int height, double dmin, 
         dequantiseRow(codes, width, dmin, step, rowMin[y], rowMax[y], disparity + at);
         aboveFirst = width > 0 ? codes[0] : 0;
     }
+}
+
+size_t encodeQ16Packed(const float* disparity, int width, int height, double dmin,
+                       double inverseStep, uint16_t* codes, uint8_t* low, uint8_t* high,
+                       uint8_t* symbols, uint8_t* escapes) {
+    const size_t rowBytes = (size_t(width) + 3) / 4;
+    size_t count = 0;
+    int aboveFirst = 0;
+    for (int y = 0; y < height; ++y) {
+        quantiseRow(disparity + size_t(y) * size_t(width), width, dmin, inverseStep, codes);
+        residualRow(codes, width, aboveFirst, low, high);
+        count += packRow(low, high, width, symbols + size_t(y) * rowBytes, escapes + 2 * count);
+        aboveFirst = width > 0 ? codes[0] : 0;
+    }
+    return count;
+}
+
+ptrdiff_t decodeQ16Packed(const uint8_t* symbols, const uint8_t* escapes, size_t escapeCount,
+                          int width, int height, double dmin, double step, const float* rowMin,
+                          const float* rowMax, uint16_t* codes, uint8_t* low, uint8_t* high,
+                          float* disparity) {
+    const size_t rowBytes = (size_t(width) + 3) / 4;
+    size_t used = 0;
+    int aboveFirst = 0;
+    for (int y = 0; y < height; ++y) {
+        const ptrdiff_t row = unpackRow(symbols + size_t(y) * rowBytes, width, escapes + 2 * used,
+                                        escapeCount - used, low, high);
+        if (row < 0) return -1;
+        used += size_t(row);
+        reconstructRow(low, high, width, aboveFirst, codes);
+        dequantiseRow(codes, width, dmin, step, rowMin[y], rowMax[y],
+                      disparity + size_t(y) * size_t(width));
+        aboveFirst = width > 0 ? codes[0] : 0;
+    }
+    return ptrdiff_t(used);
 }
 
 }  // namespace plx::remote::detail::PLX_ISA_NS

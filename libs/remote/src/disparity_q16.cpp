@@ -43,9 +43,99 @@ DisparityRange disparityRangeInRows(const Image<float>& disparity, std::span<con
     return r.hi > 0.0f ? DisparityRange{r.lo, r.hi} : DisparityRange{};
 }
 
+size_t packedSymbolBytes(int width, int height) {
+    return (size_t(width) + 3) / 4 * size_t(height);
+}
+
+Status writePackedQ16(std::span<const uint8_t> symbols, std::span<const uint8_t> escapes, int level,
+                      std::vector<uint8_t>* out) {
+    std::vector<uint8_t> frame;
+    PLX_RETURN_IF_ERROR(zstdCompress(symbols, level, &frame));
+    out->resize(4 + frame.size() + escapes.size());
+    const auto size = uint32_t(frame.size());
+    for (int i = 0; i < 4; ++i) (*out)[size_t(i)] = uint8_t(size >> (8 * i));  // little-endian
+    std::memcpy(out->data() + 4, frame.data(), frame.size());
+    if (!escapes.empty())
+        std::memcpy(out->data() + 4 + frame.size(), escapes.data(), escapes.size());
+    return {};
+}
+
+Result<PackedQ16> splitPackedQ16(std::span<const uint8_t> in, int width, int height) {
+    auto corrupt = [](const std::string& m) { return errorStatus(ErrorCode::kCorruptData, m); };
+    if (in.size() < 4)
+        return corrupt(fmt::format("disparity: {} bytes, no symbolsBytes", in.size()));
+    const uint32_t size =
+        uint32_t(in[0]) | uint32_t(in[1]) << 8 | uint32_t(in[2]) << 16 | uint32_t(in[3]) << 24;
+    const size_t left = in.size() - 4;
+    if (size == 0 || size > left)
+        return corrupt(
+            fmt::format("disparity: symbolsBytes {} past the end ({} left)", size, left));
+    PackedQ16 p{in.subspan(4, size), in.subspan(4 + size)};
+    if (p.escapes.size() % 2 != 0)
+        return corrupt(fmt::format("disparity: {} escape bytes, not whole u16s", p.escapes.size()));
+    PLX_RETURN_IF_ERROR(
+        checkZstdFrame(p.symbolsFrame, packedSymbolBytes(width, height), "disparity symbols"));
+    return p;
+}
+
+namespace {
+
+Status encodePacked(const Image<float>& disparity, DisparityRange range, int level,
+                    std::vector<uint8_t>* out) {
+    using namespace detail;
+    const int w = disparity.width(), h = disparity.height();
+    const double step = quantStep(range);
+    const double inverseStep = step > 0.0 ? 1.0 / step : 0.0;  // as encodeDisparityQ16
+    std::vector<uint16_t> codes(static_cast<size_t>(w));
+    std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
+    const size_t symbolBytes = packedSymbolBytes(w, h);
+    // Written by the kernel before they are read; escapes at their worst-case size (untouched
+    // pages cost nothing).
+    const std::unique_ptr<uint8_t[]> symbols(new uint8_t[symbolBytes]);
+    const std::unique_ptr<uint8_t[]> escapes(new uint8_t[2 * disparity.pixelCount()]);
+    const size_t count =
+        PLX_ISA_PICK(encodeQ16Packed)(disparity.data(), w, h, range.dmin, inverseStep, codes.data(),
+                                      low.data(), high.data(), symbols.get(), escapes.get());
+    return writePackedQ16({symbols.get(), symbolBytes}, {escapes.get(), 2 * count}, level, out);
+}
+
+Status decodePacked(std::span<const uint8_t> in, DisparityRange range,
+                    std::span<const float> rowMin, std::span<const float> rowMax,
+                    Image<float>* disparity) {
+    using namespace detail;
+    const int w = disparity->width(), h = disparity->height();
+    Result<PackedQ16> packed = splitPackedQ16(in, w, h);
+    if (!packed) return packed.status();
+    const size_t symbolBytes = packedSymbolBytes(w, h);
+    const std::unique_ptr<uint8_t[]> symbols(new uint8_t[symbolBytes]);
+    PLX_RETURN_IF_ERROR(zstdDecompressExact(packed->symbolsFrame, {symbols.get(), symbolBytes},
+                                            "disparity symbols"));
+    std::vector<uint16_t> codes(static_cast<size_t>(w));
+    std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
+    const size_t escapes = packed->escapes.size() / 2;
+    const ptrdiff_t used = PLX_ISA_PICK(decodeQ16Packed)(
+        symbols.get(), packed->escapes.data(), escapes, w, h, range.dmin, quantStep(range),
+        rowMin.data(), rowMax.data(), codes.data(), low.data(), high.data(), disparity->data());
+    return checkEscapesUsed(escapes, used);
+}
+
+}  // namespace
+
+Status checkEscapesUsed(size_t escapes, ptrdiff_t used) {
+    if (used < 0)
+        return {ErrorCode::kCorruptData,
+                fmt::format("disparity: {} escapes, fewer than its symbols ask for", escapes)};
+    if (size_t(used) != escapes)
+        return {ErrorCode::kCorruptData, fmt::format("disparity: {} escapes, {} left over", escapes,
+                                                     escapes - size_t(used))};
+    return {};
+}
+
 Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, DisparityCodec codec,
                           int level, std::vector<uint8_t>* out) {
     using namespace detail;
+    if (codec == DisparityCodec::kQuantized16Packed)
+        return encodePacked(disparity, range, level, out);
     const int w = disparity.width(), h = disparity.height();
     const size_t n = disparity.pixelCount();
     const double step = quantStep(range);
@@ -65,6 +155,8 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity) {
     using namespace detail;
+    if (codec == DisparityCodec::kQuantized16Packed)
+        return decodePacked(in, range, rowMin, rowMax, disparity);
     const int w = disparity->width(), h = disparity->height();
     // Both decompressors fill every byte or fail, so no fill beforehand.
     const size_t planeBytes = 2 * disparity->pixelCount();

@@ -14,6 +14,53 @@ using q16::quantStep;
 using q16::unzigzag;
 using q16::zigzag;
 
+// q16-packed from q16's planes: per pixel the symbol min(z, 3) at bits 2 (x mod 4) of its row's
+// byte x / 4, and each z >= 3 as an escape.
+Status packQ16Planes(const std::vector<uint8_t>& planes, int w, int h, int level,
+                     std::vector<uint8_t>* out) {
+    const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
+    std::vector<uint8_t> symbols(rowBytes * size_t(h), 0), escapes;
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            const int z = planes[i] | planes[n + i] << 8;
+            symbols[size_t(y) * rowBytes + size_t(x) / 4] |=
+                uint8_t(std::min(z, 3) << (2 * (x % 4)));
+            if (z >= 3) escapes.insert(escapes.end(), {planes[i], planes[n + i]});
+        }
+    }
+    return writePackedQ16(symbols, escapes, level, out);
+}
+
+namespace {
+
+// The reverse, into q16's planes.
+Status unpackPlanes(std::span<const uint8_t> in, int w, int h, std::vector<uint8_t>* planes) {
+    Result<PackedQ16> packed = splitPackedQ16(in, w, h);
+    if (!packed) return packed.status();
+    const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
+    std::vector<uint8_t> symbols(rowBytes * size_t(h));
+    PLX_RETURN_IF_ERROR(zstdDecompressExact(packed->symbolsFrame, symbols, "disparity symbols"));
+    const size_t escapes = packed->escapes.size() / 2;
+    size_t used = 0;
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            const int symbol = symbols[size_t(y) * rowBytes + size_t(x) / 4] >> (2 * (x % 4)) & 3;
+            (*planes)[i] = uint8_t(symbol);
+            (*planes)[n + i] = 0;
+            if (symbol < 3) continue;
+            if (used == escapes) return checkEscapesUsed(escapes, -1);
+            (*planes)[i] = packed->escapes[2 * used];
+            (*planes)[n + i] = packed->escapes[2 * used + 1];
+            ++used;
+        }
+    }
+    return checkEscapesUsed(escapes, ptrdiff_t(used));
+}
+
+}  // namespace
+
 DisparityRange disparityRange(const Image<float>& disparity) {
     DisparityRange r{0.0f, 0.0f};
     float lo = INFINITY;
@@ -51,6 +98,7 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
         }
         aboveFirst = q[0];
     }
+    if (codec == DisparityCodec::kQuantized16Packed) return packQ16Planes(planes, w, h, level, out);
     return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(planes, level, out)
                                                         : zstdCompress(planes, level, out);
 }
@@ -61,9 +109,13 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
     const int w = disparity->width(), h = disparity->height();
     const size_t n = disparity->pixelCount();
     std::vector<uint8_t> planes(2 * n);
-    PLX_RETURN_IF_ERROR(codec == DisparityCodec::kQuantized16Deflate
-                            ? zlibInflateExact(in, planes, "disparity")
-                            : zstdDecompressExact(in, planes, "disparity"));
+    if (codec == DisparityCodec::kQuantized16Packed) {
+        PLX_RETURN_IF_ERROR(unpackPlanes(in, w, h, &planes));
+    } else {
+        PLX_RETURN_IF_ERROR(codec == DisparityCodec::kQuantized16Deflate
+                                ? zlibInflateExact(in, planes, "disparity")
+                                : zstdDecompressExact(in, planes, "disparity"));
+    }
     const double step = quantStep(range);
     std::vector<uint16_t> q(static_cast<size_t>(w));
     int aboveFirst = 0;

@@ -3,6 +3,7 @@
 // "Encoded reference view"). Decoders take untrusted bytes and an output already sized by the
 // view header (whose limits were checked before it was allocated).
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -50,7 +51,8 @@ DisparityRange disparityRangeInRows(const Image<float>& disparity, std::span<con
                                     std::span<const float> rowMax, bool* inside);
 
 // q16: quantised, row-predicted residual planes (docs/remote-protocol.md, "Disparity, q16"),
-// compressed with zstd (kQuantized16) or zlib (kQuantized16Deflate) at `level`.
+// compressed with zstd (kQuantized16) or zlib (kQuantized16Deflate) at `level`; or the same
+// residuals as two-bit symbols under zstd and escapes (kQuantized16Packed).
 Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range,
                           DisparityCodec codec, int level, std::vector<uint8_t>* out);
 // Decodes into *disparity, already of the view's size, clamping each drawn pixel to its row's
@@ -58,6 +60,23 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range,
 Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity);
+
+// q16-packed's payload (docs/remote-protocol.md, "Disparity, q16-packed"): u32 symbolsBytes,
+// the symbols as one zstd frame, then the escapes. writePackedQ16 assembles it; splitPackedQ16
+// checks the framing and the frame's content size against a width x height view without
+// decompressing (escapes: an even number of bytes).
+Status writePackedQ16(std::span<const uint8_t> symbols, std::span<const uint8_t> escapes, int level,
+                      std::vector<uint8_t>* out);
+struct PackedQ16 {
+    std::span<const uint8_t> symbolsFrame;
+    std::span<const uint8_t> escapes;
+};
+Result<PackedQ16> splitPackedQ16(std::span<const uint8_t> in, int width, int height);
+// Bytes of the symbols of a width x height view: ceil(width / 4) a row.
+size_t packedSymbolBytes(int width, int height);
+// The decoder's escape count against the escapes it used (-1: a row asked for more than were
+// left): an error naming the mismatch, or ok.
+Status checkEscapesUsed(size_t escapes, ptrdiff_t used);
 
 // The pixel-by-pixel forms of the three above (disparity_q16_reference.cpp): what their per-ISA
 // kernels must equal byte for byte (white-box tests) and are timed against (benches).
@@ -68,6 +87,9 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
 Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, DisparityRange range,
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity);
+// A q16-packed payload from q16's residual planes (2 w h bytes, low then high).
+Status packQ16Planes(const std::vector<uint8_t>& planes, int w, int h, int level,
+                     std::vector<uint8_t>* out);
 }  // namespace reference
 
 // Raw: zstd of the little-endian floats; decoding checks each is finite, >= 0 and in its row's

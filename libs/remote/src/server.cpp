@@ -92,7 +92,7 @@ struct Session {
     int faceSize = 0;
     // The disparity codec of this client's sets: the server's unless the client cannot decode it
     // (ClientHello::disparityCodecs; a browser has no zstd).
-    DisparityCodec disparityCodec = DisparityCodec::kQuantized16;
+    DisparityCodec disparityCodec = DisparityCodec::kQuantized16Packed;
     std::optional<PoseMessage> pending;   // the one-slot mailbox
     Clock::time_point pendingAt;          // when the pending pose arrived
     std::optional<PoseMessage> lastPose;  // for the velocity estimate without a velocity field
@@ -217,7 +217,7 @@ struct Server::Impl {
     }
 
     // The server's configured disparity codec when the client decodes it, else the client's
-    // preferred one (chooseDisparityCodec: q16 + zstd, q16 + deflate, raw).
+    // preferred one (chooseDisparityCodec: q16-packed, q16, q16-deflate, raw).
     DisparityCodec disparityCodecFor(uint8_t clientCodecs) const {
         if (clientCodecs & disparityCodecBit(config.codec.disparity)) return config.codec.disparity;
         Result<DisparityCodec> chosen = chooseDisparityCodec(clientCodecs);

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <map>
 #include <random>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -45,12 +46,14 @@ void expectDecodedWithinBounds(const warp::ReferenceView& in, const warp::Refere
 
 TEST(Codec, LossyRoundTripStaysWithinTheStatedBounds) {
     for (const char* spec : {"office:1", "museum:1"}) {
-        for (ChromaSubsampling chroma : {ChromaSubsampling::k420, ChromaSubsampling::k444}) {
+        // The q16 codecs carry the same codes: one pass each, beside a chroma choice.
+        for (auto [chroma, disparity] :
+             {std::pair{ChromaSubsampling::k420, DisparityCodec::kQuantized16},
+              std::pair{ChromaSubsampling::k444, DisparityCodec::kQuantized16Deflate},
+              std::pair{ChromaSubsampling::k420, DisparityCodec::kQuantized16Packed}}) {
             CodecOptions o;
             o.chroma = chroma;
-            // Both q16 entropy coders carry the same codes: one pass each.
-            o.disparity = chroma == ChromaSubsampling::k420 ? DisparityCodec::kQuantized16
-                                                            : DisparityCodec::kQuantized16Deflate;
+            o.disparity = disparity;
             for (const warp::ReferenceView& view : renderedSet(spec, kFace).views) {
                 auto bytes = encodeReferenceView(view, o);
                 ASSERT_TRUE(bytes.isOk()) << bytes.status().toString();
@@ -146,7 +149,8 @@ TEST(Codec, PlanesCompressToAlmostNothing) {
 
 TEST(Codec, EveryTruncatedPrefixIsRefused) {
     const warp::ReferenceSet& set = renderedSet("office:1", 16);
-    for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate}) {
+    for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate,
+                             DisparityCodec::kQuantized16Packed}) {
         CodecOptions o;
         o.disparity = d;
         auto view = encodeReferenceView(set.views[0], o);
@@ -216,8 +220,9 @@ TEST(Codec, DeflatePayloadInflatesToExactlyTheViewSize) {
 TEST(Codec, FlippedBitsNeverCrash) {
     const warp::ReferenceSet& set = renderedSet("museum:1", 16);
     for (ColorCodec color : {ColorCodec::kJpeg, ColorCodec::kZstd}) {
-        for (DisparityCodec disparity : {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
-                                         DisparityCodec::kQuantized16Deflate}) {
+        for (DisparityCodec disparity :
+             {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
+              DisparityCodec::kQuantized16Deflate, DisparityCodec::kQuantized16Packed}) {
             CodecOptions o;
             o.color = color;
             o.disparity = disparity;

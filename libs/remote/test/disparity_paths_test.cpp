@@ -80,8 +80,11 @@ TEST(DisparityPaths, EveryKernelEqualsTheReference) {
         const DisparityRange expected = reference::disparityRange(img);
         ASSERT_EQ(range.dmin, expected.dmin);
         ASSERT_EQ(range.dmax, expected.dmax);
+        std::vector<float> q16Floats;  // what kQuantized16 decodes to: every q16 codec's floats
         for (DisparityCodec codec :
-             {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate}) {
+             {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Deflate,
+              DisparityCodec::kQuantized16Packed}) {
+            SCOPED_TRACE(int(codec));
             std::vector<uint8_t> bytes, referenceBytes;
             ASSERT_TRUE(encodeDisparityQ16(img, range, codec, 3, &bytes).isOk());
             ASSERT_TRUE(
@@ -93,6 +96,8 @@ TEST(DisparityPaths, EveryKernelEqualsTheReference) {
             ASSERT_TRUE(
                 reference::decodeDisparityQ16(bytes, codec, range, lo, hi, &referenceOut).isOk());
             ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
+            if (q16Floats.empty()) q16Floats.assign(out.data(), out.data() + out.pixelCount());
+            ASSERT_EQ(std::memcmp(out.data(), q16Floats.data(), out.pixelCount() * 4), 0);
         }
     });
 }
@@ -148,17 +153,22 @@ TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         for (size_t i = 0; i < cases.size(); ++i) {
             SCOPED_TRACE(std::string(isaName(isa)) + " case " + std::to_string(i));
-            std::vector<uint8_t> bytes;
-            ASSERT_TRUE(zstdCompress(cases[i], 1, &bytes).isOk());
             const int w = widths[i];
+            std::vector<uint8_t> bytes, packed;
+            ASSERT_TRUE(zstdCompress(cases[i], 1, &bytes).isOk());
+            ASSERT_TRUE(reference::packQ16Planes(cases[i], w, 7, 1, &packed).isOk());
             const std::vector<float> lo(7, 0.25f), hi(7, 1.5f);
-            Image<float> out(w, 7), referenceOut(w, 7);
+            Image<float> out(w, 7), referenceOut(w, 7), packedOut(w, 7);
             ASSERT_TRUE(decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range, lo, hi, &out)
                             .isOk());
             ASSERT_TRUE(reference::decodeDisparityQ16(bytes, DisparityCodec::kQuantized16, range,
                                                       lo, hi, &referenceOut)
                             .isOk());
             ASSERT_EQ(std::memcmp(out.data(), referenceOut.data(), out.pixelCount() * 4), 0);
+            ASSERT_TRUE(decodeDisparityQ16(packed, DisparityCodec::kQuantized16Packed, range, lo,
+                                           hi, &packedOut)
+                            .isOk());
+            ASSERT_EQ(std::memcmp(out.data(), packedOut.data(), out.pixelCount() * 4), 0);
         }
     }
 }
@@ -187,13 +197,14 @@ TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         SCOPED_TRACE(isaName(isa));
         for (DisparityRange range : {DisparityRange{0.125f, 2.0f}, DisparityRange{0.5f, 0.5f}}) {
-            std::vector<uint8_t> bytes, referenceBytes;
-            ASSERT_TRUE(
-                encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1, &bytes).isOk());
-            ASSERT_TRUE(reference::encodeDisparityQ16(img, range, DisparityCodec::kQuantized16, 1,
-                                                      &referenceBytes)
-                            .isOk());
-            ASSERT_EQ(bytes, referenceBytes);
+            for (DisparityCodec codec :
+                 {DisparityCodec::kQuantized16, DisparityCodec::kQuantized16Packed}) {
+                std::vector<uint8_t> bytes, referenceBytes;
+                ASSERT_TRUE(encodeDisparityQ16(img, range, codec, 1, &bytes).isOk());
+                ASSERT_TRUE(
+                    reference::encodeDisparityQ16(img, range, codec, 1, &referenceBytes).isOk());
+                ASSERT_EQ(bytes, referenceBytes);
+            }
         }
     }
 }
@@ -235,6 +246,54 @@ TEST(DisparityPaths, RowRangesEqualMinmaxElement) {
         warp::computeRowDisparityRange(&v);
         EXPECT_EQ(v.rowMinDisparity, rowBound(img, false));
         EXPECT_EQ(v.rowMaxDisparity, rowBound(img, true));
+    }
+}
+
+// q16-packed payloads whose escapes do not match their symbols, or whose framing is broken: one
+// error naming the problem from every decoder path, never a read past the escapes.
+TEST(DisparityPaths, PackedPayloadsWithWrongEscapesAreRefused) {
+    RestoreIsa restore;
+    const int w = 70, h = 5;
+    std::vector<uint8_t> planes(2 * size_t(w) * h, 0);
+    for (size_t i = 0; i < planes.size() / 2; i += 9) planes[i] = uint8_t(3 + i % 200);  // escapes
+    std::vector<uint8_t> good;
+    ASSERT_TRUE(reference::packQ16Planes(planes, w, h, 1, &good).isOk());
+    struct Case {
+        std::vector<uint8_t> bytes;
+        const char* error;
+    };
+    std::vector<Case> cases;
+    cases.push_back({std::vector<uint8_t>(good.begin(), good.end() - 2), "fewer than its symbols"});
+    std::vector<uint8_t> extra = good;
+    extra.insert(extra.end(), {7, 0});
+    cases.push_back({extra, "1 left over"});
+    cases.push_back({std::vector<uint8_t>(good.begin(), good.end() - 1), "not whole u16s"});
+    std::vector<uint8_t> past = good;
+    past[3] = 0x7f;  // symbolsBytes far past the end
+    cases.push_back({past, "past the end"});
+    cases.push_back({std::vector<uint8_t>(good.begin(), good.begin() + 3), "no symbolsBytes"});
+    const std::vector<float> lo(h, 0.25f), hi(h, 1.5f);
+    const DisparityRange range{0.125f, 2.0f};
+    for (Isa isa : runnableIsas()) {
+        ASSERT_TRUE(setActiveIsa(isa).isOk());
+        Image<float> out(w, h);
+        ASSERT_TRUE(
+            decodeDisparityQ16(good, DisparityCodec::kQuantized16Packed, range, lo, hi, &out)
+                .isOk());
+        for (const Case& c : cases) {
+            SCOPED_TRACE(std::string(isaName(isa)) + " " + c.error);
+            for (auto decode : {&decodeDisparityQ16, &reference::decodeDisparityQ16}) {
+                const Status s =
+                    decode(c.bytes, DisparityCodec::kQuantized16Packed, range, lo, hi, &out);
+                ASSERT_FALSE(s.isOk());
+                EXPECT_NE(s.message().find(c.error), std::string::npos) << s.message();
+            }
+        }
+        // Symbols of another view size: the frame's content size is checked first.
+        Image<float> wider(w + 4, h);
+        const Status s =
+            decodeDisparityQ16(good, DisparityCodec::kQuantized16Packed, range, lo, hi, &wider);
+        EXPECT_NE(s.message().find("disparity symbols"), std::string::npos) << s.message();
     }
 }
 

@@ -200,8 +200,8 @@ TEST(Protocol, BadFieldsGetErrorsNamingThem) {
     b = encoded(msgs[0]);
     b.back() = 0;
     expectOneLineError(decodeMessage(b).status(), "disparityCodecs 0x00 names no codec");
-    b.back() = 0x0F;
-    expectOneLineError(decodeMessage(b).status(), "disparityCodecs 0x0f");
+    b.back() = 0x1F;
+    expectOneLineError(decodeMessage(b).status(), "disparityCodecs 0x1f");
     // A client hello of another version decodes: the server answers with a refusal.
     b = encoded(msgs[0]);
     b[1] = 2;
@@ -236,12 +236,19 @@ TEST(Protocol, EncoderRefusesWhatTheDecoderWould) {
     ClientHello none;
     none.disparityCodecs = 0;
     expectOneLineError(encodeMessage(none).status(), "disparityCodecs");
+    ClientHello unknown;
+    unknown.disparityCodecs = kAllDisparityCodecs | 0x10;
+    expectOneLineError(encodeMessage(unknown).status(), "disparityCodecs");
 }
 
-// Native clients (every codec) keep q16 + zstd; a browser (deflate only) gets q16 + deflate; the
-// raw floats only to a client that decodes nothing else; a mask naming nothing is refused.
+// Native clients (every codec) get q16-packed, one without it q16 + zstd; a browser (deflate only)
+// gets q16 + deflate; the raw floats only to a client that decodes nothing else; a mask naming
+// nothing is refused.
 TEST(Protocol, ServerPicksTheBestDisparityCodecTheClientDecodes) {
-    EXPECT_EQ(*chooseDisparityCodec(kAllDisparityCodecs), DisparityCodec::kQuantized16);
+    EXPECT_EQ(*chooseDisparityCodec(kAllDisparityCodecs), DisparityCodec::kQuantized16Packed);
+    EXPECT_EQ(*chooseDisparityCodec(kAllDisparityCodecs &
+                                    ~disparityCodecBit(DisparityCodec::kQuantized16Packed)),
+              DisparityCodec::kQuantized16);
     EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kQuantized16Deflate)),
               DisparityCodec::kQuantized16Deflate);
     EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kQuantized16Deflate) |
@@ -249,7 +256,7 @@ TEST(Protocol, ServerPicksTheBestDisparityCodecTheClientDecodes) {
               DisparityCodec::kQuantized16Deflate);
     EXPECT_EQ(*chooseDisparityCodec(disparityCodecBit(DisparityCodec::kFloatZstd)),
               DisparityCodec::kFloatZstd);
-    expectOneLineError(chooseDisparityCodec(0x08).status(), "no disparity codec");
+    expectOneLineError(chooseDisparityCodec(0x10).status(), "no disparity codec");
 }
 
 // The fuzzers' seeds: every message (protocol fuzzer) and encoded views with each codec pair
@@ -269,8 +276,9 @@ TEST(Protocol, FuzzSeedsDecode) {
         }
         i = 0;
         for (ColorCodec c : {ColorCodec::kJpeg, ColorCodec::kZstd}) {
-            for (DisparityCodec d : {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
-                                     DisparityCodec::kQuantized16Deflate}) {
+            for (DisparityCodec d :
+                 {DisparityCodec::kQuantized16, DisparityCodec::kFloatZstd,
+                  DisparityCodec::kQuantized16Deflate, DisparityCodec::kQuantized16Packed}) {
                 CodecOptions o;
                 o.color = c;
                 o.disparity = d;

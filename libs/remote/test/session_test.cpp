@@ -336,7 +336,9 @@ TEST(RemoteSession, EachClientGetsADisparityCodecItDecodes) {
         uint8_t codecs;
         DisparityCodec expected;
     } cases[] = {
-        {kAllDisparityCodecs, DisparityCodec::kQuantized16},  // native: the server's codec
+        {kAllDisparityCodecs, DisparityCodec::kQuantized16Packed},  // native: the server's codec
+        {uint8_t(kAllDisparityCodecs & ~disparityCodecBit(DisparityCodec::kQuantized16Packed)),
+         DisparityCodec::kQuantized16},  // a client without q16-packed
         {disparityCodecBit(DisparityCodec::kQuantized16Deflate),
          DisparityCodec::kQuantized16Deflate},  // a browser: no zstd
     };

@@ -20,7 +20,14 @@ namespace plx::remote {
 enum class ColorCodec : uint8_t { kJpeg = 1, kZstd = 2 };
 // kQuantized16Deflate: q16's codes and planes, compressed as one zlib stream instead of zstd, for
 // clients without zstd (browsers: DecompressionStream inflates deflate, not zstd).
-enum class DisparityCodec : uint8_t { kQuantized16 = 1, kFloatZstd = 2, kQuantized16Deflate = 3 };
+// kQuantized16Packed: q16's codes and residuals, most of them 0 or +-1, as two-bit symbols under
+// zstd plus escapes: zstd reads an eighth of the planes' bytes (docs/remote-protocol.md).
+enum class DisparityCodec : uint8_t {
+    kQuantized16 = 1,
+    kFloatZstd = 2,
+    kQuantized16Deflate = 3,
+    kQuantized16Packed = 4,
+};
 enum class ChromaSubsampling { k420, k444 };
 
 struct CodecOptions {
@@ -29,7 +36,7 @@ struct CodecOptions {
     // PSNR of each choice.
     int jpegQuality = 90;
     ChromaSubsampling chroma = ChromaSubsampling::k420;
-    DisparityCodec disparity = DisparityCodec::kQuantized16;
+    DisparityCodec disparity = DisparityCodec::kQuantized16Packed;
     // zstd level 1..19 for both zstd payloads; higher levels buy little on residuals.
     int zstdLevel = 3;
     // zlib level 1..9 for the q16-deflate payload (6, zlib's default: see

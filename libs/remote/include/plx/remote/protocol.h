@@ -42,7 +42,7 @@ constexpr uint8_t disparityCodecBit(DisparityCodec codec) {
     return uint8_t(1u << (uint8_t(codec) - 1));
 }
 // Every disparity codec of this version: what a native client decodes.
-constexpr uint8_t kAllDisparityCodecs = 0x07;
+constexpr uint8_t kAllDisparityCodecs = 0x0f;
 
 // The first message of a session, client to server.
 struct ClientHello {

@@ -104,13 +104,14 @@ std::vector<Choice> choices() {
     lossless.disparity = DisparityCodec::kFloatZstd;
     CodecOptions zstdColor;
     zstdColor.color = ColorCodec::kZstd;
-    CodecOptions level1 = jpeg(90, C::k420), level9 = jpeg(90, C::k420);
-    level1.zstdLevel = 1;
+    CodecOptions level3 = jpeg(90, C::k420), level9 = jpeg(90, C::k420);
+    level3.zstdLevel = 3;
     level9.zstdLevel = 9;
     // q16's residual planes under zstd (what q16-packed re-codes), at levels 1, 3 and 9.
     CodecOptions planes1 = jpeg(90, C::k420), planes3 = planes1, planes9 = planes1;
     planes1.disparity = planes3.disparity = planes9.disparity = DisparityCodec::kQuantized16;
     planes1.zstdLevel = 1;
+    planes3.zstdLevel = 3;
     planes9.zstdLevel = 9;
     // q16 with deflate (what a browser decodes), at zlib levels 1, 6 (the default) and 9.
     CodecOptions deflate1 = jpeg(90, C::k420), deflate6 = deflate1, deflate9 = deflate1;
@@ -125,7 +126,7 @@ std::vector<Choice> choices() {
             {"jpeg85-444/q16-packed", jpeg(85, C::k444)},
             {"jpeg90-444/q16-packed", jpeg(90, C::k444)},
             {"jpeg95-444/q16-packed", jpeg(95, C::k444)},
-            {"jpeg90-420/q16-packed-zstd1", level1},
+            {"jpeg90-420/q16-packed-zstd3", level3},
             {"jpeg90-420/q16-packed-zstd9", level9},
             {"jpeg90-420/q16-zstd1", planes1},
             {"jpeg90-420/q16-zstd3", planes3},
@@ -310,6 +311,7 @@ void BM_DisparityQ16(benchmark::State& state) {
     const bool staged = state.range(0) == 1;
     const bool decode = state.range(1) == 1;
     const auto codec = DisparityCodec(state.range(2));
+    const int level = CodecOptions{}.zstdLevel;
     state.SetLabel(std::string(staged ? "kernels" : "reference") +
                    (decode ? " decode" : " encode"));
     struct Encoded {
@@ -319,7 +321,7 @@ void BM_DisparityQ16(benchmark::State& state) {
     std::vector<Encoded> encoded;
     for (const warp::ReferenceView& v : setup->set.views) {
         Encoded e{disparityRange(v.disparity), {}};
-        if (!encodeDisparityQ16(v.disparity, e.range, codec, 3, &e.bytes)) std::abort();
+        if (!encodeDisparityQ16(v.disparity, e.range, codec, level, &e.bytes)) std::abort();
         encoded.push_back(std::move(e));
     }
     Image<float> out(512, 512);
@@ -339,8 +341,8 @@ void BM_DisparityQ16(benchmark::State& state) {
             }
             const DisparityRange r =
                 staged ? disparityRange(v.disparity) : reference::disparityRange(v.disparity);
-            Status s = staged ? encodeDisparityQ16(v.disparity, r, codec, 3, &bytes)
-                              : reference::encodeDisparityQ16(v.disparity, r, codec, 3, &bytes);
+            Status s = staged ? encodeDisparityQ16(v.disparity, r, codec, level, &bytes)
+                              : reference::encodeDisparityQ16(v.disparity, r, codec, level, &bytes);
             if (!s) std::abort();
             benchmark::DoNotOptimize(bytes.data());
         }

@@ -208,7 +208,7 @@ Status checkDisparityHeader(const ViewHeader& h, std::span<const uint8_t> payloa
         case DisparityCodec::kQuantized16Deflate:
             return checkZlibHeader(payload, "disparity");
         case DisparityCodec::kQuantized16Packed:
-            return splitPackedQ16(payload, h.camera.width, h.camera.height).status();
+            return packedEscapeCount(payload, h.camera.width, h.camera.height).status();
         case DisparityCodec::kQuantized16:
             return checkZstdFrame(payload, pixels * 2, "disparity");
         case DisparityCodec::kFloatZstd:

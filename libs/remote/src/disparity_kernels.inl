@@ -265,15 +265,26 @@ ptrdiff_t unpackRow(const uint8_t* symbols, int w, const uint8_t* escapes, size_
         }
     }
 #endif
-    for (; x < w; ++x) {
-        const int sym = (symbols[x / 4] >> (2 * (x % 4))) & 3;
-        low[x] = uint8_t(sym);
-        high[x] = 0;
-        if (sym == 3) {
-            if (used == left) return -1;
-            low[x] = escapes[2 * used];
-            high[x] = escapes[2 * used + 1];
-            ++used;
+    // x is a multiple of 4 here: a whole symbol byte at a time, its four pixels in one store
+    // where none of them is an escape (b & b >> 1 has a bit 2k set for each symbol 3).
+    std::memset(high + x, 0, size_t(w - x));
+    for (; x < w; x += 4) {
+        const unsigned b = symbols[x / 4];
+        if (x + 4 <= w && (b & (b >> 1) & 0x55u) == 0) {
+            const uint8_t four[4] = {uint8_t(b & 3u), uint8_t(b >> 2 & 3u), uint8_t(b >> 4 & 3u),
+                                     uint8_t(b >> 6)};
+            std::memcpy(low + x, four, 4);
+            continue;
+        }
+        for (int i = x; i < std::min(x + 4, w); ++i) {
+            const int sym = int(b >> (2 * (i - x)) & 3u);
+            low[i] = uint8_t(sym);
+            if (sym == 3) {
+                if (used == left) return -1;
+                low[i] = escapes[2 * used];
+                high[i] = escapes[2 * used + 1];
+                ++used;
+            }
         }
     }
     return ptrdiff_t(used);

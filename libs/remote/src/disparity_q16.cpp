@@ -47,35 +47,18 @@ size_t packedSymbolBytes(int width, int height) {
     return (size_t(width) + 3) / 4 * size_t(height);
 }
 
-Status writePackedQ16(std::span<const uint8_t> symbols, std::span<const uint8_t> escapes, int level,
-                      std::vector<uint8_t>* out) {
-    std::vector<uint8_t> frame;
-    PLX_RETURN_IF_ERROR(zstdCompress(symbols, level, &frame));
-    out->resize(4 + frame.size() + escapes.size());
-    const auto size = uint32_t(frame.size());
-    for (int i = 0; i < 4; ++i) (*out)[size_t(i)] = uint8_t(size >> (8 * i));  // little-endian
-    std::memcpy(out->data() + 4, frame.data(), frame.size());
-    if (!escapes.empty())
-        std::memcpy(out->data() + 4 + frame.size(), escapes.data(), escapes.size());
-    return {};
-}
-
-Result<PackedQ16> splitPackedQ16(std::span<const uint8_t> in, int width, int height) {
-    auto corrupt = [](const std::string& m) { return errorStatus(ErrorCode::kCorruptData, m); };
-    if (in.size() < 4)
-        return corrupt(fmt::format("disparity: {} bytes, no symbolsBytes", in.size()));
-    const uint32_t size =
-        uint32_t(in[0]) | uint32_t(in[1]) << 8 | uint32_t(in[2]) << 16 | uint32_t(in[3]) << 24;
-    const size_t left = in.size() - 4;
-    if (size == 0 || size > left)
-        return corrupt(
-            fmt::format("disparity: symbolsBytes {} past the end ({} left)", size, left));
-    PackedQ16 p{in.subspan(4, size), in.subspan(4 + size)};
-    if (p.escapes.size() % 2 != 0)
-        return corrupt(fmt::format("disparity: {} escape bytes, not whole u16s", p.escapes.size()));
-    PLX_RETURN_IF_ERROR(
-        checkZstdFrame(p.symbolsFrame, packedSymbolBytes(width, height), "disparity symbols"));
-    return p;
+Result<size_t> packedEscapeCount(std::span<const uint8_t> in, int width, int height) {
+    const Result<uint64_t> content = zstdFrameContentSize(in, "disparity");
+    if (!content) return content.status();
+    const uint64_t symbols = packedSymbolBytes(width, height);
+    const uint64_t most = symbols + 2 * uint64_t(width) * uint64_t(height);
+    if (*content < symbols || *content > most || (*content - symbols) % 2 != 0) {
+        return errorStatus(ErrorCode::kCorruptData,
+                           fmt::format("disparity: zstd frame of {} bytes, not {} symbol bytes "
+                                       "and whole escapes (at most {} bytes)",
+                                       *content, symbols, most));
+    }
+    return size_t((*content - symbols) / 2);
 }
 
 namespace {
@@ -88,15 +71,14 @@ Status encodePacked(const Image<float>& disparity, DisparityRange range, int lev
     const double inverseStep = step > 0.0 ? 1.0 / step : 0.0;  // as encodeDisparityQ16
     std::vector<uint16_t> codes(static_cast<size_t>(w));
     std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
+    // The frame's bytes: the symbols, then room for every pixel's escape (written by the kernel
+    // before zstd reads them; untouched pages cost nothing).
     const size_t symbolBytes = packedSymbolBytes(w, h);
-    // Written by the kernel before they are read; escapes at their worst-case size (untouched
-    // pages cost nothing).
-    const std::unique_ptr<uint8_t[]> symbols(new uint8_t[symbolBytes]);
-    const std::unique_ptr<uint8_t[]> escapes(new uint8_t[2 * disparity.pixelCount()]);
-    const size_t count =
-        PLX_ISA_PICK(encodeQ16Packed)(disparity.data(), w, h, range.dmin, inverseStep, codes.data(),
-                                      low.data(), high.data(), symbols.get(), escapes.get());
-    return writePackedQ16({symbols.get(), symbolBytes}, {escapes.get(), 2 * count}, level, out);
+    const std::unique_ptr<uint8_t[]> bytes(new uint8_t[symbolBytes + 2 * disparity.pixelCount()]);
+    const size_t escapes = PLX_ISA_PICK(encodeQ16Packed)(
+        disparity.data(), w, h, range.dmin, inverseStep, codes.data(), low.data(), high.data(),
+        bytes.get(), bytes.get() + symbolBytes);
+    return zstdCompress({bytes.get(), symbolBytes + 2 * escapes}, level, out);
 }
 
 Status decodePacked(std::span<const uint8_t> in, DisparityRange range,
@@ -104,19 +86,17 @@ Status decodePacked(std::span<const uint8_t> in, DisparityRange range,
                     Image<float>* disparity) {
     using namespace detail;
     const int w = disparity->width(), h = disparity->height();
-    Result<PackedQ16> packed = splitPackedQ16(in, w, h);
-    if (!packed) return packed.status();
-    const size_t symbolBytes = packedSymbolBytes(w, h);
-    const std::unique_ptr<uint8_t[]> symbols(new uint8_t[symbolBytes]);
-    PLX_RETURN_IF_ERROR(zstdDecompressExact(packed->symbolsFrame, {symbols.get(), symbolBytes},
-                                            "disparity symbols"));
+    const Result<size_t> escapes = packedEscapeCount(in, w, h);
+    if (!escapes) return escapes.status();
+    const size_t symbolBytes = packedSymbolBytes(w, h), size = symbolBytes + 2 * *escapes;
+    const std::unique_ptr<uint8_t[]> bytes(new uint8_t[size]);
+    PLX_RETURN_IF_ERROR(zstdDecompressExact(in, {bytes.get(), size}, "disparity"));
     std::vector<uint16_t> codes(static_cast<size_t>(w));
     std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
-    const size_t escapes = packed->escapes.size() / 2;
     const ptrdiff_t used = PLX_ISA_PICK(decodeQ16Packed)(
-        symbols.get(), packed->escapes.data(), escapes, w, h, range.dmin, quantStep(range),
+        bytes.get(), bytes.get() + symbolBytes, *escapes, w, h, range.dmin, quantStep(range),
         rowMin.data(), rowMax.data(), codes.data(), low.data(), high.data(), disparity->data());
-    return checkEscapesUsed(escapes, used);
+    return checkEscapesUsed(*escapes, used);
 }
 
 }  // namespace

@@ -15,7 +15,7 @@ using q16::unzigzag;
 using q16::zigzag;
 
 // q16-packed from q16's planes: per pixel the symbol min(z, 3) at bits 2 (x mod 4) of its row's
-// byte x / 4, and each z >= 3 as an escape.
+// byte x / 4, then each z >= 3 as an escape, all in one zstd frame.
 Status packQ16Planes(const std::vector<uint8_t>& planes, int w, int h, int level,
                      std::vector<uint8_t>* out) {
     const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
@@ -29,34 +29,35 @@ Status packQ16Planes(const std::vector<uint8_t>& planes, int w, int h, int level
             if (z >= 3) escapes.insert(escapes.end(), {planes[i], planes[n + i]});
         }
     }
-    return writePackedQ16(symbols, escapes, level, out);
+    symbols.insert(symbols.end(), escapes.begin(), escapes.end());
+    return zstdCompress(symbols, level, out);
 }
 
 namespace {
 
 // The reverse, into q16's planes.
 Status unpackPlanes(std::span<const uint8_t> in, int w, int h, std::vector<uint8_t>* planes) {
-    Result<PackedQ16> packed = splitPackedQ16(in, w, h);
-    if (!packed) return packed.status();
+    const Result<size_t> escapes = packedEscapeCount(in, w, h);
+    if (!escapes) return escapes.status();
     const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
-    std::vector<uint8_t> symbols(rowBytes * size_t(h));
-    PLX_RETURN_IF_ERROR(zstdDecompressExact(packed->symbolsFrame, symbols, "disparity symbols"));
-    const size_t escapes = packed->escapes.size() / 2;
+    const size_t symbolBytes = rowBytes * size_t(h);
+    std::vector<uint8_t> bytes(symbolBytes + 2 * *escapes);
+    PLX_RETURN_IF_ERROR(zstdDecompressExact(in, bytes, "disparity"));
     size_t used = 0;
     for (int y = 0; y < h; ++y) {
         for (int x = 0; x < w; ++x) {
             const size_t i = size_t(y) * size_t(w) + size_t(x);
-            const int symbol = symbols[size_t(y) * rowBytes + size_t(x) / 4] >> (2 * (x % 4)) & 3;
+            const int symbol = bytes[size_t(y) * rowBytes + size_t(x) / 4] >> (2 * (x % 4)) & 3;
             (*planes)[i] = uint8_t(symbol);
             (*planes)[n + i] = 0;
             if (symbol < 3) continue;
-            if (used == escapes) return checkEscapesUsed(escapes, -1);
-            (*planes)[i] = packed->escapes[2 * used];
-            (*planes)[n + i] = packed->escapes[2 * used + 1];
+            if (used == *escapes) return checkEscapesUsed(*escapes, -1);
+            (*planes)[i] = bytes[symbolBytes + 2 * used];
+            (*planes)[n + i] = bytes[symbolBytes + 2 * used + 1];
             ++used;
         }
     }
-    return checkEscapesUsed(escapes, ptrdiff_t(used));
+    return checkEscapesUsed(*escapes, ptrdiff_t(used));
 }
 
 }  // namespace

@@ -16,8 +16,10 @@ namespace plx::remote {
 
 // zstd: compresses `in` as one frame with its content size recorded.
 Status zstdCompress(std::span<const uint8_t> in, int level, std::vector<uint8_t>* out);
-// Checks, without decompressing, that `in` is exactly one zstd frame whose recorded content size
-// is `expected`.
+// Checks, without decompressing, that `in` is exactly one zstd frame with its content size
+// recorded, and returns that size.
+Result<uint64_t> zstdFrameContentSize(std::span<const uint8_t> in, const char* field);
+// The same, and that the recorded content size is `expected`.
 Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* field);
 // Decompresses one zstd frame whose recorded content size must be exactly out.size(). field
 // names the payload in errors.
@@ -61,17 +63,11 @@ Status decodeDisparityQ16(std::span<const uint8_t> in, DisparityCodec codec, Dis
                           std::span<const float> rowMin, std::span<const float> rowMax,
                           Image<float>* disparity);
 
-// q16-packed's payload (docs/remote-protocol.md, "Disparity, q16-packed"): u32 symbolsBytes,
-// the symbols as one zstd frame, then the escapes. writePackedQ16 assembles it; splitPackedQ16
-// checks the framing and the frame's content size against a width x height view without
-// decompressing (escapes: an even number of bytes).
-Status writePackedQ16(std::span<const uint8_t> symbols, std::span<const uint8_t> escapes, int level,
-                      std::vector<uint8_t>* out);
-struct PackedQ16 {
-    std::span<const uint8_t> symbolsFrame;
-    std::span<const uint8_t> escapes;
-};
-Result<PackedQ16> splitPackedQ16(std::span<const uint8_t> in, int width, int height);
+// q16-packed's payload (docs/remote-protocol.md, "Disparity, q16-packed"): one zstd frame of the
+// symbols (packedSymbolBytes) followed by the escapes (2 bytes each).
+// packedEscapeCount checks, without decompressing, the frame and its recorded size against a
+// width x height view, and returns the escape count it implies.
+Result<size_t> packedEscapeCount(std::span<const uint8_t> in, int width, int height);
 // Bytes of the symbols of a width x height view: ceil(width / 4) a row.
 size_t packedSymbolBytes(int width, int height);
 // The decoder's escape count against the escapes it used (-1: a row asked for more than were

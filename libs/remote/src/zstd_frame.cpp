@@ -46,23 +46,30 @@ Status zstdCompress(std::span<const uint8_t> in, int level, std::vector<uint8_t>
     return {};
 }
 
-Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* field) {
+Result<uint64_t> zstdFrameContentSize(std::span<const uint8_t> in, const char* field) {
     const unsigned long long declared = ZSTD_getFrameContentSize(in.data(), in.size());
     if (declared == ZSTD_CONTENTSIZE_ERROR || declared == ZSTD_CONTENTSIZE_UNKNOWN) {
-        return {ErrorCode::kCorruptData, fmt::format("{}: not a zstd frame with its size", field)};
-    }
-    if (declared != expected) {
-        return {ErrorCode::kCorruptData,
-                fmt::format("{}: zstd frame of {} bytes, expected {}", field, declared, expected)};
+        return Status(ErrorCode::kCorruptData,
+                      fmt::format("{}: not a zstd frame with its size", field));
     }
     // Exactly one frame: trailing bytes after it are refused like any others.
     const size_t frameBytes = ZSTD_findFrameCompressedSize(in.data(), in.size());
     if (ZSTD_isError(frameBytes)) {
-        return {ErrorCode::kCorruptData, fmt::format("{}: truncated zstd frame", field)};
+        return Status(ErrorCode::kCorruptData, fmt::format("{}: truncated zstd frame", field));
     }
     if (frameBytes != in.size()) {
+        return Status(ErrorCode::kCorruptData, fmt::format("{}: {} bytes after the zstd frame",
+                                                           field, in.size() - frameBytes));
+    }
+    return uint64_t(declared);
+}
+
+Status checkZstdFrame(std::span<const uint8_t> in, size_t expected, const char* field) {
+    const Result<uint64_t> declared = zstdFrameContentSize(in, field);
+    if (!declared) return declared.status();
+    if (*declared != expected) {
         return {ErrorCode::kCorruptData,
-                fmt::format("{}: {} bytes after the zstd frame", field, in.size() - frameBytes)};
+                fmt::format("{}: zstd frame of {} bytes, expected {}", field, *declared, expected)};
     }
     return {};
 }

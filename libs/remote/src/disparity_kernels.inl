@@ -1,7 +1,9 @@
 // The q16 disparity codec's pixel loops, compiled once per ISA (plx_add_isa_kernels). Each row
 // runs in stages the compiler vectorises at every tier: the codes of a row (independent per
 // pixel), then its residuals (each from the codes before it); decoding rebuilds a row's codes
-// (serial: each prediction needs the codes just decoded), then its floats. Written without
+// (serial: each prediction needs the codes just decoded), then its floats. q16-packed adds a
+// stage on each side, a row's residuals to and from two-bit symbols and escapes, in L1 between
+// the residuals and zstd. Written without
 // branches in the vectorised loops: the build traps floating-point exceptions in its model
 // (-ftrapping-math), so a comparison that picks a value must be a select the compiler can keep.
 #include <algorithm>

@@ -2,9 +2,10 @@
 // plane seen in perspective, so along a row its second difference vanishes on every planar
 // surface (the "highly compressible" disparity of Mark, Bishop, McMillan, citing Guenter et al.);
 // quantised to 16 bits over the view's own range, predicted by 2a - b and zigzag-coded, the
-// residuals are mostly 0 and +-1 and zstd (zlib for browsers) packs them. Raw: the floats under
-// zstd (lossless peer).
-// Layout and error bound: docs/remote-protocol.md, "Disparity, q16".
+// residuals are mostly 0 and +-1 and zstd (zlib for browsers) packs them. q16-packed gives zstd
+// the same residuals as two-bit symbols min(z, 3) and the rest as escapes, an eighth of the bytes
+// to read. Raw: the floats under zstd (lossless peer).
+// Layout and error bound: docs/remote-protocol.md, "Disparity, q16" and "q16-packed".
 //
 // The pixel loops are per-ISA kernels (disparity_kernels.inl); the pixel-by-pixel form of the
 // same arithmetic is disparity_q16_reference.cpp, and the white-box tests hold the two equal

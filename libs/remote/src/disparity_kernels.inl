@@ -3,9 +3,9 @@
 // pixel), then its residuals (each from the codes before it); decoding rebuilds a row's codes
 // (serial: each prediction needs the codes just decoded), then its floats. q16-packed adds a
 // stage on each side, a row's residuals to and from two-bit symbols and escapes, in L1 between
-// the residuals and zstd. Written without
-// branches in the vectorised loops: the build traps floating-point exceptions in its model
-// (-ftrapping-math), so a comparison that picks a value must be a select the compiler can keep.
+// the residuals and zstd. Written without branches in the vectorised loops: the build traps
+// floating-point exceptions in its model (-ftrapping-math), so a comparison that picks a value
+// must be a select the compiler can keep.
 #include <algorithm>
 #include <bit>
 #include <cstddef>

@@ -36,7 +36,7 @@ PLX_ISA_DECLARE(void decodeQ16Planes(const uint8_t* planes, int width, int heigh
 
 // q16-packed (docs/remote-protocol.md, "Disparity, q16-packed"): the same codes and residuals,
 // each row's zigzag values as two-bit symbols (ceil(width / 4) bytes a row) and escapes (u16
-// little-endian, 2 bytes each). `low` and `high` are row scratch of width + 32 bytes.
+// little-endian, 2 bytes each). `low` and `high` are row scratch of width bytes.
 // encode: returns the escapes written; `escapes` holds 2 width height bytes.
 // decode: returns the escapes used, or -1 when a row needs more than escapeCount holds (the
 // rows before it are decoded); each drawn pixel clamped to its row's [rowMin, rowMax].

@@ -367,7 +367,7 @@ void decodeQ16Planes(const uint8_t* planes, int width, int height, double dmin, 
 size_t encodeQ16Packed(const float* disparity, int width, int height, double dmin,
                        double inverseStep, uint16_t* codes, uint8_t* low, uint8_t* high,
                        uint8_t* symbols, uint8_t* escapes) {
-    const size_t rowBytes = (size_t(width) + 3) / 4;
+    const size_t rowBytes = q16::packedRowBytes(width);
     size_t count = 0;
     int aboveFirst = 0;
     for (int y = 0; y < height; ++y) {
@@ -383,7 +383,7 @@ ptrdiff_t decodeQ16Packed(const uint8_t* symbols, const uint8_t* escapes, size_t
                           int width, int height, double dmin, double step, const float* rowMin,
                           const float* rowMax, uint16_t* codes, uint8_t* low, uint8_t* high,
                           float* disparity) {
-    const size_t rowBytes = (size_t(width) + 3) / 4;
+    const size_t rowBytes = q16::packedRowBytes(width);
     size_t used = 0;
     int aboveFirst = 0;
     for (int y = 0; y < height; ++y) {

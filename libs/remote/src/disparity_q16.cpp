@@ -45,7 +45,7 @@ DisparityRange disparityRangeInRows(const Image<float>& disparity, std::span<con
 }
 
 size_t packedSymbolBytes(int width, int height) {
-    return (size_t(width) + 3) / 4 * size_t(height);
+    return q16::packedRowBytes(width) * size_t(height);
 }
 
 Result<size_t> packedEscapeCount(std::span<const uint8_t> in, int width, int height) {
@@ -68,17 +68,15 @@ Status encodePacked(const Image<float>& disparity, DisparityRange range, int lev
                     std::vector<uint8_t>* out) {
     using namespace detail;
     const int w = disparity.width(), h = disparity.height();
-    const double step = quantStep(range);
-    const double inverseStep = step > 0.0 ? 1.0 / step : 0.0;  // as encodeDisparityQ16
     std::vector<uint16_t> codes(static_cast<size_t>(w));
-    std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
+    std::vector<uint8_t> low(static_cast<size_t>(w)), high(static_cast<size_t>(w));
     // The frame's bytes: the symbols, then room for every pixel's escape (written by the kernel
     // before zstd reads them; untouched pages cost nothing).
     const size_t symbolBytes = packedSymbolBytes(w, h);
     const std::unique_ptr<uint8_t[]> bytes(new uint8_t[symbolBytes + 2 * disparity.pixelCount()]);
     const size_t escapes = PLX_ISA_PICK(encodeQ16Packed)(
-        disparity.data(), w, h, range.dmin, inverseStep, codes.data(), low.data(), high.data(),
-        bytes.get(), bytes.get() + symbolBytes);
+        disparity.data(), w, h, range.dmin, q16::inverseQuantStep(range), codes.data(), low.data(),
+        high.data(), bytes.get(), bytes.get() + symbolBytes);
     return zstdCompress({bytes.get(), symbolBytes + 2 * escapes}, level, out);
 }
 
@@ -93,7 +91,7 @@ Status decodePacked(std::span<const uint8_t> in, DisparityRange range,
     const std::unique_ptr<uint8_t[]> bytes(new uint8_t[size]);
     PLX_RETURN_IF_ERROR(zstdDecompressExact(in, {bytes.get(), size}, "disparity"));
     std::vector<uint16_t> codes(static_cast<size_t>(w));
-    std::vector<uint8_t> low(size_t(w) + 32), high(size_t(w) + 32);
+    std::vector<uint8_t> low(static_cast<size_t>(w)), high(static_cast<size_t>(w));
     const ptrdiff_t used = PLX_ISA_PICK(decodeQ16Packed)(
         bytes.get(), bytes.get() + symbolBytes, *escapes, w, h, range.dmin, quantStep(range),
         rowMin.data(), rowMax.data(), codes.data(), low.data(), high.data(), disparity->data());
@@ -119,14 +117,12 @@ Status encodeDisparityQ16(const Image<float>& disparity, DisparityRange range, D
         return encodePacked(disparity, range, level, out);
     const int w = disparity.width(), h = disparity.height();
     const size_t n = disparity.pixelCount();
-    const double step = quantStep(range);
-    // One value drawn (every drawn pixel code 1) or none: an inverse step of 0.
-    const double inverseStep = step > 0.0 ? 1.0 / step : 0.0;
     std::vector<uint16_t> codes(static_cast<size_t>(w));
     // Low bytes of every residual, then high bytes; the kernel writes each byte, so no fill.
     const std::unique_ptr<uint8_t[]> planes(new uint8_t[2 * n]);
     const auto encodePlanes = PLX_ISA_PICK(encodeQ16Planes);
-    encodePlanes(disparity.data(), w, h, range.dmin, inverseStep, codes.data(), planes.get());
+    encodePlanes(disparity.data(), w, h, range.dmin, q16::inverseQuantStep(range), codes.data(),
+                 planes.get());
     const std::span<const uint8_t> bytes(planes.get(), 2 * n);
     return codec == DisparityCodec::kQuantized16Deflate ? zlibCompress(bytes, level, out)
                                                         : zstdCompress(bytes, level, out);

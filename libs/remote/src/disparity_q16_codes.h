@@ -6,6 +6,7 @@
 // callers (an AVX-512 copy for a CPU without it).
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 
 #include "payloads.h"
@@ -24,6 +25,18 @@ inline constexpr double kSteps = 65534.0;
 
 inline double quantStep(DisparityRange r) {
     return (double(r.dmax) - double(r.dmin)) / kSteps;
+}
+
+// 1 / quantStep, what the encoders multiply by; 0 where the view has one value drawn (every drawn
+// pixel code 1) or none.
+inline double inverseQuantStep(DisparityRange r) {
+    const double step = quantStep(r);
+    return step > 0.0 ? 1.0 / step : 0.0;
+}
+
+// q16-packed: the symbol bytes of one row, four pixels a byte.
+inline size_t packedRowBytes(int width) {
+    return (size_t(width) + 3) / 4;
 }
 
 // The prediction of q[x] from the row so far (x >= 1) or the row above's first code (x == 0).

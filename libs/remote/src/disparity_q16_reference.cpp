@@ -18,7 +18,7 @@ using q16::zigzag;
 // byte x / 4, then each z >= 3 as an escape, all in one zstd frame.
 Status packQ16Planes(const std::vector<uint8_t>& planes, int w, int h, int level,
                      std::vector<uint8_t>* out) {
-    const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
+    const size_t n = size_t(w) * size_t(h), rowBytes = q16::packedRowBytes(w);
     std::vector<uint8_t> symbols(rowBytes * size_t(h), 0), escapes;
     for (int y = 0; y < h; ++y) {
         for (int x = 0; x < w; ++x) {
@@ -39,7 +39,7 @@ namespace {
 Status unpackPlanes(std::span<const uint8_t> in, int w, int h, std::vector<uint8_t>* planes) {
     const Result<size_t> escapes = packedEscapeCount(in, w, h);
     if (!escapes) return escapes.status();
-    const size_t n = size_t(w) * size_t(h), rowBytes = (size_t(w) + 3) / 4;
+    const size_t n = size_t(w) * size_t(h), rowBytes = q16::packedRowBytes(w);
     const size_t symbolBytes = rowBytes * size_t(h);
     std::vector<uint8_t> bytes(symbolBytes + 2 * *escapes);
     PLX_RETURN_IF_ERROR(zstdDecompressExact(in, bytes, "disparity"));

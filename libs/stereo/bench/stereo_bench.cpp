@@ -211,8 +211,9 @@ struct ReprojectFixture {
     stereo::FirstEyeTargets firstTargets() const {
         return {first.color.view(), first.depth.view(), first.id.view()};
     }
-    stereo::SecondEyeTargets secondTargets() {
-        return {second.color.view(), second.depth.view(), second.id.view(), holeMask.view()};
+    stereo::SecondEyeTargets secondTargets(bool depthAndIds = true) {
+        return {second.color.view(), second.depth.view(), second.id.view(), holeMask.view(),
+                depthAndIds};
     }
     static ReprojectFixture& get() {
         static ReprojectFixture f;
@@ -226,23 +227,25 @@ void setPixelRate(benchmark::State& state, int pixels) {
 }
 
 // Arg(0): 0 the direct form (one multiply-add per pixel), 1 the offset look-up table of 4096
-// entries over 1/w in [0, 1/near]; Arg(1): threads.
+// entries over 1/w in [0, 1/near]; Arg(1): threads; Arg(2): 1 depth and IDs written at every
+// pixel, 0 only where the hole search reads them (a second eye shown as colour only).
 void BM_Reproject(benchmark::State& state) {
     ReprojectFixture& f = ReprojectFixture::get();
     ThreadPool pool(int(state.range(1)));
     stereo::DisparityLine line = stereo::disparityLine(f.rig);
     auto lut = *stereo::OffsetLut::create(line, 1.0f / f.rig.first().desc().nearPlane, 4096);
     bool useLut = state.range(0) == 1;
+    const stereo::SecondEyeTargets to = f.secondTargets(state.range(2) == 1);
     for (auto _ : state) {
-        Status s = useLut ? stereo::reproject(f.firstTargets(), lut, f.secondTargets(), &pool)
-                          : stereo::reproject(f.firstTargets(), line, f.secondTargets(), &pool);
+        Status s = useLut ? stereo::reproject(f.firstTargets(), lut, to, &pool)
+                          : stereo::reproject(f.firstTargets(), line, to, &pool);
         benchmark::DoNotOptimize(s);
     }
     setPixelRate(state, 1280 * 720);
 }
 BENCHMARK(BM_Reproject)
-    ->ArgsProduct({{0, 1}, {1, 2}})
-    ->ArgNames({"lut", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 2}, {0, 1}})
+    ->ArgNames({"lut", "threads", "planes"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -1,8 +1,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
+#include <cstring>
 #include <vector>
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <emmintrin.h>
+#endif
 
 #include <fmt/format.h>
 
@@ -77,62 +81,174 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
     return Status::ok();
 }
 
-// A row's landings, kept apart from the images: the nearest 1/w that reached each second-eye
-// pixel and the first-eye column it came from (-infinity and -1 where none did), plus one spare
-// slot that takes every landing outside the row, so the scatter needs no range branch.
+// A row's landings, kept apart from the images: the first-eye column that reached each
+// second-eye pixel (-1 where none did), plus one spare slot that takes every landing outside the
+// row, so the scatter needs no range branch.
 struct RowLandings {
-    std::vector<float> invW;
     std::vector<int32_t> from;
-    explicit RowLandings(int w) : invW(size_t(w) + 1), from(size_t(w) + 1) {}
+    explicit RowLandings(int w) : from(size_t(w) + 1) {}
 };
 
-// One row (Fu section 2): every first-eye pixel moves by its offset, the nearest kept on
-// collisions; `offset(invW)` returns the offset plus the pixel centre. The scatter touches only
-// the row's landings (two small arrays that stay in L1), and a second pass writes each
-// second-eye pixel once, in order. Scattering colour, depth, ID and the hole byte straight into
-// the images, after clearing them, took 2.2 times as long (BM_Reproject,
-// docs/stereo-results.md).
+// Which way a row is walked so that every collision is won by the pixel that comes later
+// (McMillan's occlusion-compatible order, for the epipole at infinity along the rows). With
+// a = perInvW <= 0 (left eye first) the offset a (1/w) + b falls as 1/w grows, so a nearer pixel
+// moves further left. Two first-eye pixels x' < x land in one second-eye pixel only when
+// |(x + off(x)) - (x' + off(x'))| < 1 with x - x' >= 1, which needs off(x) < off(x'), i.e. x
+// strictly nearer: walking left to right, the later pixel is always the nearer one, and no depth
+// comparison is needed; the result equals the depth test's (Fu Fig. 3) pixel for pixel. For
+// a > 0 (right eye first) the mirror holds, right to left. The offset table's entries are
+// monotone in 1/w in the same way, so the same order serves it.
+enum class RowOrder { kLeftToRight, kRightToLeft };
+
+// The scatter of one row: from[tx] = x in occlusion-compatible order. `offset(invW)` returns the
+// offset plus the pixel centre.
 template <class Offset>
-void reprojectRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                  const Offset& rowOffset, RowLandings& landings) {
-    // A copy: through a reference the compiler reloaded the coefficients at every pixel, since
-    // the stores below might change them.
-    const Offset offset = rowOffset;
-    const int w = first.color.width;
-    const float* srcDepth = first.depth.row(y);
-    float* bestInvW = landings.invW.data();
-    int32_t* from = landings.from.data();
-    std::fill_n(bestInvW, w, -std::numeric_limits<float>::infinity());
+void scatterRow(const float* srcDepth, int w, const Offset& offset, RowOrder order, int32_t* from) {
     std::fill_n(from, w, -1);
     const float limit = float(w);
-    for (int x = 0; x < w; ++x) {
-        float invW = srcDepth[x];
+    auto land = [&](int x) {
         // Landing position x + 0.5 + offset; its pixel is floor() of it. The range test in float
         // also drops positions too large for int (and NaN); those land in the spare slot w.
-        float pos = float(x) + offset(invW);
+        float pos = float(x) + offset(srcDepth[x]);
         int tx = pos >= 0.0f && pos < limit ? int(pos) : w;
-        if (invW > bestInvW[tx]) {
-            bestInvW[tx] = invW;
-            from[tx] = x;
+        from[tx] = x;
+    };
+    if (order == RowOrder::kLeftToRight)
+        for (int x = 0; x < w; ++x) land(x);
+    else
+        for (int x = w - 1; x >= 0; --x) land(x);
+}
+
+// The direct form's offset a (1/w) + b, b including the pixel centre.
+struct DirectOffset {
+    float a = 0.0f, b = 0.0f;
+    float operator()(float invW) const { return a * invW + b; }
+};
+
+// scatterRow for the direct form, four landings computed at a time with the same float
+// operations in the same order (the build does not contract them), then stored one by one in
+// occlusion-compatible order.
+void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrder order,
+                int32_t* from) {
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    std::fill_n(from, w, -1);
+    const __m128 a = _mm_set1_ps(offset.a), b = _mm_set1_ps(offset.b);
+    const __m128 zero = _mm_setzero_ps(), limit = _mm_set1_ps(float(w));
+    const __m128i spare = _mm_set1_epi32(w);
+    alignas(16) int32_t tx[4];
+    auto land4 = [&](int x) {  // columns x .. x + 3
+        const __m128 xs =
+            _mm_cvtepi32_ps(_mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0)));
+        const __m128 d = _mm_loadu_ps(srcDepth + x);
+        const __m128 pos = _mm_add_ps(xs, _mm_add_ps(_mm_mul_ps(a, d), b));
+        // Inside [0, w) (false for NaN): its column; else the spare slot.
+        const __m128 inside = _mm_and_ps(_mm_cmpge_ps(pos, zero), _mm_cmplt_ps(pos, limit));
+        const __m128i col = _mm_cvttps_epi32(_mm_and_ps(pos, inside));
+        const __m128i in = _mm_castps_si128(inside);
+        _mm_store_si128(reinterpret_cast<__m128i*>(tx),
+                        _mm_or_si128(_mm_and_si128(in, col), _mm_andnot_si128(in, spare)));
+    };
+    int x = 0;
+    if (order == RowOrder::kLeftToRight) {
+        for (; x + 4 <= w; x += 4) {
+            land4(x);
+            for (int k = 0; k < 4; ++k) from[tx[k]] = x + k;
+        }
+        for (; x < w; ++x) {
+            float pos = float(x) + offset(srcDepth[x]);
+            from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
+        }
+    } else {
+        // Right to left: the columns the four-wide steps leave at the left end go last.
+        const int head = w % 4;
+        for (int x0 = w - 4; x0 >= head; x0 -= 4) {
+            land4(x0);
+            for (int k = 3; k >= 0; --k) from[tx[k]] = x0 + k;
+        }
+        for (x = head - 1; x >= 0; --x) {
+            float pos = float(x) + offset(srcDepth[x]);
+            from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
         }
     }
-    const Rgba8* srcColor = first.color.row(y);
-    const uint32_t* srcId = first.id.row(y);
+#else
+    scatterRow<DirectOffset>(srcDepth, w, offset, order, from);
+#endif
+}
+
+// Depth 0 and ID 0 at hole pixel t, and their ID at its row neighbours: what the fill and
+// classifyHoles read of a second eye whose planes are not written in full.
+void markHolePixel(const uint32_t* srcId, const int32_t* from, int w, int t, float* dstDepth,
+                   uint32_t* dstId) {
+    dstDepth[t] = 0.0f;
+    dstId[t] = 0u;
+    if (t > 0 && from[t - 1] >= 0) dstId[t - 1] = srcId[from[t - 1]];
+    if (t + 1 < w && from[t + 1] >= 0) dstId[t + 1] = srcId[from[t + 1]];
+}
+
+// One second-eye pixel from its landing: colour and hole byte; depth and ID as writeRow says.
+inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& second, int y, int t,
+                       const int32_t* from) {
+    const int32_t x = from[t];
+    const bool landed = x >= 0;
+    const int32_t s = landed ? x : 0;
+    second.color.row(y)[t] = landed ? first.color.row(y)[s] : Rgba8{};
+    second.holeMask.row(y)[t] = uint8_t(!landed);
+    if (second.depthAndIds) {
+        second.depth.row(y)[t] = landed ? first.depth.row(y)[s] : 0.0f;
+        second.id.row(y)[t] = landed ? first.id.row(y)[s] : 0u;
+    } else if (!landed) {
+        markHolePixel(first.id.row(y), from, first.color.width, t, second.depth.row(y),
+                      second.id.row(y));
+    }
+}
+
+// Writes one second-eye row from its landings, in column order: colour and the hole byte at every
+// pixel; depth and ID at every pixel when second.depthAndIds, else as markHolePixel says.
+void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
+              const int32_t* from) {
+    const int w = first.color.width;
+    int t = 0;
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    // Four pixels a step: the landings' first-eye words gathered (column 0 where none landed,
+    // then zeroed) and written with streaming stores, which skip reading the destination lines
+    // first; the hole bytes packed from the same mask.
     Rgba8* dstColor = second.color.row(y);
+    auto aligned = [](const void* p) { return (reinterpret_cast<uintptr_t>(p) & 15) == 0; };
+    while (t < w && !aligned(dstColor + t)) writePixel(first, second, y, t++, from);
+    const bool planes = second.depthAndIds;
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
-    uint8_t* hole = second.holeMask.row(y);
-    for (int t = 0; t < w; ++t) {
-        int32_t x = from[t];
-        bool landed = x >= 0;
-        int32_t s = landed ? x : 0;
-        Rgba8 color = srcColor[s];
-        uint32_t id = srcId[s];
-        dstColor[t] = landed ? color : Rgba8{};
-        dstDepth[t] = landed ? bestInvW[t] : 0.0f;
-        dstId[t] = landed ? id : 0u;
-        hole[t] = uint8_t(!landed);
+    if (!planes || (aligned(dstDepth + t) && aligned(dstId + t))) {
+        const auto* srcColor = reinterpret_cast<const int32_t*>(first.color.row(y));
+        const auto* srcDepth = reinterpret_cast<const int32_t*>(first.depth.row(y));
+        const auto* srcId = reinterpret_cast<const int32_t*>(first.id.row(y));
+        uint8_t* hole = second.holeMask.row(y);
+        const __m128i none = _mm_set1_epi32(-1);
+        alignas(16) int32_t at[4];
+        for (; t + 4 <= w; t += 4) {
+            const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + t));
+            const __m128i missed = _mm_cmpeq_epi32(f, none);
+            _mm_store_si128(reinterpret_cast<__m128i*>(at), _mm_andnot_si128(missed, f));
+            auto gather = [&](const int32_t* src) {
+                const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
+                return _mm_andnot_si128(missed, v);
+            };
+            _mm_stream_si128(reinterpret_cast<__m128i*>(dstColor + t), gather(srcColor));
+            if (planes) {
+                _mm_stream_si128(reinterpret_cast<__m128i*>(dstDepth + t), gather(srcDepth));
+                _mm_stream_si128(reinterpret_cast<__m128i*>(dstId + t), gather(srcId));
+            }
+            const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(missed, missed), missed);
+            const int holeWord = _mm_cvtsi128_si32(_mm_and_si128(bytes, _mm_set1_epi8(1)));
+            std::memcpy(hole + t, &holeWord, 4);
+            if (!planes && holeWord != 0)
+                for (int k = 0; k < 4; ++k)
+                    if (from[t + k] < 0)
+                        markHolePixel(first.id.row(y), from, w, t + k, dstDepth, dstId);
+        }
     }
+#endif
+    for (; t < w; ++t) writePixel(first, second, y, t, from);
 }
 
 // Rows per task: a 720-row frame gives ~45 tasks, enough to balance two to eight threads.
@@ -140,16 +256,27 @@ constexpr size_t kRowGrain = 16;
 
 template <class Offset>
 void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second, ThreadPool* pool,
-                   const Offset& offset) {
+                   const Offset& rowOffset, RowOrder order) {
     auto body = [&](size_t begin, size_t end) {
+        // A copy: through a reference the compiler reloaded the coefficients at every pixel,
+        // since the stores might change them.
+        const Offset offset = rowOffset;
         RowLandings landings(first.color.width);
-        for (size_t y = begin; y < end; ++y) reprojectRow(first, second, int(y), offset, landings);
+        for (size_t y = begin; y < end; ++y) {
+            scatterRow(first.depth.row(int(y)), first.color.width, offset, order,
+                       landings.from.data());
+            writeRow(first, second, int(y), landings.from.data());
+        }
     };
     size_t rows = size_t(first.color.height);
     if (pool)
         pool->parallelFor(rows, kRowGrain, body);
     else
         body(0, rows);
+}
+
+RowOrder orderFor(const DisparityLine& line) {
+    return line.perInvW <= 0.0f ? RowOrder::kLeftToRight : RowOrder::kRightToLeft;
 }
 
 }  // namespace
@@ -159,15 +286,17 @@ Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
     if (Status s = checkTargets(first, second); !s.isOk()) return s;
     if (!std::isfinite(line.perInvW) || !std::isfinite(line.offsetPx))
         return errorStatus(ErrorCode::kInvalidArgument, "disparity line is not finite");
-    float a = line.perInvW, b = line.offsetPx + 0.5f;
-    reprojectRows(first, second, pool, [a, b](float invW) { return a * invW + b; });
+    reprojectRows(first, second, pool, DirectOffset{line.perInvW, line.offsetPx + 0.5f},
+                  orderFor(line));
     return Status::ok();
 }
 
 Status reproject(const FirstEyeTargets& first, const OffsetLut& lut, const SecondEyeTargets& second,
                  ThreadPool* pool) {
     if (Status s = checkTargets(first, second); !s.isOk()) return s;
-    reprojectRows(first, second, pool, [&lut](float invW) { return lut.centredOffset(invW); });
+    reprojectRows(
+        first, second, pool, [&lut](float invW) { return lut.centredOffset(invW); },
+        orderFor(lut.line()));
     return Status::ok();
 }
 

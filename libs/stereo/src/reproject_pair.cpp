@@ -113,7 +113,11 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // Fu section 2: reprojection, hole segments merged into holes; section 3: their classes.
     clock.restart();
     FirstEyeTargets from{readOnly(first.color), readOnly(first.depth), readOnly(first.id)};
-    SecondEyeTargets to{second.color, second.depth, second.id, mHoleMask.view()};
+    // A second eye shown as colour only keeps its depth and IDs in scratch planes, written only
+    // where the hole search reads them.
+    const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
+    const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
+    SecondEyeTargets to{second.color, second.depth, second.id, mHoleMask.view(), secondHasPlanes};
     const DisparityLine line = disparityLine(rig);
     Status moved = options.reprojectWithLut ? reproject(from, lutFor(line, cam), to, &mPool)
                                             : reproject(from, line, to, &mPool);

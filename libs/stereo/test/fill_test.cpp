@@ -312,6 +312,30 @@ TEST(Fill, ThreadsAndIsaPathsGiveTheSameFrame) {
     ASSERT_TRUE(setActiveIsa(saved).isOk());
 }
 
+// A pair shown as colour only (the timed frames) writes the second eye's depth and IDs only
+// where the hole search reads them; its colours and hole classes equal those of the pair with
+// both planes, on every rig.
+TEST(Fill, ColorOnlyPairEqualsThePairWithDepthAndIds) {
+    scene::Scene s = *scene::generateOffice(3);
+    Camera center = *scene::cameraAt(s, s.viewpoints.front(), 320, 200);
+    auto r = std::move(StereoRenderer::create({2})).value();
+    ASSERT_TRUE(r->prepareReprojection(s).isOk());
+    for (StereoRigDesc desc : allRigs()) {
+        StereoRig rig = *StereoRig::create(center, desc);
+        StereoOptions options;
+        options.method = Method::kReproject;
+        StereoFrame planes, colorOnly;
+        r->renderPair(s, rig, options, &planes);
+        options.writeDepthAndIds = false;
+        StereoFrameStats stats = r->renderPair(s, rig, options, &colorOnly);
+        EXPECT_GT(stats.holePixels, 0) << rigName(desc);
+        EXPECT_TRUE(colorOnly.eye(rig.secondEye()).depth.empty()) << rigName(desc);
+        for (Eye e : {Eye::kLeft, Eye::kRight})
+            EXPECT_TRUE(colorOnly.eye(e).color == planes.eye(e).color) << rigName(desc);
+        EXPECT_TRUE(colorOnly.holeClass == planes.holeClass) << rigName(desc);
+    }
+}
+
 TEST(Fill, MethodNamesAndPreparation) {
     EXPECT_EQ(*parseMethod("reproject"), Method::kReproject);
     EXPECT_STREQ(methodName(Method::kReproject), "reproject");

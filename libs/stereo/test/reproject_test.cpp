@@ -354,6 +354,33 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
         EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
         EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
         EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+
+        // A second eye shown as colour only: colour and mask everywhere, depth and ID where the
+        // hole search reads them (hole pixels and their row neighbours), the rest untouched.
+        SecondEye lean(w, h);
+        lean.buffers.depth.view().fill(-7.0f);
+        lean.buffers.id.view().fill(0xdeadu);
+        SecondEyeTargets leanTargets = lean.targets();
+        leanTargets.depthAndIds = false;
+        ASSERT_TRUE(reproject(firstTargets(first), line, leanTargets, &pool).isOk());
+        EXPECT_TRUE(lean.buffers.color == expected.buffers.color) << line.perInvW;
+        EXPECT_TRUE(lean.holeMask == expected.holeMask) << line.perInvW;
+        int holes = 0, untouched = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                auto isHole = [&](int c) { return c >= 0 && c < w && expected.holeMask.at(c, y); };
+                if (isHole(x)) {
+                    ++holes;
+                    EXPECT_EQ(lean.buffers.depth.at(x, y), 0.0f);
+                    EXPECT_EQ(lean.buffers.id.at(x, y), 0u);
+                } else if (isHole(x - 1) || isHole(x + 1)) {
+                    EXPECT_EQ(lean.buffers.id.at(x, y), expected.buffers.id.at(x, y));
+                } else {
+                    untouched += lean.buffers.id.at(x, y) == 0xdeadu;
+                }
+            }
+        EXPECT_GT(holes, 0);
+        EXPECT_GT(untouched, 0);
     }
 }
 

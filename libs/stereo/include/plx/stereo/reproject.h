@@ -14,9 +14,10 @@
 // tx = floor(x + 0.5 + offset). With offset 0 that is x itself, so zero separation reproduces the
 // first eye bit for bit. Pixels landing outside [0, width) are dropped.
 //
-// Collisions (Fu section 2, Fig. 3). A pixel is written when nothing landed there yet or its 1/w
-// is strictly larger (nearer) than what is there; on equal 1/w the first eye's pixel with the
-// smaller column wins (rows are processed left to right). Cleared first-eye pixels (1/w = 0,
+// Collisions (Fu section 2, Fig. 3). The nearest pixel (largest 1/w) that lands in a pixel is
+// kept. Two pixels of equal 1/w never land in one pixel (their positions differ by their column
+// distance), so the result is unique; it is reached without comparing depths by walking each row
+// in occlusion-compatible order (reproject.cpp). Cleared first-eye pixels (1/w = 0,
 // ID 0: nothing drawn, infinitely far) move too, by b, so the background is carried over and
 // only pixels nothing lands on are holes: depth 0, ID 0, colour {0,0,0,0}, hole mask 1.
 
@@ -82,12 +83,17 @@ struct FirstEyeTargets {
     ImageView<const uint32_t> id;  // triangle index + 1, 0 = none
 };
 
-// The second eye's targets, all written (every pixel of every row) by reproject().
+// The second eye's targets. reproject() writes colour and the hole mask at every pixel; depth and
+// ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
+// pixels and the landed ID beside each hole segment's ends (classifyHoles), leaving the rest as
+// it was. A pair whose second eye is shown as colour only skips the two planes' 7.4 MB of
+// writes at 1280x720.
 struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;
     ImageView<uint32_t> id;
     ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0
+    bool depthAndIds = true;
 };
 
 // Reprojects the first eye into the second with the direct form (one multiply-add per pixel).

@@ -18,6 +18,9 @@ namespace {
 // 1/w in float across the screen, a few ulps (~1e-6 relative) off the exact value a box bounds;
 // 1/1024 keeps every skip a true one and costs only boxes almost touching the filled surface.
 constexpr float kHiddenSlack = 1.0f / 1024.0f;
+// Relative slack on the front bound: the surrounding pixels' 1/w is sampled at their centres, a
+// fraction of a pixel from the hole, on surfaces that may slope towards the eye.
+constexpr float kFrontSlack = 1.0f / 64.0f;
 
 class BoxSearch {
 public:
@@ -29,6 +32,9 @@ public:
           mNearPlane(frame.camera.desc().nearPlane) {
         const Mat4& m = frame.camera.clipFromWorld();
         mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
+        // The surrounding polygons' clip w, less the slack: geometry whose farthest w is below it
+        // lies wholly in front of them.
+        mFrontW = frame.frontInvW > 0.0f ? (1.0f - kFrontSlack) / frame.frontInvW : 0.0f;
         for (const PixelSpan& s : spans) mOpen += s.x1 - s.x0 + 1;
     }
 
@@ -45,7 +51,9 @@ public:
             const uint32_t index = stack[--top];
             const scene::BoxNode& node = boxes.node(index);
             ++mStats->boxNodesTested;
-            if (!mFrustum.mayCoverBox(node.box) || hidden(nearestW(node.box))) continue;
+            if (!mFrustum.mayCoverBox(node.box) || hidden(nearestW(node.box)) ||
+                farthestW(node.box) < mFrontW)
+                continue;
             if (node.isLeaf()) {
                 for (uint32_t i = node.first; i < node.first + node.count; ++i) visitTriangle(i);
                 continue;
@@ -67,6 +75,9 @@ private:
         const std::span<const Vec3> corners(mFrame.fill.boxCorners.data() + 3 * size_t(entry), 3);
         ++mStats->polygonsTested;
         if (!mFrustum.mayCoverPoints(corners)) return;
+        if (mFrontW > 0.0f &&
+            std::max({clipW(corners[0]), clipW(corners[1]), clipW(corners[2])}) < mFrontW)
+            return;
         if (mOpen == 0) {
             float w = std::numeric_limits<float>::infinity();
             for (const Vec3& c : corners) w = std::min(w, clipW(c));
@@ -108,6 +119,12 @@ private:
                mRowW.y * (mRowW.y >= 0.0f ? b.lo.y : b.hi.y) +
                mRowW.z * (mRowW.z >= 0.0f ? b.lo.z : b.hi.z) + mRowW.w;
     }
+    // Largest clip w over a box.
+    float farthestW(const Aabb& b) const {
+        return mRowW.x * (mRowW.x >= 0.0f ? b.hi.x : b.lo.x) +
+               mRowW.y * (mRowW.y >= 0.0f ? b.hi.y : b.lo.y) +
+               mRowW.z * (mRowW.z >= 0.0f ? b.hi.z : b.lo.z) + mRowW.w;
+    }
     static float distance2(const Aabb& b, const Vec3& eye) {
         const Vec3 d = b.center() - eye;
         return d.x * d.x + d.y * d.y + d.z * d.z;
@@ -130,6 +147,7 @@ private:
     scene::RectFrustum mFrustum;
     float mNearPlane;
     Vec4 mRowW;
+    float mFrontW = 0.0f;
     int64_t mOpen = 0;
     float mFarthest = 0.0f;
 };

@@ -17,6 +17,11 @@ struct BoxSearchFrame {
     const Camera& camera;
     const raster::RenderOptions& render;  // colorOnly false
     const raster::RenderTargets& targets;
+    // Fu's search runs "from the polygons surrounding the hole towards the back": geometry
+    // wholly nearer than the nearest of them (1/w above frontInvW, with a slack) is skipped.
+    // 0: no bound (holes at the image border, where a pole entering the view lies in front of
+    // everything around the hole it opens).
+    float frontInvW = 0.0f;
 };
 
 // Draws into the pixels of `spans` (row order, one hole piece, every pixel holding ID 0) the

@@ -46,6 +46,33 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
     return fill;
 }
 
+bool trianglesOfOneSurface(const scene::Scene& scene, uint32_t a, uint32_t b) {
+    if (a == b || a >= scene.triangleCount() || b >= scene.triangleCount()) return false;
+    auto corners = [&](uint32_t t) {
+        const size_t mesh = scene.meshOfTriangle(t);
+        const scene::Mesh& m = scene.meshes[mesh];
+        const size_t local = t - scene.firstTriangle(mesh);
+        return std::array<Vec3, 3>{m.positions[m.indices[3 * local]],
+                                   m.positions[m.indices[3 * local + 1]],
+                                   m.positions[m.indices[3 * local + 2]]};
+    };
+    const std::array<Vec3, 3> ca = corners(a), cb = corners(b);
+    int shared = 0;
+    for (const Vec3& p : ca) shared += p == cb[0] || p == cb[1] || p == cb[2];
+    if (shared >= 2) return true;
+    // One plane: b's corners within a small fraction of the triangles' size of a's plane.
+    const Vec3 normal = cross(ca[1] - ca[0], ca[2] - ca[0]);
+    const float area2 = length(normal);
+    if (!(area2 > 0.0f)) return false;
+    float size = 0.0f;
+    for (int k = 0; k < 3; ++k)
+        size = std::max({size, length(ca[k] - ca[(k + 1) % 3]), length(cb[k] - cb[(k + 1) % 3])});
+    const float tolerance = kOneSurfacePlaneTolerance * size;
+    for (const Vec3& p : cb)
+        if (std::fabs(dot(normal, p - ca[0])) / area2 > tolerance) return false;
+    return true;
+}
+
 // A split triangle drawn into the current piece, and how many of its fragments the walk has yet
 // to pass; while that is above 0 the pixels it covers stay open (fill.h: split triangles). A
 // triangle of one fragment is reached once, so it needs no entry.
@@ -87,6 +114,7 @@ struct FillFrame {
     const Camera& camera;
     const FillOptions& options;
     const SecondEyeTargets& second;
+    const HoleSet& holes;
     raster::RenderTargets targets;
     ImageView<uint8_t> holeClass;
 };
@@ -99,13 +127,22 @@ public:
         mSlot.spans.assign(piece.begin(), piece.end());
         mSlot.drawn.clear();
         mOpen = pixels;
-        if (hole.holeClass == HoleClass::kExpansion) drawExpansion(hole.polygonId - 1);
+        if (hole.holeClass == HoleClass::kExpansion) {
+            if (hole.polygonCount <= 1) {
+                drawExpansion(hole.polygonId - 1);
+            } else {
+                const SurfacePolygons polygons = surfacePolygons(hole);
+                for (int i = 0; i < polygons.count && mOpen > 0; ++i)
+                    drawExpansion(polygons.ids[size_t(i)] - 1);
+            }
+        }
         if (mOpen > 0) {
             if (mFrame.options.search == FillSearch::kBspOrder) {
                 search();
             } else {
-                const BoxSearchFrame frame{mFrame.scene, mFrame.fill, mFrame.camera,
-                                           mFrame.options.render, mFrame.targets};
+                const BoxSearchFrame frame{mFrame.scene,   mFrame.fill,
+                                           mFrame.camera,  mFrame.options.render,
+                                           mFrame.targets, nearestNeighbourInvW(hole)};
                 searchBoxHierarchy(frame, mSlot.spans, &mSlot.stats);
             }
         }
@@ -113,6 +150,41 @@ public:
     }
 
 private:
+    struct SurfacePolygons {
+        std::array<uint32_t, kMaxSurfacePolygons> ids{};
+        int count = 0;
+    };
+    // The distinct IDs beside the ends of an expansion hole's segments: the triangles
+    // classifyHoles joined into it.
+    SurfacePolygons surfacePolygons(const Hole& hole) const {
+        SurfacePolygons out;
+        auto add = [&](uint32_t id) {
+            for (int i = 0; i < out.count; ++i)
+                if (out.ids[size_t(i)] == id) return;
+            if (id != 0 && out.count < kMaxSurfacePolygons) out.ids[size_t(out.count++)] = id;
+        };
+        for (int32_t s = hole.firstSegment; s < hole.firstSegment + hole.segmentCount; ++s) {
+            const HoleSegment& seg = mFrame.holes.segments[size_t(s)];
+            if (seg.xStart > 0) add(mFrame.targets.id.at(seg.xStart - 1, seg.y));
+            if (seg.xEnd + 1 < mFrame.camera.width())
+                add(mFrame.targets.id.at(seg.xEnd + 1, seg.y));
+        }
+        return out;
+    }
+
+    // The largest 1/w beside the ends of the hole's segments: the nearest of the polygons
+    // surrounding it. 0 for a hole at the image border (no front bound, box_search.h).
+    float nearestNeighbourInvW(const Hole& hole) const {
+        if (hole.box.x0 == 0 || hole.box.x1 == mFrame.camera.width() - 1) return 0.0f;
+        float nearest = 0.0f;
+        for (int32_t s = hole.firstSegment; s < hole.firstSegment + hole.segmentCount; ++s) {
+            const HoleSegment& seg = mFrame.holes.segments[size_t(s)];
+            nearest = std::max({nearest, mFrame.targets.depth.at(seg.xStart - 1, seg.y),
+                                mFrame.targets.depth.at(seg.xEnd + 1, seg.y)});
+        }
+        return nearest;
+    }
+
     // The paper's expansion fill, by evaluation: the hole's one polygon over its segments.
     void drawExpansion(uint32_t triangle) {
         int64_t written =
@@ -318,8 +390,13 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
     }
     FillOptions drawOptions = options;
     drawOptions.render.colorOnly = false;
-    FillFrame frame{scene,       fill,   camera,
-                    drawOptions, second, {second.color, second.depth, second.id, {}},
+    FillFrame frame{scene,
+                    fill,
+                    camera,
+                    drawOptions,
+                    second,
+                    holes,
+                    {second.color, second.depth, second.id, {}},
                     holeClass};
     if (!scratch->mFrame) scratch->mFrame = std::make_unique<FillScratch::Frame>();
     FillScratch::Frame& pieces = *scratch->mFrame;

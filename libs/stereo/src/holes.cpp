@@ -1,6 +1,11 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <emmintrin.h>
+#endif
 
 #include <plx/core/check.h>
 #include <plx/stereo/holes.h>
@@ -20,8 +25,22 @@ int32_t findRoot(std::vector<int32_t>& parent, int32_t h) {
     return root;
 }
 
-// The first column >= x whose mask byte is not zero, or width.
+// The first column >= x whose mask byte is not zero, or width. Hole pixels are a few percent of a
+// frame, so the zero bytes between them are skipped 64 at a time (SSE2) or 8 at a time.
 int nextNonZero(const uint8_t* m, int x, int width) {
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    const __m128i zero = _mm_setzero_si128();
+    auto load = [&](int at) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(m + at)); };
+    for (; x + 64 <= width; x += 64) {
+        const __m128i any = _mm_or_si128(_mm_or_si128(load(x), load(x + 16)),
+                                         _mm_or_si128(load(x + 32), load(x + 48)));
+        if (_mm_movemask_epi8(_mm_cmpeq_epi8(any, zero)) != 0xffff) break;
+    }
+    for (; x + 16 <= width; x += 16) {
+        const int nonZero = ~_mm_movemask_epi8(_mm_cmpeq_epi8(load(x), zero)) & 0xffff;
+        if (nonZero != 0) return x + __builtin_ctz(unsigned(nonZero));
+    }
+#endif
     for (; x + 8 <= width; x += 8) {
         uint64_t word;
         std::memcpy(&word, m + x, sizeof word);
@@ -134,10 +153,24 @@ void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
     }
 }
 
-void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes) {
+void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes, const SameSurface& sameSurface) {
     int32_t w = id.width;
+    std::array<uint32_t, kMaxSurfacePolygons> ids;
     for (Hole& h : holes.holes) {
-        uint32_t polygon = 0;
+        // The distinct neighbour IDs; each after the first must be of one surface with one
+        // already found.
+        int count = 0;
+        auto add = [&](uint32_t neighbour) {
+            if (neighbour == 0) return false;  // no polygon to extend
+            for (int i = 0; i < count; ++i)
+                if (ids[size_t(i)] == neighbour) return true;
+            if (count > 0 && (!sameSurface || count == kMaxSurfacePolygons)) return false;
+            bool joined = count == 0;
+            for (int i = 0; i < count && !joined; ++i)
+                joined = sameSurface(ids[size_t(i)], neighbour);
+            if (joined) ids[size_t(count++)] = neighbour;
+            return joined;
+        };
         bool expansion = true;
         for (int32_t s = h.firstSegment; expansion && s < h.firstSegment + h.segmentCount; ++s) {
             const HoleSegment& seg = holes.segments[size_t(s)];
@@ -148,12 +181,11 @@ void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes) {
                 break;
             }
             const uint32_t* row = id.row(seg.y);
-            uint32_t left = row[seg.xStart - 1], right = row[seg.xEnd + 1];
-            if (polygon == 0) polygon = left;
-            expansion = left != 0 && left == polygon && right == polygon;
+            expansion = add(row[seg.xStart - 1]) && add(row[seg.xEnd + 1]);
         }
         h.holeClass = expansion ? HoleClass::kExpansion : HoleClass::kDisocclusion;
-        h.polygonId = expansion ? polygon : 0;
+        h.polygonId = expansion ? ids[0] : 0;
+        h.polygonCount = expansion ? count : 0;
     }
 }
 
@@ -179,7 +211,7 @@ void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second) {
                 color[x] = {mix(cl.r, cr.r, t), mix(cl.g, cr.g, t), mix(cl.b, cr.b, t),
                             mix(cl.a, cr.a, t)};
                 depth[x] = dl + (dr - dl) * t;
-                id[x] = h.polygonId;
+                id[x] = h.polygonCount <= 1 ? h.polygonId : (t < 0.5f ? id[xl] : id[xr]);
                 hole[x] = 0;
             }
         }

@@ -175,14 +175,17 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
 #endif
 }
 
-// Depth 0 and ID 0 at hole pixel t, and their ID at its row neighbours: what the fill and
-// classifyHoles read of a second eye whose planes are not written in full.
-void markHolePixel(const uint32_t* srcId, const int32_t* from, int w, int t, float* dstDepth,
-                   uint32_t* dstId) {
+// Depth 0 and ID 0 at hole pixel t, and their 1/w and ID at its row neighbours: what the fill,
+// classifyHoles and fillExpansionHoles read of a second eye whose planes are not written in full.
+void markHolePixel(const FirstEyeTargets& first, int y, const int32_t* from, int w, int t,
+                   float* dstDepth, uint32_t* dstId) {
     dstDepth[t] = 0.0f;
     dstId[t] = 0u;
-    if (t > 0 && from[t - 1] >= 0) dstId[t - 1] = srcId[from[t - 1]];
-    if (t + 1 < w && from[t + 1] >= 0) dstId[t + 1] = srcId[from[t + 1]];
+    for (int n : {t - 1, t + 1}) {
+        if (n < 0 || n >= w || from[n] < 0) continue;
+        dstDepth[n] = first.depth.row(y)[from[n]];
+        dstId[n] = first.id.row(y)[from[n]];
+    }
 }
 
 // One second-eye pixel from its landing: colour and hole byte; depth and ID as writeRow says.
@@ -197,8 +200,7 @@ inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& sec
         second.depth.row(y)[t] = landed ? first.depth.row(y)[s] : 0.0f;
         second.id.row(y)[t] = landed ? first.id.row(y)[s] : 0u;
     } else if (!landed) {
-        markHolePixel(first.id.row(y), from, first.color.width, t, second.depth.row(y),
-                      second.id.row(y));
+        markHolePixel(first, y, from, second.color.width, t, second.depth.row(y), second.id.row(y));
     }
 }
 
@@ -243,8 +245,7 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
             std::memcpy(hole + t, &holeWord, 4);
             if (!planes && holeWord != 0)
                 for (int k = 0; k < 4; ++k)
-                    if (from[t + k] < 0)
-                        markHolePixel(first.id.row(y), from, w, t + k, dstDepth, dstId);
+                    if (from[t + k] < 0) markHolePixel(first, y, from, w, t + k, dstDepth, dstId);
         }
     }
 #endif

@@ -123,7 +123,9 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
                                             : reproject(from, line, to, &mPool);
     PLX_CHECK(moved.isOk());
     findHoles(std::as_const(mHoleMask).view(), HoleConnectivity::k8, mHoleScratch, mHoles);
-    classifyHoles(readOnly(to.id), mHoles);
+    classifyHoles(readOnly(to.id), mHoles, [&scene](uint32_t a, uint32_t b) {
+        return trianglesOfOneSurface(scene, a - 1, b - 1);
+    });
     stats->reprojectMs = clock.elapsedMs();
 
     clock.restart();

@@ -132,6 +132,32 @@ TEST(Fill, FrontoParallelPlaneAtConvergenceHasNoHole) {
     }
 }
 
+// Triangles of one surface: the two halves of a quad (a shared edge), two quads of one plane
+// (a T-junction, no shared edge), not a quad and a box face, nor a triangle with itself.
+TEST(Fill, TrianglesOfOneSurface) {
+    scene::Scene s;
+    scene::Mesh wall, box;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&wall, {0, 0, -5}, {2, 0, 0}, {0, 2, 0}, uv);     // triangles 0, 1
+    scene::appendQuad(&wall, {2, 0, -5}, {2, 0, 0}, {0, 1, 0}, uv);     // 2, 3: same plane
+    scene::appendQuad(&wall, {2, 1, -5.5f}, {2, 0, 0}, {0, 1, 0}, uv);  // 4, 5: parallel, behind
+    box.materialIndex = 0;
+    scene::appendBox(&box, {0, 0, -3}, {0.5f, 0.5f, 0.5f}, 0.0f);
+    s.meshes = {wall, box};
+    s.materials = {{"m", {0.5f, 0.5f, 0.5f, 1}, -1}};
+    ASSERT_TRUE(s.finalize().isOk());
+    const uint32_t boxFirst = uint32_t(s.firstTriangle(1));
+    EXPECT_TRUE(trianglesOfOneSurface(s, 0, 1));
+    EXPECT_TRUE(trianglesOfOneSurface(s, 1, 0));
+    EXPECT_TRUE(trianglesOfOneSurface(s, 0, 2));
+    EXPECT_TRUE(trianglesOfOneSurface(s, 3, 1));
+    EXPECT_FALSE(trianglesOfOneSurface(s, 0, 4));
+    EXPECT_FALSE(trianglesOfOneSurface(s, 2, 5));
+    EXPECT_FALSE(trianglesOfOneSurface(s, 0, boxFirst));
+    EXPECT_FALSE(trianglesOfOneSurface(s, 0, 0));
+    EXPECT_FALSE(trianglesOfOneSurface(s, 0, uint32_t(s.triangleCount())));
+}
+
 // Boxes in front of a wall and a floor: the walls' disocclusions beside every box are drawn from
 // the wall and floor behind them, the polygon the full render shows there.
 TEST(Fill, BoxesInFrontOfWallsGetTheFullRendersPolygons) {

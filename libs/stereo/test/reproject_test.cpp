@@ -375,6 +375,7 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
                     EXPECT_EQ(lean.buffers.id.at(x, y), 0u);
                 } else if (isHole(x - 1) || isHole(x + 1)) {
                     EXPECT_EQ(lean.buffers.id.at(x, y), expected.buffers.id.at(x, y));
+                    EXPECT_EQ(lean.buffers.depth.at(x, y), expected.buffers.depth.at(x, y));
                 } else {
                     untouched += lean.buffers.id.at(x, y) == 0xdeadu;
                 }
@@ -607,6 +608,48 @@ TEST(Holes, ClassesFollowTheRowNeighboursIds) {
     EXPECT_EQ(set.holes[2].polygonId, 0u);
     EXPECT_EQ(set.holes[3].holeClass, HoleClass::kExpansion);
     EXPECT_EQ(set.holes[4].holeClass, HoleClass::kDisocclusion);  // x = 0
+    EXPECT_EQ(set.holes[0].polygonCount, 1);
+    EXPECT_EQ(set.holes[1].polygonCount, 0);
+}
+
+TEST(Holes, TrianglesOfOneSurfaceJoinACrack) {
+    // One crack, rows bordered by IDs 5|6, 6|7, 7|9: an expansion of 5, 6, 7 and 9 when the
+    // predicate chains them (6 with 5, 7 with 6, 9 with 7), else a disocclusion.
+    Image<uint8_t> m = mask({
+        "...#...",
+        "...#...",
+        "...#...",
+    });
+    Image<uint32_t> ids(7, 3, 1);
+    uint32_t left[3] = {5, 6, 7}, right[3] = {6, 7, 9};
+    for (int y = 0; y < 3; ++y) {
+        ids.at(2, y) = left[y];
+        ids.at(4, y) = right[y];
+    }
+    auto chained = [](uint32_t a, uint32_t b) { return a + 1 == b || (a == 7 && b == 9); };
+    HoleSet joined = holesOf(m);
+    classifyHoles(ro(ids), joined, chained);
+    ASSERT_EQ(joined.holes.size(), 1u);
+    EXPECT_EQ(joined.holes[0].holeClass, HoleClass::kExpansion);
+    EXPECT_EQ(joined.holes[0].polygonId, 5u);
+    EXPECT_EQ(joined.holes[0].polygonCount, 4);
+    HoleSet paper = holesOf(m);
+    classifyHoles(ro(ids), paper);
+    EXPECT_EQ(paper.holes[0].holeClass, HoleClass::kDisocclusion);
+    HoleSet broken = holesOf(m);
+    classifyHoles(ro(ids), broken, [](uint32_t a, uint32_t b) { return a + 1 == b; });
+    EXPECT_EQ(broken.holes[0].holeClass, HoleClass::kDisocclusion);  // 9 joins nothing
+    // More distinct IDs than kMaxSurfacePolygons: a disocclusion even if all are joined.
+    std::vector<std::string> rows(kMaxSurfacePolygons, "..#..");
+    Image<uint8_t> tall = mask(rows);
+    Image<uint32_t> many(5, kMaxSurfacePolygons, 1);
+    for (int y = 0; y < kMaxSurfacePolygons; ++y) {
+        many.at(1, y) = uint32_t(10 + y);
+        many.at(3, y) = uint32_t(11 + y);
+    }
+    HoleSet capped = holesOf(tall);
+    classifyHoles(ro(many), capped, [](uint32_t, uint32_t) { return true; });
+    EXPECT_EQ(capped.holes[0].holeClass, HoleClass::kDisocclusion);
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 // sketch): only the hole pixels are drawn, each from the polygons that can appear there.
 //
 // Expansion holes (a polygon seen more obliquely by the second eye, its pixels spread apart)
-// are drawn from their one polygon (HoleSet's polygonId): drawTriangleInSpans over the hole's
+// are drawn from their one polygon (HoleSet's polygonId), or from each of the triangles of one
+// surface that classifyHoles joined (trianglesOfOneSurface): drawTriangleInSpans over the hole's
 // segments evaluates it exactly where the paper's linear interpolation (fillExpansionHoles,
 // kept as ExpansionFill::kInterpolate) approximates it in sRGB. Evaluation is the default: with
 // Gouraud shading it gives every expansion pixel the full render's colour where interpolation
@@ -32,11 +33,11 @@
 //    (scene::RectFrustum) rather than projected enclosing boxes: a few multiply-adds per box,
 //    and they also reject what crosses the near plane beside the hole, such as the boxes of
 //    the large subtrees around the eye, which a projected box must accept.
-//  - The search starts at the root, pruned by subtree boxes, not "from the polygons surrounding
-//    the hole": what fills a hole need not be behind its neighbours. A pole entering at the image
-//    border is in front of everything around the hole it opens, and a surface revealed beside a
-//    foreground edge may lie anywhere in the tree; the pruned root walk finds both, at the cost
-//    of the nodes whose boxes reach the hole's rectangle.
+//  - The search starts at the root, pruned by subtree boxes. "From the polygons surrounding the
+//    hole to the back" holds for a hole inside the image: the box search (below) skips what lies
+//    wholly in front of the nearest surrounding pixel. It does not hold at the image border: a
+//    pole entering there is in front of everything around the hole it opens, so border holes get
+//    the whole walk. The BSP search keeps the root walk everywhere.
 //  - A split triangle is drawn whole when its first fragment is reached (its pixels equal the
 //    full render's there). Its later fragments may lie behind polygons still to come, so the
 //    pixels it covers stay open (the depth test lets a nearer polygon replace them) until every
@@ -100,6 +101,15 @@ struct FillScene {
 // Errors: those of BspTree::build and BoxHierarchy::build.
 Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp = {},
                                  const scene::BoxHierarchyConfig& boxes = {});
+
+// Whether triangles a and b (scene-global indices) are parts of one surface: they share an edge
+// (two corners of one at the positions of two corners of the other), or they lie in one plane
+// (every corner of b within kOneSurfacePlaneTolerance of the larger triangle side from a's
+// plane: the split quads, T-junctions and tiled walls of real meshes). classifyHoles takes a
+// crack between two such triangles, which the first eye saw side by side, for an expansion hole
+// of both (holes.h).
+constexpr float kOneSurfacePlaneTolerance = 1e-4f;
+bool trianglesOfOneSurface(const scene::Scene& scene, uint32_t a, uint32_t b);
 
 enum class ExpansionFill {
     kEvaluate,     // draw the hole's polygon over its segments (default)

@@ -15,6 +15,7 @@
 // and merges the holes through union-find. The holes and segments that come out are the same.
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <plx/core/image.h>
@@ -38,6 +39,9 @@ struct PixelBox {
     int32_t x0 = 0, y0 = 0, x1 = -1, y1 = -1;
 };
 
+// The most triangles classifyHoles joins into one expansion hole.
+constexpr int kMaxSurfacePolygons = 8;
+
 // Fu section 3: expansion holes lie inside one polygon; disocclusion holes show what the first
 // eye could not see.
 enum class HoleClass { kUnclassified, kExpansion, kDisocclusion };
@@ -49,6 +53,10 @@ struct Hole {
     PixelBox box;  // the enclosing box of its pixels
     HoleClass holeClass = HoleClass::kUnclassified;
     uint32_t polygonId = 0;  // expansion holes: the polygon's ID (triangle + 1); else 0
+    // Expansion holes: the distinct triangles bordering it, 1 as in the paper, up to
+    // kMaxSurfacePolygons where classifyHoles' sameSurface joined them (polygonId the first in
+    // scan order); else 0.
+    int32_t polygonCount = 0;
 };
 
 // The holes of one frame. Holes are ordered by their first pixel in scan order; each hole's
@@ -82,17 +90,24 @@ void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
 // segment reaching the left or right image border (what enters there, such as a pole at the
 // edge of the first eye's view, was never in the first eye). Pixels above and below are not
 // consulted: rows move independently, and a polygon's own top or bottom edge would otherwise
-// make its cracks disocclusions. Known limit: a crack crossing an edge between two triangles of
-// one surface borders two IDs and is a disocclusion, left to the exact fill.
+// make its cracks disocclusions.
+// Beyond the paper: the paper's polygons are whole faces, where ours are triangles, so a crack
+// across the diagonal of a quad, or running over a wall of many triangles, borders several IDs.
+// With `sameSurface` given, a hole whose neighbours are at most kMaxSurfacePolygons triangles,
+// each joined by it to one found before (in scan order), is an expansion hole of all of them
+// (polygonCount): the surface the first eye saw on both sides of the crack is continuous, as
+// inside one polygon.
 // Precondition: holes were found on a mask of id's size.
-void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes);
+using SameSurface = std::function<bool(uint32_t idA, uint32_t idB)>;
+void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes,
+                   const SameSurface& sameSurface = {});
 
 // Fills every expansion hole by linear interpolation along its rows between each segment's two
 // neighbours (Fu section 3): colour per channel and 1/w linear in the column, ID the hole's
-// polygon, hole mask cleared. Disocclusion holes are left as they are. (Evaluating the polygon
-// itself at the hole pixels is exact where this is linear in sRGB; it needs the rasterizer's
-// subset render over the hole segments, which comes with the disocclusion fill.)
-// Preconditions: holes classified by classifyHoles() on second.id; targets of one size.
+// polygon (of two, the nearer neighbour's), hole mask cleared. Disocclusion holes are left as they
+// are. (Evaluating the polygon itself at the hole pixels is exact where this is linear in sRGB; it
+// needs the rasterizer's subset render over the hole segments, which comes with the disocclusion
+// fill.) Preconditions: holes classified by classifyHoles() on second.id; targets of one size.
 void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second);
 
 }  // namespace plx::stereo

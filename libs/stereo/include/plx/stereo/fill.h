@@ -42,12 +42,13 @@
 //    full render's there). Its later fragments may lie behind polygons still to come, so the
 //    pixels it covers stay open (the depth test lets a nearer polygon replace them) until every
 //    fragment of the triangle has been passed, or the walk ends.
-//  - A hole is searched per screen tile it touches (kFillTile): the pixels of one hole in one
-//    tile form a piece with its own rectangle. A tall hole (the strip a converged rig opens at
-//    the image border) would otherwise have one rectangle reaching most of the scene, so every
-//    polygon along the strip would be tested against and drawn over all of its rows. Pieces
-//    are independent (disjoint pixels, and each pixel's result is the nearest polygon there
-//    whatever the grouping) and run in parallel, each thread with its own flags.
+//  - A hole whose box fits in a kFillTile square is searched whole; a larger one per screen
+//    tile it touches: the pixels of one hole in one tile form a piece with its own rectangle
+//    (a small hole across a tile boundary stays one piece, one walk). A tall hole (the strip a
+//    converged rig opens at the image border) would otherwise have one rectangle reaching most of
+//    the scene, so every polygon along the strip would be tested against and drawn over all of its
+//    rows. Pieces are independent (disjoint pixels, and each pixel's result is the nearest polygon
+//    there whatever the grouping) and run in parallel, each thread with its own flags.
 // FillSearch::kBoxHierarchy (the default; beyond the paper) replaces steps 1-3 and 5 by one
 // walk of the box hierarchy per piece, without the BSP order: a node is entered when its box
 // reaches the piece's frustum, children nearest box first; a leaf's triangles get the corner and

@@ -18,8 +18,7 @@ namespace {
 // 1/w in float across the screen, a few ulps (~1e-6 relative) off the exact value a box bounds;
 // 1/1024 keeps every skip a true one and costs only boxes almost touching the filled surface.
 constexpr float kHiddenSlack = 1.0f / 1024.0f;
-// Relative slack on the front bound: the surrounding pixels' 1/w is sampled at their centres, a
-// fraction of a pixel from the hole, on surfaces that may slope towards the eye.
+// Relative slack of FrontBound.
 constexpr float kFrontSlack = 1.0f / 64.0f;
 
 class BoxSearch {
@@ -29,12 +28,10 @@ public:
           mSpans(spans),
           mStats(stats),
           mFrustum(frame.camera, rectOf(spans)),
-          mNearPlane(frame.camera.desc().nearPlane) {
+          mNearPlane(frame.camera.desc().nearPlane),
+          mFront(frame.camera, frame.frontInvW) {
         const Mat4& m = frame.camera.clipFromWorld();
         mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
-        // The surrounding polygons' clip w, less the slack: geometry whose farthest w is below it
-        // lies wholly in front of them.
-        mFrontW = frame.frontInvW > 0.0f ? (1.0f - kFrontSlack) / frame.frontInvW : 0.0f;
         for (const PixelSpan& s : spans) mOpen += s.x1 - s.x0 + 1;
     }
 
@@ -52,7 +49,7 @@ public:
             const scene::BoxNode& node = boxes.node(index);
             ++mStats->boxNodesTested;
             if (!mFrustum.mayCoverBox(node.box) || hidden(nearestW(node.box)) ||
-                farthestW(node.box) < mFrontW)
+                mFront.inFront(node.box))
                 continue;
             if (node.isLeaf()) {
                 for (uint32_t i = node.first; i < node.first + node.count; ++i) visitTriangle(i);
@@ -75,9 +72,7 @@ private:
         const std::span<const Vec3> corners(mFrame.fill.boxCorners.data() + 3 * size_t(entry), 3);
         ++mStats->polygonsTested;
         if (!mFrustum.mayCoverPoints(corners)) return;
-        if (mFrontW > 0.0f &&
-            std::max({clipW(corners[0]), clipW(corners[1]), clipW(corners[2])}) < mFrontW)
-            return;
+        if (mFront.inFront(corners)) return;
         if (mOpen == 0) {
             float w = std::numeric_limits<float>::infinity();
             for (const Vec3& c : corners) w = std::min(w, clipW(c));
@@ -119,12 +114,6 @@ private:
                mRowW.y * (mRowW.y >= 0.0f ? b.lo.y : b.hi.y) +
                mRowW.z * (mRowW.z >= 0.0f ? b.lo.z : b.hi.z) + mRowW.w;
     }
-    // Largest clip w over a box.
-    float farthestW(const Aabb& b) const {
-        return mRowW.x * (mRowW.x >= 0.0f ? b.hi.x : b.lo.x) +
-               mRowW.y * (mRowW.y >= 0.0f ? b.hi.y : b.lo.y) +
-               mRowW.z * (mRowW.z >= 0.0f ? b.hi.z : b.lo.z) + mRowW.w;
-    }
     static float distance2(const Aabb& b, const Vec3& eye) {
         const Vec3 d = b.center() - eye;
         return d.x * d.x + d.y * d.y + d.z * d.z;
@@ -147,12 +136,35 @@ private:
     scene::RectFrustum mFrustum;
     float mNearPlane;
     Vec4 mRowW;
-    float mFrontW = 0.0f;
+    FrontBound mFront;
     int64_t mOpen = 0;
     float mFarthest = 0.0f;
 };
 
 }  // namespace
+
+FrontBound::FrontBound(const Camera& camera, float frontInvW) {
+    if (!(frontInvW > 0.0f)) return;
+    const Mat4& m = camera.clipFromWorld();
+    mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
+    mFrontW = (1.0f - kFrontSlack) / frontInvW;
+}
+
+bool FrontBound::inFront(const Aabb& b) const {
+    if (mFrontW == 0.0f) return false;
+    // The box's farthest corner along the clip-w row.
+    const float farthest = mRowW.x * (mRowW.x >= 0.0f ? b.hi.x : b.lo.x) +
+                           mRowW.y * (mRowW.y >= 0.0f ? b.hi.y : b.lo.y) +
+                           mRowW.z * (mRowW.z >= 0.0f ? b.hi.z : b.lo.z) + mRowW.w;
+    return farthest < mFrontW;
+}
+
+bool FrontBound::inFront(std::span<const Vec3> points) const {
+    if (mFrontW == 0.0f) return false;
+    for (const Vec3& p : points)
+        if (clipW(p) >= mFrontW) return false;
+    return true;
+}
 
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const PixelSpan> spans,
                         FillStats* stats) {

@@ -10,6 +10,25 @@
 
 namespace plx::stereo {
 
+// Fu section 3: "polygons visible through the hole lie certainly behind the polygons surrounding
+// the hole". Geometry whose farthest clip w is below the nearest surrounding pixel's w, less a
+// slack (the pixels' 1/w is sampled at their centres, a fraction of a pixel from the hole, on
+// surfaces that may slope towards the eye), lies wholly in front of them and is skipped.
+class FrontBound {
+public:
+    // frontInvW: the largest 1/w beside the hole; 0 for no bound.
+    FrontBound(const Camera& camera, float frontInvW);
+    bool inFront(const Aabb& box) const;
+    bool inFront(std::span<const Vec3> points) const;
+
+private:
+    float clipW(const Vec3& p) const {
+        return mRowW.x * p.x + mRowW.y * p.y + mRowW.z * p.z + mRowW.w;
+    }
+    Vec4 mRowW{0.0f};
+    float mFrontW = 0.0f;  // 0: nothing is in front
+};
+
 // What one search reads and writes besides its spans.
 struct BoxSearchFrame {
     const scene::Scene& scene;
@@ -17,10 +36,8 @@ struct BoxSearchFrame {
     const Camera& camera;
     const raster::RenderOptions& render;  // colorOnly false
     const raster::RenderTargets& targets;
-    // Fu's search runs "from the polygons surrounding the hole towards the back": geometry
-    // wholly nearer than the nearest of them (1/w above frontInvW, with a slack) is skipped.
-    // 0: no bound (holes at the image border, where a pole entering the view lies in front of
-    // everything around the hole it opens).
+    // FrontBound's 1/w: 0 for holes at the image border, where a pole entering the view lies in
+    // front of everything around the hole it opens.
     float frontInvW = 0.0f;
 };
 

@@ -138,7 +138,7 @@ public:
         }
         if (mOpen > 0) {
             if (mFrame.options.search == FillSearch::kBspOrder) {
-                search();
+                search(FrontBound(mFrame.camera, nearestNeighbourInvW(hole)));
             } else {
                 const BoxSearchFrame frame{mFrame.scene,   mFrame.fill,
                                            mFrame.camera,  mFrame.options.render,
@@ -199,15 +199,15 @@ private:
         shrink();
     }
 
-    // Steps 1-5 of fill.h over the open segments.
-    void search() {
+    // Steps 1-5 of fill.h over the open segments, from the polygons surrounding the hole back.
+    void search(const FrontBound& front) {
         const scene::RectFrustum frustum(mFrame.camera, openRect());
         scene::HoleQueryStats query;
         mFrame.fill.boxes.markHole(frustum, &mSlot.flags, &query);
         mSlot.stats.boxNodesTested += query.nodesTested;
         const scene::BspTree& bsp = mFrame.fill.bsp;
         auto acceptSubtree = [&](int32_t, const Aabb& box) {
-            return !box.isEmpty() && frustum.mayCoverBox(box);
+            return !box.isEmpty() && frustum.mayCoverBox(box) && !front.inFront(box);
         };
         auto visit = [&](uint32_t fragment) {
             const uint32_t tri = bsp.fragment(fragment).sourceTriangle;
@@ -222,6 +222,9 @@ private:
             }
             ++mSlot.stats.polygonsTested;
             if (!frustum.mayCoverPoints(bsp.fragmentVertices(fragment))) return true;
+            // Wholly in front of the surrounding polygons (after the bookkeeping above, so that a
+            // drawn split triangle still counts this fragment as passed).
+            if (front.inFront(bsp.fragmentVertices(fragment))) return true;
             if (!polygonMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans))
                 return true;
             ++mSlot.stats.polygonsDrawn;

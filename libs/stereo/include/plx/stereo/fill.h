@@ -33,11 +33,11 @@
 //    (scene::RectFrustum) rather than projected enclosing boxes: a few multiply-adds per box,
 //    and they also reject what crosses the near plane beside the hole, such as the boxes of
 //    the large subtrees around the eye, which a projected box must accept.
-//  - The search starts at the root, pruned by subtree boxes. "From the polygons surrounding the
-//    hole to the back" holds for a hole inside the image: the box search (below) skips what lies
-//    wholly in front of the nearest surrounding pixel. It does not hold at the image border: a
-//    pole entering there is in front of everything around the hole it opens, so border holes get
-//    the whole walk. The BSP search keeps the root walk everywhere.
+//  - The search starts at the root, pruned by subtree boxes, and "from the polygons surrounding
+//    the hole to the back" becomes a bound: subtrees, boxes and fragments wholly in front of the
+//    nearest pixel around a hole are skipped (both searches). It does not hold at the image
+//    border: a pole entering there is in front of everything around the hole it opens, so holes
+//    touching the border get the whole walk.
 //  - A split triangle is drawn whole when its first fragment is reached (its pixels equal the
 //    full render's there). Its later fragments may lie behind polygons still to come, so the
 //    pixels it covers stay open (the depth test lets a nearer polygon replace them) until every

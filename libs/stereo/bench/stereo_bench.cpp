@@ -466,7 +466,9 @@ void BM_FillHoles(benchmark::State& state) {
                                 stereo::disparityLine(f.rig), t, &pool);
         stereo::findHoles(std::as_const(mask).view(), stereo::HoleConnectivity::k8, holeScratch,
                           holes);
-        stereo::classifyHoles(std::as_const(second.id).view(), holes);
+        stereo::classifyHoles(std::as_const(second.id).view(), holes, [&f](uint32_t a, uint32_t b) {
+            return stereo::trianglesOfOneSurface(f.scene, a - 1, b - 1);
+        });
         cls.view().fill(0);
         state.ResumeTiming();
         Stopwatch clock;

@@ -264,7 +264,10 @@ TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
         HoleScratch hs;
         HoleSet holes;
         findHoles(std::as_const(mask).view(), HoleConnectivity::k8, hs, holes);
-        classifyHoles(std::as_const(second.id).view(), holes);
+        // As the pair classifies: cracks over triangles of one surface are expansion holes too.
+        classifyHoles(std::as_const(second.id).view(), holes, [&s](uint32_t a, uint32_t b) {
+            return trianglesOfOneSurface(s, a - 1, b - 1);
+        });
         Image<uint8_t> holeMask = mask;  // fillExpansionHoles clears the mask it fills
         FillOptions options;
         options.expansion = mode;

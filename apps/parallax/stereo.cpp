@@ -23,6 +23,7 @@ struct StereoArgs {
     std::string method = "pbuffer";
     bool conservative = false;
     bool reprojectLut = false;
+    bool surroundingFirst = false;
     float separation = 0.065f;
     float convergence = 3.0f;
     std::string rig = "toe-in";
@@ -60,6 +61,9 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     if (a.reprojectLut && *method != stereo::Method::kReproject)
         return errorStatus(ErrorCode::kInvalidArgument,
                            "--reproject-lut applies to --method reproject only");
+    if (a.surroundingFirst && *method != stereo::Method::kReproject)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "--surrounding-first applies to --method reproject only");
     auto rigType = parseStereoRigType(a.rig);
     if (!rigType) return rigType.status();
     auto layout = stereo::parseLayout(a.format);
@@ -81,6 +85,7 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     p.options.method = *method;
     p.options.conservative = a.conservative;
     p.options.reprojectWithLut = a.reprojectLut;
+    p.options.reprojectSurroundingFirst = a.surroundingFirst;
     p.options.render.shading = *shading;
     p.rig.type = *rigType;
     p.rig.separation = a.separation;
@@ -348,6 +353,7 @@ int runStereo(const StereoArgs& a) {
         {"method", stereo::methodName(p->options.method)},
         {"conservative", p->options.conservative},
         {"reproject_lut", p->options.reprojectWithLut},
+        {"surrounding_first", p->options.reprojectSurroundingFirst},
         {"rig", p->rig.type == StereoRigType::kConverged ? "toe-in" : "parallel"},
         {"separation", p->rig.separation},
         {"convergence", p->rig.convergence},
@@ -410,6 +416,9 @@ Command registerStereo(CLI::App& app) {
     sub->add_flag("--reproject-lut", a->reprojectLut,
                   "reproject: offsets from a look-up table over depth (Fu, Bao, Peng) instead of "
                   "a division per pixel");
+    sub->add_flag("--surrounding-first", a->surroundingFirst,
+                  "reproject: fill disocclusion holes from the polygons around them first, "
+                  "searching only what they leave open (faster, approximate)");
     sub->add_option("--separation", a->separation, "Eye separation e (scene units)")
         ->capture_default_str();
     sub->add_option("--convergence", a->convergence, "Convergence distance c (scene units)")

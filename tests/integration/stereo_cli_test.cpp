@@ -84,13 +84,14 @@ TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
     }
     fs::path prefix = stereoDir() / "reproject_walk";
     RunResult r = runParallax(
-        "stereo office:2 --method reproject --reproject-lut --walk 2 "
+        "stereo office:2 --method reproject --reproject-lut --surrounding-first --walk 2 "
         "--size 48x32 --frames 1 --out " +
         prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     EXPECT_EQ(doc["poses"], 2);
     EXPECT_TRUE(doc["reproject_lut"].get<bool>());
+    EXPECT_TRUE(doc["surrounding_first"].get<bool>());
     ASSERT_EQ(doc["per_pose"].size(), 2u);
     EXPECT_TRUE(doc["per_pose"][1].contains("hole_pixels"));
     EXPECT_TRUE(fs::exists(prefix.string() + "_0001.left.png"));
@@ -127,6 +128,8 @@ TEST(StereoCli, BadParametersGiveOneLineErrors) {
                        "--conservative", 2);
     expectOneLineError(runParallax("stereo office:1 --method pbuffer --reproject-lut" + out),
                        "--reproject-lut", 2);
+    expectOneLineError(runParallax("stereo office:1 --method full --surrounding-first" + out),
+                       "--surrounding-first", 2);
     expectOneLineError(runParallax("stereo office:1 --format hologram" + out), "hologram", 2);
     expectOneLineError(runParallax("stereo office:1 --rig sideways" + out), "sideways", 2);
     for (const char* frames : {"0", "-1", "abc", "100001"})

@@ -346,10 +346,11 @@ BENCHMARK(BM_FillExpansionHoles)->Unit(benchmark::kMicrosecond)->UseManualTime()
 // The comparison (Fu, Bao, Peng against Heo, Jung, Wohn): office:N at 1280x720 with the
 // default converged rig and 2 threads; each iteration renders the full, the P-buffer and the
 // reproject pair in turn (alternated in one process, colour only as a display needs), and the
-// manual time is the reproject second eye; Arg(1) == 1 fills by the BSP search (fill.h). Counters:
-// each method's eye times in ms, the reproject parts, the holes, and, from one extra frame with
-// depth and IDs, the reproject second eye's PSNR and identical-pixel fraction against the full
-// render of that eye.
+// manual time is the reproject second eye; Arg(1) == 1 fills by the BSP search (fill.h), Arg(2) ==
+// 1 draws the polygons around each disocclusion hole first (FillOptions::surroundingFirst).
+// Counters: each method's eye times in ms, the reproject parts, the holes, and, from one extra
+// frame with depth and IDs, the reproject second eye's PSNR and identical-pixel fraction against
+// the full render of that eye.
 struct PairFixture {
     scene::Scene scene;
     StereoRig rig;
@@ -365,10 +366,12 @@ struct PairFixture {
         prepareMs = renderer->lastPrepareMs();
     }
     stereo::FillSearch search = stereo::FillSearch::kBoxHierarchy;
+    bool surroundingFirst = false;
     stereo::StereoFrameStats pair(stereo::Method method, bool planes = false) {
         stereo::StereoOptions options;
         options.method = method;
         options.fillSearch = search;
+        options.reprojectSurroundingFirst = surroundingFirst;
         options.writeDepthAndIds = planes;
         return renderer->renderPair(scene, rig, options, &frame);
     }
@@ -377,6 +380,7 @@ struct PairFixture {
 void BM_SecondEyeMethods(benchmark::State& state) {
     PairFixture f(int(state.range(0)));
     if (state.range(1) == 1) f.search = stereo::FillSearch::kBspOrder;
+    f.surroundingFirst = state.range(2) == 1;
     double fullFirst = 0, fullSecond = 0, pbufferSecond = 0, reprojectSecond = 0;
     double reprojectMs = 0, fillMs = 0, reprojectFirst = 0, fullPair = 0, reprojectPair = 0;
     stereo::StereoFrameStats last;
@@ -422,8 +426,8 @@ void BM_SecondEyeMethods(benchmark::State& state) {
     state.counters["identical"] = 1.0 - q.differingFraction;
 }
 BENCHMARK(BM_SecondEyeMethods)
-    ->ArgsProduct({{3, 28, 280}, {0, 1}})
-    ->ArgNames({"rooms", "bsp"})
+    ->ArgsProduct({{3, 28, 280}, {0, 1}, {0, 1}})
+    ->ArgNames({"rooms", "bsp", "surround"})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime();
 

@@ -136,6 +136,9 @@ public:
                     drawExpansion(polygons.ids[size_t(i)] - 1);
             }
         }
+        if (mOpen > 0 && hole.holeClass == HoleClass::kDisocclusion &&
+            mFrame.options.surroundingFirst)
+            drawSurroundingPolygons(hole);
         if (mOpen > 0) {
             if (mFrame.options.search == FillSearch::kBspOrder) {
                 search(FrontBound(mFrame.camera, nearestNeighbourInvW(hole)));
@@ -154,8 +157,8 @@ private:
         std::array<uint32_t, kMaxSurfacePolygons> ids{};
         int count = 0;
     };
-    // The distinct IDs beside the ends of an expansion hole's segments: the triangles
-    // classifyHoles joined into it.
+    // The distinct IDs (at most kMaxSurfacePolygons) beside the ends of a hole's segments: for an
+    // expansion hole the triangles classifyHoles joined into it.
     SurfacePolygons surfacePolygons(const Hole& hole) const {
         SurfacePolygons out;
         auto add = [&](uint32_t id) {
@@ -170,6 +173,19 @@ private:
                 add(mFrame.targets.id.at(seg.xEnd + 1, seg.y));
         }
         return out;
+    }
+
+    // FillOptions::surroundingFirst: the polygons around the hole over its open pixels, each
+    // pixel final when first covered.
+    void drawSurroundingPolygons(const Hole& hole) {
+        const SurfacePolygons polygons = surfacePolygons(hole);
+        for (int i = 0; i < polygons.count && mOpen > 0; ++i) {
+            ++mSlot.stats.polygonsDrawn;
+            if (raster::drawTriangleInSpans(mFrame.scene, polygons.ids[size_t(i)] - 1,
+                                            mFrame.camera, mFrame.options.render, mFrame.targets,
+                                            mSlot.spans) > 0)
+                shrink();
+        }
     }
 
     // The largest 1/w beside the ends of the hole's segments: the nearest of the polygons

@@ -133,6 +133,7 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     FillOptions fillOptions;
     fillOptions.render = firstOptions;
     fillOptions.search = options.fillSearch;
+    fillOptions.surroundingFirst = options.reprojectSurroundingFirst;
     FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to,
                                  frame->holeClass.view(), &mFillScratch, &mPool);
     stats->fillMs = clock.elapsedMs();

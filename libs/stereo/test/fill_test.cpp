@@ -239,6 +239,33 @@ TEST(Fill, OfficeSecondEyeIsAlmostTheFullRender) {
     }
 }
 
+// The surrounding polygons first (beyond the paper, approximate): every hole pixel still gets a
+// class, at most 1% of the office's second eye differs from the full render and its PSNR stays
+// within 3 dB of the exact fill's (it falls to 37.8-37.9 dB here, under the 38 dB the default
+// meets: the reason it is an option), and the search runs for fewer box nodes.
+TEST(Fill, SurroundingPolygonsFirstStayCloseWithLessSearch) {
+    scene::Scene s = *scene::generateOffice(4);
+    Camera center = *scene::cameraAt(s, s.viewpoints.front(), 640, 480);
+    for (StereoRigDesc desc : allRigs()) {
+        StereoRig rig = *StereoRig::create(center, desc);
+        StereoOptions exactOptions, fastOptions;
+        fastOptions.reprojectSurroundingFirst = true;
+        Pairs exact(s, rig, exactOptions), fast(s, rig, fastOptions);
+        std::string what = rigName(desc);
+        ASSERT_GT(fast.stats.disocclusionHoles, 0u) << what;
+        for (size_t i = 0; i < fast.reprojected.holeClass.pixelCount(); ++i)
+            ASSERT_EQ(fast.reprojected.holeClass.data()[i] == uint8_t(PixelSource::kReprojected),
+                      exact.reprojected.holeClass.data()[i] == uint8_t(PixelSource::kReprojected))
+                << what;
+        SecondEyeQuality q = compareSecondEye(fast.mine(), fast.theirs(), {});
+        SecondEyeQuality qExact = compareSecondEye(exact.mine(), exact.theirs(), {});
+        EXPECT_LE(q.differingFraction, 0.01) << what;
+        EXPECT_GE(q.psnrDb, qExact.psnrDb - 3.0) << what;
+        EXPECT_LE(q.psnrDb, qExact.psnrDb) << what;
+        EXPECT_LT(fast.stats.fillNodesVisited, exact.stats.fillNodesVisited) << what;
+    }
+}
+
 // Expansion holes by evaluation or interpolation: both fill every hole pixel; evaluation gives
 // the polygon's exact colour, so it is at least as close to the full render.
 TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {

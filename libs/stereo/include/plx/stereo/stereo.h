@@ -46,6 +46,8 @@ struct StereoOptions {
     bool reprojectWithLut = false;
     // reproject method: the disocclusion search (fill.h); the BSP order is the paper's.
     FillSearch fillSearch = FillSearch::kBoxHierarchy;
+    // reproject method: FillOptions::surroundingFirst (fill.h), faster and approximate.
+    bool reprojectSurroundingFirst = false;
 };
 
 // Per second-eye pixel, how the reproject method produced it (StereoFrame::holeClass).

@@ -295,6 +295,9 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
                        landings.from.data());
             writeRow(first, second, int(y), landings.from.data());
         }
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        _mm_sfence();  // streaming stores are weakly ordered: complete them before the join
+#endif
     };
     size_t rows = size_t(first.color.height);
     if (pool)

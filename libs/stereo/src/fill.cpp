@@ -20,6 +20,19 @@ namespace plx::stereo {
 
 using raster::PixelSpan;
 
+namespace {
+
+// The corners of scene-global triangle t.
+std::array<Vec3, 3> triangleCorners(const scene::Scene& scene, uint32_t t) {
+    const size_t mesh = scene.meshOfTriangle(t);
+    const scene::Mesh& m = scene.meshes[mesh];
+    const size_t local = t - scene.firstTriangle(mesh);
+    return {m.positions[m.indices[3 * local]], m.positions[m.indices[3 * local + 1]],
+            m.positions[m.indices[3 * local + 2]]};
+}
+
+}  // namespace
+
 Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp,
                                  const scene::BoxHierarchyConfig& boxes) {
     FillScene fill;
@@ -37,26 +50,15 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
     const std::vector<uint32_t>& order = fill.boxes.triangles();
     fill.boxCorners.resize(3 * order.size());
     for (size_t i = 0; i < order.size(); ++i) {
-        const size_t mesh = scene.meshOfTriangle(order[i]);
-        const scene::Mesh& m = scene.meshes[mesh];
-        const size_t local = order[i] - scene.firstTriangle(mesh);
-        for (size_t k = 0; k < 3; ++k)
-            fill.boxCorners[3 * i + k] = m.positions[m.indices[3 * local + k]];
+        const std::array<Vec3, 3> corners = triangleCorners(scene, order[i]);
+        std::copy(corners.begin(), corners.end(), fill.boxCorners.begin() + 3 * ptrdiff_t(i));
     }
     return fill;
 }
 
 bool trianglesOfOneSurface(const scene::Scene& scene, uint32_t a, uint32_t b) {
     if (a == b || a >= scene.triangleCount() || b >= scene.triangleCount()) return false;
-    auto corners = [&](uint32_t t) {
-        const size_t mesh = scene.meshOfTriangle(t);
-        const scene::Mesh& m = scene.meshes[mesh];
-        const size_t local = t - scene.firstTriangle(mesh);
-        return std::array<Vec3, 3>{m.positions[m.indices[3 * local]],
-                                   m.positions[m.indices[3 * local + 1]],
-                                   m.positions[m.indices[3 * local + 2]]};
-    };
-    const std::array<Vec3, 3> ca = corners(a), cb = corners(b);
+    const std::array<Vec3, 3> ca = triangleCorners(scene, a), cb = triangleCorners(scene, b);
     int shared = 0;
     for (const Vec3& p : ca) shared += p == cb[0] || p == cb[1] || p == cb[2];
     if (shared >= 2) return true;

@@ -102,21 +102,21 @@ enum class RowOrder { kLeftToRight, kRightToLeft };
 
 // The scatter of one row: from[tx] = x in occlusion-compatible order. `offset(invW)` returns the
 // offset plus the pixel centre.
+// One landing: first-eye column x lands at x + 0.5 + offset, in the pixel floor() of it. The range
+// test in float also drops positions too large for int (and NaN); those land in the spare slot w.
+template <class Offset>
+void land(const float* srcDepth, int w, const Offset& offset, int x, int32_t* from) {
+    const float pos = float(x) + offset(srcDepth[x]);
+    from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
+}
+
 template <class Offset>
 void scatterRow(const float* srcDepth, int w, const Offset& offset, RowOrder order, int32_t* from) {
     std::fill_n(from, w, -1);
-    const float limit = float(w);
-    auto land = [&](int x) {
-        // Landing position x + 0.5 + offset; its pixel is floor() of it. The range test in float
-        // also drops positions too large for int (and NaN); those land in the spare slot w.
-        float pos = float(x) + offset(srcDepth[x]);
-        int tx = pos >= 0.0f && pos < limit ? int(pos) : w;
-        from[tx] = x;
-    };
     if (order == RowOrder::kLeftToRight)
-        for (int x = 0; x < w; ++x) land(x);
+        for (int x = 0; x < w; ++x) land(srcDepth, w, offset, x, from);
     else
-        for (int x = w - 1; x >= 0; --x) land(x);
+        for (int x = w - 1; x >= 0; --x) land(srcDepth, w, offset, x, from);
 }
 
 // The direct form's offset a (1/w) + b, b including the pixel centre.
@@ -154,10 +154,7 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
             land4(x);
             for (int k = 0; k < 4; ++k) from[tx[k]] = x + k;
         }
-        for (; x < w; ++x) {
-            float pos = float(x) + offset(srcDepth[x]);
-            from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
-        }
+        for (; x < w; ++x) land(srcDepth, w, offset, x, from);
     } else {
         // Right to left: the columns the four-wide steps leave at the left end go last.
         const int head = w % 4;
@@ -165,10 +162,7 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
             land4(x0);
             for (int k = 3; k >= 0; --k) from[tx[k]] = x0 + k;
         }
-        for (x = head - 1; x >= 0; --x) {
-            float pos = float(x) + offset(srcDepth[x]);
-            from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
-        }
+        for (x = head - 1; x >= 0; --x) land(srcDepth, w, offset, x, from);
     }
 #else
     scatterRow<DirectOffset>(srcDepth, w, offset, order, from);

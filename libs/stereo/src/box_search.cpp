@@ -5,6 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <utility>
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <xmmintrin.h>
+#endif
 
 #include "polygon_spans.h"
 
@@ -37,35 +42,104 @@ public:
 
     // Nearest box first, so that the pieces fill early and the hidden test prunes the rest.
     void run() {
-        const scene::BoxHierarchy& boxes = mFrame.fill.boxes;
-        if (boxes.nodeCount() == 0) return;
-        // Median splits bound the depth by 33 for 2^32 triangles; at most two entries per level.
-        std::array<uint32_t, 80> stack;
+        const std::vector<WideBoxNode>& nodes = mFrame.fill.wideBoxes;
+        if (nodes.empty()) return;
+        // Median splits bound the binary depth by 33 for 2^32 triangles, so 17 wide levels, each
+        // leaving at most three lanes on the stack, then four.
+        std::array<Entry, 64> stack;
         size_t top = 0;
-        stack[top++] = 0;
-        const Vec3 eye = mFrame.camera.eyePos();
+        top = pushLanes(nodes[0], stack.data(), top);
         while (top > 0) {
-            const uint32_t index = stack[--top];
-            const scene::BoxNode& node = boxes.node(index);
-            ++mStats->boxNodesTested;
-            if (!mFrustum.mayCoverBox(node.box) || hidden(nearestW(node.box)) ||
-                mFront.inFront(node.box))
-                continue;
-            if (node.isLeaf()) {
-                for (uint32_t i = node.first; i < node.first + node.count; ++i) visitTriangle(i);
+            const Entry entry = stack[--top];
+            // Re-tested: the piece may have filled since the entry was pushed.
+            if (hidden(entry.nearW)) continue;
+            if (entry.count == 0) {
+                PLX_DCHECK(top + 4 <= stack.size());
+                top = pushLanes(nodes[entry.first], stack.data(), top);
                 continue;
             }
-            uint32_t nearChild = index + 1, farChild = node.first;
-            if (distance2(boxes.node(farChild).box, eye) <
-                distance2(boxes.node(nearChild).box, eye))
-                std::swap(nearChild, farChild);
-            PLX_DCHECK(top + 2 <= stack.size());
-            stack[top++] = farChild;
-            stack[top++] = nearChild;
+            for (uint32_t i = entry.first; i < entry.first + entry.count; ++i) visitTriangle(i);
         }
     }
 
 private:
+    // A lane waiting on the stack: an inner lane's WideBoxNode (count 0) or a leaf's triangles,
+    // with its box's smallest clip w for the hidden test.
+    struct Entry {
+        uint32_t first;
+        uint32_t count;
+        float nearW;
+    };
+
+    // One node's lane boxes against the frustum's planes and the front bound, and each box's
+    // smallest clip w for the hidden test, with the scalar expressions' operations in their order
+    // (RectFrustum::mayCoverBox, FrontBound, nearestW), so both paths pass the same boxes: a
+    // plane's value at the box's far corner takes, per axis, the larger of the two products.
+    struct LaneTest {
+        uint32_t pass = 0;  // bit per lane
+        std::array<float, 4> nearW{};
+    };
+    LaneTest testLanes(const WideBoxNode& n) const {
+        LaneTest out;
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        const __m128 lx = _mm_loadu_ps(n.loX.data()), ly = _mm_loadu_ps(n.loY.data()),
+                     lz = _mm_loadu_ps(n.loZ.data()), hx = _mm_loadu_ps(n.hiX.data()),
+                     hy = _mm_loadu_ps(n.hiY.data()), hz = _mm_loadu_ps(n.hiZ.data());
+        // ((x + y) + z) + w over the lanes, x, y, z chosen per axis by `pick` (max: far corner).
+        auto plane = [&](const Vec4& p, auto pick) {
+            const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
+            const __m128 x = pick(_mm_mul_ps(px, lx), _mm_mul_ps(px, hx));
+            const __m128 y = pick(_mm_mul_ps(py, ly), _mm_mul_ps(py, hy));
+            const __m128 z = pick(_mm_mul_ps(pz, lz), _mm_mul_ps(pz, hz));
+            return _mm_add_ps(_mm_add_ps(_mm_add_ps(x, y), z), _mm_set1_ps(p.w));
+        };
+        auto far = [](__m128 a, __m128 b) { return _mm_max_ps(a, b); };
+        auto near = [](__m128 a, __m128 b) { return _mm_min_ps(a, b); };
+        const __m128 zero = _mm_setzero_ps();
+        __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
+        for (const Vec4& p : mFrustum.planes())  // rejected only below 0 (as the scalar test)
+            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(p, far), zero));
+        if (mFront.frontW() != 0.0f)
+            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(mRowW, far), _mm_set1_ps(mFront.frontW())));
+        _mm_storeu_ps(out.nearW.data(), plane(mRowW, near));
+        out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
+#else
+        for (int k = 0; k < n.lanes; ++k) {
+            const Aabb box{{n.loX[k], n.loY[k], n.loZ[k]}, {n.hiX[k], n.hiY[k], n.hiZ[k]}};
+            out.nearW[size_t(k)] = nearestW(box);
+            if (mFrustum.mayCoverBox(box) && !mFront.inFront(box)) out.pass |= 1u << k;
+        }
+#endif
+        return out;
+    }
+
+    // Tests a node's lanes and pushes those that pass, farthest first so that the nearest is
+    // taken next. Returns the new top.
+    size_t pushLanes(const WideBoxNode& n, Entry* stack, size_t top) {
+        mStats->boxNodesTested += n.lanes;
+        const LaneTest t = testLanes(n);
+        std::array<std::pair<float, int>, 4> order;
+        int count = 0;
+        const Vec3 eye = mFrame.camera.eyePos();
+        for (int k = 0; k < n.lanes; ++k) {
+            if (!(t.pass >> k & 1u) || hidden(t.nearW[size_t(k)])) continue;
+            const Vec3 d =
+                0.5f * (Vec3(n.loX[k], n.loY[k], n.loZ[k]) + Vec3(n.hiX[k], n.hiY[k], n.hiZ[k])) -
+                eye;
+            // Insertion into farthest-first order.
+            const std::pair<float, int> lane{d.x * d.x + d.y * d.y + d.z * d.z, k};
+            int at = count++;
+            for (; at > 0 && order[size_t(at - 1)].first < lane.first; --at)
+                order[size_t(at)] = order[size_t(at - 1)];
+            order[size_t(at)] = lane;
+        }
+        for (int i = 0; i < count; ++i) {
+            const size_t k = size_t(order[size_t(i)].second);
+            stack[top++] = {n.first[k], n.count[k], t.nearW[k]};
+        }
+        return top;
+    }
+
     // Entry `entry` of the hierarchy's leaf order: pre-tests, then the depth-tested scan
     // conversion into the spans.
     void visitTriangle(uint32_t entry) {
@@ -114,10 +188,6 @@ private:
                mRowW.y * (mRowW.y >= 0.0f ? b.lo.y : b.hi.y) +
                mRowW.z * (mRowW.z >= 0.0f ? b.lo.z : b.hi.z) + mRowW.w;
     }
-    static float distance2(const Aabb& b, const Vec3& eye) {
-        const Vec3 d = b.center() - eye;
-        return d.x * d.x + d.y * d.y + d.z * d.z;
-    }
     static scene::PixelRect rectOf(std::span<const PixelSpan> spans) {
         scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
                            std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
@@ -164,6 +234,57 @@ bool FrontBound::inFront(std::span<const Vec3> points) const {
     for (const Vec3& p : points)
         if (clipW(p) >= mFrontW) return false;
     return true;
+}
+
+std::vector<WideBoxNode> collapseFourWide(const scene::BoxHierarchy& boxes) {
+    std::vector<WideBoxNode> wide;
+    if (boxes.nodeCount() == 0) return wide;
+    // (binary inner node or leaf, its WideBoxNode): a node waiting for its lanes.
+    std::vector<std::pair<uint32_t, uint32_t>> pending{{0u, 0u}};
+    wide.emplace_back();
+    while (!pending.empty()) {
+        const auto [binary, index] = pending.back();
+        pending.pop_back();
+        // The lanes: a leaf root is its own one lane; else the children, each inner child
+        // replaced by its two children.
+        std::array<uint32_t, 4> lanes{};
+        int count = 0;
+        const scene::BoxNode& node = boxes.node(binary);
+        if (node.isLeaf()) {
+            lanes[size_t(count++)] = binary;
+        } else {
+            for (uint32_t child : {binary + 1, node.first}) {
+                const scene::BoxNode& c = boxes.node(child);
+                if (c.isLeaf()) {
+                    lanes[size_t(count++)] = child;
+                } else {
+                    lanes[size_t(count++)] = child + 1;
+                    lanes[size_t(count++)] = c.first;
+                }
+            }
+        }
+        WideBoxNode out;
+        out.lanes = uint8_t(count);
+        for (size_t k = 0; k < size_t(count); ++k) {
+            const scene::BoxNode& lane = boxes.node(lanes[k]);
+            out.loX[k] = lane.box.lo.x;
+            out.loY[k] = lane.box.lo.y;
+            out.loZ[k] = lane.box.lo.z;
+            out.hiX[k] = lane.box.hi.x;
+            out.hiY[k] = lane.box.hi.y;
+            out.hiZ[k] = lane.box.hi.z;
+            if (lane.isLeaf()) {
+                out.first[k] = lane.first;
+                out.count[k] = uint16_t(lane.count);
+            } else {
+                out.first[k] = uint32_t(wide.size());
+                wide.emplace_back();
+                pending.push_back({lanes[k], out.first[k]});
+            }
+        }
+        wide[index] = out;
+    }
+    return wide;
 }
 
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const PixelSpan> spans,

@@ -20,6 +20,8 @@ public:
     FrontBound(const Camera& camera, float frontInvW);
     bool inFront(const Aabb& box) const;
     bool inFront(std::span<const Vec3> points) const;
+    // The clip w below which geometry is in front (0: no bound), and the clip-w row it applies to.
+    float frontW() const { return mFrontW; }
 
 private:
     float clipW(const Vec3& p) const {
@@ -41,11 +43,16 @@ struct BoxSearchFrame {
     float frontInvW = 0.0f;
 };
 
+// FillScene::wideBoxes of `boxes`: each inner node's grandchildren in one node, depth first.
+std::vector<WideBoxNode> collapseFourWide(const scene::BoxHierarchy& boxes);
+
 // Draws into the pixels of `spans` (row order, one hole piece, every pixel holding ID 0) the
 // nearest triangle there, as the full render does: every triangle whose box, corners and
 // projection may reach the spans is scan-converted with the depth test, nearest boxes first, and
 // once no pixel is left empty a box wholly behind the farthest pixel drawn is skipped with its
-// subtree. Adds its counts to *stats. Preconditions: fill.boxCorners is filled (buildFillScene).
+// subtree. The walk goes over fill.wideBoxes, four boxes tested at a time. Adds its counts to
+// *stats (boxNodesTested counts boxes). Preconditions: fill.boxCorners and fill.wideBoxes are
+// filled (buildFillScene).
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const raster::PixelSpan> spans,
                         FillStats* stats);
 

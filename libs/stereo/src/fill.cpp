@@ -53,6 +53,7 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
         const std::array<Vec3, 3> corners = triangleCorners(scene, order[i]);
         std::copy(corners.begin(), corners.end(), fill.boxCorners.begin() + 3 * ptrdiff_t(i));
     }
+    fill.wideBoxes = collapseFourWide(fill.boxes);
     return fill;
 }
 

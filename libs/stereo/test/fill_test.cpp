@@ -13,6 +13,8 @@
 #include <plx/stereo/fill.h>
 #include <plx/stereo/stereo.h>
 
+#include "../src/box_search.h"
+
 namespace plx::stereo {
 namespace {
 
@@ -156,6 +158,54 @@ TEST(Fill, TrianglesOfOneSurface) {
     EXPECT_FALSE(trianglesOfOneSurface(s, 0, boxFirst));
     EXPECT_FALSE(trianglesOfOneSurface(s, 0, 0));
     EXPECT_FALSE(trianglesOfOneSurface(s, 0, uint32_t(s.triangleCount())));
+}
+
+// The four-wide copy of the box hierarchy holds every leaf once, each lane with its binary node's
+// box (so every triangle's corners inside it), inner lanes pointing further down the array; a
+// hierarchy that is one leaf is one node of one lane.
+TEST(Fill, FourWideBoxesHoldEveryLeafOnce) {
+    scene::Scene one;
+    scene::Mesh quad;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&quad, {-1, -1, -3}, {2, 0, 0}, {0, 2, 0}, uv);
+    one.meshes = {quad};
+    one.materials = {{"quad", {0.7f, 0.7f, 0.6f, 1}, -1}};
+    ASSERT_TRUE(one.finalize().isOk());
+    for (int rooms : {0, 1, 6}) {
+        const scene::Scene s = rooms == 0 ? one : *scene::generateOffice(rooms);
+        const FillScene fill = *buildFillScene(s);
+        const std::vector<WideBoxNode>& wide = fill.wideBoxes;
+        ASSERT_FALSE(wide.empty());
+        if (rooms == 0) {
+            ASSERT_EQ(wide.size(), 1u);
+            EXPECT_EQ(wide[0].lanes, 1);
+            EXPECT_EQ(wide[0].count[0], 2);
+        }
+        std::vector<int> seen(fill.boxes.triangles().size(), 0);
+        for (size_t n = 0; n < wide.size(); ++n) {
+            const WideBoxNode& node = wide[n];
+            ASSERT_GE(node.lanes, 1);
+            ASSERT_LE(node.lanes, 4);
+            for (size_t k = 0; k < node.lanes; ++k) {
+                if (node.count[k] == 0) {
+                    EXPECT_GT(node.first[k], n);
+                    EXPECT_LT(node.first[k], wide.size());
+                    continue;
+                }
+                for (uint32_t e = node.first[k]; e < node.first[k] + node.count[k]; ++e) {
+                    ASSERT_LT(e, seen.size());
+                    ++seen[e];
+                    for (int c = 0; c < 3; ++c) {
+                        const Vec3& p = fill.boxCorners[3 * size_t(e) + size_t(c)];
+                        EXPECT_TRUE(p.x >= node.loX[k] && p.x <= node.hiX[k] &&
+                                    p.y >= node.loY[k] && p.y <= node.hiY[k] &&
+                                    p.z >= node.loZ[k] && p.z <= node.hiZ[k]);
+                    }
+                }
+            }
+        }
+        for (int count : seen) EXPECT_EQ(count, 1) << rooms << " rooms";
+    }
 }
 
 // Boxes in front of a wall and a floor: the walls' disocclusions beside every box are drawn from

@@ -88,6 +88,9 @@ public:
         return true;
     }
 
+    // (n, d) of the five planes: inside where dot(n, p) + d >= 0.
+    const std::array<Vec4, 5>& planes() const { return mPlanes; }
+
 private:
     std::array<Vec4, 5> mPlanes;  // (n, d): inside where dot(n, p) + d >= 0
 };

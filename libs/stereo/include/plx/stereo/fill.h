@@ -66,6 +66,7 @@
 // (bsp.h's limits). Where two triangles are exactly as near at a pixel, the one drawn first
 // keeps it, in either search.
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -85,6 +86,17 @@ namespace plx::stereo {
 // its own search from the root).
 constexpr int kFillTile = 32;
 
+// The box hierarchy collapsed four-wide for FillSearch::kBoxHierarchy: a node stands for an inner
+// node of the binary hierarchy and holds its grandchildren (a child that is a leaf takes one lane
+// itself), their boxes lane by lane, so that one SIMD step tests all four against a hole.
+struct WideBoxNode {
+    std::array<float, 4> loX{}, loY{}, loZ{}, hiX{}, hiY{}, hiZ{};
+    // Inner lane: index of its WideBoxNode; leaf lane: its first entry of boxes.triangles().
+    std::array<uint32_t, 4> first{};
+    std::array<uint16_t, 4> count{};  // leaf lane: its triangles (>= 1); inner lane: 0
+    uint8_t lanes = 0;                // lanes 0 .. lanes - 1 are in use
+};
+
 // What the fill reuses for every view of one scene.
 struct FillScene {
     scene::BspTree bsp;
@@ -96,6 +108,8 @@ struct FillScene {
     // Corners of the box hierarchy's triangles in its leaf order (3 per entry of
     // boxes.triangles()): FillSearch::kBoxHierarchy reads a leaf's corners contiguously.
     std::vector<Vec3> boxCorners;
+    // boxes collapsed four-wide (root first; empty when boxes is).
+    std::vector<WideBoxNode> wideBoxes;
 };
 
 // Builds the BSP tree and box hierarchy of `scene`. Preconditions: `scene` is finalized.

@@ -32,7 +32,8 @@ public:
         : mFrame(frame),
           mSpans(spans),
           mStats(stats),
-          mFrustum(frame.camera, rectOf(spans)),
+          mRect(rectOf(spans)),
+          mFrustum(frame.camera, mRect),
           mNearPlane(frame.camera.desc().nearPlane),
           mFront(frame.camera, frame.frontInvW) {
         const Mat4& m = frame.camera.clipFromWorld();
@@ -152,7 +153,7 @@ private:
             for (const Vec3& c : corners) w = std::min(w, clipW(c));
             if (hidden(w)) return;
         }
-        if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans)) return;
+        if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans, mRect)) return;
         ++mStats->polygonsDrawn;
         const uint32_t triangle = mFrame.fill.boxes.triangles()[entry];
         if (raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera, mFrame.render,
@@ -203,6 +204,7 @@ private:
     const BoxSearchFrame& mFrame;
     std::span<const PixelSpan> mSpans;
     FillStats* mStats;
+    scene::PixelRect mRect;  // the spans' box
     scene::RectFrustum mFrustum;
     float mNearPlane;
     Vec4 mRowW;

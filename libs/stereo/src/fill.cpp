@@ -220,7 +220,8 @@ private:
 
     // Steps 1-5 of fill.h over the open segments, from the polygons surrounding the hole back.
     void search(const FrontBound& front) {
-        const scene::RectFrustum frustum(mFrame.camera, openRect());
+        const scene::PixelRect openBox = openRect();  // bounds the spans as they shrink, too
+        const scene::RectFrustum frustum(mFrame.camera, openBox);
         scene::HoleQueryStats query;
         mFrame.fill.boxes.markHole(frustum, &mSlot.flags, &query);
         mSlot.stats.boxNodesTested += query.nodesTested;
@@ -244,7 +245,8 @@ private:
             // Wholly in front of the surrounding polygons (after the bookkeeping above, so that a
             // drawn split triangle still counts this fragment as passed).
             if (front.inFront(bsp.fragmentVertices(fragment))) return true;
-            if (!polygonMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans))
+            if (!polygonMayCoverSpans(mFrame.camera, bsp.fragmentVertices(fragment), mSlot.spans,
+                                      openBox))
                 return true;
             ++mSlot.stats.polygonsDrawn;
             if (fragments > 1) mSlot.drawn.push_back({tri, fragments - 1});

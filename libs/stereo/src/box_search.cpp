@@ -59,7 +59,7 @@ public:
                 top = pushLanes(nodes[entry.first], stack.data(), top);
                 continue;
             }
-            for (uint32_t i = entry.first; i < entry.first + entry.count; ++i) visitTriangle(i);
+            visitLeaf(entry.first, entry.count);
         }
     }
 
@@ -141,24 +141,72 @@ private:
         return top;
     }
 
-    // Entry `entry` of the hierarchy's leaf order: pre-tests, then the depth-tested scan
-    // conversion into the spans.
-    void visitTriangle(uint32_t entry) {
-        const std::span<const Vec3> corners(mFrame.fill.boxCorners.data() + 3 * size_t(entry), 3);
-        ++mStats->polygonsTested;
-        if (!mFrustum.mayCoverPoints(corners)) return;
-        if (mFront.inFront(corners)) return;
-        if (mOpen == 0) {
-            float w = std::numeric_limits<float>::infinity();
-            for (const Vec3& c : corners) w = std::min(w, clipW(c));
-            if (hidden(w)) return;
+    // The frustum and front tests of four entries from `entry` on (both independent of what the
+    // piece holds), and each one's smallest clip w, with the scalar tests' operations in their
+    // order (RectFrustum::mayCoverPoints, FrontBound::inFront, clipW).
+    struct TriangleTest {
+        uint32_t pass = 0;  // bit per entry
+        std::array<float, 4> nearW{};
+    };
+    TriangleTest testTriangles(uint32_t entry, uint32_t lanes) const {
+        TriangleTest out;
+        const LeafCorners& c = mFrame.fill.boxCorners;
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        __m128 x[3], y[3], z[3];
+        for (size_t k = 0; k < 3; ++k) {
+            x[k] = _mm_loadu_ps(c.x[k].data() + entry);
+            y[k] = _mm_loadu_ps(c.y[k].data() + entry);
+            z[k] = _mm_loadu_ps(c.z[k].data() + entry);
         }
-        if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans, mRect)) return;
-        ++mStats->polygonsDrawn;
-        const uint32_t triangle = mFrame.fill.boxes.triangles()[entry];
-        if (raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera, mFrame.render,
-                                        mFrame.targets, mSpans) > 0)
-            update();
+        auto value = [&](const Vec4& p, size_t k) {  // ((x + y) + z) + w at corner k
+            const __m128 xy =
+                _mm_add_ps(_mm_mul_ps(_mm_set1_ps(p.x), x[k]), _mm_mul_ps(_mm_set1_ps(p.y), y[k]));
+            return _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(_mm_set1_ps(p.z), z[k])), _mm_set1_ps(p.w));
+        };
+        auto anyAtLeast = [&](const Vec4& p, __m128 limit) {
+            return _mm_or_ps(
+                _mm_or_ps(_mm_cmpge_ps(value(p, 0), limit), _mm_cmpge_ps(value(p, 1), limit)),
+                _mm_cmpge_ps(value(p, 2), limit));
+        };
+        __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
+        for (const Vec4& p : mFrustum.planes())
+            pass = _mm_and_ps(pass, anyAtLeast(p, _mm_setzero_ps()));
+        if (mFront.frontW() != 0.0f)
+            pass = _mm_and_ps(pass, anyAtLeast(mRowW, _mm_set1_ps(mFront.frontW())));
+        _mm_storeu_ps(out.nearW.data(),
+                      _mm_min_ps(_mm_min_ps(value(mRowW, 0), value(mRowW, 1)), value(mRowW, 2)));
+        out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << lanes) - 1u);
+#else
+        for (uint32_t k = 0; k < lanes; ++k) {
+            const std::array<Vec3, 3> corners = c.triangle(entry + k);
+            float w = std::numeric_limits<float>::infinity();
+            for (const Vec3& p : corners) w = std::min(w, clipW(p));
+            out.nearW[k] = w;
+            if (mFrustum.mayCoverPoints(corners) && !mFront.inFront(corners)) out.pass |= 1u << k;
+        }
+#endif
+        return out;
+    }
+
+    // A leaf's entries, four at a time through the tests above, then one by one in order
+    // through the hidden test (the piece changes as they are drawn), the projection test and
+    // the depth-tested scan conversion into the spans.
+    void visitLeaf(uint32_t first, uint32_t count) {
+        mStats->polygonsTested += count;
+        for (uint32_t group = first; group < first + count; group += 4) {
+            const uint32_t lanes = std::min<uint32_t>(4, first + count - group);
+            const TriangleTest t = testTriangles(group, lanes);
+            for (uint32_t k = 0; k < lanes; ++k) {
+                if (!(t.pass >> k & 1u) || hidden(t.nearW[k])) continue;
+                const std::array<Vec3, 3> corners = mFrame.fill.boxCorners.triangle(group + k);
+                if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans, mRect)) continue;
+                ++mStats->polygonsDrawn;
+                const uint32_t triangle = mFrame.fill.boxes.triangles()[group + k];
+                if (raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
+                                                mFrame.render, mFrame.targets, mSpans) > 0)
+                    update();
+            }
+        }
     }
 
     // Recounts the empty pixels and the farthest 1/w drawn (the depth target holds 1/w).

@@ -48,10 +48,19 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
         if (n < std::numeric_limits<uint16_t>::max()) ++n;
     }
     const std::vector<uint32_t>& order = fill.boxes.triangles();
-    fill.boxCorners.resize(3 * order.size());
-    for (size_t i = 0; i < order.size(); ++i) {
-        const std::array<Vec3, 3> corners = triangleCorners(scene, order[i]);
-        std::copy(corners.begin(), corners.end(), fill.boxCorners.begin() + 3 * ptrdiff_t(i));
+    LeafCorners& corners = fill.boxCorners;
+    for (int k = 0; k < 3; ++k) {
+        for (auto* axis : {&corners.x, &corners.y, &corners.z})
+            (*axis)[size_t(k)].reserve(order.size() + LeafCorners::kPadding);
+    }
+    for (size_t i = 0; i < order.size() + LeafCorners::kPadding; ++i) {
+        if (order.empty()) break;
+        const std::array<Vec3, 3> c = triangleCorners(scene, order[std::min(i, order.size() - 1)]);
+        for (size_t k = 0; k < 3; ++k) {
+            corners.x[k].push_back(c[k].x);
+            corners.y[k].push_back(c[k].y);
+            corners.z[k].push_back(c[k].z);
+        }
     }
     fill.wideBoxes = collapseFourWide(fill.boxes);
     return fill;

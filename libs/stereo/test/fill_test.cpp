@@ -195,8 +195,7 @@ TEST(Fill, FourWideBoxesHoldEveryLeafOnce) {
                 for (uint32_t e = node.first[k]; e < node.first[k] + node.count[k]; ++e) {
                     ASSERT_LT(e, seen.size());
                     ++seen[e];
-                    for (int c = 0; c < 3; ++c) {
-                        const Vec3& p = fill.boxCorners[3 * size_t(e) + size_t(c)];
+                    for (const Vec3& p : fill.boxCorners.triangle(e)) {
                         EXPECT_TRUE(p.x >= node.loX[k] && p.x <= node.hiX[k] &&
                                     p.y >= node.loY[k] && p.y <= node.hiY[k] &&
                                     p.z >= node.loZ[k] && p.z <= node.hiZ[k]);

@@ -97,6 +97,19 @@ struct WideBoxNode {
     uint8_t lanes = 0;                // lanes 0 .. lanes - 1 are in use
 };
 
+// Triangle corners by entry of BoxHierarchy::triangles(): corner k of entry i is
+// (x[k][i], y[k][i], z[k][i]). Each array holds kPadding entries more, copies of the last, so that
+// four entries can be loaded from any entry on.
+struct LeafCorners {
+    static constexpr size_t kPadding = 3;
+    std::array<std::vector<float>, 3> x, y, z;
+    std::array<Vec3, 3> triangle(size_t entry) const {
+        return {Vec3(x[0][entry], y[0][entry], z[0][entry]),
+                Vec3(x[1][entry], y[1][entry], z[1][entry]),
+                Vec3(x[2][entry], y[2][entry], z[2][entry])};
+    }
+};
+
 // What the fill reuses for every view of one scene.
 struct FillScene {
     scene::BspTree bsp;
@@ -105,9 +118,9 @@ struct FillScene {
     // 65535: the tree's fragment bound (BspConfig::maxFragmentsPerTriangle) keeps real counts far
     // below it, and a saturated count only keeps a triangle's pixels open longer.
     std::vector<uint16_t> fragmentsOfTriangle;
-    // Corners of the box hierarchy's triangles in its leaf order (3 per entry of
-    // boxes.triangles()): FillSearch::kBoxHierarchy reads a leaf's corners contiguously.
-    std::vector<Vec3> boxCorners;
+    // Corners of the box hierarchy's triangles in its leaf order, coordinate by coordinate:
+    // FillSearch::kBoxHierarchy tests four triangles of a leaf at a time.
+    LeafCorners boxCorners;
     // boxes collapsed four-wide (root first; empty when boxes is).
     std::vector<WideBoxNode> wideBoxes;
 };

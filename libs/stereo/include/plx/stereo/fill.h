@@ -50,9 +50,11 @@
 //    rows. Pieces are independent (disjoint pixels, and each pixel's result is the nearest polygon
 //    there whatever the grouping) and run in parallel, each thread with its own flags.
 // FillSearch::kBoxHierarchy (the default; beyond the paper) replaces steps 1-3 and 5 by one
-// walk of the box hierarchy per piece, without the BSP order: a node is entered when its box
-// reaches the piece's frustum, children nearest box first; a leaf's triangles get the corner and
-// projection tests and are scan-converted into every pixel of the piece with the depth test, so
+// walk of the box hierarchy per piece, without the BSP order, over its four-wide copy
+// (FillScene::wideBoxes: four boxes, or four of a leaf's triangles, tested in one SIMD step): a
+// node is entered when its box reaches the piece's frustum, children nearest box first; a leaf's
+// triangles get the corner and projection tests and are scan-converted into every pixel of the
+// piece with the depth test, so
 // a nearer triangle drawn later replaces a farther one and each pixel ends with the nearest
 // triangle, as in the full render. Once no pixel of the piece is empty, a box (or triangle)
 // whose nearest point lies behind the farthest pixel drawn is skipped with its subtree: the

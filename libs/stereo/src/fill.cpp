@@ -48,18 +48,17 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConf
         if (n < std::numeric_limits<uint16_t>::max()) ++n;
     }
     const std::vector<uint32_t>& order = fill.boxes.triangles();
+    // The corners in leaf order, then the padding: copies of the last entry's.
     LeafCorners& corners = fill.boxCorners;
-    for (int k = 0; k < 3; ++k) {
-        for (auto* axis : {&corners.x, &corners.y, &corners.z})
-            (*axis)[size_t(k)].reserve(order.size() + LeafCorners::kPadding);
-    }
-    for (size_t i = 0; i < order.size() + LeafCorners::kPadding; ++i) {
-        if (order.empty()) break;
+    const size_t entries = order.empty() ? 0 : order.size() + LeafCorners::kPadding;
+    for (auto* axis : {&corners.x, &corners.y, &corners.z})
+        for (std::vector<float>& coordinate : *axis) coordinate.resize(entries);
+    for (size_t i = 0; i < entries; ++i) {
         const std::array<Vec3, 3> c = triangleCorners(scene, order[std::min(i, order.size() - 1)]);
         for (size_t k = 0; k < 3; ++k) {
-            corners.x[k].push_back(c[k].x);
-            corners.y[k].push_back(c[k].y);
-            corners.z[k].push_back(c[k].z);
+            corners.x[k][i] = c[k].x;
+            corners.y[k][i] = c[k].y;
+            corners.z[k][i] = c[k].z;
         }
     }
     fill.wideBoxes = collapseFourWide(fill.boxes);

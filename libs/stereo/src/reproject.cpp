@@ -82,11 +82,23 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
 }
 
 // A row's landings, kept apart from the images: the first-eye column that reached each
-// second-eye pixel (-1 where none did), plus one spare slot that takes every landing outside the
-// row, so the scatter needs no range branch.
+// second-eye pixel (-1 where none did) and that column's colour, each with one spare slot that
+// takes every landing outside the row, so the scatter needs no range branch. The colour is moved
+// in the scatter, where its source is read in order, rather than gathered by column afterwards:
+// a gather's four scattered loads per vector cost more than a second store per landing.
 struct RowLandings {
     std::vector<int32_t> from;
-    explicit RowLandings(int w) : from(size_t(w) + 1) {}
+    std::vector<Rgba8> color;
+    explicit RowLandings(int w) : from(size_t(w) + 1), color(size_t(w) + 1) {}
+};
+
+// One row's scatter: its first-eye depth and colour in, its landings (w + 1 slots each) out.
+struct RowScatter {
+    const float* srcDepth;
+    const Rgba8* srcColor;
+    int w;
+    int32_t* from;
+    Rgba8* color;
 };
 
 // Which way a row is walked so that every collision is won by the pixel that comes later
@@ -100,23 +112,25 @@ struct RowLandings {
 // monotone in 1/w in the same way, so the same order serves it.
 enum class RowOrder { kLeftToRight, kRightToLeft };
 
-// The scatter of one row: from[tx] = x in occlusion-compatible order. `offset(invW)` returns the
-// offset plus the pixel centre.
-// One landing: first-eye column x lands at x + 0.5 + offset, in the pixel floor() of it. The range
-// test in float also drops positions too large for int (and NaN); those land in the spare slot w.
+// The scatter of one row: from[tx] = x, color[tx] = its colour, in occlusion-compatible order.
+// `offset(invW)` returns the offset plus the pixel centre. One landing: first-eye column x lands at
+// x + 0.5 + offset, in the pixel floor() of it. The range test in float also drops positions too
+// large for int (and NaN); those land in the spare slot w.
 template <class Offset>
-void land(const float* srcDepth, int w, const Offset& offset, int x, int32_t* from) {
-    const float pos = float(x) + offset(srcDepth[x]);
-    from[pos >= 0.0f && pos < float(w) ? int(pos) : w] = x;
+void land(const RowScatter& row, const Offset& offset, int x) {
+    const float pos = float(x) + offset(row.srcDepth[x]);
+    const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
+    row.from[t] = x;
+    row.color[t] = row.srcColor[x];
 }
 
 template <class Offset>
-void scatterRow(const float* srcDepth, int w, const Offset& offset, RowOrder order, int32_t* from) {
-    std::fill_n(from, w, -1);
+void scatterRow(const RowScatter& row, const Offset& offset, RowOrder order) {
+    std::fill_n(row.from, row.w, -1);
     if (order == RowOrder::kLeftToRight)
-        for (int x = 0; x < w; ++x) land(srcDepth, w, offset, x, from);
+        for (int x = 0; x < row.w; ++x) land(row, offset, x);
     else
-        for (int x = w - 1; x >= 0; --x) land(srcDepth, w, offset, x, from);
+        for (int x = row.w - 1; x >= 0; --x) land(row, offset, x);
 }
 
 // The direct form's offset a (1/w) + b, b including the pixel centre.
@@ -128,10 +142,10 @@ struct DirectOffset {
 // scatterRow for the direct form, four landings computed at a time with the same float
 // operations in the same order (the build does not contract them), then stored one by one in
 // occlusion-compatible order.
-void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrder order,
-                int32_t* from) {
+void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder order) {
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-    std::fill_n(from, w, -1);
+    const int w = row.w;
+    std::fill_n(row.from, w, -1);
     const __m128 a = _mm_set1_ps(offset.a), b = _mm_set1_ps(offset.b);
     const __m128 zero = _mm_setzero_ps(), limit = _mm_set1_ps(float(w));
     const __m128i spare = _mm_set1_epi32(w);
@@ -139,7 +153,7 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
     auto land4 = [&](int x) {  // columns x .. x + 3
         const __m128 xs =
             _mm_cvtepi32_ps(_mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0)));
-        const __m128 d = _mm_loadu_ps(srcDepth + x);
+        const __m128 d = _mm_loadu_ps(row.srcDepth + x);
         const __m128 pos = _mm_add_ps(xs, _mm_add_ps(_mm_mul_ps(a, d), b));
         // Inside [0, w) (false for NaN): its column; else the spare slot.
         const __m128 inside = _mm_and_ps(_mm_cmpge_ps(pos, zero), _mm_cmplt_ps(pos, limit));
@@ -152,20 +166,26 @@ void scatterRow(const float* srcDepth, int w, const DirectOffset& offset, RowOrd
     if (order == RowOrder::kLeftToRight) {
         for (; x + 4 <= w; x += 4) {
             land4(x);
-            for (int k = 0; k < 4; ++k) from[tx[k]] = x + k;
+            for (int k = 0; k < 4; ++k) {
+                row.from[tx[k]] = x + k;
+                row.color[tx[k]] = row.srcColor[x + k];
+            }
         }
-        for (; x < w; ++x) land(srcDepth, w, offset, x, from);
+        for (; x < w; ++x) land(row, offset, x);
     } else {
         // Right to left: the columns the four-wide steps leave at the left end go last.
         const int head = w % 4;
         for (int x0 = w - 4; x0 >= head; x0 -= 4) {
             land4(x0);
-            for (int k = 3; k >= 0; --k) from[tx[k]] = x0 + k;
+            for (int k = 3; k >= 0; --k) {
+                row.from[tx[k]] = x0 + k;
+                row.color[tx[k]] = row.srcColor[x0 + k];
+            }
         }
-        for (x = head - 1; x >= 0; --x) land(srcDepth, w, offset, x, from);
+        for (x = head - 1; x >= 0; --x) land(row, offset, x);
     }
 #else
-    scatterRow<DirectOffset>(srcDepth, w, offset, order, from);
+    scatterRow<DirectOffset>(row, offset, order);
 #endif
 }
 
@@ -205,11 +225,11 @@ void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, 
 // One second-eye pixel from its landing: colour and hole byte, and depth and ID when
 // second.depthAndIds.
 inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& second, int y, int t,
-                       const int32_t* from) {
-    const int32_t x = from[t];
+                       const RowLandings& landings) {
+    const int32_t x = landings.from[size_t(t)];
     const bool landed = x >= 0;
     const int32_t s = landed ? x : 0;
-    second.color.row(y)[t] = landed ? first.color.row(y)[s] : Rgba8{};
+    second.color.row(y)[t] = landed ? landings.color[size_t(t)] : Rgba8{};
     second.holeMask.row(y)[t] = uint8_t(!landed);
     if (second.depthAndIds) {
         second.depth.row(y)[t] = landed ? first.depth.row(y)[s] : 0.0f;
@@ -220,25 +240,27 @@ inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& sec
 // Writes one second-eye row from its landings, in column order: colour and the hole byte at every
 // pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRuns says.
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-              const int32_t* from) {
+              const RowLandings& landings) {
     const int w = second.color.width;
+    const int32_t* from = landings.from.data();
     int t = 0;
     bool anyHole = false;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-    // Four pixels a step: the landings' first-eye words gathered (column 0 where none landed,
-    // then zeroed) and written with streaming stores, which skip reading the destination lines
-    // first; the hole bytes packed from the same mask.
+    // Four pixels a step: the landed colours (zeroed where none landed) and, with the planes,
+    // the landings' first-eye depth and ID words gathered (column 0 where none landed, then
+    // zeroed), written with streaming stores, which skip reading the destination lines first;
+    // the hole bytes packed from the same mask.
     Rgba8* dstColor = second.color.row(y);
     auto aligned = [](const void* p) { return (reinterpret_cast<uintptr_t>(p) & 15) == 0; };
     for (; t < w && !aligned(dstColor + t); ++t) {
-        writePixel(first, second, y, t, from);
+        writePixel(first, second, y, t, landings);
         anyHole |= from[t] < 0;
     }
     const bool planes = second.depthAndIds;
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
     if (!planes || (aligned(dstDepth + t) && aligned(dstId + t))) {
-        const auto* srcColor = reinterpret_cast<const int32_t*>(first.color.row(y));
+        const Rgba8* landedColor = landings.color.data();
         const auto* srcDepth = reinterpret_cast<const int32_t*>(first.depth.row(y));
         const auto* srcId = reinterpret_cast<const int32_t*>(first.id.row(y));
         uint8_t* hole = second.holeMask.row(y);
@@ -249,13 +271,16 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
             const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + t));
             const __m128i missed = _mm_cmpeq_epi32(f, none);
             anyMissed = _mm_or_si128(anyMissed, missed);
-            _mm_store_si128(reinterpret_cast<__m128i*>(at), _mm_andnot_si128(missed, f));
-            auto gather = [&](const int32_t* src) {
-                const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
-                return _mm_andnot_si128(missed, v);
-            };
-            _mm_stream_si128(reinterpret_cast<__m128i*>(dstColor + t), gather(srcColor));
+            const __m128i color =
+                _mm_loadu_si128(reinterpret_cast<const __m128i*>(landedColor + t));
+            _mm_stream_si128(reinterpret_cast<__m128i*>(dstColor + t),
+                             _mm_andnot_si128(missed, color));
             if (planes) {
+                _mm_store_si128(reinterpret_cast<__m128i*>(at), _mm_andnot_si128(missed, f));
+                auto gather = [&](const int32_t* src) {
+                    const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
+                    return _mm_andnot_si128(missed, v);
+                };
                 _mm_stream_si128(reinterpret_cast<__m128i*>(dstDepth + t), gather(srcDepth));
                 _mm_stream_si128(reinterpret_cast<__m128i*>(dstId + t), gather(srcId));
             }
@@ -267,7 +292,7 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
     }
 #endif
     for (; t < w; ++t) {
-        writePixel(first, second, y, t, from);
+        writePixel(first, second, y, t, landings);
         anyHole |= from[t] < 0;
     }
     if (anyHole && !second.depthAndIds) markHoleRuns(first, second, y, from);
@@ -285,9 +310,10 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
         const Offset offset = rowOffset;
         RowLandings landings(first.color.width);
         for (size_t y = begin; y < end; ++y) {
-            scatterRow(first.depth.row(int(y)), first.color.width, offset, order,
-                       landings.from.data());
-            writeRow(first, second, int(y), landings.from.data());
+            const RowScatter row{first.depth.row(int(y)), first.color.row(int(y)),
+                                 first.color.width, landings.from.data(), landings.color.data()};
+            scatterRow(row, offset, order);
+            writeRow(first, second, int(y), landings);
         }
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
         _mm_sfence();  // streaming stores are weakly ordered: complete them before the join

@@ -106,7 +106,7 @@ private:
         out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
 #else
         for (int k = 0; k < n.lanes; ++k) {
-            const Aabb box{{n.loX[k], n.loY[k], n.loZ[k]}, {n.hiX[k], n.hiY[k], n.hiZ[k]}};
+            const Aabb box = n.box(size_t(k));
             out.nearW[size_t(k)] = nearestW(box);
             if (mFrustum.mayCoverBox(box) && !mFront.inFront(box)) out.pass |= 1u << k;
         }
@@ -124,9 +124,7 @@ private:
         const Vec3 eye = mFrame.camera.eyePos();
         for (int k = 0; k < n.lanes; ++k) {
             if (!(t.pass >> k & 1u) || hidden(t.nearW[size_t(k)])) continue;
-            const Vec3 d =
-                0.5f * (Vec3(n.loX[k], n.loY[k], n.loZ[k]) + Vec3(n.hiX[k], n.hiY[k], n.hiZ[k])) -
-                eye;
+            const Vec3 d = n.box(size_t(k)).center() - eye;
             // Insertion into farthest-first order.
             const std::pair<float, int> lane{d.x * d.x + d.y * d.y + d.z * d.z, k};
             int at = count++;

@@ -96,6 +96,9 @@ struct WideBoxNode {
     std::array<uint32_t, 4> first{};
     std::array<uint16_t, 4> count{};  // leaf lane: its triangles (>= 1); inner lane: 0
     uint8_t lanes = 0;                // lanes 0 .. lanes - 1 are in use
+    Aabb box(size_t lane) const {
+        return {{loX[lane], loY[lane], loZ[lane]}, {hiX[lane], hiY[lane], hiZ[lane]}};
+    }
 };
 
 // Triangle corners by entry of BoxHierarchy::triangles(): corner k of entry i is

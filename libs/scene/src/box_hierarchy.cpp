@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 #include <fmt/format.h>
@@ -17,6 +18,78 @@ namespace {
 // of a projection is a few ulps of the pixel coordinate (under 0.01 px up to 16384 px wide), so
 // 1/16 px keeps every miss a true miss while costing almost no rejections.
 constexpr float kMarginPx = 1.0f / 16.0f;
+
+// Binned surface-area splits (Wald, "On fast construction of SAH-based bounding volume
+// hierarchies", 2007): 16 bins per axis over the triangle centres. From depth kSahDepthLimit on
+// the build falls back to median splits, which bounds the depth by kSahDepthLimit + 33 for 2^32
+// triangles whatever the geometry (BoxHierarchy::kMaxDepth); 32 bins found the same trees within
+// 2% of the nodes tested on the office.
+constexpr int kSahBins = 16;
+constexpr uint32_t kSahDepthLimit = 32;
+static_assert(kSahDepthLimit + 33 <= BoxHierarchy::kMaxDepth);
+
+// Half the surface area of a box: proportional to the chance that a small random frustum (a
+// hole's) reaches it.
+float halfArea(const Aabb& box) {
+    const Vec3 e = box.extent();
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+// Triangles [begin, end) partitioned at the binned split of least cost
+// area(left) * count(left) + area(right) * count(right); returns the first index of the second
+// part, or `begin` when no bin boundary separates the centres (all in one bin).
+uint32_t surfaceAreaSplit(std::vector<uint32_t>& triangles, uint32_t begin, uint32_t end,
+                          const Aabb& centreBounds, const std::vector<Aabb>& boxes,
+                          const std::vector<Vec3>& centres) {
+    struct Bin {
+        Aabb box;
+        uint32_t count = 0;
+    };
+    const Vec3 lo = centreBounds.lo, extent = centreBounds.extent();
+    auto scaleOf = [&](int axis) { return float(kSahBins) / extent[axis]; };
+    auto binOf = [&](uint32_t triangle, int axis, float scale) {
+        return std::min(kSahBins - 1, int((centres[triangle][axis] - lo[axis]) * scale));
+    };
+    float bestCost = std::numeric_limits<float>::infinity();
+    int bestAxis = -1, bestBin = 0;  // the second part holds bins >= bestBin
+    for (int axis = 0; axis < 3; ++axis) {
+        const float scale = scaleOf(axis);  // infinite for a zero or subnormal extent
+        if (!std::isfinite(scale)) continue;
+        std::array<Bin, kSahBins> bins;
+        for (uint32_t i = begin; i < end; ++i) {
+            Bin& bin = bins[size_t(binOf(triangles[i], axis, scale))];
+            bin.box.extend(boxes[triangles[i]]);
+            ++bin.count;
+        }
+        // rightCost[b]: area * count of bins >= b.
+        std::array<float, kSahBins> rightCost{};
+        Aabb right;
+        uint32_t rightCount = 0;
+        for (int b = kSahBins - 1; b > 0; --b) {
+            right.extend(bins[size_t(b)].box);
+            rightCount += bins[size_t(b)].count;
+            rightCost[size_t(b)] = rightCount == 0 ? 0.0f : halfArea(right) * float(rightCount);
+        }
+        Aabb left;
+        uint32_t leftCount = 0;
+        for (int b = 1; b < kSahBins; ++b) {
+            left.extend(bins[size_t(b - 1)].box);
+            leftCount += bins[size_t(b - 1)].count;
+            if (leftCount == 0 || leftCount == end - begin) continue;
+            const float cost = halfArea(left) * float(leftCount) + rightCost[size_t(b)];
+            if (cost < bestCost) {
+                bestCost = cost;
+                bestAxis = axis;
+                bestBin = b;
+            }
+        }
+    }
+    if (bestAxis < 0) return begin;
+    const float scale = scaleOf(bestAxis);
+    auto second = std::partition(triangles.begin() + begin, triangles.begin() + end,
+                                 [&](uint32_t t) { return binOf(t, bestAxis, scale) < bestBin; });
+    return uint32_t(second - triangles.begin());
+}
 
 // Task of the iterative build: triangles [begin, end) of mTriangles become a subtree.
 struct BuildTask {
@@ -111,7 +184,7 @@ Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyC
     h.mNodes.reserve(2 * (count / size_t(config.leafSize)) + 1);
 
     // Depth first, first child before second: popping the first child right after its parent
-    // puts it at index parent + 1. Median splits halve the range, so depth <= log2(count) + 1.
+    // puts it at index parent + 1.
     std::vector<BuildTask> stack{{0, uint32_t(count), -1, 1}};
     while (!stack.empty()) {
         BuildTask task = stack.back();
@@ -133,14 +206,20 @@ Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyC
             continue;
         }
         h.mNodes.push_back(node);
-        Vec3 extent = centreBounds.extent();
-        int axis =
-            extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
-        uint32_t mid = task.begin + size / 2;
-        std::nth_element(h.mTriangles.begin() + task.begin, h.mTriangles.begin() + mid,
-                         h.mTriangles.begin() + task.end, [&](uint32_t a, uint32_t b) {
-                             return centres[a][axis] < centres[b][axis];
-                         });
+        uint32_t mid = task.begin;
+        if (config.split == BoxSplit::kSurfaceArea && task.depth < kSahDepthLimit)
+            mid =
+                surfaceAreaSplit(h.mTriangles, task.begin, task.end, centreBounds, boxes, centres);
+        if (mid == task.begin) {  // median split on the centres' longest axis
+            Vec3 extent = centreBounds.extent();
+            int axis =
+                extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+            mid = task.begin + size / 2;
+            std::nth_element(h.mTriangles.begin() + task.begin, h.mTriangles.begin() + mid,
+                             h.mTriangles.begin() + task.end, [&](uint32_t a, uint32_t b) {
+                                 return centres[a][axis] < centres[b][axis];
+                             });
+        }
         stack.push_back({mid, task.end, int64_t(index), task.depth + 1});
         stack.push_back({task.begin, mid, -1, task.depth + 1});
     }
@@ -181,9 +260,8 @@ void BoxHierarchy::mark(const MayCover& mayCover, HoleFlags* flags, HoleQuerySta
     uint32_t generation = flags->mGeneration;
     HoleQueryStats counts;
     if (!mNodes.empty()) {
-        // Median splits bound the depth by 33 for 2^32 triangles; the stack holds at most one
-        // pending second child per level.
-        std::array<uint32_t, 64> stack;
+        // The stack holds at most one pending second child per level.
+        std::array<uint32_t, kMaxDepth> stack;
         size_t top = 0;
         stack[top++] = 0;
         while (top > 0) {

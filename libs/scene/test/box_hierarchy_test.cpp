@@ -3,6 +3,7 @@
 // reject most of the office for a small hole, and a reused flag set equals a fresh one.
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <random>
@@ -105,35 +106,79 @@ std::vector<bool> referenceFlags(const BoxHierarchy& h, const Camera& camera, co
     return positive;
 }
 
-TEST(BoxHierarchy, EveryTriangleOnceAndBoxesEnclose) {
-    std::mt19937 rng(1);
-    Scene scene = randomTriangles(&rng, 777);
-    auto h = BoxHierarchy::build(scene);
-    ASSERT_TRUE(h.isOk()) << h.status().toString();
-    std::vector<uint32_t> sorted = h->triangles();
+// Every triangle in exactly one leaf of at most leafSize, every node's box around its children's
+// boxes and its leaves' corners, the depth within the bound of every scene.
+void expectWellFormed(const Scene& scene, const BoxHierarchy& h, uint32_t leafSize) {
+    std::vector<uint32_t> sorted = h.triangles();
     std::sort(sorted.begin(), sorted.end());
     ASSERT_EQ(sorted.size(), scene.triangleCount());
     for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], i);
-    EXPECT_LE(h->maxDepth(), 10u);  // median splits: ceil(log2(777 / 4)) + 1 = 9
+    EXPECT_LE(h.maxDepth(), BoxHierarchy::kMaxDepth);
     size_t leafTriangles = 0;
-    for (size_t n = 0; n < h->nodeCount(); ++n) {
-        const BoxNode& node = h->node(n);
+    for (size_t n = 0; n < h.nodeCount(); ++n) {
+        const BoxNode& node = h.node(n);
         auto inside = [&](const Aabb& b) {
             return glm::all(glm::greaterThanEqual(b.lo, node.box.lo)) &&
                    glm::all(glm::lessThanEqual(b.hi, node.box.hi));
         };
         if (node.isLeaf()) {
-            EXPECT_LE(node.count, 4u);
+            EXPECT_LE(node.count, leafSize);
             leafTriangles += node.count;
             for (uint32_t i = node.first; i < node.first + node.count; ++i)
-                for (const Vec3& p : corners(scene, h->triangles()[i]))
+                for (const Vec3& p : corners(scene, h.triangles()[i]))
                     EXPECT_TRUE(inside(Aabb{p, p}));
         } else {
-            EXPECT_TRUE(inside(h->node(n + 1).box));
-            EXPECT_TRUE(inside(h->node(node.first).box));
+            EXPECT_TRUE(inside(h.node(n + 1).box));
+            EXPECT_TRUE(inside(h.node(node.first).box));
         }
     }
     EXPECT_EQ(leafTriangles, scene.triangleCount());
+}
+
+BoxHierarchy buildWith(const Scene& scene, BoxSplit split) {
+    BoxHierarchyConfig config;
+    config.split = split;
+    auto h = BoxHierarchy::build(scene, config);
+    EXPECT_TRUE(h.isOk()) << h.status().toString();
+    return h ? std::move(*h) : BoxHierarchy{};
+}
+
+TEST(BoxHierarchy, EveryTriangleOnceAndBoxesEnclose) {
+    std::mt19937 rng(1);
+    Scene scene = randomTriangles(&rng, 777);
+    BoxHierarchy median = buildWith(scene, BoxSplit::kMedian);
+    expectWellFormed(scene, median, 4);
+    EXPECT_LE(median.maxDepth(), 10u);  // ceil(log2(777 / 4)) + 1 = 9
+    expectWellFormed(scene, buildWith(scene, BoxSplit::kSurfaceArea), 4);
+}
+
+// Surface-area splits on geometry that defeats them: triangles growing 8-fold one after the
+// other along x (each split cuts off only the largest, a chain as long as the scene; areas stay
+// within float range) and many
+// triangles with one centre (no bin boundary separates them: median splits). The chain's depth
+// is cut at the surface-area depth limit, so the whole stays within kMaxDepth.
+TEST(BoxHierarchy, SurfaceAreaSplitsStayWellFormedOnDegenerateScenes) {
+    Scene scene;
+    Mesh mesh;
+    auto add = [&mesh](Vec3 corner, float size) {
+        for (Vec3 d : {Vec3(0, 0, 0), Vec3(size, 0, 0), Vec3(0, size, 0)}) {
+            mesh.indices.push_back(uint32_t(mesh.positions.size()));
+            mesh.positions.push_back(corner + d);
+        }
+    };
+    for (int i = -20; i <= 20; ++i) {
+        const float size = std::ldexp(1.0f, 3 * i);
+        add({size, 0, 0}, size);
+    }
+    for (int i = 0; i < 20; ++i) add({-1, -1, -1}, 1.0f);
+    scene.meshes.push_back(std::move(mesh));
+    ASSERT_TRUE(scene.finalize().isOk());
+    BoxHierarchy h = buildWith(scene, BoxSplit::kSurfaceArea);
+    expectWellFormed(scene, h, 4);
+    // The chain alone would reach depth 38; cut at depth 32, its last 30 triangles or fewer take
+    // at most three median levels.
+    EXPECT_GT(h.maxDepth(), 32u) << "the chain stops short of the surface-area depth limit";
+    EXPECT_LE(h.maxDepth(), 35u) << "the chain ran past the surface-area depth limit";
 }
 
 TEST(BoxHierarchy, EmptySceneAndBadConfig) {
@@ -284,6 +329,29 @@ TEST(BoxHierarchy, SmallHoleRejectsMostOfTheOffice) {
     EXPECT_GT(stats.trianglesPositive, 0u);
     EXPECT_LT(double(stats.trianglesPositive), 0.01 * double(office.scene.triangleCount()));
     EXPECT_LT(double(stats.nodesTested), 0.05 * double(office.hierarchy.nodeCount()));
+}
+
+// Surface-area splits pay on the office: over small holes across its default view, the query
+// tests fewer nodes and flags fewer triangles than with median splits.
+TEST(BoxHierarchy, SurfaceAreaSplitsTestFewerNodesOnTheOffice) {
+    OfficeView office = officeView(4, 1280, 720);
+    ASSERT_TRUE(office.camera);
+    BoxHierarchy median = buildWith(office.scene, BoxSplit::kMedian);
+    HoleFlags flags;
+    size_t nodes[2] = {0, 0}, triangles[2] = {0, 0};
+    for (int y = 8; y < 720; y += 48)
+        for (int x = 8; x < 1280; x += 48) {
+            const PixelRect rect{x, y, x + 16, y + 4};  // a sliver's size
+            int k = 0;
+            for (const BoxHierarchy* h : {&median, &office.hierarchy}) {
+                HoleQueryStats stats;
+                h->markHole(RectFrustum(*office.camera, rect), &flags, &stats);
+                nodes[k] += stats.nodesTested;
+                triangles[k++] += stats.trianglesPositive;
+            }
+        }
+    EXPECT_LT(double(nodes[1]), 0.8 * double(nodes[0]));
+    EXPECT_LT(triangles[1], triangles[0]);
 }
 
 // Flags reused over a sequence of queries equal those of a fresh flag set per query.

@@ -45,9 +45,9 @@ public:
     void run() {
         const std::vector<WideBoxNode>& nodes = mFrame.fill.wideBoxes;
         if (nodes.empty()) return;
-        // Median splits bound the binary depth by 33 for 2^32 triangles, so 17 wide levels, each
-        // leaving at most three lanes on the stack, then four.
-        std::array<Entry, 64> stack;
+        // A binary depth of at most BoxHierarchy::kMaxDepth makes at most kMaxDepth / 2 wide
+        // levels, each leaving at most three lanes on the stack, then four.
+        std::array<Entry, 3 * (scene::BoxHierarchy::kMaxDepth / 2) + 4> stack;
         size_t top = 0;
         top = pushLanes(nodes[0], stack.data(), top);
         while (top > 0) {

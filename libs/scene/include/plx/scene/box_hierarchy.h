@@ -95,10 +95,17 @@ private:
     std::array<Vec4, 5> mPlanes;  // (n, d): inside where dot(n, p) + d >= 0
 };
 
+// How an inner node's triangles are divided between its two children.
+enum class BoxSplit {
+    kMedian,       // half and half along the longest axis of their centres
+    kSurfaceArea,  // the binned split of least surface area times triangle count (SAH)
+};
+
 struct BoxHierarchyConfig {
     // Most triangles per leaf bucket. Larger buckets mean fewer nodes to test per hole but more
     // triangles flagged positive with their bucket; 4 keeps false positives a few per bucket.
     int leafSize = 4;
+    BoxSplit split = BoxSplit::kSurfaceArea;
 };
 
 // A node of the hierarchy. Nodes are stored depth first: an inner node's first child directly
@@ -150,12 +157,15 @@ private:
 class BoxHierarchy {
 public:
     // Builds the hierarchy over every triangle of `scene` (degenerate ones included: their box
-    // is still a correct bound): median splits on the longest axis of the triangle centres,
-    // iterative. Preconditions: `scene` is finalized, or holds no triangles (empty hierarchy).
-    // Errors: kInvalidArgument for leafSize outside 1..kMaxLeafSize.
+    // is still a correct bound), iterative: nodes of more than leafSize triangles are split as
+    // config.split says (a median split where surface-area bins cannot separate the centres, and
+    // below depth 32). Preconditions: `scene` is finalized, or holds no triangles (empty
+    // hierarchy). Errors: kInvalidArgument for leafSize outside 1..kMaxLeafSize.
     static Result<BoxHierarchy> build(const Scene& scene, const BoxHierarchyConfig& config = {});
 
     static constexpr int kMaxLeafSize = 256;
+    // Bound on maxDepth() for any scene of up to 2^32 - 1 triangles.
+    static constexpr size_t kMaxDepth = 66;
 
     BoxHierarchy() = default;
 

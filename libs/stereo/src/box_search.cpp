@@ -38,7 +38,7 @@ public:
           mFront(frame.camera, frame.frontInvW) {
         const Mat4& m = frame.camera.clipFromWorld();
         mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
-        for (const PixelSpan& s : spans) mOpen += s.x1 - s.x0 + 1;
+        if (!spans.empty()) mCursorX = spans.front().x0;
     }
 
     // Nearest box first, so that the pieces fill early and the hidden test prunes the rest.
@@ -207,23 +207,30 @@ private:
         }
     }
 
-    // Recounts the empty pixels and the farthest 1/w drawn (the depth target holds 1/w).
+    // After a draw: moves the cursor past the pixels now filled (a filled pixel stays filled, so
+    // the piece's pixels are scanned once while it is open), and once none is empty, takes the
+    // farthest 1/w drawn (the depth target holds 1/w), which later draws can only raise.
     void update() {
-        mOpen = 0;
-        mFarthest = std::numeric_limits<float>::infinity();
-        for (const PixelSpan& s : mSpans) {
-            for (int x = s.x0; x <= s.x1; ++x) {
-                if (mFrame.targets.id.at(x, s.y) == 0) ++mOpen;
-                mFarthest = std::min(mFarthest, mFrame.targets.depth.at(x, s.y));
+        if (!mFull) {
+            const ImageView<uint32_t>& id = mFrame.targets.id;
+            for (; mCursorSpan < mSpans.size(); ++mCursorSpan) {
+                const PixelSpan& s = mSpans[mCursorSpan];
+                for (mCursorX = std::max(mCursorX, s.x0); mCursorX <= s.x1; ++mCursorX)
+                    if (id.at(mCursorX, s.y) == 0) return;
             }
+            mFull = true;
         }
+        mFarthest = std::numeric_limits<float>::infinity();
+        for (const PixelSpan& s : mSpans)
+            for (int x = s.x0; x <= s.x1; ++x)
+                mFarthest = std::min(mFarthest, mFrame.targets.depth.at(x, s.y));
     }
 
     // Whether geometry whose smallest clip w is `w` lies wholly behind every pixel of a full
     // piece: its largest 1/w, widened by the slack, below the farthest 1/w drawn. Geometry
     // reaching nearer than the near plane is never hidden.
     bool hidden(float w) const {
-        return mOpen == 0 && w > mNearPlane && (1.0f + kHiddenSlack) < mFarthest * w;
+        return mFull && w > mNearPlane && (1.0f + kHiddenSlack) < mFarthest * w;
     }
 
     float clipW(const Vec3& p) const {
@@ -255,7 +262,10 @@ private:
     float mNearPlane;
     Vec4 mRowW;
     FrontBound mFront;
-    int64_t mOpen = 0;
+    // The first pixel not yet seen filled, in span order: (span index, column).
+    size_t mCursorSpan = 0;
+    int mCursorX = 0;
+    bool mFull = false;  // no pixel of the spans left empty
     float mFarthest = 0.0f;
 };
 

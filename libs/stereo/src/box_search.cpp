@@ -38,7 +38,6 @@ public:
           mFront(frame.camera, frame.frontInvW) {
         const Mat4& m = frame.camera.clipFromWorld();
         mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
-        if (!spans.empty()) mCursorX = spans.front().x0;
     }
 
     // Nearest box first, so that the pieces fill early and the hidden test prunes the rest.
@@ -213,7 +212,7 @@ private:
     void update() {
         if (!mFull) {
             const ImageView<uint32_t>& id = mFrame.targets.id;
-            for (; mCursorSpan < mSpans.size(); ++mCursorSpan) {
+            for (; mCursorSpan < mSpans.size(); ++mCursorSpan, mCursorX = kSpanStart) {
                 const PixelSpan& s = mSpans[mCursorSpan];
                 for (mCursorX = std::max(mCursorX, s.x0); mCursorX <= s.x1; ++mCursorX)
                     if (id.at(mCursorX, s.y) == 0) return;
@@ -262,9 +261,11 @@ private:
     float mNearPlane;
     Vec4 mRowW;
     FrontBound mFront;
-    // The first pixel not yet seen filled, in span order: (span index, column).
+    // The first pixel not yet seen filled, in span order: (span index, column), the column
+    // kSpanStart for the span's first.
+    static constexpr int kSpanStart = std::numeric_limits<int>::min();
     size_t mCursorSpan = 0;
-    int mCursorX = 0;
+    int mCursorX = kSpanStart;
     bool mFull = false;  // no pixel of the spans left empty
     float mFarthest = 0.0f;
 };

@@ -159,7 +159,7 @@ public:
     // Builds the hierarchy over every triangle of `scene` (degenerate ones included: their box
     // is still a correct bound), iterative: nodes of more than leafSize triangles are split as
     // config.split says (a median split where surface-area bins cannot separate the centres, and
-    // below depth 32). Preconditions: `scene` is finalized, or holds no triangles (empty
+    // from depth 32 on). Preconditions: `scene` is finalized, or holds no triangles (empty
     // hierarchy). Errors: kInvalidArgument for leafSize outside 1..kMaxLeafSize.
     static Result<BoxHierarchy> build(const Scene& scene, const BoxHierarchyConfig& config = {});
 

@@ -1,6 +1,6 @@
 // The scalar reference renderer: one triangle after another over the whole image, each sample
-// tested by evaluating its three edge functions directly. No tiles, no threads, no spans. Tests
-// check that the tiled renderer produces exactly the same targets.
+// tested by its three integer edge functions, stepped exactly along the row. No tiles, no
+// threads, no spans. Tests check that the tiled renderer produces exactly the same targets.
 
 #include "pipeline.h"
 
@@ -33,12 +33,16 @@ int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
     float b1Row, b2Row;
     rowBarycentrics(t, y, &b1Row, &b2Row);
     int64_t written = 0;
-    for (int x = x0; x <= x1; ++x) {
-        int64_t px = int64_t(x) * kSubPixelScale + kSubPixelScale / 2;
-        int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
-        int64_t e[3] = {edgeValue(t, 0, px, py), edgeValue(t, 1, px, py), edgeValue(t, 2, px, py)};
-        if (e[0] + t.edgeBias[0] < 0 || e[1] + t.edgeBias[1] < 0 || e[2] + t.edgeBias[2] < 0)
-            continue;
+    // The edge functions at x0's sample, with their biases, stepped exactly along the row.
+    const int64_t px0 = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
+    const int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
+    int64_t e[3], step[3];
+    for (int i = 0; i < 3; ++i) {
+        e[i] = edgeValue(t, i, px0, py) + t.edgeBias[i];
+        step[i] = -int64_t(t.y[(i + 1) % 3] - t.y[i]) * kSubPixelScale;
+    }
+    for (int x = x0; x <= x1; ++x, e[0] += step[0], e[1] += step[1], e[2] += step[2]) {
+        if ((e[0] | e[1] | e[2]) < 0) continue;
         float k = float(x - t.minX);
         float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
         float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);

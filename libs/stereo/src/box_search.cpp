@@ -185,16 +185,21 @@ private:
         return out;
     }
 
-    // A leaf's entries, four at a time through the tests above, then one by one in order
-    // through the hidden test (the piece changes as they are drawn), the projection test and
-    // the depth-tested scan conversion into the spans.
+    // A leaf's entries, four at a time through the tests above and the projection's box test,
+    // then one by one in order through the hidden test (the piece changes as they are drawn),
+    // the rest of the projection test and the depth-tested scan conversion into the spans.
     void visitLeaf(uint32_t first, uint32_t count) {
         mStats->polygonsTested += count;
         for (uint32_t group = first; group < first + count; group += 4) {
             const uint32_t lanes = std::min<uint32_t>(4, first + count - group);
             const TriangleTest t = testTriangles(group, lanes);
+            uint32_t pass = t.pass;
+            // The projection pre-test's box part, four at a time: most triangles that reach it
+            // stop there.
+            if (pass != 0)
+                pass &= ~trianglesMissBox(mFrame.camera, mFrame.fill.boxCorners, group, mRect);
             for (uint32_t k = 0; k < lanes; ++k) {
-                if (!(t.pass >> k & 1u) || hidden(t.nearW[k])) continue;
+                if (!(pass >> k & 1u) || hidden(t.nearW[k])) continue;
                 const std::array<Vec3, 3> corners = mFrame.fill.boxCorners.triangle(group + k);
                 if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans, mRect)) continue;
                 ++mStats->polygonsDrawn;

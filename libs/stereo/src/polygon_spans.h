@@ -7,6 +7,7 @@
 #include <plx/core/core.h>
 #include <plx/raster/span_fill.h>
 #include <plx/scene/box_hierarchy.h>
+#include <plx/stereo/fill.h>
 
 namespace plx::stereo {
 
@@ -17,5 +18,13 @@ namespace plx::stereo {
 // answer true.
 bool polygonMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
                           std::span<const raster::PixelSpan> spans, const scene::PixelRect& box);
+
+// The box part of polygonMayCoverSpans for the four triangles of `corners` from `entry` on, with
+// the same margins: bit k set when the samples of `box` lie outside one edge of triangle
+// entry + k (never for one with a corner nearer than the near plane or of no area). Vector
+// operations where the build has them; a triangle it rejects, polygonMayCoverSpans rejects too,
+// up to the float rounding its margin covers.
+uint32_t trianglesMissBox(const Camera& camera, const LeafCorners& corners, size_t entry,
+                          const scene::PixelRect& box);
 
 }  // namespace plx::stereo

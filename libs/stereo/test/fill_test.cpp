@@ -1,6 +1,7 @@
 // The reproject method end to end (Fu, Bao, Peng): holes filled by their polygon or by the BSP
 // search, against the full render of the same eye.
 
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,6 +15,7 @@
 #include <plx/stereo/stereo.h>
 
 #include "../src/box_search.h"
+#include "../src/polygon_spans.h"
 
 namespace plx::stereo {
 namespace {
@@ -209,6 +211,53 @@ TEST(Fill, FourWideBoxesHoldEveryLeafOnce) {
 
 // Boxes in front of a wall and a floor: the walls' disocclusions beside every box are drawn from
 // the wall and floor behind them, the polygon the full render shows there.
+// The four-wide box part of the projection pre-test rejects only triangles the scalar pre-test
+// rejects over the whole box, never one reaching before the near plane, and most of those the
+// scalar one rejects (the rest stop at its span loop, which a whole box leaves nothing to add).
+TEST(Fill, FourWideProjectionBoxTestAgreesWithTheScalarPreTest) {
+    const Camera camera = lookAt({0.0f, 0.0f, 5.0f}, {0.0f, 0.0f, 0.0f}, 64, 48);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> xy(-4.0f, 4.0f), z(-4.0f, 5.5f);
+    std::uniform_int_distribution<int> column(0, 56), row(0, 40), side(1, 8);
+    constexpr size_t kTriangles = 4000;
+    LeafCorners corners;
+    for (size_t k = 0; k < 3; ++k) {
+        for (auto* axis : {&corners.x[k], &corners.y[k], &corners.z[k]}) {
+            axis->resize(kTriangles + LeafCorners::kPadding);
+        }
+    }
+    for (size_t i = 0; i < kTriangles + LeafCorners::kPadding; ++i) {
+        for (size_t k = 0; k < 3; ++k) {
+            corners.x[k][i] = xy(rng);
+            corners.y[k][i] = xy(rng);
+            corners.z[k][i] = z(rng);
+        }
+    }
+    int rejected = 0, scalarRejected = 0, nearRejected = 0;
+    for (size_t entry = 0; entry < kTriangles; entry += 4) {
+        const int x0 = column(rng), y0 = row(rng);
+        const scene::PixelRect box{x0, y0, x0 + side(rng), y0 + side(rng)};
+        std::vector<raster::PixelSpan> spans;
+        for (int y = box.y0; y < box.y1; ++y) spans.push_back({y, box.x0, box.x1 - 1});
+        const uint32_t miss = trianglesMissBox(camera, corners, entry, box);
+        for (size_t k = 0; k < 4; ++k) {
+            const std::array<Vec3, 3> triangle = corners.triangle(entry + k);
+            const bool scalarMiss = !polygonMayCoverSpans(camera, triangle, spans, box);
+            const bool fourWideMiss = (miss >> k & 1u) != 0;
+            scalarRejected += scalarMiss;
+            rejected += fourWideMiss;
+            EXPECT_TRUE(!fourWideMiss || scalarMiss) << "triangle " << entry + k;
+            bool beforeNear = false;
+            for (const Vec3& p : triangle)
+                beforeNear |= !((camera.clipFromWorld() * Vec4(p, 1.0f)).w >= 0.1f);
+            nearRejected += beforeNear && fourWideMiss;
+        }
+    }
+    EXPECT_EQ(nearRejected, 0);
+    EXPECT_GT(scalarRejected, int(kTriangles) / 4);
+    EXPECT_GE(rejected, scalarRejected * 9 / 10);
+}
+
 TEST(Fill, BoxesInFrontOfWallsGetTheFullRendersPolygons) {
     scene::Scene s;
     scene::Mesh walls, boxes;

@@ -193,15 +193,15 @@ private:
         for (uint32_t group = first; group < first + count; group += 4) {
             const uint32_t lanes = std::min<uint32_t>(4, first + count - group);
             const TriangleTest t = testTriangles(group, lanes);
-            uint32_t pass = t.pass;
-            // The projection pre-test's box part, four at a time: most triangles that reach it
-            // stop there.
-            if (pass != 0)
-                pass &= ~trianglesMissBox(mFrame.camera, mFrame.fill.boxCorners, group, mRect);
+            if (t.pass == 0) continue;
+            // The projection pre-test, its box part four at a time: most triangles that reach
+            // it stop there.
+            const FourTriangles four =
+                projectFourTriangles(mFrame.camera, mFrame.fill.boxCorners, group, mRect);
+            const uint32_t pass = t.pass & ~four.missBox;
             for (uint32_t k = 0; k < lanes; ++k) {
                 if (!(pass >> k & 1u) || hidden(t.nearW[k])) continue;
-                const std::array<Vec3, 3> corners = mFrame.fill.boxCorners.triangle(group + k);
-                if (!polygonMayCoverSpans(mFrame.camera, corners, mSpans, mRect)) continue;
+                if (!triangleMayCoverSpans(four, k, mSpans)) continue;
                 ++mStats->polygonsDrawn;
                 const uint32_t triangle = mFrame.fill.boxes.triangles()[group + k];
                 if (raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,

@@ -34,35 +34,40 @@ struct Projection {
     float minX = 0, maxX = 0, minY = 0, maxY = 0;
 };
 
-// Projects `corners`; false when the polygon may cover anything: a corner nearer than the near
-// plane, more corners than kMaxCorners, or no area.
-bool project(const Camera& camera, std::span<const Vec3> corners, Projection* out) {
-    const size_t n = corners.size();
-    if (n > kMaxCorners) return false;
-    out->n = n;
-    out->minX = out->minY = std::numeric_limits<float>::infinity();
-    out->maxX = out->maxY = -std::numeric_limits<float>::infinity();
-    for (size_t i = 0; i < n; ++i) {
-        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
-        if (!(clip.w >= camera.desc().nearPlane)) return false;
-        const Vec2 p = out->p[i] = camera.pixelFromClip(clip);
-        out->minX = std::min(out->minX, p.x);
-        out->maxX = std::max(out->maxX, p.x);
-        out->minY = std::min(out->minY, p.y);
-        out->maxY = std::max(out->maxY, p.y);
-    }
+// Completes a projection whose n corners are in q->p; false when it has no area (may cover).
+bool finishProjection(Projection* q) {
+    const size_t n = q->n;
+    q->minX = q->minY = std::numeric_limits<float>::infinity();
+    q->maxX = q->maxY = -std::numeric_limits<float>::infinity();
     float area2 = 0.0f;
     for (size_t i = 0; i < n; ++i) {
-        const Vec2 &a = out->p[i], &b = out->p[(i + 1) % n];
+        const Vec2 &a = q->p[i], &b = q->p[(i + 1) % n];
+        q->minX = std::min(q->minX, a.x);
+        q->maxX = std::max(q->maxX, a.x);
+        q->minY = std::min(q->minY, a.y);
+        q->maxY = std::max(q->maxY, a.y);
         area2 += a.x * b.y - b.x * a.y;
     }
     if (!(std::fabs(area2) > kMinArea2)) return false;
-    out->orientation = area2 > 0.0f ? 1.0f : -1.0f;
+    q->orientation = area2 > 0.0f ? 1.0f : -1.0f;
     for (size_t i = 0; i < n; ++i) {
-        out->edges[i] = out->p[(i + 1) % n] - out->p[i];
-        out->limits[i] = -kEdgeMarginPx * glm::length(out->edges[i]);
+        q->edges[i] = q->p[(i + 1) % n] - q->p[i];
+        q->limits[i] = -kEdgeMarginPx * glm::length(q->edges[i]);
     }
     return true;
+}
+
+// Projects `corners`; false when the polygon may cover anything: a corner nearer than the near
+// plane, more corners than kMaxCorners, or no area.
+bool project(const Camera& camera, std::span<const Vec3> corners, Projection* out) {
+    if (corners.size() > kMaxCorners) return false;
+    out->n = corners.size();
+    for (size_t i = 0; i < corners.size(); ++i) {
+        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
+        if (!(clip.w >= camera.desc().nearPlane)) return false;
+        out->p[i] = camera.pixelFromClip(clip);
+    }
+    return finishProjection(out);
 }
 
 // The box's corner samples (pixel centres).
@@ -126,9 +131,10 @@ bool polygonMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
     return !missesBox(q, BoxSamples(box)) && !missesSpans(q, spans);
 }
 
-uint32_t trianglesMissBox(const Camera& camera, const LeafCorners& corners, size_t entry,
-                          const scene::PixelRect& box) {
+FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corners, size_t entry,
+                                   const scene::PixelRect& box) {
     const BoxSamples b(box);
+    FourTriangles out;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
     // project() and missesBox() four triangles at a time, their operations in the same order.
     const Mat4& m = camera.clipFromWorld();
@@ -152,6 +158,8 @@ uint32_t trianglesMissBox(const Camera& camera, const LeafCorners& corners, size
         const __m128 invW = _mm_div_ps(set(1.0f), w);
         px[k] = _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(row(0), invW), half), half), width);
         py[k] = _mm_mul_ps(_mm_sub_ps(half, _mm_mul_ps(_mm_mul_ps(row(1), invW), half)), height);
+        _mm_storeu_ps(out.x[k], px[k]);
+        _mm_storeu_ps(out.y[k], py[k]);
     }
     __m128 area2 = _mm_setzero_ps();
     for (size_t i = 0; i < 3; ++i) {
@@ -184,16 +192,32 @@ uint32_t trianglesMissBox(const Camera& camera, const LeafCorners& corners, size
         miss = _mm_or_ps(miss, _mm_and_ps(_mm_and_ps(outside(b.x0, b.y0), outside(b.x1, b.y0)),
                                           _mm_and_ps(outside(b.x0, b.y1), outside(b.x1, b.y1))));
     }
-    return uint32_t(_mm_movemask_ps(_mm_andnot_ps(mayCover, miss)));
+    out.anywhere = uint32_t(_mm_movemask_ps(mayCover));
+    out.missBox = uint32_t(_mm_movemask_ps(_mm_andnot_ps(mayCover, miss)));
 #else
-    uint32_t miss = 0;
-    for (size_t k = 0; k < 4; ++k) {
-        const std::array<Vec3, 3> triangle = corners.triangle(entry + k);
+    for (size_t i = 0; i < 4; ++i) {
+        const std::array<Vec3, 3> triangle = corners.triangle(entry + i);
         Projection q;
-        if (project(camera, triangle, &q) && missesBox(q, b)) miss |= 1u << k;
+        if (!project(camera, triangle, &q)) {
+            out.anywhere |= 1u << i;
+            continue;
+        }
+        for (size_t k = 0; k < 3; ++k) {
+            out.x[k][i] = q.p[k].x;
+            out.y[k][i] = q.p[k].y;
+        }
+        if (missesBox(q, b)) out.missBox |= 1u << i;
     }
-    return miss;
 #endif
+    return out;
+}
+
+bool triangleMayCoverSpans(const FourTriangles& four, size_t k, std::span<const PixelSpan> spans) {
+    if (four.anywhere >> k & 1u) return true;
+    Projection q;
+    q.n = 3;
+    for (size_t i = 0; i < 3; ++i) q.p[i] = Vec2(four.x[i][k], four.y[i][k]);
+    return !finishProjection(&q) || !missesSpans(q, spans);
 }
 
 }  // namespace plx::stereo

@@ -213,8 +213,9 @@ TEST(Fill, FourWideBoxesHoldEveryLeafOnce) {
 // the wall and floor behind them, the polygon the full render shows there.
 // The four-wide box part of the projection pre-test rejects only triangles the scalar pre-test
 // rejects over the whole box, never one reaching before the near plane, and most of those the
-// scalar one rejects (the rest stop at its span loop, which a whole box leaves nothing to add).
-TEST(Fill, FourWideProjectionBoxTestAgreesWithTheScalarPreTest) {
+// scalar one rejects; its span part on the four-wide projections decides the rest as the scalar
+// pre-test does.
+TEST(Fill, FourWideProjectionPreTestAgreesWithTheScalarPreTest) {
     const Camera camera = lookAt({0.0f, 0.0f, 5.0f}, {0.0f, 0.0f, 0.0f}, 64, 48);
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> xy(-4.0f, 4.0f), z(-4.0f, 5.5f);
@@ -239,14 +240,18 @@ TEST(Fill, FourWideProjectionBoxTestAgreesWithTheScalarPreTest) {
         const scene::PixelRect box{x0, y0, x0 + side(rng), y0 + side(rng)};
         std::vector<raster::PixelSpan> spans;
         for (int y = box.y0; y < box.y1; ++y) spans.push_back({y, box.x0, box.x1 - 1});
-        const uint32_t miss = trianglesMissBox(camera, corners, entry, box);
+        const FourTriangles four = projectFourTriangles(camera, corners, entry, box);
         for (size_t k = 0; k < 4; ++k) {
             const std::array<Vec3, 3> triangle = corners.triangle(entry + k);
             const bool scalarMiss = !polygonMayCoverSpans(camera, triangle, spans, box);
-            const bool fourWideMiss = (miss >> k & 1u) != 0;
+            const bool fourWideMiss = (four.missBox >> k & 1u) != 0;
             scalarRejected += scalarMiss;
             rejected += fourWideMiss;
             EXPECT_TRUE(!fourWideMiss || scalarMiss) << "triangle " << entry + k;
+            if (!fourWideMiss) {
+                EXPECT_EQ(triangleMayCoverSpans(four, k, spans), !scalarMiss)
+                    << "triangle " << entry + k;
+            }
             bool beforeNear = false;
             for (const Vec3& p : triangle)
                 beforeNear |= !((camera.clipFromWorld() * Vec4(p, 1.0f)).w >= 0.1f);

@@ -249,6 +249,43 @@ BENCHMARK(BM_Reproject)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The reproject method's steps before the fill on two threads, as a pair runs them: the row pass
+// (colour-only second eye), the holes found and classified with the one-surface rule. Arg(0) 1:
+// the row pass lists its hole runs, findHoles merges them and the holes are classified on the
+// pool; 0: findHoles scans the mask afterwards and classifies on the calling thread.
+void BM_ReprojectAndFindHoles(benchmark::State& state) {
+    ReprojectFixture& f = ReprojectFixture::get();
+    ThreadPool pool(2);
+    const stereo::DisparityLine line = stereo::disparityLine(f.rig);
+    const bool runs = state.range(0) == 1;
+    stereo::HoleRuns holeRuns;
+    stereo::SecondEyeTargets to = f.secondTargets(false);
+    if (runs) to.holeRuns = &holeRuns;
+    stereo::HoleScratch scratch;
+    stereo::HoleSet holes;
+    const stereo::SameSurface sameSurface = [&f](uint32_t a, uint32_t b) {
+        return stereo::trianglesOfOneSurface(f.scene, a - 1, b - 1);
+    };
+    for (auto _ : state) {
+        (void)stereo::reproject(f.firstTargets(), line, to, &pool);
+        if (runs)
+            stereo::findHoles(holeRuns, stereo::HoleConnectivity::k8, scratch, holes);
+        else
+            stereo::findHoles(std::as_const(f.holeMask).view(), stereo::HoleConnectivity::k8,
+                              scratch, holes);
+        stereo::classifyHoles(std::as_const(f.second.id).view(), holes, sameSurface,
+                              runs ? &pool : nullptr);
+        benchmark::DoNotOptimize(holes.holes.data());
+    }
+    state.counters["holes"] = double(holes.holes.size());
+}
+BENCHMARK(BM_ReprojectAndFindHoles)
+    ->ArgName("runs")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
+
 // Hole segments merged into holes (Fig. 5) and classified by the ID target (section 3), on the
 // reprojected second eye; Mpix/s counts the whole image.
 void BM_FindAndClassifyHoles(benchmark::State& state) {

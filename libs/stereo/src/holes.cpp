@@ -50,67 +50,60 @@ int nextNonZero(const uint8_t* m, int x, int width) {
     return x;
 }
 
-}  // namespace
+// Appends row y's segments, left to right, from the mask (Fu Fig. 5). Hole pixels are a few
+// percent of a frame, so the zero bytes between them are skipped many at a time.
+void appendMaskRow(ImageView<const uint8_t> holeMask, int y, std::vector<HoleSegment>& segs) {
+    const uint8_t* m = holeMask.row(y);
+    for (int x = 0; x < holeMask.width;) {
+        if (!m[x]) {
+            x = nextNonZero(m, x + 1, holeMask.width);
+            continue;
+        }
+        int x0 = x;
+        while (x < holeMask.width && m[x]) ++x;
+        segs.push_back({x0, x - 1, x - x0, y, -1});
+    }
+}
 
-void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
-               HoleScratch& scratch, HoleSet& out) {
-    std::vector<HoleSegment>& segs = scratch.rowSegments;
+// Joins each of the current row's segments [curBegin, curEnd) to the holes of the previous row's
+// segments [prevBegin, prevEnd) it touches (`slack` columns apart at most); the two rows'
+// segments are both in column order, so one forward sweep finds every pair.
+void joinRow(HoleScratch& scratch, size_t prevBegin, size_t prevEnd, size_t curBegin, size_t curEnd,
+             int32_t slack) {
+    const std::vector<HoleSegment>& segs = scratch.rowSegments;
     std::vector<int32_t>& label = scratch.label;
     std::vector<int32_t>& parent = scratch.parent;
-    segs.clear();
-    label.clear();
-    parent.clear();
-    // Diagonal neighbours count as touching for 8-connectivity: ranges may be one column apart.
-    int32_t slack = connectivity == HoleConnectivity::k8 ? 1 : 0;
-
-    size_t prevBegin = 0, prevEnd = 0;
-    for (int y = 0; y < holeMask.height; ++y) {
-        const uint8_t* m = holeMask.row(y);
-        size_t curBegin = segs.size();
-        // Fu Fig. 5: the row's segments, left to right. Hole pixels are a few percent of a frame,
-        // so eight mask bytes at a time are skipped while all are zero.
-        for (int x = 0; x < holeMask.width;) {
-            if (!m[x]) {
-                x = nextNonZero(m, x + 1, holeMask.width);
-                continue;
-            }
-            int x0 = x;
-            while (x < holeMask.width && m[x]) ++x;
-            segs.push_back({x0, x - 1, x - x0, y, -1});
-            label.push_back(-1);
-        }
-        size_t curEnd = segs.size();
-        // Join each segment to the holes of the previous row's segments it touches; the two
-        // rows' segments are both in column order, so one forward sweep finds every pair.
-        size_t j = prevBegin;
-        for (size_t c = curBegin; c < curEnd; ++c) {
-            const HoleSegment& cs = segs[c];
-            while (j < prevEnd && segs[j].xEnd + slack < cs.xStart) ++j;
-            int32_t hole = -1;
-            for (size_t p = j; p < prevEnd && segs[p].xStart <= cs.xEnd + slack; ++p) {
-                int32_t other = findRoot(parent, label[p]);
-                if (hole < 0) {
-                    hole = other;
-                } else if (other != hole) {
-                    // The segment bridges two holes (the bottom of a U): merge them, keeping the
-                    // older root so labels stay stable.
-                    int32_t keep = std::min(hole, other), gone = std::max(hole, other);
-                    parent[size_t(gone)] = keep;
-                    hole = keep;
-                }
-            }
+    size_t j = prevBegin;
+    for (size_t c = curBegin; c < curEnd; ++c) {
+        const HoleSegment& cs = segs[c];
+        while (j < prevEnd && segs[j].xEnd + slack < cs.xStart) ++j;
+        int32_t hole = -1;
+        for (size_t p = j; p < prevEnd && segs[p].xStart <= cs.xEnd + slack; ++p) {
+            int32_t other = findRoot(parent, label[p]);
             if (hole < 0) {
-                hole = int32_t(parent.size());
-                parent.push_back(hole);
+                hole = other;
+            } else if (other != hole) {
+                // The segment bridges two holes (the bottom of a U): merge them, keeping the
+                // older root so labels stay stable.
+                int32_t keep = std::min(hole, other), gone = std::max(hole, other);
+                parent[size_t(gone)] = keep;
+                hole = keep;
             }
-            label[c] = hole;
         }
-        prevBegin = curBegin;
-        prevEnd = curEnd;
+        if (hole < 0) {
+            hole = int32_t(parent.size());
+            parent.push_back(hole);
+        }
+        label[c] = hole;
     }
+}
 
-    // Compact output: holes in the order of their first segment (scan order); each hole's
-    // segments placed contiguously with a stable counting sort, so they stay in scan order.
+// Holes in the order of their first segment (scan order); each hole's segments placed
+// contiguously with a stable counting sort, so they stay in scan order.
+void compactHoles(HoleScratch& scratch, HoleSet& out) {
+    const std::vector<HoleSegment>& segs = scratch.rowSegments;
+    std::vector<int32_t>& label = scratch.label;
+    std::vector<int32_t>& parent = scratch.parent;
     std::vector<int32_t>& finalIndex = scratch.finalIndex;
     finalIndex.assign(parent.size(), -1);
     out.holes.clear();
@@ -153,40 +146,95 @@ void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
     }
 }
 
-void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes, const SameSurface& sameSurface) {
-    int32_t w = id.width;
-    std::array<uint32_t, kMaxSurfacePolygons> ids;
-    for (Hole& h : holes.holes) {
-        // The distinct neighbour IDs; each after the first must be of one surface with one
-        // already found.
-        int count = 0;
-        auto add = [&](uint32_t neighbour) {
-            if (neighbour == 0) return false;  // no polygon to extend
-            for (int i = 0; i < count; ++i)
-                if (ids[size_t(i)] == neighbour) return true;
-            if (count > 0 && (!sameSurface || count == kMaxSurfacePolygons)) return false;
-            bool joined = count == 0;
-            for (int i = 0; i < count && !joined; ++i)
-                joined = sameSurface(ids[size_t(i)], neighbour);
-            if (joined) ids[size_t(count++)] = neighbour;
-            return joined;
-        };
-        bool expansion = true;
-        for (int32_t s = h.firstSegment; expansion && s < h.firstSegment + h.segmentCount; ++s) {
-            const HoleSegment& seg = holes.segments[size_t(s)];
-            PLX_CHECK(seg.y >= 0 && seg.y < id.height && seg.xEnd < w);
-            // Image border rule: nothing known beyond the first eye's left or right edge.
-            if (seg.xStart == 0 || seg.xEnd == w - 1) {
-                expansion = false;
-                break;
-            }
-            const uint32_t* row = id.row(seg.y);
-            expansion = add(row[seg.xStart - 1]) && add(row[seg.xEnd + 1]);
-        }
-        h.holeClass = expansion ? HoleClass::kExpansion : HoleClass::kDisocclusion;
-        h.polygonId = expansion ? ids[0] : 0;
-        h.polygonCount = expansion ? count : 0;
+// findHoles over `height` rows whose segments appendRow(y, segments) appends in column order.
+template <class AppendRow>
+void mergeRows(int height, HoleConnectivity connectivity, HoleScratch& scratch, HoleSet& out,
+               const AppendRow& appendRow) {
+    scratch.rowSegments.clear();
+    scratch.label.clear();
+    scratch.parent.clear();
+    // Diagonal neighbours count as touching for 8-connectivity: ranges may be one column apart.
+    const int32_t slack = connectivity == HoleConnectivity::k8 ? 1 : 0;
+    size_t prevBegin = 0, prevEnd = 0;
+    for (int y = 0; y < height; ++y) {
+        const size_t curBegin = scratch.rowSegments.size();
+        appendRow(y, scratch.rowSegments);
+        const size_t curEnd = scratch.rowSegments.size();
+        scratch.label.resize(curEnd, -1);
+        joinRow(scratch, prevBegin, prevEnd, curBegin, curEnd, slack);
+        prevBegin = curBegin;
+        prevEnd = curEnd;
     }
+    compactHoles(scratch, out);
+}
+
+}  // namespace
+
+void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
+               HoleScratch& scratch, HoleSet& out) {
+    mergeRows(holeMask.height, connectivity, scratch, out,
+              [&](int y, std::vector<HoleSegment>& segs) { appendMaskRow(holeMask, y, segs); });
+}
+
+void findHoles(const HoleRuns& runs, HoleConnectivity connectivity, HoleScratch& scratch,
+               HoleSet& out) {
+    mergeRows(int(runs.rows.size()), connectivity, scratch, out,
+              [&](int y, std::vector<HoleSegment>& segs) {
+                  for (const HoleRun& r : runs.rows[size_t(y)])
+                      segs.push_back({r.x0, r.x1, r.x1 - r.x0 + 1, y, -1});
+              });
+}
+
+namespace {
+
+void classifyHole(ImageView<const uint32_t> id, const std::vector<HoleSegment>& segments,
+                  const SameSurface& sameSurface, Hole& h) {
+    const int32_t w = id.width;
+    // The distinct neighbour IDs; each after the first must be of one surface with one already
+    // found.
+    std::array<uint32_t, kMaxSurfacePolygons> ids;
+    int count = 0;
+    auto add = [&](uint32_t neighbour) {
+        if (neighbour == 0) return false;  // no polygon to extend
+        for (int i = 0; i < count; ++i)
+            if (ids[size_t(i)] == neighbour) return true;
+        if (count > 0 && (!sameSurface || count == kMaxSurfacePolygons)) return false;
+        bool joined = count == 0;
+        for (int i = 0; i < count && !joined; ++i) joined = sameSurface(ids[size_t(i)], neighbour);
+        if (joined) ids[size_t(count++)] = neighbour;
+        return joined;
+    };
+    bool expansion = true;
+    for (int32_t s = h.firstSegment; expansion && s < h.firstSegment + h.segmentCount; ++s) {
+        const HoleSegment& seg = segments[size_t(s)];
+        PLX_CHECK(seg.y >= 0 && seg.y < id.height && seg.xEnd < w);
+        // Image border rule: nothing known beyond the first eye's left or right edge.
+        if (seg.xStart == 0 || seg.xEnd == w - 1) {
+            expansion = false;
+            break;
+        }
+        const uint32_t* row = id.row(seg.y);
+        expansion = add(row[seg.xStart - 1]) && add(row[seg.xEnd + 1]);
+    }
+    h.holeClass = expansion ? HoleClass::kExpansion : HoleClass::kDisocclusion;
+    h.polygonId = expansion ? ids[0] : 0;
+    h.polygonCount = expansion ? count : 0;
+}
+
+}  // namespace
+
+void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes, const SameSurface& sameSurface,
+                   ThreadPool* pool) {
+    auto body = [&](size_t begin, size_t end) {
+        for (size_t h = begin; h < end; ++h)
+            classifyHole(id, holes.segments, sameSurface, holes.holes[h]);
+    };
+    // Holes differ in size by orders of magnitude; small chunks let the threads balance.
+    constexpr size_t kHoleGrain = 16;
+    if (pool)
+        pool->parallelFor(holes.holes.size(), kHoleGrain, body);
+    else
+        body(0, holes.holes.size());
 }
 
 void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second) {

@@ -189,19 +189,10 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
 #endif
 }
 
-// Depth 0 and ID 0 over the row's hole runs, and the landed 1/w and ID beside each run: what the
-// fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not written
-// in full. The runs are found in the row's hole bytes, eight at a time while all are zero.
-void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                  const int32_t* from) {
-    const int w = second.color.width;
-    const uint8_t* hole = second.holeMask.row(y);
-    float* dstDepth = second.depth.row(y);
-    uint32_t* dstId = second.id.row(y);
-    auto copyLanded = [&](int t) {
-        dstDepth[t] = first.depth.row(y)[from[t]];
-        dstId[t] = first.id.row(y)[from[t]];
-    };
+// Calls run(start, end) for each maximal run [start, end) of non-zero bytes of a row, left to
+// right; the zero bytes between runs are skipped eight at a time.
+template <class Run>
+void forEachHoleRun(const uint8_t* hole, int w, const Run& run) {
     for (int t = 0; t < w;) {
         uint64_t word = 0;
         if (t + 8 <= w) std::memcpy(&word, hole + t, sizeof word);
@@ -215,11 +206,36 @@ void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, 
         }
         const int start = t;
         while (t < w && hole[t]) ++t;
-        std::fill(dstDepth + start, dstDepth + t, 0.0f);
-        std::fill(dstId + start, dstId + t, 0u);
-        if (start > 0) copyLanded(start - 1);
-        if (t < w) copyLanded(t);
+        run(start, t);
     }
+}
+
+// Depth 0 and ID 0 over the hole run [start, end) of row y, and the landed 1/w and ID beside it:
+// what the fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not
+// written in full.
+void markHoleRun(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
+                 const int32_t* from, int start, int end) {
+    float* dstDepth = second.depth.row(y);
+    uint32_t* dstId = second.id.row(y);
+    auto copyLanded = [&](int t) {
+        dstDepth[t] = first.depth.row(y)[from[t]];
+        dstId[t] = first.id.row(y)[from[t]];
+    };
+    std::fill(dstDepth + start, dstDepth + end, 0.0f);
+    std::fill(dstId + start, dstId + end, 0u);
+    if (start > 0) copyLanded(start - 1);
+    if (end < second.color.width) copyLanded(end);
+}
+
+// What a row with holes needs beyond its pixels: its runs listed (second.holeRuns) and, for a
+// second eye without full planes, each run marked (markHoleRun). The row is still in cache.
+void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
+                    const int32_t* from) {
+    std::vector<HoleRun>* runs = second.holeRuns ? &second.holeRuns->rows[size_t(y)] : nullptr;
+    forEachHoleRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
+        if (runs) runs->push_back({start, end - 1});
+        if (!second.depthAndIds) markHoleRun(first, second, y, from, start, end);
+    });
 }
 
 // One second-eye pixel from its landing: colour and hole byte, and depth and ID when
@@ -238,7 +254,8 @@ inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& sec
 }
 
 // Writes one second-eye row from its landings, in column order: colour and the hole byte at every
-// pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRuns says.
+// pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRun says; the row's
+// hole runs when second.holeRuns.
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
               const RowLandings& landings) {
     const int w = second.color.width;
@@ -295,7 +312,8 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
         writePixel(first, second, y, t, landings);
         anyHole |= from[t] < 0;
     }
-    if (anyHole && !second.depthAndIds) markHoleRuns(first, second, y, from);
+    if (second.holeRuns) second.holeRuns->rows[size_t(y)].clear();
+    if (anyHole && (second.holeRuns || !second.depthAndIds)) finishHoleRuns(first, second, y, from);
 }
 
 // Rows per task: a 720-row frame gives ~45 tasks, enough to balance two to eight threads.
@@ -320,6 +338,7 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
 #endif
     };
     size_t rows = size_t(first.color.height);
+    if (second.holeRuns) second.holeRuns->rows.resize(rows);
     if (pool)
         pool->parallelFor(rows, kRowGrain, body);
     else

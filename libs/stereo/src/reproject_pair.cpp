@@ -117,15 +117,17 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // where the hole search reads them.
     const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
     const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
-    SecondEyeTargets to{second.color, second.depth, second.id, mHoleMask.view(), secondHasPlanes};
+    SecondEyeTargets to{second.color,     second.depth,    second.id,
+                        mHoleMask.view(), secondHasPlanes, &mHoleRuns};
     const DisparityLine line = disparityLine(rig);
     Status moved = options.reprojectWithLut ? reproject(from, lutFor(line, cam), to, &mPool)
                                             : reproject(from, line, to, &mPool);
     PLX_CHECK(moved.isOk());
-    findHoles(std::as_const(mHoleMask).view(), HoleConnectivity::k8, mHoleScratch, mHoles);
-    classifyHoles(readOnly(to.id), mHoles, [&scene](uint32_t a, uint32_t b) {
-        return trianglesOfOneSurface(scene, a - 1, b - 1);
-    });
+    findHoles(mHoleRuns, HoleConnectivity::k8, mHoleScratch, mHoles);
+    classifyHoles(
+        readOnly(to.id), mHoles,
+        [&scene](uint32_t a, uint32_t b) { return trianglesOfOneSurface(scene, a - 1, b - 1); },
+        &mPool);
     stats->reprojectMs = clock.elapsedMs();
 
     clock.restart();

@@ -45,6 +45,7 @@ private:
     // Depth and ID planes for eyes whose frame planes are not written (writeDepthAndIds false).
     raster::FrameBuffers mFirstPlanes, mSecondPlanes;
     Image<uint8_t> mHoleMask;
+    HoleRuns mHoleRuns;  // the row pass's hole runs, which findHoles merges
     HoleScratch mHoleScratch;
     HoleSet mHoles;
     FillScratch mFillScratch;

@@ -328,11 +328,9 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
     }
 }
 
-TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
-    // Random 1/w from 13 levels (0 is the background) and disparity ranges wider than the image,
-    // so rows have collisions, gaps and landings outside on both sides.
-    const int w = 97, h = 23;
-    std::mt19937 rng(7);
+// A first eye of random 1/w from 13 levels (0 is the background), colours and IDs.
+raster::FrameBuffers randomFirstEye(int w, int h, unsigned seed) {
+    std::mt19937 rng(seed);
     std::uniform_int_distribution<int> level(0, 12);
     std::uniform_int_distribution<uint32_t> any;
     raster::FrameBuffers first;
@@ -344,8 +342,17 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
             first.color.at(x, y) = Rgba8{uint8_t(c), uint8_t(c >> 8), uint8_t(c >> 16), 255};
             first.id.at(x, y) = 1 + (any(rng) % 1000);
         }
-    for (DisparityLine line :
-         {DisparityLine{-40.0f, 12.0f}, DisparityLine{55.0f, -30.0f}, DisparityLine{-3.0f, 0.7f}}) {
+    return first;
+}
+
+// Disparity ranges wider than a random first eye of width ~100, so that rows have collisions,
+// gaps and landings outside on both sides.
+const DisparityLine kWideLines[] = {{-40.0f, 12.0f}, {55.0f, -30.0f}, {-3.0f, 0.7f}};
+
+TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
+    const int w = 97, h = 23;
+    const raster::FrameBuffers first = randomFirstEye(w, h, 7);
+    for (DisparityLine line : kWideLines) {
         SecondEye expected(w, h), got(w, h);
         reprojectByTheBook(first, line, &expected);
         ThreadPool pool(2);
@@ -582,6 +589,62 @@ TEST(Holes, MatchFloodFillOnRandomMasks) {
             ASSERT_EQ(int(set.holes.size()), components);
             ASSERT_TRUE(mine == ref) << "trial " << trial;
         }
+    }
+}
+
+void expectSameHoles(const HoleSet& a, const HoleSet& b) {
+    ASSERT_EQ(a.pixelCount, b.pixelCount);
+    ASSERT_EQ(a.segments.size(), b.segments.size());
+    ASSERT_EQ(a.holes.size(), b.holes.size());
+    for (size_t s = 0; s < a.segments.size(); ++s) {
+        const HoleSegment &p = a.segments[s], &q = b.segments[s];
+        EXPECT_TRUE(p.xStart == q.xStart && p.xEnd == q.xEnd && p.count == q.count && p.y == q.y &&
+                    p.next == q.next)
+            << "segment " << s;
+    }
+    for (size_t h = 0; h < a.holes.size(); ++h) {
+        const Hole &p = a.holes[h], &q = b.holes[h];
+        EXPECT_TRUE(p.firstSegment == q.firstSegment && p.segmentCount == q.segmentCount &&
+                    p.pixelCount == q.pixelCount && p.box.x0 == q.box.x0 && p.box.y0 == q.box.y0 &&
+                    p.box.x1 == q.box.x1 && p.box.y1 == q.box.y1 && p.holeClass == q.holeClass &&
+                    p.polygonId == q.polygonId && p.polygonCount == q.polygonCount)
+            << "hole " << h;
+    }
+}
+
+TEST(Holes, RowPassRunsGiveTheMasksHoles) {
+    // The runs the row pass lists (one thread or two, planes written or not) merge into the holes
+    // found on its mask, and classifying them on two threads gives the classes of one thread.
+    ThreadPool pool(2);
+    auto check = [&](const raster::FrameBuffers& first, const DisparityLine& line, int w, int h) {
+        for (bool planes : {true, false}) {
+            for (ThreadPool* threads : {static_cast<ThreadPool*>(nullptr), &pool}) {
+                SecondEye second(w, h);
+                HoleRuns runs;
+                runs.rows.assign(size_t(h) + 3, {HoleRun{1, 2}});  // stale rows are replaced
+                SecondEyeTargets targets = second.targets();
+                targets.depthAndIds = planes;
+                targets.holeRuns = &runs;
+                ASSERT_TRUE(reproject(firstTargets(first), line, targets, threads).isOk());
+                ASSERT_EQ(runs.rows.size(), size_t(h));
+                HoleScratch scratch;
+                HoleSet fromMask, fromRuns;
+                findHoles(ro(second.holeMask), HoleConnectivity::k8, scratch, fromMask);
+                findHoles(runs, HoleConnectivity::k8, scratch, fromRuns);
+                EXPECT_GT(fromRuns.pixelCount, 0);
+                classifyHoles(ro(second.buffers.id), fromMask);
+                classifyHoles(ro(second.buffers.id), fromRuns, {}, &pool);
+                expectSameHoles(fromMask, fromRuns);
+            }
+        }
+    };
+    for (DisparityLine line : kWideLines) check(randomFirstEye(97, 23, 5), line, 97, 23);
+    for (Eye eye : {Eye::kLeft, Eye::kRight}) {
+        StereoRigDesc desc;
+        desc.separation = 0.2f;
+        desc.firstEye = eye;
+        OfficeEye o(desc, 200, 150);
+        check(o.first, disparityLine(o.rig), 200, 150);
     }
 }
 

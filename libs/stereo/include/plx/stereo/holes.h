@@ -82,6 +82,11 @@ struct HoleScratch {
 // left kUnclassified. Preconditions: out and scratch are not shared with a concurrent call.
 void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
                HoleScratch& scratch, HoleSet& out);
+// The same from the hole runs reproject() listed (SecondEyeTargets::holeRuns) while writing the
+// rows, in parallel: the same holes and segments as from its mask, without a second pass over the
+// mask.
+void findHoles(const HoleRuns& runs, HoleConnectivity connectivity, HoleScratch& scratch,
+               HoleSet& out);
 
 // Classifies each hole by the IDs of its bordering pixels along the rows, the left and right
 // neighbour of each of its segments (the pixels the reprojection wrote beside it and an
@@ -97,10 +102,12 @@ void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
 // each joined by it to one found before (in scan order), is an expansion hole of all of them
 // (polygonCount): the surface the first eye saw on both sides of the crack is continuous, as
 // inside one polygon.
+// Holes are classified in parallel on `pool` when given (sameSurface is then called from its
+// threads); the result does not depend on the thread count.
 // Precondition: holes were found on a mask of id's size.
 using SameSurface = std::function<bool(uint32_t idA, uint32_t idB)>;
 void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes,
-                   const SameSurface& sameSurface = {});
+                   const SameSurface& sameSurface = {}, ThreadPool* pool = nullptr);
 
 // Fills every expansion hole by linear interpolation along its rows between each segment's two
 // neighbours (Fu section 3): colour per channel and 1/w linear in the column, ID the hole's

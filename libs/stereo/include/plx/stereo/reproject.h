@@ -88,12 +88,25 @@ struct FirstEyeTargets {
 // pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
 // fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
 // skips the two planes' 7.4 MB of writes at 1280x720.
+// One row's maximal run of hole pixels, columns x0 .. x1 inclusive.
+struct HoleRun {
+    int32_t x0 = 0, x1 = 0;
+};
+
+// Every row's hole runs as the row pass found them while writing the row: rows[y] in column
+// order. findHoles (holes.h) merges them without scanning the mask again. Kept between frames, so
+// that no call allocates once the rows have grown.
+struct HoleRuns {
+    std::vector<std::vector<HoleRun>> rows;
+};
+
 struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;
     ImageView<uint32_t> id;
     ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0
     bool depthAndIds = true;
+    HoleRuns* holeRuns = nullptr;  // when given, reproject() lists each row's hole runs there too
 };
 
 // Reprojects the first eye into the second with the direct form (one multiply-add per pixel).

@@ -82,9 +82,8 @@ struct HoleScratch {
 // left kUnclassified. Preconditions: out and scratch are not shared with a concurrent call.
 void findHoles(ImageView<const uint8_t> holeMask, HoleConnectivity connectivity,
                HoleScratch& scratch, HoleSet& out);
-// The same from the hole runs reproject() listed (SecondEyeTargets::holeRuns) while writing the
-// rows, in parallel: the same holes and segments as from its mask, without a second pass over the
-// mask.
+// The same from the hole runs reproject() listed (SecondEyeTargets::holeRuns) while its threads
+// wrote the rows: the same holes and segments as from the mask, without another pass over it.
 void findHoles(const HoleRuns& runs, HoleConnectivity connectivity, HoleScratch& scratch,
                HoleSet& out);
 

@@ -83,11 +83,6 @@ struct FirstEyeTargets {
     ImageView<const uint32_t> id;  // triangle index + 1, 0 = none
 };
 
-// The second eye's targets. reproject() writes colour and the hole mask at every pixel; depth and
-// ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
-// pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
-// fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
-// skips the two planes' 7.4 MB of writes at 1280x720.
 // One row's maximal run of hole pixels, columns x0 .. x1 inclusive.
 struct HoleRun {
     int32_t x0 = 0, x1 = 0;
@@ -100,6 +95,11 @@ struct HoleRuns {
     std::vector<std::vector<HoleRun>> rows;
 };
 
+// The second eye's targets. reproject() writes colour and the hole mask at every pixel; depth and
+// ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
+// pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
+// fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
+// skips the two planes' 7.4 MB of writes at 1280x720.
 struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;

@@ -1,14 +1,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
-
-#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-#include <emmintrin.h>
-#endif
 
 #include <plx/core/check.h>
 #include <plx/stereo/holes.h>
+
+#include "byte_runs.h"
 
 namespace plx::stereo {
 
@@ -25,44 +22,11 @@ int32_t findRoot(std::vector<int32_t>& parent, int32_t h) {
     return root;
 }
 
-// The first column >= x whose mask byte is not zero, or width. Hole pixels are a few percent of a
-// frame, so the zero bytes between them are skipped 64 at a time (SSE2) or 8 at a time.
-int nextNonZero(const uint8_t* m, int x, int width) {
-#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-    const __m128i zero = _mm_setzero_si128();
-    auto load = [&](int at) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(m + at)); };
-    for (; x + 64 <= width; x += 64) {
-        const __m128i any = _mm_or_si128(_mm_or_si128(load(x), load(x + 16)),
-                                         _mm_or_si128(load(x + 32), load(x + 48)));
-        if (_mm_movemask_epi8(_mm_cmpeq_epi8(any, zero)) != 0xffff) break;
-    }
-    for (; x + 16 <= width; x += 16) {
-        const int nonZero = ~_mm_movemask_epi8(_mm_cmpeq_epi8(load(x), zero)) & 0xffff;
-        if (nonZero != 0) return x + __builtin_ctz(unsigned(nonZero));
-    }
-#endif
-    for (; x + 8 <= width; x += 8) {
-        uint64_t word;
-        std::memcpy(&word, m + x, sizeof word);
-        if (word != 0) break;
-    }
-    while (x < width && !m[x]) ++x;
-    return x;
-}
-
-// Appends row y's segments, left to right, from the mask (Fu Fig. 5). Hole pixels are a few
-// percent of a frame, so the zero bytes between them are skipped many at a time.
+// Appends row y's segments, left to right, from the mask (Fu Fig. 5).
 void appendMaskRow(ImageView<const uint8_t> holeMask, int y, std::vector<HoleSegment>& segs) {
-    const uint8_t* m = holeMask.row(y);
-    for (int x = 0; x < holeMask.width;) {
-        if (!m[x]) {
-            x = nextNonZero(m, x + 1, holeMask.width);
-            continue;
-        }
-        int x0 = x;
-        while (x < holeMask.width && m[x]) ++x;
-        segs.push_back({x0, x - 1, x - x0, y, -1});
-    }
+    forEachNonZeroRun(holeMask.row(y), holeMask.width, [&](int x0, int end) {
+        segs.push_back({x0, end - 1, end - x0, y, -1});
+    });
 }
 
 // Joins each of the current row's segments [curBegin, curEnd) to the holes of the previous row's

@@ -12,6 +12,8 @@
 
 #include <plx/stereo/reproject.h>
 
+#include "byte_runs.h"
+
 namespace plx::stereo {
 
 Result<DisparityLine> disparityLine(const StereoRigDesc& desc, float focalPx) {
@@ -189,27 +191,6 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
 #endif
 }
 
-// Calls run(start, end) for each maximal run [start, end) of non-zero bytes of a row, left to
-// right; the zero bytes between runs are skipped eight at a time.
-template <class Run>
-void forEachHoleRun(const uint8_t* hole, int w, const Run& run) {
-    for (int t = 0; t < w;) {
-        uint64_t word = 0;
-        if (t + 8 <= w) std::memcpy(&word, hole + t, sizeof word);
-        if (t + 8 <= w && word == 0) {
-            t += 8;
-            continue;
-        }
-        if (!hole[t]) {
-            ++t;
-            continue;
-        }
-        const int start = t;
-        while (t < w && hole[t]) ++t;
-        run(start, t);
-    }
-}
-
 // Depth 0 and ID 0 over the hole run [start, end) of row y, and the landed 1/w and ID beside it:
 // what the fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not
 // written in full.
@@ -232,7 +213,7 @@ void markHoleRun(const FirstEyeTargets& first, const SecondEyeTargets& second, i
 void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
                     const int32_t* from) {
     std::vector<HoleRun>* runs = second.holeRuns ? &second.holeRuns->rows[size_t(y)] : nullptr;
-    forEachHoleRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
+    forEachNonZeroRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
         if (runs) runs->push_back({start, end - 1});
         if (!second.depthAndIds) markHoleRun(first, second, y, from, start, end);
     });

@@ -59,8 +59,8 @@
 // empty, a box (or triangle) whose nearest point lies behind the farthest pixel drawn is skipped
 // with its subtree: the paper's termination as a depth bound. It costs one traversal of tight
 // boxes instead of the flag pass plus the BSP walk over loose subtree boxes (the planes cut the
-// scene anywhere), and split triangles need no bookkeeping: the fill is 1.6x (10k triangles) to
-// 3.2x (1M) faster, with the same pixels (docs/stereo-results.md, reprojection section).
+// scene anywhere), and split triangles need no bookkeeping: the fill is 2.2x (10k triangles) to
+// 4.1x (1M) faster, with the same pixels (docs/stereo-results.md, reprojection section).
 // FillSearch::kBspOrder keeps the paper's search for comparison.
 // Result: a disocclusion pixel equals the full render's wherever the nearest polygon there is
 // in the tree (degenerate triangles are not) and, for the BSP search, the BSP order is exact
@@ -162,7 +162,7 @@ struct FillOptions {
     // kMaxSurfacePolygons), each pixel final when first covered, as the paper takes an expansion
     // hole's polygon; the search runs only for the pixels they leave open. Most holes are
     // slivers beside a foreground edge that the surface behind it fills, so the search runs for
-    // far fewer pieces (box nodes 92k -> 28k on office:280 at 1280x720); a pixel where something
+    // far fewer pieces (box nodes 53k -> 16k on office:280 at 1280x720); a pixel where something
     // the first eye did not see lies between that surface and the eye keeps the surface
     // (identical pixels 99.39% -> 99.32%, 40.4 -> 39.3 dB; docs/stereo-results.md).
     bool surroundingFirst = false;
@@ -173,7 +173,7 @@ struct FillOptions {
 
 struct FillStats {
     int64_t expansionPixels = 0;     // pixels drawn (or interpolated) from an expansion polygon
-    int64_t disocclusionPixels = 0;  // pixels drawn by the BSP search
+    int64_t disocclusionPixels = 0;  // pixels drawn by the disocclusion search
     int64_t emptyPixels = 0;         // hole pixels no polygon covers
     size_t nodesVisited = 0;         // BSP nodes the searches reached
     size_t boxNodesTested = 0;       // box-hierarchy nodes tested (markHole, or the box search)

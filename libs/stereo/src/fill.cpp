@@ -135,6 +135,10 @@ public:
     HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : mFrame(frame), mSlot(slot) {}
 
     void fill(const Hole& hole, std::span<const PixelSpan> piece, int64_t pixels) {
+        // Whatever holeClass held here (the pair's hole mask) gives way to the classes below.
+        for (const PixelSpan& p : piece)
+            std::fill_n(&mFrame.holeClass.at(p.x0, p.y), p.x1 - p.x0 + 1,
+                        uint8_t(PixelSource::kReprojected));
         mSlot.spans.assign(piece.begin(), piece.end());
         mSlot.drawn.clear();
         mOpen = pixels;

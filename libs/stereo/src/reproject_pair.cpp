@@ -100,7 +100,6 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     const int w = cam.width(), h = cam.height();
     raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mFirstPlanes);
     raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mSecondPlanes);
-    if (mHoleMask.width() != w || mHoleMask.height() != h) mHoleMask.resize(w, h);
     if (frame->holeClass.width() != w || frame->holeClass.height() != h)
         frame->holeClass.resize(w, h);
 
@@ -117,8 +116,10 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // where the hole search reads them.
     const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
     const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
-    SecondEyeTargets to{second.color,     second.depth,    second.id,
-                        mHoleMask.view(), secondHasPlanes, &mHoleRuns};
+    // The row pass writes its hole mask into holeClass: 0, kReprojected, where a pixel landed;
+    // the fill gives each hole pixel its class.
+    SecondEyeTargets to{second.color,    second.depth, second.id, frame->holeClass.view(),
+                        secondHasPlanes, &mHoleRuns};
     const DisparityLine line = disparityLine(rig);
     Status moved = options.reprojectWithLut ? reproject(from, lutFor(line, cam), to, &mPool)
                                             : reproject(from, line, to, &mPool);
@@ -131,7 +132,6 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     stats->reprojectMs = clock.elapsedMs();
 
     clock.restart();
-    frame->holeClass.view().fill(uint8_t(PixelSource::kReprojected));
     FillOptions fillOptions;
     fillOptions.render = firstOptions;
     fillOptions.search = options.fillSearch;

@@ -44,7 +44,6 @@ private:
     double mPrepareMs = 0.0;
     // Depth and ID planes for eyes whose frame planes are not written (writeDepthAndIds false).
     raster::FrameBuffers mFirstPlanes, mSecondPlanes;
-    Image<uint8_t> mHoleMask;
     HoleRuns mHoleRuns;  // the row pass's hole runs, which findHoles merges
     HoleScratch mHoleScratch;
     HoleSet mHoles;

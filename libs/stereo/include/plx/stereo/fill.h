@@ -198,11 +198,12 @@ private:
 };
 
 // Fills every hole of `holes` in the second eye's targets and writes the PixelSource of each
-// hole pixel to holeClass (other pixels are left as they are). Runs the holes on `pool` when
-// given; the result does not depend on the thread count. Preconditions: `fill` was built from
-// `scene`; camera is the second eye's; holes were found on second.holeMask and classified on
-// second.id (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject() leaves them);
-// targets and holeClass of the camera's size.
+// hole pixel to holeClass, whatever it held there (other pixels are left as they are, so
+// holeClass may be the hole mask reproject() wrote: 0, kReprojected, where a pixel landed). Runs
+// the holes on `pool` when given; the result does not depend on the thread count. Preconditions:
+// `fill` was built from `scene`; camera is the second eye's; holes were found on second.holeMask
+// and classified on second.id (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject()
+// leaves them); targets and holeClass of the camera's size.
 FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
                     const FillOptions& options, const HoleSet& holes,
                     const SecondEyeTargets& second, ImageView<uint8_t> holeClass,

@@ -369,9 +369,10 @@ std::string reprojectPaperTableMarkdown(const std::vector<StereoExperimentRow>& 
                          fmt::format("{:.2f}", r.reprojectSecondMs),
                          fmt::format("{:.2f}", r.reprojectFirstMs + r.reprojectSecondMs),
                          fmt::format("{:.0f}", r.reprojectPrepareMs)});
-    return markdownTable({"polygons", "left image ms (first eye)",
-                          "right image ms (reproject + fill)", "total ms", "BSP + boxes ms (once)"},
-                         cells);
+    return markdownTable(
+        {"polygons", "left image ms (first eye)", "right image ms (reproject + fill)", "total ms",
+         "box hierarchy ms (once)"},
+        cells);
 }
 
 }  // namespace plx::cli

@@ -41,7 +41,7 @@ struct StereoExperimentRow {
     size_t conservativeMissedPolygons = 0;
     int64_t conservativeMissedPixels = 0;
     // Reproject method (zero when not measured); second = reproject + fill.
-    double reprojectPrepareMs = 0;  // BSP tree and box hierarchy, once per scene, untimed pairs
+    double reprojectPrepareMs = 0;  // the box hierarchy, once per scene, untimed
     double reprojectFirstMs = 0, reprojectSecondMs = 0, reprojectMs = 0, fillMs = 0;
     double reprojectPairSpeedup = 0;  // full pair / reproject pair
     double reprojectPsnrDb = 0, reprojectIdenticalFraction = 0;

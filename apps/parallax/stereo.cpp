@@ -24,6 +24,7 @@ struct StereoArgs {
     bool conservative = false;
     bool reprojectLut = false;
     bool surroundingFirst = false;
+    std::string fillSearch;  // empty: not given (boxes)
     float separation = 0.065f;
     float convergence = 3.0f;
     std::string rig = "toe-in";
@@ -53,7 +54,7 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     auto method = stereo::parseMethod(a.method);
     if (!method) return method.status();
     // The conservative set widens what the pbuffer method draws; the reproject method draws
-    // from no set (its holes are filled from the scene's BSP tree).
+    // from no set (its holes are filled by a search of the scene).
     if (a.conservative && *method != stereo::Method::kPBuffer)
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--conservative applies to --method pbuffer, not {}",
@@ -64,6 +65,11 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     if (a.surroundingFirst && *method != stereo::Method::kReproject)
         return errorStatus(ErrorCode::kInvalidArgument,
                            "--surrounding-first applies to --method reproject only");
+    if (!a.fillSearch.empty() && *method != stereo::Method::kReproject)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "--fill-search applies to --method reproject only");
+    auto fillSearch = stereo::parseFillSearch(a.fillSearch.empty() ? "boxes" : a.fillSearch);
+    if (!fillSearch) return fillSearch.status();
     auto rigType = parseStereoRigType(a.rig);
     if (!rigType) return rigType.status();
     auto layout = stereo::parseLayout(a.format);
@@ -86,6 +92,7 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     p.options.conservative = a.conservative;
     p.options.reprojectWithLut = a.reprojectLut;
     p.options.reprojectSurroundingFirst = a.surroundingFirst;
+    p.options.fillSearch = *fillSearch;
     p.options.render.shading = *shading;
     p.rig.type = *rigType;
     p.rig.separation = a.separation;
@@ -311,10 +318,12 @@ int runStereo(const StereoArgs& a) {
     int errorExit = kExitFailure;
     auto cameras = camerasFor(*scene, a, size, &errorExit);
     if (!cameras) return fail(cameras.status().message(), errorExit);
-    // The reproject method's BSP tree and box hierarchy, built once before any timing.
+    // What the reproject method's search walks (box hierarchy; BSP tree for --fill-search bsp),
+    // built once before any timing.
     double prepareMs = 0.0;
     if (p->options.method == stereo::Method::kReproject) {
-        if (Status s = (*renderer)->prepareReprojection(*scene); !s) return fail(s);
+        if (Status s = (*renderer)->prepareReprojection(*scene, p->options.fillSearch); !s)
+            return fail(s);
         prepareMs = (*renderer)->lastPrepareMs();
     }
 
@@ -354,6 +363,7 @@ int runStereo(const StereoArgs& a) {
         {"conservative", p->options.conservative},
         {"reproject_lut", p->options.reprojectWithLut},
         {"surrounding_first", p->options.reprojectSurroundingFirst},
+        {"fill_search", stereo::fillSearchName(p->options.fillSearch)},
         {"rig", p->rig.type == StereoRigType::kConverged ? "toe-in" : "parallel"},
         {"separation", p->rig.separation},
         {"convergence", p->rig.convergence},
@@ -419,6 +429,9 @@ Command registerStereo(CLI::App& app) {
     sub->add_flag("--surrounding-first", a->surroundingFirst,
                   "reproject: fill disocclusion holes from the polygons around them first, "
                   "searching only what they leave open (faster, approximate)");
+    sub->add_option("--fill-search", a->fillSearch,
+                    "reproject: boxes (box hierarchy, nearest box first; default) | bsp (the "
+                    "paper's front-to-back BSP walk; builds the BSP tree first)");
     sub->add_option("--separation", a->separation, "Eye separation e (scene units)")
         ->capture_default_str();
     sub->add_option("--convergence", a->convergence, "Convergence distance c (scene units)")

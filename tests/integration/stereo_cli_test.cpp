@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <plx/core/image_io.h>
+
 #include "cli_runner.h"
 
 namespace {
@@ -97,6 +99,28 @@ TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
     EXPECT_TRUE(fs::exists(prefix.string() + "_0001.left.png"));
 }
 
+// The two disocclusion searches give the same pixels (fill.h); the default builds no BSP tree.
+TEST(StereoCli, FillSearchesGiveTheSamePictures) {
+    std::string pictures[2];
+    for (int i = 0; i < 2; ++i) {
+        const std::string search = i == 0 ? "boxes" : "bsp";
+        const fs::path prefix = stereoDir() / ("search_" + search);
+        RunResult r =
+            runParallax("stereo office:2 --method reproject --size 160x120 --frames 1 --out " +
+                        prefix.string() + (i == 0 ? "" : " --fill-search bsp") + " --json");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        auto doc = nlohmann::json::parse(r.out);
+        EXPECT_EQ(doc["fill_search"], search);
+        EXPECT_GT(doc["disocclusion_holes"].get<int>(), 0);
+        for (const char* suffix : {".right.png", ".diff.png"}) {
+            auto bytes = plx::readFileBytes(prefix.string() + suffix);
+            ASSERT_TRUE(bytes.isOk()) << bytes.status().message();
+            pictures[i].append(bytes->begin(), bytes->end());
+        }
+    }
+    EXPECT_EQ(pictures[0], pictures[1]);
+}
+
 TEST(StereoCli, WalkthroughReportsPerPoseTimings) {
     fs::path prefix = stereoDir() / "walk";
     RunResult r = runParallax("stereo office:2 --walk 3 --size 48x32 --conservative --out " +
@@ -130,6 +154,10 @@ TEST(StereoCli, BadParametersGiveOneLineErrors) {
                        "--reproject-lut", 2);
     expectOneLineError(runParallax("stereo office:1 --method full --surrounding-first" + out),
                        "--surrounding-first", 2);
+    expectOneLineError(runParallax("stereo office:1 --method pbuffer --fill-search bsp" + out),
+                       "--fill-search", 2);
+    expectOneLineError(runParallax("stereo office:1 --method reproject --fill-search octree" + out),
+                       "octree", 2);
     expectOneLineError(runParallax("stereo office:1 --format hologram" + out), "hologram", 2);
     expectOneLineError(runParallax("stereo office:1 --rig sideways" + out), "sideways", 2);
     for (const char* frames : {"0", "-1", "abc", "100001"})

@@ -395,15 +395,18 @@ struct PairFixture {
     stereo::StereoFrame frame;
     double prepareMs = 0;
 
-    explicit PairFixture(int rooms)
+    stereo::FillSearch search;
+    bool surroundingFirst = false;
+
+    explicit PairFixture(int rooms,
+                         stereo::FillSearch fillSearch = stereo::FillSearch::kBoxHierarchy)
         : scene(*scene::generateOffice(rooms)),
           rig(*StereoRig::create(*scene::cameraAt(scene, scene.viewpoints.front(), 1280, 720), {})),
-          renderer(std::move(stereo::StereoRenderer::create({2})).value()) {
-        PLX_CHECK(renderer->prepareReprojection(scene).isOk());
+          renderer(std::move(stereo::StereoRenderer::create({2})).value()),
+          search(fillSearch) {
+        PLX_CHECK(renderer->prepareReprojection(scene, search).isOk());
         prepareMs = renderer->lastPrepareMs();
     }
-    stereo::FillSearch search = stereo::FillSearch::kBoxHierarchy;
-    bool surroundingFirst = false;
     stereo::StereoFrameStats pair(stereo::Method method, bool planes = false) {
         stereo::StereoOptions options;
         options.method = method;
@@ -415,8 +418,8 @@ struct PairFixture {
 };
 
 void BM_SecondEyeMethods(benchmark::State& state) {
-    PairFixture f(int(state.range(0)));
-    if (state.range(1) == 1) f.search = stereo::FillSearch::kBspOrder;
+    PairFixture f(int(state.range(0)), state.range(1) == 1 ? stereo::FillSearch::kBspOrder
+                                                           : stereo::FillSearch::kBoxHierarchy);
     f.surroundingFirst = state.range(2) == 1;
     double fullFirst = 0, fullSecond = 0, pbufferSecond = 0, reprojectSecond = 0;
     double reprojectMs = 0, fillMs = 0, reprojectFirst = 0, fullPair = 0, reprojectPair = 0;

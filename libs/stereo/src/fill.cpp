@@ -33,20 +33,33 @@ std::array<Vec3, 3> triangleCorners(const scene::Scene& scene, uint32_t t) {
 
 }  // namespace
 
-Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp,
+namespace {
+
+// FillScene::bsp and fragmentsOfTriangle.
+Status buildBsp(const scene::Scene& scene, const scene::BspConfig& config, FillScene* fill) {
+    auto tree = scene::BspTree::build(scene, config);
+    if (!tree) return tree.status();
+    fill->bsp = std::move(tree).value();
+    fill->fragmentsOfTriangle.assign(scene.triangleCount(), 0);
+    for (size_t f = 0; f < fill->bsp.fragmentCount(); ++f) {
+        uint16_t& n = fill->fragmentsOfTriangle[fill->bsp.fragment(f).sourceTriangle];
+        if (n < std::numeric_limits<uint16_t>::max()) ++n;
+    }
+    fill->bspBuilt = true;
+    return Status::ok();
+}
+
+}  // namespace
+
+Result<FillScene> buildFillScene(const scene::Scene& scene, FillSearch search,
+                                 const scene::BspConfig& bsp,
                                  const scene::BoxHierarchyConfig& boxes) {
     FillScene fill;
-    auto tree = scene::BspTree::build(scene, bsp);
-    if (!tree) return tree.status();
-    fill.bsp = std::move(tree).value();
+    if (search == FillSearch::kBspOrder)
+        if (Status s = buildBsp(scene, bsp, &fill); !s.isOk()) return s;
     auto hierarchy = scene::BoxHierarchy::build(scene, boxes);
     if (!hierarchy) return hierarchy.status();
     fill.boxes = std::move(hierarchy).value();
-    fill.fragmentsOfTriangle.assign(scene.triangleCount(), 0);
-    for (size_t f = 0; f < fill.bsp.fragmentCount(); ++f) {
-        uint16_t& n = fill.fragmentsOfTriangle[fill.bsp.fragment(f).sourceTriangle];
-        if (n < std::numeric_limits<uint16_t>::max()) ++n;
-    }
     const std::vector<uint32_t>& order = fill.boxes.triangles();
     // The corners in leaf order, then the padding: copies of the last entry's.
     LeafCorners& corners = fill.boxCorners;
@@ -418,7 +431,8 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
                     FillScratch* scratch, ThreadPool* pool) {
     PLX_CHECK(second.id.width == camera.width() && second.id.height == camera.height());
     PLX_CHECK(holeClass.width == camera.width() && holeClass.height == camera.height());
-    PLX_CHECK(fill.fragmentsOfTriangle.size() == scene.triangleCount());
+    PLX_CHECK(fill.serves(options.search));
+    PLX_CHECK(!fill.bspBuilt || fill.fragmentsOfTriangle.size() == scene.triangleCount());
     FillStats total;
     const bool interpolate = options.expansion == ExpansionFill::kInterpolate;
     if (interpolate) {

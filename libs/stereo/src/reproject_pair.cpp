@@ -24,15 +24,15 @@ ReprojectPair::SceneKey ReprojectPair::keyOf(const scene::Scene& scene) {
     return key;
 }
 
-bool ReprojectPair::preparedFor(const scene::Scene& scene) const {
-    return mKey && *mKey == keyOf(scene);
+bool ReprojectPair::preparedFor(const scene::Scene& scene, FillSearch search) const {
+    return mKey && *mKey == keyOf(scene) && mFill.serves(search);
 }
 
-Status ReprojectPair::prepare(const scene::Scene& scene) {
-    if (preparedFor(scene)) return Status();
+Status ReprojectPair::prepare(const scene::Scene& scene, FillSearch search) {
+    if (preparedFor(scene, search)) return Status();
     Stopwatch clock;
     mKey.reset();
-    auto fill = buildFillScene(scene);
+    auto fill = buildFillScene(scene, search);
     if (!fill) return fill.status();
     mFill = std::move(fill).value();
     mKey = keyOf(scene);
@@ -95,7 +95,7 @@ void countHoles(const HoleSet& holes, StereoFrameStats* stats) {
 void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene,
                            const StereoRig& rig, const StereoOptions& options, StereoFrame* frame,
                            StereoFrameStats* stats) {
-    PLX_CHECK(preparedFor(scene));
+    PLX_CHECK(preparedFor(scene, options.fillSearch));
     const Camera& cam = rig.first();
     const int w = cam.width(), h = cam.height();
     raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mFirstPlanes);

@@ -1,6 +1,7 @@
 #pragma once
 // The reproject method's frame (Fu, Bao, Peng) inside StereoRenderer: what it keeps per scene
-// (the fill's BSP tree and box hierarchy) and per frame (scratch planes, holes, fill memory).
+// (the fill's box hierarchy, and its BSP tree for the BSP search) and per frame (scratch planes,
+// holes, fill memory).
 
 #include <memory>
 #include <optional>
@@ -18,13 +19,15 @@ public:
     explicit ReprojectPair(int threads) : mPool(threads) {}
 
     // StereoRenderer::prepareReprojection.
-    Status prepare(const scene::Scene& scene);
+    Status prepare(const scene::Scene& scene, FillSearch search);
     double lastPrepareMs() const { return mPrepareMs; }
-    // Whether prepare() ran for this scene (address, size and a fingerprint of its geometry).
-    bool preparedFor(const scene::Scene& scene) const;
+    // Whether prepare() ran for this scene (address, size and a fingerprint of its geometry) and
+    // built what `search` walks.
+    bool preparedFor(const scene::Scene& scene, FillSearch search) const;
 
     // Renders the pair: first eye with depth and IDs, reprojection, holes found, classified and
-    // filled. Precondition: preparedFor(scene); frame's eyes sized by the caller.
+    // filled. Precondition: preparedFor(scene, options.fillSearch); frame's eyes sized by the
+    // caller.
     void render(raster::Renderer& renderer, const scene::Scene& scene, const StereoRig& rig,
                 const StereoOptions& options, StereoFrame* frame, StereoFrameStats* stats);
 

@@ -33,6 +33,17 @@ const char* methodName(Method method) {
     return "unknown";
 }
 
+Result<FillSearch> parseFillSearch(const std::string& name) {
+    if (name == "boxes") return FillSearch::kBoxHierarchy;
+    if (name == "bsp") return FillSearch::kBspOrder;
+    return errorStatus(ErrorCode::kInvalidArgument,
+                       fmt::format("unknown fill search '{}' (boxes, bsp)", name));
+}
+
+const char* fillSearchName(FillSearch search) {
+    return search == FillSearch::kBspOrder ? "bsp" : "boxes";
+}
+
 // Screen tiles of 128 pixels for both methods. The P-buffer's second eye draws about a
 // thousand mostly large polygons over the whole image: with 64-pixel tiles each reaches several
 // tiles and is set up, and its rows started, once per tile; 128-pixel tiles cut the subset
@@ -66,10 +77,10 @@ StereoRenderer::~StereoRenderer() = default;
 std::span<const uint32_t> StereoRenderer::lastVisibleSet() const { return mImpl->lastSet; }
 raster::Renderer& StereoRenderer::renderer() { return *mImpl->renderer; }
 
-Status StereoRenderer::prepareReprojection(const scene::Scene& scene) {
+Status StereoRenderer::prepareReprojection(const scene::Scene& scene, FillSearch search) {
     if (!mImpl->reproject)
         mImpl->reproject = std::make_unique<ReprojectPair>(mImpl->renderer->threadCount());
-    return mImpl->reproject->prepare(scene);
+    return mImpl->reproject->prepare(scene, search);
 }
 
 double StereoRenderer::lastPrepareMs() const {
@@ -118,7 +129,7 @@ StereoFrameStats StereoRenderer::renderPair(const scene::Scene& scene, const Ste
     } else if (options.method == Method::kPBuffer) {
         mImpl->renderPBuffer(scene, rig, options, frame, &stats);
     } else {
-        PLX_CHECK(mImpl->reproject && mImpl->reproject->preparedFor(scene));
+        PLX_CHECK(mImpl->reproject && mImpl->reproject->preparedFor(scene, options.fillSearch));
         mImpl->reproject->render(*mImpl->renderer, scene, rig, options, frame, &stats);
     }
     stats.pairMs = stats.firstEyeMs + stats.collectMs + stats.secondEyeMs;

@@ -63,7 +63,7 @@ struct Pairs {
         options.method = Method::kFull;
         r->renderPair(s, rig, options, &full);
         options.method = Method::kReproject;
-        PLX_CHECK(r->prepareReprojection(s).isOk());
+        PLX_CHECK(r->prepareReprojection(s, options.fillSearch).isOk());
         stats = r->renderPair(s, rig, options, &reprojected);
         second = rig.secondEye();
     }
@@ -369,6 +369,33 @@ TEST(Fill, SurroundingPolygonsFirstStayCloseWithLessSearch) {
     }
 }
 
+// A second eye moved from a rendered first eye, its holes found and classified as the pair does
+// them; fillHoles is left to the test.
+struct MovedSecondEye {
+    raster::FrameBuffers eye;
+    Image<uint8_t> mask, classes;
+    HoleSet holes;
+
+    MovedSecondEye(const scene::Scene& s, const StereoRig& rig, const raster::FrameBuffers& first) {
+        const int w = first.color.width(), h = first.color.height();
+        eye.resize(w, h);
+        mask.resize(w, h);
+        classes = Image<uint8_t>(w, h, 0);
+        PLX_CHECK(reproject({first.color.view(), first.depth.view(), first.id.view()},
+                            disparityLine(rig), targets())
+                      .isOk());
+        HoleScratch scratch;
+        findHoles(std::as_const(mask).view(), HoleConnectivity::k8, scratch, holes);
+        // Cracks over triangles of one surface are expansion holes too.
+        classifyHoles(std::as_const(eye.id).view(), holes, [&s](uint32_t a, uint32_t b) {
+            return trianglesOfOneSurface(s, a - 1, b - 1);
+        });
+    }
+    SecondEyeTargets targets() {
+        return {eye.color.view(), eye.depth.view(), eye.id.view(), mask.view()};
+    }
+};
+
 // Expansion holes by evaluation or interpolation: both fill every hole pixel; evaluation gives
 // the polygon's exact colour, so it is at least as close to the full render.
 TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
@@ -383,30 +410,19 @@ TEST(Fill, ExpansionByEvaluationIsAtLeastAsCloseAsInterpolation) {
     r->render(s, rig.second(), {}, full.targets());
     int64_t differing[2] = {0, 0};
     for (ExpansionFill mode : {ExpansionFill::kEvaluate, ExpansionFill::kInterpolate}) {
-        raster::FrameBuffers second;
-        second.resize(320, 240);
-        Image<uint8_t> mask(320, 240), cls(320, 240, 0);
-        SecondEyeTargets t{second.color.view(), second.depth.view(), second.id.view(), mask.view()};
-        const raster::FrameBuffers& from = first;
-        ASSERT_TRUE(
-            reproject({from.color.view(), from.depth.view(), from.id.view()}, disparityLine(rig), t)
-                .isOk());
-        HoleScratch hs;
-        HoleSet holes;
-        findHoles(std::as_const(mask).view(), HoleConnectivity::k8, hs, holes);
-        // As the pair classifies: cracks over triangles of one surface are expansion holes too.
-        classifyHoles(std::as_const(second.id).view(), holes, [&s](uint32_t a, uint32_t b) {
-            return trianglesOfOneSurface(s, a - 1, b - 1);
-        });
-        Image<uint8_t> holeMask = mask;  // fillExpansionHoles clears the mask it fills
+        MovedSecondEye second(s, rig, first);
+        const Image<uint8_t> holeMask = second.mask;  // fillExpansionHoles clears the mask it fills
         FillOptions options;
         options.expansion = mode;
         FillScratch scratch;
-        FillStats st = fillHoles(s, fill, rig.second(), options, holes, t, cls.view(), &scratch);
-        EXPECT_EQ(st.expansionPixels + st.disocclusionPixels + st.emptyPixels, holes.pixelCount);
+        const Image<uint8_t>& cls = second.classes;
+        FillStats st = fillHoles(s, fill, rig.second(), options, second.holes, second.targets(),
+                                 second.classes.view(), &scratch);
+        EXPECT_EQ(st.expansionPixels + st.disocclusionPixels + st.emptyPixels,
+                  second.holes.pixelCount);
         for (size_t i = 0; i < cls.pixelCount(); ++i) {
             EXPECT_EQ(cls.data()[i] != 0, holeMask.data()[i] != 0);
-            if (!(second.color.data()[i] == full.color.data()[i]))
+            if (!(second.eye.color.data()[i] == full.color.data()[i]))
                 ++differing[mode == ExpansionFill::kInterpolate];
         }
     }
@@ -419,7 +435,8 @@ TEST(Fill, BoxHierarchySearchGivesTheBspSearchsFrame) {
     for (int rooms : {2, 6}) {
         scene::Scene s = *scene::generateOffice(rooms);
         auto r = std::move(StereoRenderer::create({2})).value();
-        ASSERT_TRUE(r->prepareReprojection(s).isOk());
+        // Prepared for the BSP search, it serves the box search too.
+        ASSERT_TRUE(r->prepareReprojection(s, FillSearch::kBspOrder).isOk());
         for (const StereoRigDesc& desc : allRigs()) {
             StereoRig rig =
                 *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 320, 240), desc);
@@ -504,6 +521,53 @@ TEST(Fill, MethodNamesAndPreparation) {
     auto r = std::move(StereoRenderer::create({1})).value();
     ASSERT_TRUE(r->prepareReprojection(s).isOk());
     EXPECT_GT(r->lastPrepareMs(), 0.0);
+    // Prepared for the box search, a pair with the BSP search first needs the tree built.
+    StereoRig rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 160, 120), {});
+    StereoOptions options;
+    options.method = Method::kReproject;
+    options.fillSearch = FillSearch::kBspOrder;
+    ASSERT_TRUE(r->prepareReprojection(s, FillSearch::kBspOrder).isOk());
+    StereoFrame frame;
+    EXPECT_GT(r->renderPair(s, rig, options, &frame).holePixels, 0);
+}
+
+// The box search needs no BSP tree, so the default build leaves it out, and a scene whose tree
+// cannot be built (here: any split exceeds the fragment bound) still gets the box search.
+TEST(Fill, TheBoxSearchNeedsNoBspTree) {
+    const scene::Scene s = *scene::generateOffice(2);
+    const FillScene boxes = *buildFillScene(s);
+    EXPECT_FALSE(boxes.bspBuilt);
+    EXPECT_TRUE(boxes.bsp.empty());
+    EXPECT_TRUE(boxes.serves(FillSearch::kBoxHierarchy));
+    EXPECT_FALSE(boxes.serves(FillSearch::kBspOrder));
+    EXPECT_FALSE(boxes.wideBoxes.empty());
+    const FillScene both = *buildFillScene(s, FillSearch::kBspOrder);
+    EXPECT_TRUE(both.bspBuilt && both.serves(FillSearch::kBoxHierarchy));
+    EXPECT_EQ(both.fragmentsOfTriangle.size(), s.triangleCount());
+    EXPECT_GT(both.bsp.fragmentCount(), s.triangleCount());  // office walls are split
+
+    scene::BspConfig noSplits;
+    noSplits.maxFragmentsPerTriangle = 1.0f;
+    Status failed = buildFillScene(s, FillSearch::kBspOrder, noSplits).status();
+    EXPECT_EQ(failed.code(), ErrorCode::kOutOfRange) << failed.message();
+    auto withoutTree = buildFillScene(s, FillSearch::kBoxHierarchy, noSplits);
+    ASSERT_TRUE(withoutTree.isOk()) << withoutTree.status().message();
+
+    // The frames of both builds, with the box search: identical.
+    StereoRig rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 240, 160), {});
+    auto r = std::move(raster::Renderer::create({1})).value();
+    raster::FrameBuffers first;
+    first.resize(240, 160);
+    r->render(s, rig.first(), {}, first.targets());
+    MovedSecondEye a(s, rig, first), b(s, rig, first);
+    FillScratch scratch;
+    const FillStats stats =
+        fillHoles(s, boxes, rig.second(), {}, a.holes, a.targets(), a.classes.view(), &scratch);
+    fillHoles(s, *withoutTree, rig.second(), {}, b.holes, b.targets(), b.classes.view(), &scratch);
+    EXPECT_GT(stats.disocclusionPixels, 0);
+    EXPECT_TRUE(a.eye.color == b.eye.color);
+    EXPECT_TRUE(a.eye.id == b.eye.id);
+    EXPECT_TRUE(a.classes == b.classes);
 }
 
 }  // namespace

@@ -87,6 +87,12 @@ namespace plx::stereo {
 // its own search from the root).
 constexpr int kFillTile = 32;
 
+// How the disocclusion search orders the polygons it draws (see the top of this header).
+enum class FillSearch {
+    kBoxHierarchy,  // box hierarchy, nearest box first, the depth test deciding (default)
+    kBspOrder,      // the paper's front-to-back BSP walk, each pixel final when first drawn
+};
+
 // The box hierarchy collapsed four-wide for FillSearch::kBoxHierarchy: a node stands for an inner
 // node of the binary hierarchy and holds its grandchildren (a child that is a leaf takes one lane
 // itself), their boxes lane by lane, so that one SIMD step tests all four against a hole.
@@ -116,6 +122,9 @@ struct LeafCorners {
 
 // What the fill reuses for every view of one scene.
 struct FillScene {
+    // The BSP tree and fragmentsOfTriangle, which FillSearch::kBspOrder alone walks, are built
+    // only for it (buildFillScene); bspBuilt says whether they were.
+    bool bspBuilt = false;
     scene::BspTree bsp;
     scene::BoxHierarchy boxes;
     // BSP fragments of each scene-global triangle (0: degenerate, not in the tree), at most
@@ -127,11 +136,19 @@ struct FillScene {
     LeafCorners boxCorners;
     // boxes collapsed four-wide (root first; empty when boxes is).
     std::vector<WideBoxNode> wideBoxes;
+
+    // Whether fillHoles can run `search` on it.
+    bool serves(FillSearch search) const { return search != FillSearch::kBspOrder || bspBuilt; }
 };
 
-// Builds the BSP tree and box hierarchy of `scene`. Preconditions: `scene` is finalized.
-// Errors: those of BspTree::build and BoxHierarchy::build.
-Result<FillScene> buildFillScene(const scene::Scene& scene, const scene::BspConfig& bsp = {},
+// Builds what `search` walks for `scene`: the box hierarchy, which both searches use, and for
+// FillSearch::kBspOrder the BSP tree too. The default search leaves the tree out: on office:290
+// it takes three times as long to build as the hierarchy, and a model whose triangles cut each
+// other too often can exceed its fragment bound. Preconditions: `scene` is finalized. Errors:
+// those of BoxHierarchy::build, and for kBspOrder those of BspTree::build.
+Result<FillScene> buildFillScene(const scene::Scene& scene,
+                                 FillSearch search = FillSearch::kBoxHierarchy,
+                                 const scene::BspConfig& bsp = {},
                                  const scene::BoxHierarchyConfig& boxes = {});
 
 // Whether triangles a and b (scene-global indices) are parts of one surface: they share an edge
@@ -146,12 +163,6 @@ bool trianglesOfOneSurface(const scene::Scene& scene, uint32_t a, uint32_t b);
 enum class ExpansionFill {
     kEvaluate,     // draw the hole's polygon over its segments (default)
     kInterpolate,  // fillExpansionHoles: linear along each segment between its neighbours
-};
-
-// How the disocclusion search orders the polygons it draws (see the top of this header).
-enum class FillSearch {
-    kBoxHierarchy,  // box hierarchy, nearest box first, the depth test deciding (default)
-    kBspOrder,      // the paper's front-to-back BSP walk, each pixel final when first drawn
 };
 
 struct FillOptions {
@@ -201,9 +212,9 @@ private:
 // hole pixel to holeClass, whatever it held there (other pixels are left as they are, so
 // holeClass may be the hole mask reproject() wrote: 0, kReprojected, where a pixel landed). Runs
 // the holes on `pool` when given; the result does not depend on the thread count. Preconditions:
-// `fill` was built from `scene`; camera is the second eye's; holes were found on second.holeMask
-// and classified on second.id (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject()
-// leaves them); targets and holeClass of the camera's size.
+// `fill` was built from `scene` for options.search (FillScene::serves); camera is the second eye's;
+// holes were found on second.holeMask and classified on second.id (classifyHoles); hole pixels hold
+// depth 0 and ID 0 (as reproject() leaves them); targets and holeClass of the camera's size.
 FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
                     const FillOptions& options, const HoleSet& holes,
                     const SecondEyeTargets& second, ImageView<uint8_t> holeClass,

@@ -31,6 +31,9 @@ namespace plx::stereo {
 enum class Method { kFull, kPBuffer, kReproject };
 Result<Method> parseMethod(const std::string& name);
 const char* methodName(Method method);
+// "boxes" (FillSearch::kBoxHierarchy) and "bsp" (FillSearch::kBspOrder).
+Result<FillSearch> parseFillSearch(const std::string& name);
+const char* fillSearchName(FillSearch search);
 
 struct StereoOptions {
     Method method = Method::kPBuffer;
@@ -111,10 +114,13 @@ public:
     StereoFrameStats renderPair(const scene::Scene& scene, const StereoRig& rig,
                                 const StereoOptions& options, StereoFrame* frame);
 
-    // Builds what the reproject method reuses for every view of `scene` (its BSP tree and box
-    // hierarchy, scene/bsp.h and scene/box_hierarchy.h) unless already built for it; renderPair
-    // with Method::kReproject needs it first. Errors: those of BspTree::build.
-    Status prepareReprojection(const scene::Scene& scene);
+    // Builds what the reproject method with `search` reuses for every view of `scene` unless
+    // already built for it: the box hierarchy (scene/box_hierarchy.h), and for
+    // FillSearch::kBspOrder the BSP tree (scene/bsp.h) too (buildFillScene, fill.h). renderPair
+    // with Method::kReproject needs it first, for its options.fillSearch. Errors: those of
+    // buildFillScene.
+    Status prepareReprojection(const scene::Scene& scene,
+                               FillSearch search = FillSearch::kBoxHierarchy);
     // Milliseconds the last prepareReprojection that built something took.
     double lastPrepareMs() const;
 

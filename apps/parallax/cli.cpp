@@ -42,12 +42,12 @@ void addInputOptions(CLI::App& app) {
 Status warn(const std::string& message) {
     if (inputPolicy().strict)
         return errorStatus(ErrorCode::kCorruptData, message + " (an error with --strict)");
-    std::fprintf(stderr, "parallax: warning: %s\n", message.c_str());
+    std::fprintf(stderr, "parallax: warning: %s\n", oneLine(message).c_str());
     return Status::ok();
 }
 
 int fail(const std::string& message, int code) {
-    std::fprintf(stderr, "parallax: error: %s\n", message.c_str());
+    std::fprintf(stderr, "parallax: error: %s\n", oneLine(message).c_str());
     return code;
 }
 

@@ -20,6 +20,22 @@ const char* errorCodeName(ErrorCode code) {
     return "unknown error";
 }
 
+std::string oneLine(std::string text) {
+    for (char& c : text)
+        if ((c >= 0 && c < 0x20) || c == 0x7f) c = '?';
+    return text;
+}
+
+Status::Status(ErrorCode code, std::string message)
+    : mCode(code),
+      mMessage(code == ErrorCode::kOk ? std::move(message) : oneLine(std::move(message))) {}
+
+std::string printable(std::string_view text, size_t maxChars) {
+    std::string out;
+    for (char c : text.substr(0, maxChars)) out.push_back(c >= 0x20 && c < 0x7f ? c : '?');
+    return text.size() > maxChars ? out + "..." : out;
+}
+
 std::string Status::toString() const {
     if (isOk()) return "ok";
     return std::string(errorCodeName(mCode)) + ": " + mMessage;

@@ -17,6 +17,18 @@ TEST(Status, ResultCarriesValueOrError) {
     EXPECT_EQ(bad.status().toString(), "not found: missing thing");
 }
 
+TEST(Status, MessagesAreOneLineAndQuotedTextPrintable) {
+    // A failed status keeps its message to one line whatever it quotes.
+    const Status s = errorStatus(ErrorCode::kCorruptData, "unknown type 'a\nb\r\tc\x7f'");
+    EXPECT_EQ(s.message(), "unknown type 'a?b??c?'");
+    EXPECT_EQ(oneLine("x\ny"), "x?y");
+    EXPECT_EQ(oneLine("caf\xc3\xa9"), "caf\xc3\xa9");  // UTF-8 is not a control character
+    // printable: ASCII only, cut at maxChars with "...".
+    EXPECT_EQ(printable("caf\xc3\xa9\n"), "caf???");
+    EXPECT_EQ(printable(std::string(200, 'a'), 4), "aaaa...");
+    EXPECT_EQ(printable("abcd", 4), "abcd");
+}
+
 TEST(Camera, ProjectsTargetToImageCentre) {
     CameraDesc d;
     d.eyePos = {1, 2, 3};

@@ -170,7 +170,7 @@ Status parseOptics(const Reader& rd, const json& root, Display* d) {
         d->framebufferHeight = screen.projector.heightPx;
         return Status::ok();
     }
-    return fieldError("optics.type", "unknown type '" + type +
+    return fieldError("optics.type", "unknown type '" + printable(type) +
                                          "' (expected cone_mirror, cylinder_mirror, "
                                          "cylinder_screen or dome_screen)");
 }
@@ -233,7 +233,9 @@ Result<Display> parseDisplayJson(std::string_view text) {
         if (u == "mm") scale = 1.0;
         else if (u == "cm") scale = 10.0;
         else if (u == "m") scale = 1000.0;
-        else return fieldError("units", "unknown unit '" + u + "' (expected mm, cm or m)");
+        else
+            return fieldError("units",
+                              "unknown unit '" + printable(u) + "' (expected mm, cm or m)");
     }
     Reader rd(scale);
     Display d;

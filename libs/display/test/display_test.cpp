@@ -95,6 +95,9 @@ TEST(DisplayJson, MalformedFilesGiveOneLineErrors) {
         {"\"viewer\": [0, 450, 800]", "\"viewer\": [0, 450]", "viewer: must be [x, y, z]"},
         {"\"viewer\": [0, 450, 800]", "\"viewer\": [0, 200, 0]", "viewer"},
         {"\"cone_mirror\"", "\"paraboloid\"", "optics.type: unknown type"},
+        // Names quoted in the message keep it one line: escaped newlines and tabs become '?'.
+        {"\"cone_mirror\"", "\"cone\\nmirror\"", "unknown type 'cone?mirror'"},
+        {"{\"optics\"", "{\"units\": \"m\\tm\", \"optics\"", "unknown unit 'm?m'"},
         {"\"framebuffer\": [512, 512]", "\"framebuffer\": [0, 512]", "display.framebuffer"},
         {"\"radius\": 150}", "\"radius\": 0}", "content.radius"},
         {"\"top_radius\": 250", "\"top_radius\": 100", "optics.top_radius"},

@@ -22,12 +22,6 @@ fs::path canonicalOrSelf(const fs::path& p) {
 
 }  // namespace
 
-std::string printableRef(const std::string& ref) {
-    std::string out;
-    for (char c : ref.substr(0, 120)) out.push_back(c >= 0x20 && c < 0x7f ? c : '?');
-    return ref.size() > 120 ? out + "..." : out;
-}
-
 RefPolicy::RefPolicy(const std::string& modelPath, bool allowExternal)
     : mModelDir(fs::path(modelPath).parent_path()),
       mRoot(canonicalOrSelf(mModelDir.empty() ? fs::path(".") : mModelDir)),
@@ -45,12 +39,11 @@ Result<fs::path> RefPolicy::resolve(const std::string& ref, bool relativeToModel
         return errorStatus(ErrorCode::kUnsupported,
                            fmt::format("reference '{}' points outside the model's folder "
                                        "(allow it with --allow-external-refs)",
-                                       printableRef(ref)));
+                                       printable(ref)));
     auto size = checkRegularFile(real.string());
     if (!size)
-        return errorStatus(
-            size.status().code(),
-            fmt::format("reference '{}': {}", printableRef(ref), size.status().message()));
+        return errorStatus(size.status().code(), fmt::format("reference '{}': {}", printable(ref),
+                                                             size.status().message()));
     return real;
 }
 

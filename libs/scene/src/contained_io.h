@@ -13,10 +13,6 @@
 
 namespace plx::scene {
 
-// A reference (a file name from the model) as messages show it: printable ASCII, at most 120
-// characters. Names only: no message shows the content of a file.
-std::string printableRef(const std::string& ref);
-
 // Where a model may read from: its folder and below (after resolving "..", absolute paths,
 // file:// URIs and symlinks), or anywhere when allowExternal.
 class RefPolicy {

@@ -71,7 +71,7 @@ Status collectInstances(const aiScene& ai, const aiNode* node, const Mat4& paren
         if (m >= ai.mNumMeshes)
             return errorStatus(ErrorCode::kCorruptData,
                                fmt::format("node '{}' refers to missing mesh {}",
-                                           node->mName.C_Str(), m));
+                                           printable(node->mName.C_Str()), m));
         if (out->size() >= maxInstances)
             return errorStatus(ErrorCode::kOutOfRange,
                                fmt::format("node instancing places meshes more than the limit of "
@@ -276,9 +276,8 @@ Status convertMaterials(const aiScene& ai, const RefPolicy& policy, const Import
                     return image.status();
                 } else {
                     ++scene->texturesMissing;  // fall back to the base colour
-                    scene->warnings.push_back(fmt::format("texture '{}' not loaded: {}",
-                                                          printableRef(*ref),
-                                                          image.status().message()));
+                    scene->warnings.push_back(fmt::format(
+                        "texture '{}' not loaded: {}", printable(*ref), image.status().message()));
                 }
                 it = textureByRef.emplace(*ref, index).first;
             }
@@ -382,7 +381,7 @@ Status repairMeshes(aiScene* ai, size_t maxPolygonCorners) {
                 return errorStatus(ErrorCode::kCorruptData,
                                    fmt::format("mesh {} ('{}'): vertex {} has a non-finite "
                                                "position",
-                                               m, mesh->mName.C_Str(), v));
+                                               m, printable(mesh->mName.C_Str()), v));
         unsigned types = 0;
         for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
             const aiFace& face = mesh->mFaces[f];

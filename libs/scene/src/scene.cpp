@@ -10,7 +10,7 @@ namespace {
 
 Status checkMesh(const Scene& scene, size_t m) {
     const Mesh& mesh = scene.meshes[m];
-    auto where = [&] { return fmt::format("mesh {} ('{}')", m, mesh.name); };
+    auto where = [&] { return fmt::format("mesh {} ('{}')", m, printable(mesh.name)); };
     if (mesh.indices.size() % 3 != 0)
         return errorStatus(ErrorCode::kCorruptData,
                            fmt::format("{}: index count {} is not a multiple of 3", where(),
@@ -86,7 +86,7 @@ Status Scene::finalize() {
     for (const Texture& tex : textures)
         if (tex.mips.empty() || tex.mips[0].empty())
             return errorStatus(ErrorCode::kCorruptData,
-                               fmt::format("texture '{}' has no texels", tex.name));
+                               fmt::format("texture '{}' has no texels", printable(tex.name)));
     mFirstTriangle.assign(meshes.size(), 0);
     mTriangleCount = 0;
     mBounds = Aabb{};

@@ -36,13 +36,14 @@ Status checkElement(const PlyElement& e, uintmax_t bodyBytes, size_t maxElements
         return errorStatus(ErrorCode::kOutOfRange,
                            fmt::format("PLY header declares {} '{}' elements, more than the "
                                        "limit of {}",
-                                       e.count, e.name, maxElements));
+                                       e.count, printable(e.name), maxElements));
     uint64_t perElement = std::max<uint64_t>(e.minBytes, 1);
     if (e.count > bodyBytes / perElement)
-        return errorStatus(ErrorCode::kCorruptData,
-                           fmt::format("PLY header declares {} '{}' elements (at least {} bytes) "
-                                       "but only {} bytes follow the header",
-                                       e.count, e.name, e.count * perElement, bodyBytes));
+        return errorStatus(
+            ErrorCode::kCorruptData,
+            fmt::format("PLY header declares {} '{}' elements (at least {} bytes) "
+                        "but only {} bytes follow the header",
+                        e.count, printable(e.name), e.count * perElement, bodyBytes));
     return Status::ok();
 }
 
@@ -83,8 +84,8 @@ Status checkPlyCounts(const std::string& path, uintmax_t fileSize, size_t maxEle
             auto [end, ec] = std::from_chars(count.data(), count.data() + count.size(), e.count);
             if (ec != std::errc() || end != count.data() + count.size())
                 return errorStatus(ErrorCode::kCorruptData,
-                                   fmt::format("PLY element '{}' has a bad count '{}'", e.name,
-                                               count));
+                                   fmt::format("PLY element '{}' has a bad count '{}'",
+                                               printable(e.name), printable(count)));
             elements.push_back(e);
         } else if (word == "property" && !elements.empty()) {
             std::string type, countType;

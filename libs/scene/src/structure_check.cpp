@@ -34,7 +34,7 @@ Status checkSmdSections(const std::string& path) {
     if (open.empty()) return Status::ok();
     return errorStatus(ErrorCode::kCorruptData,
                        fmt::format("SMD section '{}' (line {}) has no 'end': the file is truncated",
-                                   open, openedAt));
+                                   printable(open), openedAt));
 }
 
 namespace {

@@ -4,6 +4,7 @@
 // names the problem in one line.
 
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 
@@ -28,7 +29,9 @@ const char* errorCodeName(ErrorCode code);
 class [[nodiscard]] Status {
 public:
     Status() = default;
-    Status(ErrorCode code, std::string message) : mCode(code), mMessage(std::move(message)) {}
+    // A failed status's message is kept to one line whatever it quotes: control characters
+    // (a newline in a name read from a file, say) become '?'.
+    Status(ErrorCode code, std::string message);
     static Status ok() { return {}; }
 
     bool isOk() const { return mCode == ErrorCode::kOk; }
@@ -78,6 +81,14 @@ public:
 private:
     std::variant<T, Status> mData;
 };
+
+// `text` with its control characters (newlines, tabs, escapes) as '?': the one line a message
+// must be.
+std::string oneLine(std::string text);
+
+// Untrusted text (a name from a file or the command line) as a message quotes it: printable
+// ASCII, other bytes as '?', at most maxChars characters, then "...".
+std::string printable(std::string_view text, size_t maxChars = 120);
 
 inline Status errorStatus(ErrorCode code, std::string message) {
     return Status(code, std::move(message));

@@ -31,10 +31,6 @@ std::array<Vec3, 3> triangleCorners(const scene::Scene& scene, uint32_t t) {
             m.positions[m.indices[3 * local + 2]]};
 }
 
-}  // namespace
-
-namespace {
-
 // FillScene::bsp and fragmentsOfTriangle.
 Status buildBsp(const scene::Scene& scene, const scene::BspConfig& config, FillScene* fill) {
     auto tree = scene::BspTree::build(scene, config);

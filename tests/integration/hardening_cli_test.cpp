@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <plx/core/image_io.h>
+#include <plx/core/status.h>
 
 #include "cli_runner.h"
 
@@ -192,6 +193,15 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax("predistort cone_showcase --viewer=0,-5000,0 --error 1 --out " +
                                    (hardDir() / "p").string()),
                        "sees none of the display's content");
+}
+
+TEST(HardeningCli, AHugeValueIsQuotedByItsEnds) {
+    // 100,000 characters (a single argument may hold 128 KiB): the line quotes their two ends.
+    const std::string size = std::string(100000, '7') + "x9";
+    const RunResult r = runParallax("render office:1 --out x --size " + size);
+    expectOneLineError(r, "bytes left out", 2);
+    EXPECT_LE(r.err.size(), plx::kMaxMessageChars + 64);
+    EXPECT_NE(r.err.find("(e.g. 1280x720)"), std::string::npos) << r.err;
 }
 
 TEST(HardeningCli, InvalidJsonGivesLineAndColumn) {

@@ -1,5 +1,6 @@
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 #include <plx/core/check.h>
 #include <plx/core/status.h>
@@ -20,10 +21,21 @@ const char* errorCodeName(ErrorCode code) {
     return "unknown error";
 }
 
+namespace {
+bool isUtf8Continuation(char c) {
+    return (uint8_t(c) & 0xc0) == 0x80;
+}
+}  // namespace
+
 std::string oneLine(std::string text) {
     for (char& c : text)
         if ((c >= 0 && c < 0x20) || c == 0x7f) c = '?';
-    return text;
+    if (text.size() <= kMaxMessageChars) return text;
+    size_t headEnd = kMaxMessageChars / 2, tailStart = text.size() - kMaxMessageChars / 2;
+    while (headEnd > 0 && isUtf8Continuation(text[headEnd])) --headEnd;
+    while (tailStart < text.size() && isUtf8Continuation(text[tailStart])) ++tailStart;
+    return text.substr(0, headEnd) + " [... " + std::to_string(tailStart - headEnd) +
+           " bytes left out ...] " + text.substr(tailStart);
 }
 
 Status::Status(ErrorCode code, std::string message)

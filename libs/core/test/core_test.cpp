@@ -23,6 +23,22 @@ TEST(Status, MessagesAreOneLineAndQuotedTextPrintable) {
     EXPECT_EQ(s.message(), "unknown type 'a?b??c?'");
     EXPECT_EQ(oneLine("x\ny"), "x?y");
     EXPECT_EQ(oneLine("caf\xc3\xa9"), "caf\xc3\xa9");  // UTF-8 is not a control character
+    // A megabyte quoted back keeps its two ends, whole UTF-8 characters, and says what it left out.
+    EXPECT_EQ(oneLine(std::string(kMaxMessageChars, 'a')), std::string(kMaxMessageChars, 'a'));
+    std::string huge = "'" + std::string(1 << 20, 'x') + "' is not a number";
+    const std::string cut = oneLine(huge);
+    EXPECT_LE(cut.size(), kMaxMessageChars + 40);
+    EXPECT_EQ(cut.substr(0, 3), "'xx");
+    EXPECT_EQ(cut.substr(cut.size() - 18), "x' is not a number");
+    EXPECT_NE(cut.find("bytes left out"), std::string::npos);
+    std::string accents;
+    while (accents.size() < 2 * kMaxMessageChars) accents += "\xc3\xa9";
+    const std::string cutAccents = oneLine("x" + accents);
+    const size_t mark = cutAccents.find(" [... ");
+    ASSERT_NE(mark, std::string::npos);
+    EXPECT_EQ(mark % 2, 1u);  // "x" and whole two-byte characters before the mark
+    EXPECT_EQ((cutAccents.size() - cutAccents.find("...] ") - 5) % 2, 0u);
+    EXPECT_EQ(oneLine(std::string(kMaxMessageChars + 1, '\n')).find('\n'), std::string::npos);
     // printable: ASCII only, cut at maxChars with "...".
     EXPECT_EQ(printable("caf\xc3\xa9\n"), "caf???");
     EXPECT_EQ(printable(std::string(200, 'a'), 4), "aaaa...");

@@ -83,7 +83,10 @@ private:
 };
 
 // `text` with its control characters (newlines, tabs, escapes) as '?': the one line a message
-// must be.
+// must be. A text over kMaxMessageChars bytes (a megabyte argument quoted back) keeps its first
+// and last kMaxMessageChars / 2 bytes, cut at UTF-8 character boundaries, and says how many it
+// left out between them.
+inline constexpr size_t kMaxMessageChars = 4096;
 std::string oneLine(std::string text);
 
 // Untrusted text (a name from a file or the command line) as a message quotes it: printable

@@ -91,13 +91,160 @@ uint32_t surfaceAreaSplit(std::vector<uint32_t>& triangles, uint32_t begin, uint
     return uint32_t(second - triangles.begin());
 }
 
-// Task of the iterative build: triangles [begin, end) of mTriangles become a subtree.
+// What every part of the build reads: the triangles' boxes and centres, and the config.
+struct BuildInput {
+    const std::vector<Aabb>& boxes;
+    const std::vector<Vec3>& centres;
+    const BoxHierarchyConfig& config;
+};
+
+// One node over triangles [begin, end): its box, and for an inner node the first index of its
+// second child's triangles (the range partitioned); a leaf has its `first` and `count` set.
+struct NodeSplit {
+    BoxNode node;
+    uint32_t mid = 0;
+};
+
+NodeSplit splitNode(const BuildInput& in, uint32_t begin, uint32_t end, uint32_t depth,
+                    std::vector<uint32_t>* triangles) {
+    NodeSplit out;
+    Aabb centreBounds;
+    for (uint32_t i = begin; i < end; ++i) {
+        out.node.box.extend(in.boxes[(*triangles)[i]]);
+        centreBounds.extend(in.centres[(*triangles)[i]]);
+    }
+    const uint32_t size = end - begin;
+    if (size <= uint32_t(in.config.leafSize)) {
+        out.node.first = begin;
+        out.node.count = size;
+        return out;
+    }
+    out.mid = begin;
+    if (in.config.split == BoxSplit::kSurfaceArea && depth < kSahDepthLimit)
+        out.mid = surfaceAreaSplit(*triangles, begin, end, centreBounds, in.boxes, in.centres);
+    if (out.mid == begin) {  // median split on the centres' longest axis
+        Vec3 extent = centreBounds.extent();
+        int axis =
+            extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+        out.mid = begin + size / 2;
+        std::nth_element(
+            triangles->begin() + begin, triangles->begin() + out.mid, triangles->begin() + end,
+            [&](uint32_t a, uint32_t b) { return in.centres[a][axis] < in.centres[b][axis]; });
+    }
+    return out;
+}
+
+// Task of the iterative build: triangles [begin, end) become a subtree.
 struct BuildTask {
     uint32_t begin;
     uint32_t end;
     int64_t parentOfSecondChild;  // node whose `first` must point here, or -1
     uint32_t depth;
 };
+
+// The subtree over triangles [begin, end), its root at `depth`, appended to *nodes depth first,
+// first child before second (popping the first child right after its parent puts it at index
+// parent + 1). Inner nodes' `first` index *nodes. Returns the deepest leaf's depth.
+size_t buildSubtree(const BuildInput& in, uint32_t begin, uint32_t end, uint32_t depth,
+                    std::vector<uint32_t>* triangles, std::vector<BoxNode>* nodes) {
+    size_t maxDepth = 0;
+    std::vector<BuildTask> stack{{begin, end, -1, depth}};
+    while (!stack.empty()) {
+        BuildTask task = stack.back();
+        stack.pop_back();
+        const uint32_t index = uint32_t(nodes->size());
+        if (task.parentOfSecondChild >= 0) (*nodes)[size_t(task.parentOfSecondChild)].first = index;
+        maxDepth = std::max<size_t>(maxDepth, task.depth);
+        const NodeSplit split = splitNode(in, task.begin, task.end, task.depth, triangles);
+        nodes->push_back(split.node);
+        if (split.node.isLeaf()) continue;
+        stack.push_back({split.mid, task.end, int64_t(index), task.depth + 1});
+        stack.push_back({task.begin, split.mid, -1, task.depth + 1});
+    }
+    return maxDepth;
+}
+
+// Below this many triangles the build stays on the calling thread.
+constexpr size_t kParallelBuildMin = 1 << 15;
+// Levels split on the calling thread before the subtrees below go to the pool: up to eight
+// subtrees, enough to balance uneven splits over two to four threads.
+constexpr int kSerialTopLevels = 3;
+
+// The top levels of the hierarchy, split on the calling thread; a Top either holds one of their
+// nodes or stands for a subtree built in parallel.
+struct Top {
+    BoxNode node;
+    int firstChild = -1, secondChild = -1;  // Top indices, for an inner node
+    int subtree = -1;                       // index of its ParallelSubtree, or -1
+};
+
+struct ParallelSubtree {
+    uint32_t begin, end, depth;
+    std::vector<BoxNode> nodes;  // inner nodes' `first` index this vector
+    size_t maxDepth = 0;
+};
+
+int splitTop(const BuildInput& in, uint32_t begin, uint32_t end, uint32_t depth, int level,
+             std::vector<uint32_t>* triangles, std::vector<Top>* tops,
+             std::vector<ParallelSubtree>* subtrees, size_t* maxDepth) {
+    const int index = int(tops->size());
+    tops->push_back({});
+    if (level == kSerialTopLevels) {
+        (*tops)[size_t(index)].subtree = int(subtrees->size());
+        subtrees->push_back({begin, end, depth, {}, 0});
+        return index;
+    }
+    *maxDepth = std::max<size_t>(*maxDepth, depth);
+    const NodeSplit split = splitNode(in, begin, end, depth, triangles);
+    (*tops)[size_t(index)].node = split.node;
+    if (split.node.isLeaf()) return index;
+    const int first =
+        splitTop(in, begin, split.mid, depth + 1, level + 1, triangles, tops, subtrees, maxDepth);
+    const int second =
+        splitTop(in, split.mid, end, depth + 1, level + 1, triangles, tops, subtrees, maxDepth);
+    (*tops)[size_t(index)].firstChild = first;
+    (*tops)[size_t(index)].secondChild = second;
+    return index;
+}
+
+// Appends Top `index` and everything below it to *nodes in buildSubtree's order.
+void appendTop(const std::vector<Top>& tops, const std::vector<ParallelSubtree>& subtrees,
+               int index, std::vector<BoxNode>* nodes) {
+    const Top& top = tops[size_t(index)];
+    if (top.subtree >= 0) {
+        const uint32_t offset = uint32_t(nodes->size());
+        for (BoxNode node : subtrees[size_t(top.subtree)].nodes) {
+            if (!node.isLeaf()) node.first += offset;
+            nodes->push_back(node);
+        }
+        return;
+    }
+    const size_t at = nodes->size();
+    nodes->push_back(top.node);
+    if (top.node.isLeaf()) return;
+    appendTop(tops, subtrees, top.firstChild, nodes);
+    (*nodes)[at].first = uint32_t(nodes->size());
+    appendTop(tops, subtrees, top.secondChild, nodes);
+}
+
+// buildSubtree over all `count` triangles with the subtrees below the top levels built on the
+// pool: the same nodes in the same order (disjoint triangle ranges, the same splits).
+void buildInParallel(const BuildInput& in, uint32_t count, ThreadPool& pool,
+                     std::vector<uint32_t>* triangles, std::vector<BoxNode>* nodes,
+                     size_t* maxDepth) {
+    std::vector<Top> tops;
+    std::vector<ParallelSubtree> subtrees;
+    *maxDepth = 0;
+    splitTop(in, 0, count, 1, 0, triangles, &tops, &subtrees, maxDepth);
+    pool.parallelFor(subtrees.size(), 1, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            ParallelSubtree& s = subtrees[i];
+            s.maxDepth = buildSubtree(in, s.begin, s.end, s.depth, triangles, &s.nodes);
+        }
+    });
+    for (const ParallelSubtree& s : subtrees) *maxDepth = std::max(*maxDepth, s.maxDepth);
+    appendTop(tops, subtrees, 0, nodes);
+}
 
 }  // namespace
 
@@ -155,7 +302,8 @@ void HoleFlags::beginQuery(size_t nodes, size_t triangles) {
     }
 }
 
-Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyConfig& config) {
+Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyConfig& config,
+                                         ThreadPool* pool) {
     if (config.leafSize < 1 || config.leafSize > kMaxLeafSize)
         return errorStatus(
             ErrorCode::kInvalidArgument,
@@ -182,46 +330,11 @@ Result<BoxHierarchy> BoxHierarchy::build(const Scene& scene, const BoxHierarchyC
     h.mTriangles.resize(count);
     for (size_t i = 0; i < count; ++i) h.mTriangles[i] = uint32_t(i);
     h.mNodes.reserve(2 * (count / size_t(config.leafSize)) + 1);
-
-    // Depth first, first child before second: popping the first child right after its parent
-    // puts it at index parent + 1.
-    std::vector<BuildTask> stack{{0, uint32_t(count), -1, 1}};
-    while (!stack.empty()) {
-        BuildTask task = stack.back();
-        stack.pop_back();
-        uint32_t index = uint32_t(h.mNodes.size());
-        if (task.parentOfSecondChild >= 0) h.mNodes[size_t(task.parentOfSecondChild)].first = index;
-        h.mMaxDepth = std::max<size_t>(h.mMaxDepth, task.depth);
-        BoxNode node;
-        Aabb centreBounds;
-        for (uint32_t i = task.begin; i < task.end; ++i) {
-            node.box.extend(boxes[h.mTriangles[i]]);
-            centreBounds.extend(centres[h.mTriangles[i]]);
-        }
-        uint32_t size = task.end - task.begin;
-        if (size <= uint32_t(config.leafSize)) {
-            node.first = task.begin;
-            node.count = size;
-            h.mNodes.push_back(node);
-            continue;
-        }
-        h.mNodes.push_back(node);
-        uint32_t mid = task.begin;
-        if (config.split == BoxSplit::kSurfaceArea && task.depth < kSahDepthLimit)
-            mid =
-                surfaceAreaSplit(h.mTriangles, task.begin, task.end, centreBounds, boxes, centres);
-        if (mid == task.begin) {  // median split on the centres' longest axis
-            Vec3 extent = centreBounds.extent();
-            int axis =
-                extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
-            mid = task.begin + size / 2;
-            std::nth_element(h.mTriangles.begin() + task.begin, h.mTriangles.begin() + mid,
-                             h.mTriangles.begin() + task.end, [&](uint32_t a, uint32_t b) {
-                                 return centres[a][axis] < centres[b][axis];
-                             });
-        }
-        stack.push_back({mid, task.end, int64_t(index), task.depth + 1});
-        stack.push_back({task.begin, mid, -1, task.depth + 1});
+    const BuildInput input{boxes, centres, config};
+    if (pool && pool->threadCount() > 1 && count >= kParallelBuildMin) {
+        buildInParallel(input, uint32_t(count), *pool, &h.mTriangles, &h.mNodes, &h.mMaxDepth);
+    } else {
+        h.mMaxDepth = buildSubtree(input, 0, uint32_t(count), 1, &h.mTriangles, &h.mNodes);
     }
     return h;
 }

@@ -135,10 +135,10 @@ void expectWellFormed(const Scene& scene, const BoxHierarchy& h, uint32_t leafSi
     EXPECT_EQ(leafTriangles, scene.triangleCount());
 }
 
-BoxHierarchy buildWith(const Scene& scene, BoxSplit split) {
+BoxHierarchy buildWith(const Scene& scene, BoxSplit split, ThreadPool* pool = nullptr) {
     BoxHierarchyConfig config;
     config.split = split;
-    auto h = BoxHierarchy::build(scene, config);
+    auto h = BoxHierarchy::build(scene, config, pool);
     EXPECT_TRUE(h.isOk()) << h.status().toString();
     return h ? std::move(*h) : BoxHierarchy{};
 }
@@ -179,6 +179,32 @@ TEST(BoxHierarchy, SurfaceAreaSplitsStayWellFormedOnDegenerateScenes) {
     // at most three median levels.
     EXPECT_GT(h.maxDepth(), 32u) << "the chain stops short of the surface-area depth limit";
     EXPECT_LE(h.maxDepth(), 35u) << "the chain ran past the surface-area depth limit";
+}
+
+// Built with a pool, the subtrees below the top levels run in parallel: the same hierarchy, node
+// for node, on the office (surface-area splits) and on random triangles (both splits).
+TEST(BoxHierarchy, ParallelBuildEqualsSerial) {
+    auto office = generateOffice(12);  // 43,584 triangles: above the parallel threshold
+    ASSERT_TRUE(office.isOk());
+    std::mt19937 rng(3);
+    const Scene random = randomTriangles(&rng, 50000);
+    ThreadPool pool(4);
+    auto expectSame = [](const BoxHierarchy& serial, const BoxHierarchy& parallel) {
+        ASSERT_EQ(serial.nodeCount(), parallel.nodeCount());
+        EXPECT_EQ(serial.maxDepth(), parallel.maxDepth());
+        EXPECT_EQ(serial.triangles(), parallel.triangles());
+        for (size_t n = 0; n < serial.nodeCount(); ++n) {
+            const BoxNode &a = serial.node(n), &b = parallel.node(n);
+            ASSERT_TRUE(a.first == b.first && a.count == b.count && a.box.lo == b.box.lo &&
+                        a.box.hi == b.box.hi)
+                << "node " << n;
+        }
+    };
+    expectSame(buildWith(*office, BoxSplit::kSurfaceArea),
+               buildWith(*office, BoxSplit::kSurfaceArea, &pool));
+    for (BoxSplit split : {BoxSplit::kSurfaceArea, BoxSplit::kMedian})
+        expectSame(buildWith(random, split), buildWith(random, split, &pool));
+    expectWellFormed(random, buildWith(random, BoxSplit::kSurfaceArea, &pool), 4);
 }
 
 TEST(BoxHierarchy, EmptySceneAndBadConfig) {

@@ -49,11 +49,11 @@ Status buildBsp(const scene::Scene& scene, const scene::BspConfig& config, FillS
 
 Result<FillScene> buildFillScene(const scene::Scene& scene, FillSearch search,
                                  const scene::BspConfig& bsp,
-                                 const scene::BoxHierarchyConfig& boxes) {
+                                 const scene::BoxHierarchyConfig& boxes, ThreadPool* pool) {
     FillScene fill;
     if (search == FillSearch::kBspOrder)
         if (Status s = buildBsp(scene, bsp, &fill); !s.isOk()) return s;
-    auto hierarchy = scene::BoxHierarchy::build(scene, boxes);
+    auto hierarchy = scene::BoxHierarchy::build(scene, boxes, pool);
     if (!hierarchy) return hierarchy.status();
     fill.boxes = std::move(hierarchy).value();
     const std::vector<uint32_t>& order = fill.boxes.triangles();

@@ -32,7 +32,7 @@ Status ReprojectPair::prepare(const scene::Scene& scene, FillSearch search) {
     if (preparedFor(scene, search)) return Status();
     Stopwatch clock;
     mKey.reset();
-    auto fill = buildFillScene(scene, search);
+    auto fill = buildFillScene(scene, search, {}, {}, &mPool);
     if (!fill) return fill.status();
     mFill = std::move(fill).value();
     mKey = keyOf(scene);

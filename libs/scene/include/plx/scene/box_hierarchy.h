@@ -26,6 +26,7 @@
 #include <vector>
 
 #include <plx/core/core.h>
+#include <plx/core/parallel.h>
 #include <plx/scene/scene.h>
 
 namespace plx::scene {
@@ -159,9 +160,13 @@ public:
     // Builds the hierarchy over every triangle of `scene` (degenerate ones included: their box
     // is still a correct bound), iterative: nodes of more than leafSize triangles are split as
     // config.split says (a median split where surface-area bins cannot separate the centres, and
-    // from depth 32 on). Preconditions: `scene` is finalized, or holds no triangles (empty
-    // hierarchy). Errors: kInvalidArgument for leafSize outside 1..kMaxLeafSize.
-    static Result<BoxHierarchy> build(const Scene& scene, const BoxHierarchyConfig& config = {});
+    // from depth 32 on). With a pool of two or more threads, a scene of 32k triangles or more has
+    // its top three levels split on the calling thread and the subtrees below built in parallel:
+    // the same hierarchy, node for node. Preconditions: `scene` is finalized, or holds no
+    // triangles (empty hierarchy). Errors: kInvalidArgument for leafSize outside
+    // 1..kMaxLeafSize.
+    static Result<BoxHierarchy> build(const Scene& scene, const BoxHierarchyConfig& config = {},
+                                      ThreadPool* pool = nullptr);
 
     static constexpr int kMaxLeafSize = 256;
     // Bound on maxDepth() for any scene of up to 2^32 - 1 triangles.

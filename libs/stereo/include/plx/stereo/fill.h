@@ -144,12 +144,14 @@ struct FillScene {
 // Builds what `search` walks for `scene`: the box hierarchy, which both searches use, and for
 // FillSearch::kBspOrder the BSP tree too. The default search leaves the tree out: on office:290
 // it takes three times as long to build as the hierarchy, and a model whose triangles cut each
-// other too often can exceed its fragment bound. Preconditions: `scene` is finalized. Errors:
-// those of BoxHierarchy::build, and for kBspOrder those of BspTree::build.
+// other too often can exceed its fragment bound. With a pool the hierarchy's subtrees are built
+// in parallel (BoxHierarchy::build). Preconditions: `scene` is finalized. Errors: those of
+// BoxHierarchy::build, and for kBspOrder those of BspTree::build.
 Result<FillScene> buildFillScene(const scene::Scene& scene,
                                  FillSearch search = FillSearch::kBoxHierarchy,
                                  const scene::BspConfig& bsp = {},
-                                 const scene::BoxHierarchyConfig& boxes = {});
+                                 const scene::BoxHierarchyConfig& boxes = {},
+                                 ThreadPool* pool = nullptr);
 
 // Whether triangles a and b (scene-global indices) are parts of one surface: they share an edge
 // (two corners of one at the positions of two corners of the other), or they lie in one plane

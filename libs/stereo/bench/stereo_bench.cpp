@@ -1,7 +1,9 @@
 // Google Benchmark: the second eye from the P-buffer's visible set against a full second eye, on
 // office scenes of growing size (the second-eye time should stay flat).
+#include <algorithm>
 #include <cstdlib>
 #include <utility>
+#include <vector>
 
 #include <benchmark/benchmark.h>
 
@@ -468,6 +470,41 @@ void BM_SecondEyeMethods(benchmark::State& state) {
 BENCHMARK(BM_SecondEyeMethods)
     ->ArgsProduct({{3, 28, 280}, {0, 1}, {0, 1}})
     ->ArgNames({"rooms", "bsp", "surround"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime();
+
+// The flatness claim (Fu, Bao, Peng: the right image's time does not depend on the scene) as one
+// ratio: the reproject second eye on office:large against office:small, both scenes held in one
+// process and their pairs alternated, which one first swapped every iteration, so that the
+// machine's drift between runs (a third or more here) falls on both sides of each ratio.
+// Counters: the two medians, and the median and quartiles of the per-iteration ratios. The
+// manual time is the large scene's second eye.
+void BM_SecondEyeFlatness(benchmark::State& state) {
+    PairFixture small(int(state.range(0))), large(int(state.range(1)));
+    std::vector<double> smallMs, largeMs, ratios;
+    for (auto _ : state) {
+        const bool smallFirst = ratios.size() % 2 == 0;
+        PairFixture& a = smallFirst ? small : large;
+        PairFixture& b = smallFirst ? large : small;
+        const double aMs = a.pair(stereo::Method::kReproject).secondEyeMs;
+        const double bMs = b.pair(stereo::Method::kReproject).secondEyeMs;
+        smallMs.push_back(smallFirst ? aMs : bMs);
+        largeMs.push_back(smallFirst ? bMs : aMs);
+        ratios.push_back(largeMs.back() / smallMs.back());
+        state.SetIterationTime(largeMs.back() / 1000.0);
+    }
+    state.counters["small_triangles"] = double(small.scene.triangleCount());
+    state.counters["large_triangles"] = double(large.scene.triangleCount());
+    state.counters["small_second_ms"] = median(smallMs);
+    state.counters["large_second_ms"] = median(largeMs);
+    std::sort(ratios.begin(), ratios.end());
+    state.counters["ratio_q1"] = ratios[ratios.size() / 4];
+    state.counters["ratio_median"] = median(ratios);
+    state.counters["ratio_q3"] = ratios[ratios.size() * 3 / 4];
+}
+BENCHMARK(BM_SecondEyeFlatness)
+    ->ArgsProduct({{3}, {8, 28, 128, 280}})
+    ->ArgNames({"small", "large"})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime();
 

@@ -226,6 +226,14 @@ int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const C
 // depth test (unless ctx.colorOnly) and writes. Returns the samples written.
 int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
                               const RenderTargets& rt, int y, int x0, int x1);
+// Its pixel loop, for a caller that has the row's values: eAtX0, the three edge functions with
+// their biases at the sample of (x0, y), their steps by a column (-(y[i + 1] - y[i]) *
+// kSubPixelScale), and the row's barycentrics at minX (rowBarycentrics); x0..x1 inside the
+// setup's box.
+int64_t rasterizeReferencePixels(const TriangleSetup& t, const ShadeContext& ctx,
+                                 const RenderTargets& rt, int y, int x0, int x1,
+                                 const int64_t eAtX0[3], const int64_t step[3], float b1Row,
+                                 float b2Row);
 
 // The encoded flat-shading colour of a mesh triangle (face normal Lambert + ambient).
 Rgba8 flatColorOf(const scene::Scene& scene, size_t meshIndex, uint32_t localTri,

@@ -32,8 +32,7 @@ int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
     // The row's barycentrics start at minX whatever x0 is: the same expression as every path.
     float b1Row, b2Row;
     rowBarycentrics(t, y, &b1Row, &b2Row);
-    int64_t written = 0;
-    // The edge functions at x0's sample, with their biases, stepped exactly along the row.
+    // The edge functions at x0's sample, with their biases.
     const int64_t px0 = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
     const int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
     int64_t e[3], step[3];
@@ -41,6 +40,16 @@ int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
         e[i] = edgeValue(t, i, px0, py) + t.edgeBias[i];
         step[i] = -int64_t(t.y[(i + 1) % 3] - t.y[i]) * kSubPixelScale;
     }
+    return rasterizeReferencePixels(t, ctx, rt, y, x0, x1, e, step, b1Row, b2Row);
+}
+
+int64_t rasterizeReferencePixels(const TriangleSetup& t, const ShadeContext& ctx,
+                                 const RenderTargets& rt, int y, int x0, int x1,
+                                 const int64_t eAtX0[3], const int64_t step[3], float b1Row,
+                                 float b2Row) {
+    int64_t written = 0;
+    // The edge functions stepped exactly along the row.
+    int64_t e[3] = {eAtX0[0], eAtX0[1], eAtX0[2]};
     for (int x = x0; x <= x1; ++x, e[0] += step[0], e[1] += step[1], e[2] += step[2]) {
         if ((e[0] | e[1] | e[2]) < 0) continue;
         float k = float(x - t.minX);

@@ -9,42 +9,60 @@
 namespace plx::raster {
 namespace {
 
-// The snapped triangle's edges with the top-left bias of the coverage test, for asking of a span
-// whether it may hold a covered sample: a span whose two end samples lie outside the same edge
-// has every sample between them outside it too, the edge function being linear along the row.
-// The test rejects only spans without a covered sample, so the rasterizer would write nothing in
-// a span it rejects; it passes a few more (a span with its ends outside two different edges).
-class SpanEdges {
+// The snapped triangle's three edge functions over the spans, evaluated exactly in integers as
+// the reference's row does (edge i from vertex i to i + 1, in setupTriangleInBox's orientation),
+// but from values taken once per triangle: each function at the sample of (minX, minY) and its
+// steps by a column and by a row. A span's values then cost a multiply-add per edge, where the
+// reference's row evaluates each edge and the barycentrics' two from the vertices.
+//
+// A span whose two end samples lie outside the same edge has every sample between them outside
+// it too (the edge function is linear along the row), so the rasterizer would write nothing
+// there: such spans are skipped. The test passes a few spans without a covered sample (ends
+// outside two different edges); the pixel loop writes nothing in them.
+class SpanRows {
 public:
-    SpanEdges(const detail::RasterVertex vin[3], const detail::TriangleBox& box) : mBox(box) {
-        detail::orientPositive(vin, box.area2, mV);
+    // The values of one span clipped to the box.
+    struct Row {
+        int x0 = 0, x1 = -1;
+        int64_t eAtX0[3];   // biased, at the sample of (x0, y)
+        int64_t atMinX[3];  // unbiased, at the sample of (minX, y)
+    };
+
+    SpanRows(const detail::RasterVertex vin[3], const detail::TriangleBox& box) : mBox(box) {
+        const detail::RasterVertex* v[3];
+        detail::orientPositive(vin, box.area2, v);
+        constexpr int64_t kScale = detail::kSubPixelScale;
+        const int64_t px = int64_t(box.minX) * kScale + kScale / 2;
+        const int64_t py = int64_t(box.minY) * kScale + kScale / 2;
         for (int i = 0; i < 3; ++i) {
-            const int j = (i + 1) % 3;
-            mBias[i] = detail::topLeftBias(mV[j]->x - mV[i]->x, mV[j]->y - mV[i]->y);
+            const detail::RasterVertex &a = *v[i], &b = *v[(i + 1) % 3];
+            mAtCorner[i] = detail::edgeAt(a.x, a.y, b.x, b.y, px, py);
+            mBias[i] = detail::topLeftBias(b.x - a.x, b.y - a.y);
+            mStepX[i] = -int64_t(b.y - a.y) * kScale;
+            mStepY[i] = int64_t(b.x - a.x) * kScale;
         }
     }
 
-    bool mayCover(const PixelSpan& s) const {
-        const int x0 = std::max(s.x0, mBox.minX), x1 = std::min(s.x1, mBox.maxX);
-        if (x0 > x1) return false;
-        constexpr int64_t kScale = detail::kSubPixelScale;
-        const int64_t py = int64_t(s.y) * kScale + kScale / 2;
-        const int64_t px0 = int64_t(x0) * kScale + kScale / 2;
-        const int64_t px1 = int64_t(x1) * kScale + kScale / 2;
+    // False when the span, clipped to the box, is empty or lies outside one edge; else its values.
+    bool mayCover(const PixelSpan& s, Row* r) const {
+        r->x0 = std::max(s.x0, mBox.minX);
+        r->x1 = std::min(s.x1, mBox.maxX);
+        if (r->x0 > r->x1) return false;
+        const int64_t dy = s.y - mBox.minY, dx0 = r->x0 - mBox.minX, width = r->x1 - r->x0;
         for (int i = 0; i < 3; ++i) {
-            const int j = (i + 1) % 3;
-            const detail::RasterVertex &a = *mV[i], &b = *mV[j];
-            if (detail::edgeAt(a.x, a.y, b.x, b.y, px0, py) + mBias[i] < 0 &&
-                detail::edgeAt(a.x, a.y, b.x, b.y, px1, py) + mBias[i] < 0)
-                return false;
+            r->atMinX[i] = mAtCorner[i] + mStepY[i] * dy;
+            r->eAtX0[i] = r->atMinX[i] + mBias[i] + mStepX[i] * dx0;
+            if (r->eAtX0[i] < 0 && r->eAtX0[i] + mStepX[i] * width < 0) return false;
         }
         return true;
     }
 
+    // The edge functions' steps by a column, as rasterizeReferencePixels takes them.
+    const int64_t* stepX() const { return mStepX; }
+
 private:
     const detail::TriangleBox& mBox;
-    const detail::RasterVertex* mV[3];
-    int64_t mBias[3];
+    int64_t mAtCorner[3], mBias[3], mStepX[3], mStepY[3];
 };
 
 }  // namespace
@@ -78,15 +96,21 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
         // Decided before the setup, which a large triangle passing beside a few hole pixels
         // would otherwise pay for nothing; and per span after it: three in four spans of a
         // triangle's rows in the reproject fill hold none of its samples (office:280).
-        const SpanEdges edges(tris[i], box);
-        first = std::find_if(first, last, [&](const PixelSpan& s) { return edges.mayCover(s); });
+        const SpanRows rows(tris[i], box);
+        SpanRows::Row row;
+        while (first != last && !rows.mayCover(*first, &row)) ++first;
         if (first == last) continue;
         detail::TriangleSetup t;
         detail::setTriangleIdentity(scene, mesh, local, &t);
         detail::isa_scalar::setupTriangleInBox(scene, mesh, local, tris[i], box, ctx, &t);
-        for (auto s = first; s != last; ++s)
-            if (s == first || edges.mayCover(*s))
-                written += detail::rasterizeReferenceRow(t, ctx, targets, s->y, s->x0, s->x1);
+        for (auto s = first; s != last; ++s) {
+            if (s != first && !rows.mayCover(*s, &row)) continue;
+            // rowBarycentrics from the exact values: edge 2 (vertex 2 to 0) gives b1, edge 0 b2.
+            const float b1Row = float(row.atMinX[2]) * t.invArea;
+            const float b2Row = float(row.atMinX[0]) * t.invArea;
+            written += detail::rasterizeReferencePixels(t, ctx, targets, s->y, row.x0, row.x1,
+                                                        row.eAtX0, rows.stepX(), b1Row, b2Row);
+        }
     }
     return written;
 }

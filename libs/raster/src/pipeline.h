@@ -217,11 +217,14 @@ PLX_ISA_DECLARE(
 // clipped and snapped pieces (none when the triangle lies outside the frustum), written to
 // out[0 .. return value) with the triangle's mesh and local index. Each piece then goes through
 // isa_scalar::setupTriangle (renderReference), or through its steps triangleBox,
-// setTriangleIdentity and setupTriangleInBox (drawTriangleInSpans, which skips a piece whose box
-// misses its spans before the setup).
+// setTriangleIdentity and setupTriangleInBox (drawTriangleInSpans, which clips by
+// clipReferenceCorners and skips a piece that misses its spans before the setup).
 int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
                           const Viewport& vp, RasterVertex out[kMaxClippedTriangles][3],
                           size_t* meshIndex, uint32_t* localTri);
+// Its transform, outcodes, clipping and snapping, for the triangle's three world-space corners.
+int clipReferenceCorners(const Vec3 corners[3], const Camera& camera, const Viewport& vp,
+                         RasterVertex out[kMaxClippedTriangles][3]);
 // The reference's pixel loop over row y, columns [x0, x1] clipped to the setup's box: coverage,
 // depth test (unless ctx.colorOnly) and writes. Returns the samples written.
 int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,

@@ -87,10 +87,18 @@ int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const C
     *meshIndex = m;
     *localTri = local;
     const scene::Mesh& mesh = scene.meshes[m];
+    const Vec3 corners[3] = {mesh.positions[mesh.indices[3 * local]],
+                             mesh.positions[mesh.indices[3 * local + 1]],
+                             mesh.positions[mesh.indices[3 * local + 2]]};
+    return clipReferenceCorners(corners, camera, vp, out);
+}
+
+int clipReferenceCorners(const Vec3 corners[3], const Camera& camera, const Viewport& vp,
+                         RasterVertex out[kMaxClippedTriangles][3]) {
     Vec4 clip[3];
     uint32_t codes[3];
     for (int k = 0; k < 3; ++k) {
-        clip[k] = camera.clipFromWorld() * Vec4(mesh.positions[mesh.indices[3 * local + k]], 1.0f);
+        clip[k] = camera.clipFromWorld() * Vec4(corners[k], 1.0f);
         codes[k] = outcode(clip[k], vp);
     }
     if (codes[0] & codes[1] & codes[2] & kOutFrustum) return 0;

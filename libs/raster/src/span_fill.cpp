@@ -3,6 +3,7 @@
 #include <plx/raster/span_fill.h>
 
 #include <algorithm>
+#include <array>
 
 #include "pipeline.h"
 
@@ -67,21 +68,47 @@ private:
 
 }  // namespace
 
-int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
-                            const Camera& camera, const RenderOptions& options,
-                            const RenderTargets& targets, std::span<const PixelSpan> spans) {
+namespace {
+
+void checkSpanRequest(const scene::Scene& scene, uint32_t globalTriangle, const Camera& camera,
+                      const RenderOptions& options, const RenderTargets& targets,
+                      [[maybe_unused]] std::span<const PixelSpan> spans) {
     PLX_CHECK(globalTriangle < scene.triangleCount());
     PLX_CHECK(!options.colorOnly && targets.depth.data && targets.id.data);
     PLX_CHECK(targets.depth.width == camera.width() && targets.depth.height == camera.height());
     PLX_CHECK(targets.id.width == camera.width() && targets.id.height == camera.height());
     PLX_DCHECK(std::is_sorted(spans.begin(), spans.end(),
                               [](const PixelSpan& a, const PixelSpan& b) { return a.y < b.y; }));
+}
+
+}  // namespace
+
+int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
+                            const Camera& camera, const RenderOptions& options,
+                            const RenderTargets& targets, std::span<const PixelSpan> spans) {
+    PLX_CHECK(globalTriangle < scene.triangleCount());
+    const size_t mesh = scene.meshOfTriangle(globalTriangle);
+    const scene::Mesh& m = scene.meshes[mesh];
+    const size_t first = 3 * (globalTriangle - scene.firstTriangle(mesh));
+    const std::array<Vec3, 3> corners = {m.positions[m.indices[first]],
+                                         m.positions[m.indices[first + 1]],
+                                         m.positions[m.indices[first + 2]]};
+    return drawTriangleInSpans(scene, globalTriangle, corners, camera, options, targets, spans);
+}
+
+int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
+                            std::span<const Vec3, 3> corners, const Camera& camera,
+                            const RenderOptions& options, const RenderTargets& targets,
+                            std::span<const PixelSpan> spans, bool* setUp) {
+    checkSpanRequest(scene, globalTriangle, camera, options, targets, spans);
+    if (setUp) *setUp = false;
     detail::Viewport vp(camera);
     detail::ShadeContext ctx(options, targets);
     detail::RasterVertex tris[detail::kMaxClippedTriangles][3];
-    size_t mesh;
-    uint32_t local;
-    int count = detail::clipReferenceTriangle(scene, globalTriangle, camera, vp, tris, &mesh, &local);
+    const int count = detail::clipReferenceCorners(corners.data(), camera, vp, tris);
+    size_t mesh = 0;
+    uint32_t local = 0;
+    bool identified = false;
     int64_t written = 0;
     for (int i = 0; i < count; ++i) {
         // isa_scalar::setupTriangle in its steps, the setup only for a triangle that may cover
@@ -100,6 +127,12 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
         SpanRows::Row row;
         while (first != last && !rows.mayCover(*first, &row)) ++first;
         if (first == last) continue;
+        if (!identified) {
+            mesh = scene.meshOfTriangle(globalTriangle);
+            local = uint32_t(globalTriangle - scene.firstTriangle(mesh));
+            identified = true;
+        }
+        if (setUp) *setUp = true;
         detail::TriangleSetup t;
         detail::setTriangleIdentity(scene, mesh, local, &t);
         detail::isa_scalar::setupTriangleInBox(scene, mesh, local, tris[i], box, ctx, &t);

@@ -201,12 +201,16 @@ private:
             const uint32_t pass = t.pass & ~four.missBox;
             for (uint32_t k = 0; k < lanes; ++k) {
                 if (!(pass >> k & 1u) || hidden(t.nearW[k])) continue;
-                if (!triangleMayCoverSpans(four, k, mSpans)) continue;
-                ++mStats->polygonsDrawn;
+                // The exact span test decides the rest, on the corners the tests above read:
+                // the mesh is read only for a triangle it passes.
                 const uint32_t triangle = mFrame.fill.boxes.triangles()[group + k];
-                if (raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
-                                                mFrame.render, mFrame.targets, mSpans) > 0)
-                    update();
+                const std::array<Vec3, 3> corners = mFrame.fill.boxCorners.triangle(group + k);
+                bool setUp = false;
+                const int64_t written =
+                    raster::drawTriangleInSpans(mFrame.scene, triangle, corners, mFrame.camera,
+                                                mFrame.render, mFrame.targets, mSpans, &setUp);
+                mStats->polygonsDrawn += setUp;
+                if (written > 0) update();
             }
         }
     }

@@ -158,8 +158,6 @@ FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corn
         const __m128 invW = _mm_div_ps(set(1.0f), w);
         px[k] = _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(row(0), invW), half), half), width);
         py[k] = _mm_mul_ps(_mm_sub_ps(half, _mm_mul_ps(_mm_mul_ps(row(1), invW), half)), height);
-        _mm_storeu_ps(out.x[k], px[k]);
-        _mm_storeu_ps(out.y[k], py[k]);
     }
     __m128 area2 = _mm_setzero_ps();
     for (size_t i = 0; i < 3; ++i) {
@@ -202,22 +200,10 @@ FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corn
             out.anywhere |= 1u << i;
             continue;
         }
-        for (size_t k = 0; k < 3; ++k) {
-            out.x[k][i] = q.p[k].x;
-            out.y[k][i] = q.p[k].y;
-        }
         if (missesBox(q, b)) out.missBox |= 1u << i;
     }
 #endif
     return out;
-}
-
-bool triangleMayCoverSpans(const FourTriangles& four, size_t k, std::span<const PixelSpan> spans) {
-    if (four.anywhere >> k & 1u) return true;
-    Projection q;
-    q.n = 3;
-    for (size_t i = 0; i < 3; ++i) q.p[i] = Vec2(four.x[i][k], four.y[i][k]);
-    return !finishProjection(&q) || !missesSpans(q, spans);
 }
 
 }  // namespace plx::stereo

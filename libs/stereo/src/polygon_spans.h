@@ -19,23 +19,17 @@ namespace plx::stereo {
 bool polygonMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
                           std::span<const raster::PixelSpan> spans, const scene::PixelRect& box);
 
-// Four triangles projected at once: polygonMayCoverSpans in two steps for entries of a box
-// hierarchy's leaves.
+// The box part of polygonMayCoverSpans for four entries of a box hierarchy's leaves at once.
 struct FourTriangles {
-    uint32_t missBox = 0;    // bit per triangle: the samples of the box lie outside one edge
-    uint32_t anywhere = 0;   // bit per triangle: a corner nearer than the near plane, or no area
-    float x[3][4], y[3][4];  // corner k of triangle i in pixels: (x[k][i], y[k][i])
+    uint32_t missBox = 0;   // bit per triangle: the samples of the box lie outside one edge
+    uint32_t anywhere = 0;  // bit per triangle: a corner nearer than the near plane, or no area
 };
 
-// The projections and box part of polygonMayCoverSpans for the four triangles of `corners` from
+// The projections and box test of polygonMayCoverSpans for the four triangles of `corners` from
 // `entry` on, with the same margins (missBox never set where anywhere is). Vector operations
 // where the build has them; a triangle it rejects, polygonMayCoverSpans rejects too, up to the
 // float rounding its margin covers.
 FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corners, size_t entry,
                                    const scene::PixelRect& box);
-
-// The rest of polygonMayCoverSpans for triangle `k` of `four`, whose box test passed.
-bool triangleMayCoverSpans(const FourTriangles& four, size_t k,
-                           std::span<const raster::PixelSpan> spans);
 
 }  // namespace plx::stereo

@@ -34,4 +34,13 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
                             const Camera& camera, const RenderOptions& options,
                             const RenderTargets& targets, std::span<const PixelSpan> spans);
 
+// The same for a caller that holds the triangle's world-space corners, equal to the mesh's (a
+// search structure's copy, in the mesh's corner order): the mesh's indices and positions are not
+// read unless a piece of the triangle may cover a sample of the spans. `setUp`, when given, is
+// set to whether one did (and was set up for scan conversion), whether or not it won a depth test.
+int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
+                            std::span<const Vec3, 3> corners, const Camera& camera,
+                            const RenderOptions& options, const RenderTargets& targets,
+                            std::span<const PixelSpan> spans, bool* setUp = nullptr);
+
 }  // namespace plx::raster

@@ -191,7 +191,7 @@ struct FillStats {
     size_t nodesVisited = 0;         // BSP nodes the searches reached
     size_t boxNodesTested = 0;       // box-hierarchy nodes tested (markHole, or the box search)
     size_t polygonsTested = 0;       // fragments given the separating test
-    size_t polygonsDrawn = 0;        // triangles scan-converted into a hole
+    size_t polygonsDrawn = 0;        // triangles set up for scan conversion into a hole
 };
 
 // Working memory of fillHoles, one slot per thread, kept between frames.

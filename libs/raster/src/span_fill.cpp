@@ -66,10 +66,6 @@ private:
     int64_t mAtCorner[3], mBias[3], mStepX[3], mStepY[3];
 };
 
-}  // namespace
-
-namespace {
-
 void checkSpanRequest(const scene::Scene& scene, uint32_t globalTriangle, const Camera& camera,
                       const RenderOptions& options, const RenderTargets& targets,
                       [[maybe_unused]] std::span<const PixelSpan> spans) {

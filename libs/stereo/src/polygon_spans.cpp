@@ -190,16 +190,12 @@ FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corn
         miss = _mm_or_ps(miss, _mm_and_ps(_mm_and_ps(outside(b.x0, b.y0), outside(b.x1, b.y0)),
                                           _mm_and_ps(outside(b.x0, b.y1), outside(b.x1, b.y1))));
     }
-    out.anywhere = uint32_t(_mm_movemask_ps(mayCover));
     out.missBox = uint32_t(_mm_movemask_ps(_mm_andnot_ps(mayCover, miss)));
 #else
     for (size_t i = 0; i < 4; ++i) {
         const std::array<Vec3, 3> triangle = corners.triangle(entry + i);
         Projection q;
-        if (!project(camera, triangle, &q)) {
-            out.anywhere |= 1u << i;
-            continue;
-        }
+        if (!project(camera, triangle, &q)) continue;
         if (missesBox(q, b)) out.missBox |= 1u << i;
     }
 #endif

@@ -21,14 +21,14 @@ bool polygonMayCoverSpans(const Camera& camera, std::span<const Vec3> corners,
 
 // The box part of polygonMayCoverSpans for four entries of a box hierarchy's leaves at once.
 struct FourTriangles {
-    uint32_t missBox = 0;   // bit per triangle: the samples of the box lie outside one edge
-    uint32_t anywhere = 0;  // bit per triangle: a corner nearer than the near plane, or no area
+    // Bit per triangle: the samples of the box lie outside one of its edges. Never set for a
+    // triangle with a corner nearer than the near plane, or with no area.
+    uint32_t missBox = 0;
 };
 
 // The projections and box test of polygonMayCoverSpans for the four triangles of `corners` from
-// `entry` on, with the same margins (missBox never set where anywhere is). Vector operations
-// where the build has them; a triangle it rejects, polygonMayCoverSpans rejects too, up to the
-// float rounding its margin covers.
+// `entry` on, with the same margins. Vector operations where the build has them; a triangle it
+// rejects, polygonMayCoverSpans rejects too, up to the float rounding its margin covers.
 FourTriangles projectFourTriangles(const Camera& camera, const LeafCorners& corners, size_t entry,
                                    const scene::PixelRect& box);
 

@@ -86,11 +86,7 @@ int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const C
     uint32_t local = uint32_t(globalTri - scene.firstTriangle(m));
     *meshIndex = m;
     *localTri = local;
-    const scene::Mesh& mesh = scene.meshes[m];
-    const Vec3 corners[3] = {mesh.positions[mesh.indices[3 * local]],
-                             mesh.positions[mesh.indices[3 * local + 1]],
-                             mesh.positions[mesh.indices[3 * local + 2]]};
-    return clipReferenceCorners(corners, camera, vp, out);
+    return clipReferenceCorners(scene.triangleCorners(globalTri).data(), camera, vp, out);
 }
 
 int clipReferenceCorners(const Vec3 corners[3], const Camera& camera, const Viewport& vp,

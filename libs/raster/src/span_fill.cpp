@@ -3,7 +3,6 @@
 #include <plx/raster/span_fill.h>
 
 #include <algorithm>
-#include <array>
 
 #include "pipeline.h"
 
@@ -83,13 +82,8 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
                             const Camera& camera, const RenderOptions& options,
                             const RenderTargets& targets, std::span<const PixelSpan> spans) {
     PLX_CHECK(globalTriangle < scene.triangleCount());
-    const size_t mesh = scene.meshOfTriangle(globalTriangle);
-    const scene::Mesh& m = scene.meshes[mesh];
-    const size_t first = 3 * (globalTriangle - scene.firstTriangle(mesh));
-    const std::array<Vec3, 3> corners = {m.positions[m.indices[first]],
-                                         m.positions[m.indices[first + 1]],
-                                         m.positions[m.indices[first + 2]]};
-    return drawTriangleInSpans(scene, globalTriangle, corners, camera, options, targets, spans);
+    return drawTriangleInSpans(scene, globalTriangle, scene.triangleCorners(globalTriangle), camera,
+                               options, targets, spans);
 }
 
 int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,

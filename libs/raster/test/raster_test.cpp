@@ -1,5 +1,4 @@
 #include <algorithm>
-#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
@@ -509,14 +508,9 @@ TEST_P(RasterPath, SpanFillEqualsTheFullRenderAtSpanPixels) {
                     written += drawTriangleInSpans(s, t, cam, opt, spans.targets(), list);
                     continue;
                 }
-                const scene::Mesh& m = s.meshes[s.meshOfTriangle(t)];
-                const size_t first = 3 * (t - s.firstTriangle(s.meshOfTriangle(t)));
-                const std::array<Vec3, 3> corners = {m.positions[m.indices[first]],
-                                                     m.positions[m.indices[first + 1]],
-                                                     m.positions[m.indices[first + 2]]};
                 bool setUp = false;
-                const int64_t w =
-                    drawTriangleInSpans(s, t, corners, cam, opt, spans.targets(), list, &setUp);
+                const int64_t w = drawTriangleInSpans(s, t, s.triangleCorners(t), cam, opt,
+                                                      spans.targets(), list, &setUp);
                 EXPECT_TRUE(setUp || w == 0) << "triangle " << t;
                 setUpCount += setUp;
                 written += w;

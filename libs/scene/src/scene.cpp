@@ -114,6 +114,14 @@ size_t Scene::meshOfTriangle(uint32_t globalTriangle) const {
     return size_t(it - mFirstTriangle.begin()) - 1;
 }
 
+std::array<Vec3, 3> Scene::triangleCorners(uint32_t globalTriangle) const {
+    const size_t m = meshOfTriangle(globalTriangle);
+    const Mesh& mesh = meshes[m];
+    const size_t first = 3 * (globalTriangle - mFirstTriangle[m]);
+    return {mesh.positions[mesh.indices[first]], mesh.positions[mesh.indices[first + 1]],
+            mesh.positions[mesh.indices[first + 2]]};
+}
+
 SceneStats Scene::stats() const {
     SceneStats s;
     s.meshes = meshes.size();

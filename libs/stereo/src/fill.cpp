@@ -22,15 +22,6 @@ using raster::PixelSpan;
 
 namespace {
 
-// The corners of scene-global triangle t.
-std::array<Vec3, 3> triangleCorners(const scene::Scene& scene, uint32_t t) {
-    const size_t mesh = scene.meshOfTriangle(t);
-    const scene::Mesh& m = scene.meshes[mesh];
-    const size_t local = t - scene.firstTriangle(mesh);
-    return {m.positions[m.indices[3 * local]], m.positions[m.indices[3 * local + 1]],
-            m.positions[m.indices[3 * local + 2]]};
-}
-
 // FillScene::bsp and fragmentsOfTriangle.
 Status buildBsp(const scene::Scene& scene, const scene::BspConfig& config, FillScene* fill) {
     auto tree = scene::BspTree::build(scene, config);
@@ -63,7 +54,7 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, FillSearch search,
     for (auto* axis : {&corners.x, &corners.y, &corners.z})
         for (std::vector<float>& coordinate : *axis) coordinate.resize(entries);
     for (size_t i = 0; i < entries; ++i) {
-        const std::array<Vec3, 3> c = triangleCorners(scene, order[std::min(i, order.size() - 1)]);
+        const std::array<Vec3, 3> c = scene.triangleCorners(order[std::min(i, order.size() - 1)]);
         for (size_t k = 0; k < 3; ++k) {
             corners.x[k][i] = c[k].x;
             corners.y[k][i] = c[k].y;
@@ -76,7 +67,7 @@ Result<FillScene> buildFillScene(const scene::Scene& scene, FillSearch search,
 
 bool trianglesOfOneSurface(const scene::Scene& scene, uint32_t a, uint32_t b) {
     if (a == b || a >= scene.triangleCount() || b >= scene.triangleCount()) return false;
-    const std::array<Vec3, 3> ca = triangleCorners(scene, a), cb = triangleCorners(scene, b);
+    const std::array<Vec3, 3> ca = scene.triangleCorners(a), cb = scene.triangleCorners(b);
     int shared = 0;
     for (const Vec3& p : ca) shared += p == cb[0] || p == cb[1] || p == cb[2];
     if (shared >= 2) return true;

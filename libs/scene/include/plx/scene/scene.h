@@ -6,6 +6,7 @@
 // triangle t having global index firstTriangle(m) + t. The polygon-ID target stores that index+1
 // (see the Conventions block in <plx/core/core.h>).
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -93,6 +94,9 @@ public:
     size_t firstTriangle(size_t meshIndex) const { return mFirstTriangle[meshIndex]; }
     // Mesh holding a global triangle index. Precondition: globalTriangle < triangleCount().
     size_t meshOfTriangle(uint32_t globalTriangle) const;
+    // The three corners of a global triangle, in its mesh's index order.
+    // Precondition: globalTriangle < triangleCount().
+    std::array<Vec3, 3> triangleCorners(uint32_t globalTriangle) const;
     const Aabb& bounds() const { return mBounds; }
     // Unit normal of a triangle's plane, cross(p1 - p0, p2 - p0) normalised ((0, 1, 0) for a
     // degenerate triangle), computed by finalize(): flat shading reads this one vector instead of

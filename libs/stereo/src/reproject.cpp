@@ -142,7 +142,10 @@ struct DirectOffset {
 };
 
 // scatterRow for the direct form, four landings computed at a time with the same float
-// operations in the same order (the build does not contract them), then stored one by one in
+// operations in the same order (the build does not contract them). Four landings one column
+// apart, as a surface's pixels mostly land (its disparity changes by a small fraction of a pixel
+// per column), are stored as one vector each of columns and colours: their slots are distinct, so
+// the order in which they are written does not matter. Any other four are stored one by one in
 // occlusion-compatible order.
 void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder order) {
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
@@ -151,23 +154,37 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
     const __m128 a = _mm_set1_ps(offset.a), b = _mm_set1_ps(offset.b);
     const __m128 zero = _mm_setzero_ps(), limit = _mm_set1_ps(float(w));
     const __m128i spare = _mm_set1_epi32(w);
+    const __m128i lanes = _mm_set_epi32(3, 2, 1, 0);
     alignas(16) int32_t tx[4];
-    auto land4 = [&](int x) {  // columns x .. x + 3
-        const __m128 xs =
-            _mm_cvtepi32_ps(_mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0)));
+    // Lands columns x .. x + 3: true when they land one column apart, all four stored; else
+    // their slots are left in tx.
+    auto land4 = [&](int x) {
+        const __m128i xi = _mm_add_epi32(_mm_set1_epi32(x), lanes);
         const __m128 d = _mm_loadu_ps(row.srcDepth + x);
-        const __m128 pos = _mm_add_ps(xs, _mm_add_ps(_mm_mul_ps(a, d), b));
+        const __m128 pos = _mm_add_ps(_mm_cvtepi32_ps(xi), _mm_add_ps(_mm_mul_ps(a, d), b));
         // Inside [0, w) (false for NaN): its column; else the spare slot.
         const __m128 inside = _mm_and_ps(_mm_cmpge_ps(pos, zero), _mm_cmplt_ps(pos, limit));
         const __m128i col = _mm_cvttps_epi32(_mm_and_ps(pos, inside));
         const __m128i in = _mm_castps_si128(inside);
-        _mm_store_si128(reinterpret_cast<__m128i*>(tx),
-                        _mm_or_si128(_mm_and_si128(in, col), _mm_andnot_si128(in, spare)));
+        const __m128i slot = _mm_or_si128(_mm_and_si128(in, col), _mm_andnot_si128(in, spare));
+        // One shift for all four: the slots are consecutive. Slots in the spare one never are
+        // (the shift differs by lane), so all four lie inside the row.
+        const __m128i shift = _mm_sub_epi32(slot, xi);
+        const __m128i same = _mm_cmpeq_epi32(shift, _mm_shuffle_epi32(shift, 0));
+        if (_mm_movemask_epi8(same) == 0xffff) {
+            const int t0 = _mm_cvtsi128_si32(slot);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(row.from + t0), xi);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(row.color + t0),
+                             _mm_loadu_si128(reinterpret_cast<const __m128i*>(row.srcColor + x)));
+            return true;
+        }
+        _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
+        return false;
     };
     int x = 0;
     if (order == RowOrder::kLeftToRight) {
         for (; x + 4 <= w; x += 4) {
-            land4(x);
+            if (land4(x)) continue;
             for (int k = 0; k < 4; ++k) {
                 row.from[tx[k]] = x + k;
                 row.color[tx[k]] = row.srcColor[x + k];
@@ -178,7 +195,7 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
         // Right to left: the columns the four-wide steps leave at the left end go last.
         const int head = w % 4;
         for (int x0 = w - 4; x0 >= head; x0 -= 4) {
-            land4(x0);
+            if (land4(x0)) continue;
             for (int k = 3; k >= 0; --k) {
                 row.from[tx[k]] = x0 + k;
                 row.color[tx[k]] = row.srcColor[x0 + k];

@@ -392,6 +392,37 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
     }
 }
 
+// A first eye of slanted surfaces: each row in runs of 1/w linear along the row (random
+// lengths, levels and slopes), as rendered planes give, so that most pixels land one column
+// after their left neighbour and the rest open gaps or collide at the runs' ends.
+raster::FrameBuffers slantedFirstEye(int w, int h, unsigned seed) {
+    raster::FrameBuffers first = randomFirstEye(w, h, seed);
+    std::mt19937 rng(seed + 1);
+    std::uniform_int_distribution<int> runLength(1, 40);
+    std::uniform_real_distribution<float> level(0.0f, 2.0f), slope(-0.02f, 0.02f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w;) {
+            const int end = std::min(w, x + runLength(rng));
+            const float start = level(rng), step = slope(rng);
+            for (int k = x; k < end; ++k) first.depth.at(k, y) = start + step * float(k - x);
+            x = end;
+        }
+    return first;
+}
+
+TEST(Reproject, RowPassEqualsThePaperOnSlantedRuns) {
+    const int w = 301, h = 17;
+    const raster::FrameBuffers first = slantedFirstEye(w, h, 11);
+    for (DisparityLine line : {DisparityLine{-6.0f, 2.5f}, DisparityLine{7.0f, -4.0f}}) {
+        SecondEye expected(w, h), got(w, h);
+        reprojectByTheBook(first, line, &expected);
+        ASSERT_TRUE(reproject(firstTargets(first), line, got.targets()).isOk());
+        EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
+        EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
+        EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+    }
+}
+
 TEST(Reproject, BadParametersAreRejected) {
     StereoRigDesc nan;
     nan.separation = std::nanf("");

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
@@ -80,25 +81,45 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
                         first.id.height, second.color.width, second.color.height,
                         second.depth.width, second.depth.height, second.id.width, second.id.height,
                         second.holeMask.width, second.holeMask.height));
+    // rowTag: the last row's largest landing, h (w + 1) + w - 1, must fit an int32_t.
+    if (int64_t(h) * (int64_t(w) + 1) + w > std::numeric_limits<int32_t>::max())
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("reprojection targets of {}x{} pixels are too large for "
+                                       "the row pass's 32-bit landing tags",
+                                       w, h));
     return Status::ok();
 }
 
 // A row's landings, kept apart from the images: the first-eye column that reached each
-// second-eye pixel (-1 where none did) and that column's colour, each with one spare slot that
-// takes every landing outside the row, so the scatter needs no range branch. The colour is moved
-// in the scatter, where its source is read in order, rather than gathered by column afterwards:
-// a gather's four scattered loads per vector cost more than a second store per landing.
+// second-eye pixel and that column's colour, each with one spare slot that takes every landing
+// outside the row, so the scatter needs no range branch. The colour is moved in the scatter, where
+// its source is read in order, rather than gathered by column afterwards: a gather's four
+// scattered loads per vector cost more than a second store per landing.
+//
+// A landing stores its column plus the row's tag, which exceeds every value an earlier row of the
+// same slots stored (rowTag): a slot below the tag received nothing in this row, so the slots are
+// never cleared between rows.
 struct RowLandings {
     std::vector<int32_t> from;
     std::vector<Rgba8> color;
-    explicit RowLandings(int w) : from(size_t(w) + 1), color(size_t(w) + 1) {}
+    int32_t tag = 0;
+    explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1) {}
+    bool landed(int t) const { return from[size_t(t)] >= tag; }
+    int32_t column(int t) const { return from[size_t(t)] - tag; }
 };
+
+// The tag of row y of a w-wide image: (y + 1)(w + 1) exceeds row y - 1's largest landing,
+// y (w + 1) + w - 1, and the slots' initial 0. checkTargets keeps it within int32_t.
+int32_t rowTag(int y, int w) {
+    return int32_t((int64_t(y) + 1) * (int64_t(w) + 1));
+}
 
 // One row's scatter: its first-eye depth and colour in, its landings (w + 1 slots each) out.
 struct RowScatter {
     const float* srcDepth;
     const Rgba8* srcColor;
     int w;
+    int32_t tag;
     int32_t* from;
     Rgba8* color;
 };
@@ -114,7 +135,8 @@ struct RowScatter {
 // monotone in 1/w in the same way, so the same order serves it.
 enum class RowOrder { kLeftToRight, kRightToLeft };
 
-// The scatter of one row: from[tx] = x, color[tx] = its colour, in occlusion-compatible order.
+// The scatter of one row: from[tx] = tag + x, color[tx] = its colour, in occlusion-compatible
+// order.
 // `offset(invW)` returns the offset plus the pixel centre. One landing: first-eye column x lands at
 // x + 0.5 + offset, in the pixel floor() of it. The range test in float also drops positions too
 // large for int (and NaN); those land in the spare slot w.
@@ -122,13 +144,12 @@ template <class Offset>
 void land(const RowScatter& row, const Offset& offset, int x) {
     const float pos = float(x) + offset(row.srcDepth[x]);
     const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
-    row.from[t] = x;
+    row.from[t] = row.tag + x;
     row.color[t] = row.srcColor[x];
 }
 
 template <class Offset>
 void scatterRow(const RowScatter& row, const Offset& offset, RowOrder order) {
-    std::fill_n(row.from, row.w, -1);
     if (order == RowOrder::kLeftToRight)
         for (int x = 0; x < row.w; ++x) land(row, offset, x);
     else
@@ -150,7 +171,6 @@ struct DirectOffset {
 void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder order) {
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
     const int w = row.w;
-    std::fill_n(row.from, w, -1);
     const __m128 a = _mm_set1_ps(offset.a), b = _mm_set1_ps(offset.b);
     const __m128 zero = _mm_setzero_ps(), limit = _mm_set1_ps(float(w));
     const __m128i spare = _mm_set1_epi32(w);
@@ -173,7 +193,8 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
         const __m128i same = _mm_cmpeq_epi32(shift, _mm_shuffle_epi32(shift, 0));
         if (_mm_movemask_epi8(same) == 0xffff) {
             const int t0 = _mm_cvtsi128_si32(slot);
-            _mm_storeu_si128(reinterpret_cast<__m128i*>(row.from + t0), xi);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(row.from + t0),
+                             _mm_add_epi32(xi, _mm_set1_epi32(row.tag)));
             _mm_storeu_si128(reinterpret_cast<__m128i*>(row.color + t0),
                              _mm_loadu_si128(reinterpret_cast<const __m128i*>(row.srcColor + x)));
             return true;
@@ -186,7 +207,7 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
         for (; x + 4 <= w; x += 4) {
             if (land4(x)) continue;
             for (int k = 0; k < 4; ++k) {
-                row.from[tx[k]] = x + k;
+                row.from[tx[k]] = row.tag + x + k;
                 row.color[tx[k]] = row.srcColor[x + k];
             }
         }
@@ -197,7 +218,7 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
         for (int x0 = w - 4; x0 >= head; x0 -= 4) {
             if (land4(x0)) continue;
             for (int k = 3; k >= 0; --k) {
-                row.from[tx[k]] = x0 + k;
+                row.from[tx[k]] = row.tag + x0 + k;
                 row.color[tx[k]] = row.srcColor[x0 + k];
             }
         }
@@ -212,12 +233,12 @@ void scatterRow(const RowScatter& row, const DirectOffset& offset, RowOrder orde
 // what the fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not
 // written in full.
 void markHoleRun(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                 const int32_t* from, int start, int end) {
+                 const RowLandings& landings, int start, int end) {
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
     auto copyLanded = [&](int t) {
-        dstDepth[t] = first.depth.row(y)[from[t]];
-        dstId[t] = first.id.row(y)[from[t]];
+        dstDepth[t] = first.depth.row(y)[landings.column(t)];
+        dstId[t] = first.id.row(y)[landings.column(t)];
     };
     std::fill(dstDepth + start, dstDepth + end, 0.0f);
     std::fill(dstId + start, dstId + end, 0u);
@@ -228,11 +249,11 @@ void markHoleRun(const FirstEyeTargets& first, const SecondEyeTargets& second, i
 // What a row with holes needs beyond its pixels: its runs listed (second.holeRuns) and, for a
 // second eye without full planes, each run marked (markHoleRun). The row is still in cache.
 void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                    const int32_t* from) {
+                    const RowLandings& landings) {
     std::vector<HoleRun>* runs = second.holeRuns ? &second.holeRuns->rows[size_t(y)] : nullptr;
     forEachNonZeroRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
         if (runs) runs->push_back({start, end - 1});
-        if (!second.depthAndIds) markHoleRun(first, second, y, from, start, end);
+        if (!second.depthAndIds) markHoleRun(first, second, y, landings, start, end);
     });
 }
 
@@ -240,9 +261,8 @@ void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second
 // second.depthAndIds.
 inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& second, int y, int t,
                        const RowLandings& landings) {
-    const int32_t x = landings.from[size_t(t)];
-    const bool landed = x >= 0;
-    const int32_t s = landed ? x : 0;
+    const bool landed = landings.landed(t);
+    const int32_t s = landed ? landings.column(t) : 0;
     second.color.row(y)[t] = landed ? landings.color[size_t(t)] : Rgba8{};
     second.holeMask.row(y)[t] = uint8_t(!landed);
     if (second.depthAndIds) {
@@ -257,7 +277,6 @@ inline void writePixel(const FirstEyeTargets& first, const SecondEyeTargets& sec
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
               const RowLandings& landings) {
     const int w = second.color.width;
-    const int32_t* from = landings.from.data();
     int t = 0;
     bool anyHole = false;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
@@ -269,29 +288,31 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
     auto aligned = [](const void* p) { return (reinterpret_cast<uintptr_t>(p) & 15) == 0; };
     for (; t < w && !aligned(dstColor + t); ++t) {
         writePixel(first, second, y, t, landings);
-        anyHole |= from[t] < 0;
+        anyHole |= !landings.landed(t);
     }
     const bool planes = second.depthAndIds;
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
     if (!planes || (aligned(dstDepth + t) && aligned(dstId + t))) {
+        const int32_t* from = landings.from.data();
         const Rgba8* landedColor = landings.color.data();
         const auto* srcDepth = reinterpret_cast<const int32_t*>(first.depth.row(y));
         const auto* srcId = reinterpret_cast<const int32_t*>(first.id.row(y));
         uint8_t* hole = second.holeMask.row(y);
-        const __m128i none = _mm_set1_epi32(-1);
+        const __m128i tag = _mm_set1_epi32(landings.tag);
         __m128i anyMissed = _mm_setzero_si128();
         alignas(16) int32_t at[4];
         for (; t + 4 <= w; t += 4) {
             const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + t));
-            const __m128i missed = _mm_cmpeq_epi32(f, none);
+            const __m128i missed = _mm_cmplt_epi32(f, tag);
             anyMissed = _mm_or_si128(anyMissed, missed);
             const __m128i color =
                 _mm_loadu_si128(reinterpret_cast<const __m128i*>(landedColor + t));
             _mm_stream_si128(reinterpret_cast<__m128i*>(dstColor + t),
                              _mm_andnot_si128(missed, color));
             if (planes) {
-                _mm_store_si128(reinterpret_cast<__m128i*>(at), _mm_andnot_si128(missed, f));
+                _mm_store_si128(reinterpret_cast<__m128i*>(at),
+                                _mm_andnot_si128(missed, _mm_sub_epi32(f, tag)));
                 auto gather = [&](const int32_t* src) {
                     const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
                     return _mm_andnot_si128(missed, v);
@@ -308,10 +329,11 @@ void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int 
 #endif
     for (; t < w; ++t) {
         writePixel(first, second, y, t, landings);
-        anyHole |= from[t] < 0;
+        anyHole |= !landings.landed(t);
     }
     if (second.holeRuns) second.holeRuns->rows[size_t(y)].clear();
-    if (anyHole && (second.holeRuns || !second.depthAndIds)) finishHoleRuns(first, second, y, from);
+    if (anyHole && (second.holeRuns || !second.depthAndIds))
+        finishHoleRuns(first, second, y, landings);
 }
 
 // Rows per task: a 720-row frame gives ~45 tasks, enough to balance two to eight threads.
@@ -326,8 +348,10 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
         const Offset offset = rowOffset;
         RowLandings landings(first.color.width);
         for (size_t y = begin; y < end; ++y) {
+            landings.tag = rowTag(int(y), first.color.width);
             const RowScatter row{first.depth.row(int(y)), first.color.row(int(y)),
-                                 first.color.width, landings.from.data(), landings.color.data()};
+                                 first.color.width,       landings.tag,
+                                 landings.from.data(),    landings.color.data()};
             scatterRow(row, offset, order);
             writeRow(first, second, int(y), landings);
         }

@@ -453,6 +453,23 @@ TEST(Reproject, BadParametersAreRejected) {
     raster::FrameBuffers empty;
     SecondEye none(0, 0);
     EXPECT_FALSE(reproject(firstTargets(empty), DisparityLine{}, none.targets()).isOk());
+
+    // Views claiming 50000x50000 pixels over one pixel each: refused on their size (the row
+    // pass's landing tags), before any pixel is read.
+    Rgba8 color{};
+    float depth = 0.0f;
+    uint32_t id = 0;
+    uint8_t hole = 0;
+    const int huge = 50000;
+    const FirstEyeTargets hugeFirst{
+        {&color, huge, huge, 0}, {&depth, huge, huge, 0}, {&id, huge, huge, 0}};
+    const SecondEyeTargets hugeSecond{{&color, huge, huge, 0},
+                                      {&depth, huge, huge, 0},
+                                      {&id, huge, huge, 0},
+                                      {&hole, huge, huge, 0}};
+    Status tooLarge = reproject(hugeFirst, DisparityLine{}, hugeSecond);
+    EXPECT_FALSE(tooLarge.isOk());
+    EXPECT_NE(tooLarge.message().find("too large"), std::string::npos) << tooLarge.message();
 }
 
 // Hand-made masks: '#' is a hole pixel.

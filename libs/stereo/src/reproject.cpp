@@ -136,10 +136,9 @@ struct RowScatter {
 enum class RowOrder { kLeftToRight, kRightToLeft };
 
 // The scatter of one row: from[tx] = tag + x, color[tx] = its colour, in occlusion-compatible
-// order.
-// `offset(invW)` returns the offset plus the pixel centre. One landing: first-eye column x lands at
-// x + 0.5 + offset, in the pixel floor() of it. The range test in float also drops positions too
-// large for int (and NaN); those land in the spare slot w.
+// order. `offset(invW)` returns the offset plus the pixel centre. One landing: first-eye column x
+// lands at x + 0.5 + offset, in the pixel floor() of it. The range test in float also drops
+// positions too large for int (and NaN); those land in the spare slot w.
 template <class Offset>
 void land(const RowScatter& row, const Offset& offset, int x) {
     const float pos = float(x) + offset(row.srcDepth[x]);

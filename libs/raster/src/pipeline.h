@@ -225,14 +225,11 @@ int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const C
 // Its transform, outcodes, clipping and snapping, for the triangle's three world-space corners.
 int clipReferenceCorners(const Vec3 corners[3], const Camera& camera, const Viewport& vp,
                          RasterVertex out[kMaxClippedTriangles][3]);
-// The reference's pixel loop over row y, columns [x0, x1] clipped to the setup's box: coverage,
-// depth test (unless ctx.colorOnly) and writes. Returns the samples written.
-int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
-                              const RenderTargets& rt, int y, int x0, int x1);
-// Its pixel loop, for a caller that has the row's values: eAtX0, the three edge functions with
-// their biases at the sample of (x0, y), their steps by a column (-(y[i + 1] - y[i]) *
-// kSubPixelScale), and the row's barycentrics at minX (rowBarycentrics); x0..x1 inside the
-// setup's box.
+// The reference's pixel loop over row y, columns x0..x1 inside the setup's box: coverage, depth
+// test (unless ctx.colorOnly) and writes; returns the samples written. eAtX0: the three edge
+// functions with their biases at the sample of (x0, y); step: their steps by a column
+// (-(y[i + 1] - y[i]) * kSubPixelScale); b1Row, b2Row: the row's barycentrics at minX
+// (rowBarycentrics).
 int64_t rasterizeReferencePixels(const TriangleSetup& t, const ShadeContext& ctx,
                                  const RenderTargets& rt, int y, int x0, int x1,
                                  const int64_t eAtX0[3], const int64_t step[3], float b1Row,

@@ -14,34 +14,30 @@ int64_t edgeValue(const TriangleSetup& t, int i, int64_t px, int64_t py) {
     return int64_t(t.x[j] - t.x[i]) * (py - t.y[i]) - int64_t(t.y[j] - t.y[i]) * (px - t.x[i]);
 }
 
+// The reference's row y of the setup's box: the edge functions at the sample of (minX, y) and the
+// row's barycentrics, then the pixel loop every path shares. Takes the scalar path's setup and
+// shading (isa_scalar) whatever path is active.
+void rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt,
+                           int y) {
+    float b1Row, b2Row;
+    rowBarycentrics(t, y, &b1Row, &b2Row);
+    const int64_t px = int64_t(t.minX) * kSubPixelScale + kSubPixelScale / 2;
+    const int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
+    int64_t e[3], step[3];
+    for (int i = 0; i < 3; ++i) {
+        e[i] = edgeValue(t, i, px, py) + t.edgeBias[i];
+        step[i] = -int64_t(t.y[(i + 1) % 3] - t.y[i]) * kSubPixelScale;
+    }
+    rasterizeReferencePixels(t, ctx, rt, y, t.minX, t.maxX, e, step, b1Row, b2Row);
+}
+
 void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const RenderTargets& rt) {
-    for (int y = t.minY; y <= t.maxY; ++y) rasterizeReferenceRow(t, ctx, rt, y, t.minX, t.maxX);
+    for (int y = t.minY; y <= t.maxY; ++y) rasterizeReferenceRow(t, ctx, rt, y);
 }
 
 }  // namespace
 
 namespace detail {
-
-// The reference takes the scalar path's setup and shading (isa_scalar) whatever path is active.
-int64_t rasterizeReferenceRow(const TriangleSetup& t, const ShadeContext& ctx,
-                              const RenderTargets& rt, int y, int x0, int x1) {
-    if (y < t.minY || y > t.maxY) return 0;
-    x0 = std::max(x0, t.minX);
-    x1 = std::min(x1, t.maxX);
-    if (x0 > x1) return 0;
-    // The row's barycentrics start at minX whatever x0 is: the same expression as every path.
-    float b1Row, b2Row;
-    rowBarycentrics(t, y, &b1Row, &b2Row);
-    // The edge functions at x0's sample, with their biases.
-    const int64_t px0 = int64_t(x0) * kSubPixelScale + kSubPixelScale / 2;
-    const int64_t py = int64_t(y) * kSubPixelScale + kSubPixelScale / 2;
-    int64_t e[3], step[3];
-    for (int i = 0; i < 3; ++i) {
-        e[i] = edgeValue(t, i, px0, py) + t.edgeBias[i];
-        step[i] = -int64_t(t.y[(i + 1) % 3] - t.y[i]) * kSubPixelScale;
-    }
-    return rasterizeReferencePixels(t, ctx, rt, y, x0, x1, e, step, b1Row, b2Row);
-}
 
 int64_t rasterizeReferencePixels(const TriangleSetup& t, const ShadeContext& ctx,
                                  const RenderTargets& rt, int y, int x0, int x1,

@@ -34,9 +34,17 @@ struct Projection {
     float minX = 0, maxX = 0, minY = 0, maxY = 0;
 };
 
-// Completes a projection whose n corners are in q->p; false when it has no area (may cover).
-bool finishProjection(Projection* q) {
-    const size_t n = q->n;
+// Projects `corners`; false when the polygon may cover anything: a corner nearer than the near
+// plane, more corners than kMaxCorners, or no area.
+bool project(const Camera& camera, std::span<const Vec3> corners, Projection* q) {
+    if (corners.size() > kMaxCorners) return false;
+    const size_t n = corners.size();
+    q->n = n;
+    for (size_t i = 0; i < n; ++i) {
+        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
+        if (!(clip.w >= camera.desc().nearPlane)) return false;
+        q->p[i] = camera.pixelFromClip(clip);
+    }
     q->minX = q->minY = std::numeric_limits<float>::infinity();
     q->maxX = q->maxY = -std::numeric_limits<float>::infinity();
     float area2 = 0.0f;
@@ -55,19 +63,6 @@ bool finishProjection(Projection* q) {
         q->limits[i] = -kEdgeMarginPx * glm::length(q->edges[i]);
     }
     return true;
-}
-
-// Projects `corners`; false when the polygon may cover anything: a corner nearer than the near
-// plane, more corners than kMaxCorners, or no area.
-bool project(const Camera& camera, std::span<const Vec3> corners, Projection* out) {
-    if (corners.size() > kMaxCorners) return false;
-    out->n = corners.size();
-    for (size_t i = 0; i < corners.size(); ++i) {
-        Vec4 clip = camera.clipFromWorld() * Vec4(corners[i], 1.0f);
-        if (!(clip.w >= camera.desc().nearPlane)) return false;
-        out->p[i] = camera.pixelFromClip(clip);
-    }
-    return finishProjection(out);
 }
 
 // The box's corner samples (pixel centres).

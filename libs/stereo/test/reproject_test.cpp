@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <plx/core/cpu.h>
 #include <plx/raster/raster.h>
 #include <plx/scene/generators.h>
 #include <plx/stereo/holes.h>
@@ -349,47 +350,60 @@ raster::FrameBuffers randomFirstEye(int w, int h, unsigned seed) {
 // gaps and landings outside on both sides.
 const DisparityLine kWideLines[] = {{-40.0f, 12.0f}, {55.0f, -30.0f}, {-3.0f, 0.7f}};
 
+// Sets the active ISA for a scope, then restores it.
+struct ActiveIsa {
+    Isa saved = activeIsa();
+    explicit ActiveIsa(Isa isa) { EXPECT_TRUE(setActiveIsa(isa).isOk()); }
+    ~ActiveIsa() { EXPECT_TRUE(setActiveIsa(saved).isOk()); }
+};
+
+// On every row-kernel path this process can run (row_pass.inl: scalar with SSE2, AVX2).
 TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
     const int w = 97, h = 23;
     const raster::FrameBuffers first = randomFirstEye(w, h, 7);
-    for (DisparityLine line : kWideLines) {
-        SecondEye expected(w, h), got(w, h);
-        reprojectByTheBook(first, line, &expected);
-        ThreadPool pool(2);
-        ASSERT_TRUE(reproject(firstTargets(first), line, got.targets(), &pool).isOk());
-        EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
-        EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
-        EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
-        EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+    for (Isa isa : runnableIsas())
+        for (DisparityLine line : kWideLines) {
+            SCOPED_TRACE(std::string(isaName(isa)));
+            ActiveIsa active(isa);
+            SecondEye expected(w, h), got(w, h);
+            reprojectByTheBook(first, line, &expected);
+            ThreadPool pool(2);
+            ASSERT_TRUE(reproject(firstTargets(first), line, got.targets(), &pool).isOk());
+            EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
+            EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
+            EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
+            EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
 
-        // A second eye shown as colour only: colour and mask everywhere, depth and ID where the
-        // hole search reads them (hole pixels and their row neighbours), the rest untouched.
-        SecondEye lean(w, h);
-        lean.buffers.depth.view().fill(-7.0f);
-        lean.buffers.id.view().fill(0xdeadu);
-        SecondEyeTargets leanTargets = lean.targets();
-        leanTargets.depthAndIds = false;
-        ASSERT_TRUE(reproject(firstTargets(first), line, leanTargets, &pool).isOk());
-        EXPECT_TRUE(lean.buffers.color == expected.buffers.color) << line.perInvW;
-        EXPECT_TRUE(lean.holeMask == expected.holeMask) << line.perInvW;
-        int holes = 0, untouched = 0;
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) {
-                auto isHole = [&](int c) { return c >= 0 && c < w && expected.holeMask.at(c, y); };
-                if (isHole(x)) {
-                    ++holes;
-                    EXPECT_EQ(lean.buffers.depth.at(x, y), 0.0f);
-                    EXPECT_EQ(lean.buffers.id.at(x, y), 0u);
-                } else if (isHole(x - 1) || isHole(x + 1)) {
-                    EXPECT_EQ(lean.buffers.id.at(x, y), expected.buffers.id.at(x, y));
-                    EXPECT_EQ(lean.buffers.depth.at(x, y), expected.buffers.depth.at(x, y));
-                } else {
-                    untouched += lean.buffers.id.at(x, y) == 0xdeadu;
+            // A second eye shown as colour only: colour and mask everywhere, depth and ID where the
+            // hole search reads them (hole pixels and their row neighbours), the rest untouched.
+            SecondEye lean(w, h);
+            lean.buffers.depth.view().fill(-7.0f);
+            lean.buffers.id.view().fill(0xdeadu);
+            SecondEyeTargets leanTargets = lean.targets();
+            leanTargets.depthAndIds = false;
+            ASSERT_TRUE(reproject(firstTargets(first), line, leanTargets, &pool).isOk());
+            EXPECT_TRUE(lean.buffers.color == expected.buffers.color) << line.perInvW;
+            EXPECT_TRUE(lean.holeMask == expected.holeMask) << line.perInvW;
+            int holes = 0, untouched = 0;
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x) {
+                    auto isHole = [&](int c) {
+                        return c >= 0 && c < w && expected.holeMask.at(c, y);
+                    };
+                    if (isHole(x)) {
+                        ++holes;
+                        EXPECT_EQ(lean.buffers.depth.at(x, y), 0.0f);
+                        EXPECT_EQ(lean.buffers.id.at(x, y), 0u);
+                    } else if (isHole(x - 1) || isHole(x + 1)) {
+                        EXPECT_EQ(lean.buffers.id.at(x, y), expected.buffers.id.at(x, y));
+                        EXPECT_EQ(lean.buffers.depth.at(x, y), expected.buffers.depth.at(x, y));
+                    } else {
+                        untouched += lean.buffers.id.at(x, y) == 0xdeadu;
+                    }
                 }
-            }
-        EXPECT_GT(holes, 0);
-        EXPECT_GT(untouched, 0);
-    }
+            EXPECT_GT(holes, 0);
+            EXPECT_GT(untouched, 0);
+        }
 }
 
 // A first eye of slanted surfaces: each row in runs of 1/w linear along the row (random
@@ -413,14 +427,17 @@ raster::FrameBuffers slantedFirstEye(int w, int h, unsigned seed) {
 TEST(Reproject, RowPassEqualsThePaperOnSlantedRuns) {
     const int w = 301, h = 17;
     const raster::FrameBuffers first = slantedFirstEye(w, h, 11);
-    for (DisparityLine line : {DisparityLine{-6.0f, 2.5f}, DisparityLine{7.0f, -4.0f}}) {
-        SecondEye expected(w, h), got(w, h);
-        reprojectByTheBook(first, line, &expected);
-        ASSERT_TRUE(reproject(firstTargets(first), line, got.targets()).isOk());
-        EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
-        EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
-        EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
-    }
+    for (Isa isa : runnableIsas())
+        for (DisparityLine line : {DisparityLine{-6.0f, 2.5f}, DisparityLine{7.0f, -4.0f}}) {
+            SCOPED_TRACE(std::string(isaName(isa)));
+            ActiveIsa active(isa);
+            SecondEye expected(w, h), got(w, h);
+            reprojectByTheBook(first, line, &expected);
+            ASSERT_TRUE(reproject(firstTargets(first), line, got.targets()).isOk());
+            EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
+            EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
+            EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+        }
 }
 
 TEST(Reproject, BadParametersAreRejected) {

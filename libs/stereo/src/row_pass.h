@@ -1,0 +1,52 @@
+#pragma once
+// The reprojection's row kernels (reproject.cpp), compiled once per ISA (row_pass.inl,
+// plx_add_isa_kernels ... ISAS avx2): the direct form's scatter of one first-eye row into its
+// landings, and one second-eye row written from them. Plain data only here: the kernels are
+// compiled under several ISAs' flags, so nothing they share may be an inline function.
+
+#include <cstdint>
+
+#include <plx/core/cpu.h>
+#include <plx/core/image.h>
+
+namespace plx::stereo::detail {
+
+// One row's scatter: its first-eye depth and colour in, its landings (w + 1 slots each, the last
+// the spare slot that takes every landing outside the row) out. A landing stores tag + its
+// first-eye column in from[] and that column's colour in color[].
+struct RowScatter {
+    const float* srcDepth;
+    const Rgba8* srcColor;
+    int w;
+    int32_t tag;
+    int32_t* from;
+    Rgba8* color;
+};
+
+// One second-eye row written from its landings: slot t landed when from[t] >= tag, from
+// first-eye column from[t] - tag. Colour (the landed colour, 0 where none landed) and the hole
+// byte (1 where none landed) at every pixel; with planes (srcDepth non-null), depth and ID from
+// the landing's first-eye column, 0 where none landed.
+struct RowWrite {
+    const int32_t* from;
+    const Rgba8* landedColor;
+    int32_t tag;
+    int w;
+    Rgba8* dstColor;
+    uint8_t* hole;
+    // Planes, all four null for a colour-only second eye. Depth is moved as its bits.
+    const int32_t* srcDepth = nullptr;
+    const int32_t* srcId = nullptr;
+    int32_t* dstDepth = nullptr;
+    int32_t* dstId = nullptr;
+};
+
+PLX_ISA_DECLARE(
+    // The direct form's scatter (offset a (1/w) + b, b including the pixel centre), in
+    // occlusion-compatible order: left to right when leftToRight, else right to left.
+    void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight);
+    // Writes the row; returns whether a pixel of it is a hole. Streaming stores: the caller
+    // fences before the row is read on another thread.
+    bool writeRowPixels(const RowWrite& row))
+
+}  // namespace plx::stereo::detail

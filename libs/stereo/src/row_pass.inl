@@ -1,0 +1,260 @@
+// The reprojection's row kernels (row_pass.h), compiled once per ISA (plx_add_isa_kernels): the
+// scalar unit steps four pixels at a time with SSE2 (one at a time in a PLX_NO_SIMD build, the
+// reference), the avx2 unit eight with AVX2. Every path writes the same landings and pixels.
+
+#include <cstring>
+
+#include "row_pass.h"
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#define PLX_ROW_AVX2 1
+#elif defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <emmintrin.h>
+#define PLX_ROW_SSE2 1
+#endif
+
+namespace plx::stereo::detail::PLX_ISA_NS {
+
+namespace {
+
+// One landing of the direct form: first-eye column x lands at x + (a (1/w) + b), in the pixel
+// floor() of it. The range test in float also drops positions too large for int (and NaN); those
+// land in the spare slot w.
+void landOne(const RowScatter& row, float a, float b, int x) {
+    const float pos = float(x) + (a * row.srcDepth[x] + b);
+    const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
+    row.from[t] = row.tag + x;
+    row.color[t] = row.srcColor[x];
+}
+
+// Columns [x0, x1) one by one in occlusion-compatible order.
+void landRange(const RowScatter& row, float a, float b, int x0, int x1, bool leftToRight) {
+    if (leftToRight)
+        for (int x = x0; x < x1; ++x) landOne(row, a, b, x);
+    else
+        for (int x = x1 - 1; x >= x0; --x) landOne(row, a, b, x);
+}
+
+#if PLX_ROW_SSE2 || PLX_ROW_AVX2
+// The landings of columns x .. x + n - 1 into the slots slot[0 .. n), one by one in
+// occlusion-compatible order.
+void storeLanes(const RowScatter& row, const int32_t* slot, int x, int n, bool leftToRight) {
+    for (int i = 0; i < n; ++i) {
+        const int k = leftToRight ? i : n - 1 - i;
+        row.from[slot[k]] = row.tag + x + k;
+        row.color[slot[k]] = row.srcColor[x + k];
+    }
+}
+
+// Four landings one column apart, as a surface's pixels mostly land (its disparity changes by a
+// small fraction of a pixel per column), stored as one vector each of columns and colours: their
+// slots are distinct, so the order in which they are written does not matter.
+void storeFour(const RowScatter& row, int x, int t0) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(row.from + t0),
+                     _mm_add_epi32(_mm_set1_epi32(row.tag + x), _mm_set_epi32(3, 2, 1, 0)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(row.color + t0),
+                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(row.srcColor + x)));
+}
+#endif
+
+#if PLX_ROW_AVX2
+constexpr int kLanes = 8;
+
+// Lands columns x .. x + 7 with the same float operations in the same order as landOne (the
+// build does not contract them): eight at once when they land one column apart, else each half
+// of four that does as one, the rest one by one, in occlusion-compatible order.
+void landGroup(const RowScatter& row, __m256 a, __m256 b, int x, bool leftToRight) {
+    const __m256i xi =
+        _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256 d = _mm256_loadu_ps(row.srcDepth + x);
+    const __m256 pos = _mm256_add_ps(_mm256_cvtepi32_ps(xi), _mm256_add_ps(_mm256_mul_ps(a, d), b));
+    // Inside [0, w) (false for NaN): its column; else the spare slot.
+    const __m256 inside =
+        _mm256_and_ps(_mm256_cmp_ps(pos, _mm256_setzero_ps(), _CMP_GE_OQ),
+                      _mm256_cmp_ps(pos, _mm256_set1_ps(float(row.w)), _CMP_LT_OQ));
+    const __m256i col = _mm256_cvttps_epi32(_mm256_and_ps(pos, inside));
+    const __m256i slot =
+        _mm256_blendv_epi8(_mm256_set1_epi32(row.w), col, _mm256_castps_si256(inside));
+    // One shift for a run of lanes: their slots are consecutive. Slots in the spare one never
+    // are (the shift differs by lane), so such lanes all lie inside the row.
+    const __m256i shift = _mm256_sub_epi32(slot, xi);
+    auto sameAs = [&](__m256i lanes) {
+        const __m256i first = _mm256_permutevar8x32_epi32(shift, lanes);
+        return unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, first))));
+    };
+    if (sameAs(_mm256_setzero_si256()) == 0xFFu) {
+        const int t0 = _mm256_cvtsi256_si32(slot);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(row.from + t0),
+                            _mm256_add_epi32(xi, _mm256_set1_epi32(row.tag)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(row.color + t0),
+                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.srcColor + x)));
+        return;
+    }
+    alignas(32) int32_t tx[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(tx), slot);
+    const unsigned halves = sameAs(_mm256_setr_epi32(0, 0, 0, 0, 4, 4, 4, 4));
+    for (int i = 0; i < 2; ++i) {
+        const int h = leftToRight ? i : 1 - i;
+        if ((halves >> (4 * h) & 0xFu) == 0xFu)
+            storeFour(row, x + 4 * h, tx[4 * h]);
+        else
+            storeLanes(row, tx + 4 * h, x + 4 * h, 4, leftToRight);
+    }
+}
+#elif PLX_ROW_SSE2
+constexpr int kLanes = 4;
+
+// Lands columns x .. x + 3 with the same float operations in the same order as landOne (the
+// build does not contract them): as one vector when they land one column apart, else one by one
+// in occlusion-compatible order.
+void landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight) {
+    const __m128i xi = _mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0));
+    const __m128 d = _mm_loadu_ps(row.srcDepth + x);
+    const __m128 pos = _mm_add_ps(_mm_cvtepi32_ps(xi), _mm_add_ps(_mm_mul_ps(a, d), b));
+    // Inside [0, w) (false for NaN): its column; else the spare slot.
+    const __m128 inside = _mm_and_ps(_mm_cmpge_ps(pos, _mm_setzero_ps()),
+                                     _mm_cmplt_ps(pos, _mm_set1_ps(float(row.w))));
+    const __m128i col = _mm_cvttps_epi32(_mm_and_ps(pos, inside));
+    const __m128i in = _mm_castps_si128(inside);
+    const __m128i slot =
+        _mm_or_si128(_mm_and_si128(in, col), _mm_andnot_si128(in, _mm_set1_epi32(row.w)));
+    // One shift for all four: the slots are consecutive. Slots in the spare one never are (the
+    // shift differs by lane), so all four lie inside the row.
+    const __m128i shift = _mm_sub_epi32(slot, xi);
+    const __m128i same = _mm_cmpeq_epi32(shift, _mm_shuffle_epi32(shift, 0));
+    if (_mm_movemask_epi8(same) == 0xffff) {
+        storeFour(row, x, _mm_cvtsi128_si32(slot));
+        return;
+    }
+    alignas(16) int32_t tx[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
+    storeLanes(row, tx, x, 4, leftToRight);
+}
+#endif
+
+// One pixel of RowWrite; returns whether it is a hole.
+bool writeOne(const RowWrite& r, int t) {
+    const bool landed = r.from[t] >= r.tag;
+    const int32_t s = landed ? r.from[t] - r.tag : 0;
+    r.dstColor[t] = landed ? r.landedColor[t] : Rgba8{};
+    r.hole[t] = uint8_t(!landed);
+    if (r.srcDepth) {
+        r.dstDepth[t] = landed ? r.srcDepth[s] : 0;
+        r.dstId[t] = landed ? r.srcId[s] : 0;
+    }
+    return !landed;
+}
+
+#if PLX_ROW_AVX2
+// Pixels [t, end of the last whole step) eight a step, streaming stores (the caller aligned
+// dstColor + t, and with planes dstDepth + t and dstId + t, to 32 bytes); returns the column
+// after them.
+int writeVectors(const RowWrite& r, int t, bool* anyHole) {
+    const __m256i tag = _mm256_set1_epi32(r.tag);
+    __m256i anyMissed = _mm256_setzero_si256();
+    for (; t + 8 <= r.w; t += 8) {
+        const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(r.from + t));
+        const __m256i missed = _mm256_cmpgt_epi32(tag, f);
+        anyMissed = _mm256_or_si256(anyMissed, missed);
+        const __m256i color =
+            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(r.landedColor + t));
+        _mm256_stream_si256(reinterpret_cast<__m256i*>(r.dstColor + t),
+                            _mm256_andnot_si256(missed, color));
+        if (r.srcDepth) {
+            // Column 0 where none landed, then zeroed.
+            const __m256i at = _mm256_andnot_si256(missed, _mm256_sub_epi32(f, tag));
+            _mm256_stream_si256(
+                reinterpret_cast<__m256i*>(r.dstDepth + t),
+                _mm256_andnot_si256(missed, _mm256_i32gather_epi32(r.srcDepth, at, 4)));
+            _mm256_stream_si256(
+                reinterpret_cast<__m256i*>(r.dstId + t),
+                _mm256_andnot_si256(missed, _mm256_i32gather_epi32(r.srcId, at, 4)));
+        }
+        // The eight mask bits spread to one byte each.
+        const unsigned bits = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(missed)));
+        const uint64_t bytes = _pdep_u64(bits, 0x0101010101010101ull);
+        std::memcpy(r.hole + t, &bytes, 8);
+    }
+    *anyHole |= !_mm256_testz_si256(anyMissed, anyMissed);
+    return t;
+}
+constexpr uintptr_t kStreamAlign = 32;
+#elif PLX_ROW_SSE2
+// Pixels [t, end of the last whole step) four a step, streaming stores (the caller aligned
+// dstColor + t, and with planes dstDepth + t and dstId + t, to 16 bytes); returns the column
+// after them.
+int writeVectors(const RowWrite& r, int t, bool* anyHole) {
+    const __m128i tag = _mm_set1_epi32(r.tag);
+    __m128i anyMissed = _mm_setzero_si128();
+    alignas(16) int32_t at[4];
+    for (; t + 4 <= r.w; t += 4) {
+        const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r.from + t));
+        const __m128i missed = _mm_cmplt_epi32(f, tag);
+        anyMissed = _mm_or_si128(anyMissed, missed);
+        const __m128i color = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r.landedColor + t));
+        _mm_stream_si128(reinterpret_cast<__m128i*>(r.dstColor + t),
+                         _mm_andnot_si128(missed, color));
+        if (r.srcDepth) {
+            // Column 0 where none landed, then zeroed.
+            _mm_store_si128(reinterpret_cast<__m128i*>(at),
+                            _mm_andnot_si128(missed, _mm_sub_epi32(f, tag)));
+            auto gather = [&](const int32_t* src) {
+                const __m128i v = _mm_set_epi32(src[at[3]], src[at[2]], src[at[1]], src[at[0]]);
+                return _mm_andnot_si128(missed, v);
+            };
+            _mm_stream_si128(reinterpret_cast<__m128i*>(r.dstDepth + t), gather(r.srcDepth));
+            _mm_stream_si128(reinterpret_cast<__m128i*>(r.dstId + t), gather(r.srcId));
+        }
+        const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(missed, missed), missed);
+        const int holeWord = _mm_cvtsi128_si32(_mm_and_si128(bytes, _mm_set1_epi8(1)));
+        std::memcpy(r.hole + t, &holeWord, 4);
+    }
+    *anyHole |= _mm_movemask_epi8(anyMissed) != 0;
+    return t;
+}
+constexpr uintptr_t kStreamAlign = 16;
+#endif
+
+}  // namespace
+
+void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight) {
+#if PLX_ROW_SSE2 || PLX_ROW_AVX2
+    // Whole groups from the row's start on; the columns after the last one one by one, last
+    // when walking left to right and first when walking right to left.
+    const int groups = row.w / kLanes * kLanes;
+#if PLX_ROW_AVX2
+    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b);
+#else
+    const __m128 va = _mm_set1_ps(a), vb = _mm_set1_ps(b);
+#endif
+    if (leftToRight) {
+        for (int x = 0; x < groups; x += kLanes) landGroup(row, va, vb, x, true);
+        landRange(row, a, b, groups, row.w, true);
+    } else {
+        landRange(row, a, b, groups, row.w, false);
+        for (int x = groups - kLanes; x >= 0; x -= kLanes) landGroup(row, va, vb, x, false);
+    }
+#else
+    landRange(row, a, b, 0, row.w, leftToRight);
+#endif
+}
+
+bool writeRowPixels(const RowWrite& r) {
+    bool anyHole = false;
+    int t = 0;
+#if PLX_ROW_SSE2 || PLX_ROW_AVX2
+    // One by one up to the colour row's alignment, then vector steps where the planes (if any)
+    // share it.
+    auto aligned = [](const void* p) {
+        return (reinterpret_cast<uintptr_t>(p) & (kStreamAlign - 1)) == 0;
+    };
+    for (; t < r.w && !aligned(r.dstColor + t); ++t) anyHole |= writeOne(r, t);
+    if (!r.srcDepth || (aligned(r.dstDepth + t) && aligned(r.dstId + t)))
+        t = writeVectors(r, t, &anyHole);
+#endif
+    for (; t < r.w; ++t) anyHole |= writeOne(r, t);
+    return anyHole;
+}
+
+}  // namespace plx::stereo::detail::PLX_ISA_NS

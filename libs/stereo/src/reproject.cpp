@@ -1,7 +1,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -117,7 +116,6 @@ struct RowLandings {
     std::vector<Rgba8> color;
     int32_t tag = 0;
     explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1) {}
-    bool landed(int t) const { return from[size_t(t)] >= tag; }
     int32_t column(int t) const { return from[size_t(t)] - tag; }
 };
 

@@ -23,6 +23,8 @@ import {checkAgainstNative, checker, checkPointKernel, launchChromium} from './c
 const DEADLINE_MS = 80000;
 const FACE_SIZE = 128;  // plx_browser_fixture's kFaceSize
 const SAME_POSE = 1e-5;  // metres and unit-vector components
+// The page's session normally starts within a second; the wait leaves room for a loaded machine.
+const SESSION_WAIT_MS = 40000;
 
 const [parallaxExe, fixtureExe, outDir] = process.argv.slice(2);
 if (!parallaxExe || !fixtureExe || !outDir) {
@@ -49,6 +51,20 @@ const deadline = setTimeout(() => {
     process.exit(1);
 }, DEADLINE_MS);
 
+// Waits for the page's live session; on a timeout says where the page stands (no script, or the
+// client's state and error) before failing.
+async function waitForSession(page) {
+    try {
+        await page.waitForFunction(() => window.plxScript?.stats().state === 'session', null,
+                                   {timeout: SESSION_WAIT_MS});
+    } catch (e) {
+        const where = await page.evaluate(
+            () => (window.plxScript ? JSON.stringify(window.plxScript.stats()) : 'no plxScript on the page'));
+        console.error(`FAIL: no session within ${SESSION_WAIT_MS / 1000} s: ${where}`);
+        throw e;
+    }
+}
+
 try {
     const {port} = await listening;
     check(port > 0, `parallax serve listening on 127.0.0.1:${port}`);
@@ -66,7 +82,7 @@ try {
         if (m.type() === 'error') console.log(`page console: ${m.text()}`);
     });
     await page.goto(`http://127.0.0.1:${port}/?script&face=${FACE_SIZE}`);
-    await page.waitForFunction(() => window.plxScript?.stats().state === 'session', null, {timeout: 20000});
+    await waitForSession(page);
 
     // The pose path: the reference pose until a set rendered there has arrived, then hold (no
     // more poses sent, so that set stays the newest) and look from the destination pose.

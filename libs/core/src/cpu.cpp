@@ -1,5 +1,7 @@
 #include <plx/core/cpu.h>
 
+#include <plx/core/check.h>
+
 #include <atomic>
 #include <cstdlib>
 #include <mutex>
@@ -152,6 +154,11 @@ Status setActiveIsa(Isa isa) {
     }
     initialisedState().active.store(static_cast<int>(isa), std::memory_order_release);
     return Status::ok();
+}
+
+// The saved path was active, so this process can run it.
+ActiveIsaGuard::~ActiveIsaGuard() {
+    PLX_CHECK(setActiveIsa(mSaved).isOk());
 }
 
 std::vector<Isa> runnableIsas() {

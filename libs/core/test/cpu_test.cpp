@@ -15,12 +15,6 @@ PLX_ISA_DECLARE(uint64_t sumOfSquares(const uint32_t* values, int count))
 namespace plx::test {
 namespace {
 
-// Restores the path that was active when the test started.
-struct RestoreIsa {
-    Isa saved = activeIsa();
-    ~RestoreIsa() { EXPECT_TRUE(setActiveIsa(saved).isOk()); }
-};
-
 TEST(Cpu, IsaNamesRoundTrip) {
     for (Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
         auto parsed = parseIsa(isaName(isa));
@@ -53,8 +47,20 @@ TEST(Cpu, ActivePathIsCappedByTheEnvironment) {
     EXPECT_LE(static_cast<int>(activeIsa()), static_cast<int>(*parsed));
 }
 
+TEST(Cpu, GuardPutsBackThePathActiveWhenItWasMade) {
+    const Isa before = activeIsa();
+    for (Isa isa : runnableIsas()) {
+        {
+            ActiveIsaGuard restore;
+            ASSERT_TRUE(setActiveIsa(isa).isOk());
+            EXPECT_EQ(activeIsa(), isa);
+        }
+        EXPECT_EQ(activeIsa(), before) << isaName(isa);
+    }
+}
+
 TEST(Cpu, DispatchReachesTheKernelBuiltForEachPath) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     for (Isa isa : runnableIsas()) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         EXPECT_EQ(PLX_ISA_PICK(generatedIsaLevel)(), static_cast<int>(isa)) << isaName(isa);
@@ -65,7 +71,7 @@ TEST(Cpu, DispatchReachesTheKernelBuiltForEachPath) {
 }
 
 TEST(Cpu, EveryPathComputesTheScalarResult) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     std::vector<uint32_t> values(1037);
     std::iota(values.begin(), values.end(), 4000000000u - 1037u);
     const uint64_t reference =
@@ -79,7 +85,7 @@ TEST(Cpu, EveryPathComputesTheScalarResult) {
 }
 
 TEST(Cpu, UnavailablePathsAreRefused) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     for (Isa isa : {Isa::kAvx2, Isa::kAvx512}) {
         if (isaCompiled(isa) && isaSupportedByCpu(isa)) continue;
         Status status = setActiveIsa(isa);

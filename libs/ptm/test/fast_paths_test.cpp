@@ -17,11 +17,6 @@
 namespace plx::ptm {
 namespace {
 
-struct RestoreIsa {
-    Isa saved = activeIsa();
-    ~RestoreIsa() { EXPECT_TRUE(setActiveIsa(saved).isOk()); }
-};
-
 using ReportFn = detail::PassReport (*)();
 
 struct Check {
@@ -47,7 +42,7 @@ const Check kChecks[] = {
 };
 
 TEST(PtmFastPaths, EveryIsaPassMatchesItsScalarLoop) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     for (Isa isa : runnableIsas()) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         for (const Check& check : kChecks) {
@@ -81,7 +76,7 @@ std::string outcome(const std::vector<uint8_t>& file) {
 }
 
 TEST(PtmFastPaths, EveryIsaEncodesAndDecodesAsScalar) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     const std::pair<int, int> sizes[] = {{1, 1}, {7, 3}, {33, 17}, {70, 9}, {130, 66}};
     for (auto [w, h] : sizes)
         for (int c = 1; c <= 4; ++c)

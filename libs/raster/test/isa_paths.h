@@ -17,10 +17,9 @@ namespace plx::test {
 class IsaPathTest : public ::testing::TestWithParam<Isa> {
 protected:
     void SetUp() override { ASSERT_TRUE(setActiveIsa(GetParam()).isOk()); }
-    void TearDown() override { EXPECT_TRUE(setActiveIsa(mSaved).isOk()); }
 
 private:
-    Isa mSaved = activeIsa();
+    ActiveIsaGuard mRestore;
 };
 
 inline std::string isaPathName(const ::testing::TestParamInfo<Isa>& info) {

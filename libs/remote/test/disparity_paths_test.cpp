@@ -21,11 +21,6 @@
 namespace plx::remote {
 namespace {
 
-struct RestoreIsa {
-    Isa saved = activeIsa();
-    ~RestoreIsa() { EXPECT_TRUE(setActiveIsa(saved).isOk()); }
-};
-
 // Rendered faces (empty sky, planes, edges) and random images: widths not a multiple of any
 // vector, runs of empty pixels, values on and just off the code boundaries, a one-value image.
 std::vector<Image<float>> disparityImages() {
@@ -63,7 +58,7 @@ std::vector<float> rowBound(const Image<float>& img, bool max) {
 // Runs `check` on each of disparityImages() on every ISA path this process can run.
 template <class Check>
 void onEveryIsaAndImage(Check check) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     const std::vector<Image<float>> images = disparityImages();
     for (Isa isa : runnableIsas()) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
@@ -136,7 +131,7 @@ std::vector<uint8_t> codeRowPlanes(int w, int h, std::mt19937& rng) {
 }
 
 TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     std::mt19937 rng(11);
     std::vector<std::vector<uint8_t>> cases;
     std::vector<int> widths;
@@ -176,7 +171,7 @@ TEST(DisparityPaths, EveryDecoderEqualsTheReferenceOnAnyPlanes) {
 // Values a caller's view could hold outside its range (the codec clamps them to codes 1 and
 // 65535), NaN (code 1), infinities and -0 (not drawn), at every position of a vector.
 TEST(DisparityPaths, EveryEncoderEqualsTheReferenceOnValuesOutsideTheRange) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     const float specials[] = {std::numeric_limits<float>::quiet_NaN(),
                               std::numeric_limits<float>::infinity(),
                               -std::numeric_limits<float>::infinity(),
@@ -252,7 +247,7 @@ TEST(DisparityPaths, RowRangesEqualMinmaxElement) {
 // q16-packed payloads whose escapes do not match their symbols, or whose frame has no room for
 // them: one error naming the problem from every decoder path, never a read past the escapes.
 TEST(DisparityPaths, PackedPayloadsWithWrongEscapesAreRefused) {
-    RestoreIsa restore;
+    ActiveIsaGuard restore;
     const int w = 70, h = 5;
     std::vector<uint8_t> planes(2 * size_t(w) * h, 0);
     for (size_t i = 0; i < planes.size() / 2; i += 9) planes[i] = uint8_t(3 + i % 200);  // escapes

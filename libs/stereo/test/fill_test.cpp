@@ -461,7 +461,7 @@ TEST(Fill, ThreadsAndIsaPathsGiveTheSameFrame) {
     StereoRig rig = *StereoRig::create(*scene::cameraAt(s, s.viewpoints.front(), 256, 160), {});
     StereoOptions options;
     options.method = Method::kReproject;
-    Isa saved = activeIsa();
+    ActiveIsaGuard restore;
     StereoFrame reference;
     auto one = std::move(StereoRenderer::create({1})).value();
     ASSERT_TRUE(setActiveIsa(Isa::kScalar).isOk());
@@ -479,7 +479,6 @@ TEST(Fill, ThreadsAndIsaPathsGiveTheSameFrame) {
         }
         EXPECT_TRUE(frame.holeClass == reference.holeClass) << isaName(isa);
     }
-    ASSERT_TRUE(setActiveIsa(saved).isOk());
 }
 
 // A pair shown as colour only (the timed frames) writes the second eye's depth and IDs only

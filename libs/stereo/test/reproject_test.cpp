@@ -350,21 +350,15 @@ raster::FrameBuffers randomFirstEye(int w, int h, unsigned seed) {
 // gaps and landings outside on both sides.
 const DisparityLine kWideLines[] = {{-40.0f, 12.0f}, {55.0f, -30.0f}, {-3.0f, 0.7f}};
 
-// Sets the active ISA for a scope, then restores it.
-struct ActiveIsa {
-    Isa saved = activeIsa();
-    explicit ActiveIsa(Isa isa) { EXPECT_TRUE(setActiveIsa(isa).isOk()); }
-    ~ActiveIsa() { EXPECT_TRUE(setActiveIsa(saved).isOk()); }
-};
-
 // On every row-kernel path this process can run (row_pass.inl: scalar with SSE2, AVX2).
 TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
     const int w = 97, h = 23;
     const raster::FrameBuffers first = randomFirstEye(w, h, 7);
+    ActiveIsaGuard restore;
     for (Isa isa : runnableIsas())
         for (DisparityLine line : kWideLines) {
             SCOPED_TRACE(std::string(isaName(isa)));
-            ActiveIsa active(isa);
+            ASSERT_TRUE(setActiveIsa(isa).isOk());
             SecondEye expected(w, h), got(w, h);
             reprojectByTheBook(first, line, &expected);
             ThreadPool pool(2);
@@ -427,10 +421,11 @@ raster::FrameBuffers slantedFirstEye(int w, int h, unsigned seed) {
 TEST(Reproject, RowPassEqualsThePaperOnSlantedRuns) {
     const int w = 301, h = 17;
     const raster::FrameBuffers first = slantedFirstEye(w, h, 11);
+    ActiveIsaGuard restore;
     for (Isa isa : runnableIsas())
         for (DisparityLine line : {DisparityLine{-6.0f, 2.5f}, DisparityLine{7.0f, -4.0f}}) {
             SCOPED_TRACE(std::string(isaName(isa)));
-            ActiveIsa active(isa);
+            ASSERT_TRUE(setActiveIsa(isa).isOk());
             SecondEye expected(w, h), got(w, h);
             reprojectByTheBook(first, line, &expected);
             ASSERT_TRUE(reproject(firstTargets(first), line, got.targets()).isOk());

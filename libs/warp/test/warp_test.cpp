@@ -143,7 +143,7 @@ TEST(ReferenceSet, RowRangesAreEachRowsMinAndMaxOnEveryIsa) {
             v.disparity.data()[i] = specials[rng() % std::size(specials)];
         views.push_back(std::move(v));
     }
-    const Isa saved = activeIsa();
+    ActiveIsaGuard restore;
     for (Isa isa : runnableIsas()) {
         ASSERT_TRUE(setActiveIsa(isa).isOk());
         for (ReferenceView v : views) {
@@ -159,7 +159,6 @@ TEST(ReferenceSet, RowRangesAreEachRowsMinAndMaxOnEveryIsa) {
             }
         }
     }
-    ASSERT_TRUE(setActiveIsa(saved).isOk());
 }
 
 TEST(Warp, OwnPoseReproducesTheReference) {
@@ -357,7 +356,7 @@ TEST(Warp, EveryIsaPathEqualsTheScalarPath) {
     Office o;
     // A width that is no multiple of 4 or 8: padded rows and the kernels' scalar tails.
     const Camera dest = o.moved(0.25f, 0.3f, 30.0f, 157, 118);
-    const Isa saved = activeIsa();
+    ActiveIsaGuard restore;
     for (Splat splat : kSplats) {
         WarpOptions options;
         options.splat = splat;
@@ -372,7 +371,6 @@ TEST(Warp, EveryIsaPathEqualsTheScalarPath) {
             EXPECT_TRUE(fast.holeMask == reference.holeMask) << isaName(isa);
         }
     }
-    ASSERT_TRUE(setActiveIsa(saved).isOk());
 }
 
 TEST(Warp, ZBufferAndOcclusionCompatibleOrderAgreeOnOneReference) {

@@ -55,6 +55,20 @@ Status setActiveIsa(Isa isa);
 // Every path this process can run, scalar first.
 std::vector<Isa> runnableIsas();
 
+// Puts back, when it goes out of scope, the path that was active when it was made: for tests and
+// benchmarks that switch paths with setActiveIsa, so that an early return (a failed assertion)
+// does not leave the rest of the process on another path.
+class ActiveIsaGuard {
+public:
+    ActiveIsaGuard() = default;
+    ~ActiveIsaGuard();
+    ActiveIsaGuard(const ActiveIsaGuard&) = delete;
+    ActiveIsaGuard& operator=(const ActiveIsaGuard&) = delete;
+
+private:
+    Isa mSaved = activeIsa();
+};
+
 // One line for --version: the active path, what the CPU supports and what was compiled.
 std::string isaSummary();
 

@@ -1,9 +1,14 @@
 // Google Benchmark: the second eye from the P-buffer's visible set against a full second eye, on
 // office scenes of growing size (the second-eye time should stay flat).
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <utility>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <benchmark/benchmark.h>
 
@@ -41,6 +46,21 @@ void BM_PairPBuffer(benchmark::State& state) {
 }
 BENCHMARK(BM_PairFull)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PairPBuffer)->Arg(3)->Arg(30)->Arg(280)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A 64 MiB stream that evicts the caches, as the first eye's full pass over a large scene does
+// in a real frame; nothing when not enabled.
+class CacheEvictor {
+public:
+    explicit CacheEvictor(bool enabled) : mData(enabled ? (size_t(64) << 20) / 8 : 0) {}
+    void operator()() {
+        for (uint64_t& v : mData) mSink += ++v;
+        benchmark::DoNotOptimize(mSink);
+    }
+
+private:
+    std::vector<uint64_t> mData;
+    uint64_t mSink = 0;
+};
 
 // office:N at the default viewpoint with the stereo renderer's raster::Renderer (same tile
 // size as renderPair) of `threads` threads and the two eyes' targets.
@@ -91,15 +111,13 @@ struct SecondEyeFixture {
 void BM_SecondEyeSubset(benchmark::State& state) {
     SecondEyeFixture f(int(state.range(0)), int(state.range(2)));
     std::vector<uint32_t> subset = f.firstEye();
-    std::vector<uint64_t> evict(state.range(1) ? (64u << 20) / 8 : 0);
-    uint64_t sink = 0;
+    CacheEvictor evictCaches(state.range(1) == 1);
     for (auto _ : state) {
         state.PauseTiming();
-        for (uint64_t& v : evict) sink += ++v;
+        evictCaches();
         state.ResumeTiming();
         f.secondEye(subset);
     }
-    benchmark::DoNotOptimize(sink);
     f.count(state);
 }
 BENCHMARK(BM_SecondEyeSubset)
@@ -287,6 +305,74 @@ BENCHMARK(BM_ReprojectAndFindHoles)
     ->Arg(1)
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
+
+// The bytes every row pass must move, as a plain copy on the same threads and rows: each row's
+// first-eye colour and depth read, its second-eye colour written with streaming stores and a
+// hole byte per pixel (depth 0) with ordinary ones. What the reproject row pass moves beyond
+// this (its landings stay in L1) is its own work, so the ratio says how far it is from the
+// machine's memory floor.
+void copyRowPassBytes(const stereo::FirstEyeTargets& first, const stereo::SecondEyeTargets& second,
+                      ThreadPool& pool) {
+    const int w = first.color.width;
+    pool.parallelFor(size_t(first.color.height), 16, [&](size_t begin, size_t end) {
+        for (size_t y = begin; y < end; ++y) {
+            const Rgba8* src = first.color.row(int(y));
+            const float* depth = first.depth.row(int(y));
+            Rgba8* dst = second.color.row(int(y));
+            uint8_t* hole = second.holeMask.row(int(y));
+            int x = 0;
+#if defined(__SSE2__)
+            for (; x + 4 <= w && (reinterpret_cast<uintptr_t>(dst + x) & 15) != 0; ++x)
+                dst[x] = src[x];
+            for (; x + 4 <= w; x += 4)
+                _mm_stream_si128(reinterpret_cast<__m128i*>(dst + x),
+                                 _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + x)));
+#endif
+            for (; x < w; ++x) dst[x] = src[x];
+            for (int i = 0; i < w; ++i) hole[i] = uint8_t(depth[i] == 0.0f);
+        }
+#if defined(__SSE2__)
+        _mm_sfence();
+#endif
+    });
+}
+
+// The row pass (colour-only second eye, hole runs listed, as a pair runs it) against
+// copyRowPassBytes, alternated every iteration on two threads, office:64 at 1280x720. Arg(0) 1:
+// before each of the two, 64 MiB are written so that the first eye comes from memory, as it does
+// after a first eye of a large scene; 0: it stays in the caches from the previous iteration.
+// Counters: the medians of the two and of their per-iteration ratios.
+void BM_RowPassAgainstCopy(benchmark::State& state) {
+    ReprojectFixture& f = ReprojectFixture::get();
+    ThreadPool pool(2);
+    const stereo::DisparityLine line = stereo::disparityLine(f.rig);
+    stereo::HoleRuns holeRuns;
+    stereo::SecondEyeTargets to = f.secondTargets(false);
+    to.holeRuns = &holeRuns;
+    CacheEvictor evictCaches(state.range(0) == 1);
+    std::vector<double> passMs, copyMs, ratios;
+    for (auto _ : state) {
+        evictCaches();
+        Stopwatch clock;
+        (void)stereo::reproject(f.firstTargets(), line, to, &pool);
+        passMs.push_back(clock.elapsedMs());
+        evictCaches();
+        clock.restart();
+        copyRowPassBytes(f.firstTargets(), to, pool);
+        copyMs.push_back(clock.elapsedMs());
+        ratios.push_back(passMs.back() / copyMs.back());
+        state.SetIterationTime(passMs.back() / 1000.0);
+    }
+    state.counters["row_pass_ms"] = median(passMs);
+    state.counters["copy_ms"] = median(copyMs);
+    state.counters["ratio"] = median(ratios);
+}
+BENCHMARK(BM_RowPassAgainstCopy)
+    ->ArgName("cold")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime();
 
 // Hole segments merged into holes (Fig. 5) and classified by the ID target (section 3), on the
 // reprojected second eye; Mpix/s counts the whole image.

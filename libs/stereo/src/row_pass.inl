@@ -61,39 +61,20 @@ void storeFour(const RowScatter& row, int x, int t0) {
 #if PLX_ROW_AVX2
 constexpr int kLanes = 8;
 
-// Lands columns x .. x + 7 with the same float operations in the same order as landOne (the
-// build does not contract them): eight at once when they land one column apart, else each half
-// of four that does as one, the rest one by one, in occlusion-compatible order.
-void landGroup(const RowScatter& row, __m256 a, __m256 b, int x, bool leftToRight) {
+// The landings of columns x .. x + 7 into `slot` when their shifts differ (one group in nine on
+// office:280): each half of four that shares one shift as one vector, the rest one by one, in
+// occlusion-compatible order. Out of line, so that the walk over the row keeps its registers.
+[[gnu::noinline]] void landMixedGroup(const RowScatter& row, __m256i slot, int x,
+                                      bool leftToRight) {
     const __m256i xi =
         _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256 d = _mm256_loadu_ps(row.srcDepth + x);
-    const __m256 pos = _mm256_add_ps(_mm256_cvtepi32_ps(xi), _mm256_add_ps(_mm256_mul_ps(a, d), b));
-    // Inside [0, w) (false for NaN): its column; else the spare slot.
-    const __m256 inside =
-        _mm256_and_ps(_mm256_cmp_ps(pos, _mm256_setzero_ps(), _CMP_GE_OQ),
-                      _mm256_cmp_ps(pos, _mm256_set1_ps(float(row.w)), _CMP_LT_OQ));
-    const __m256i col = _mm256_cvttps_epi32(_mm256_and_ps(pos, inside));
-    const __m256i slot =
-        _mm256_blendv_epi8(_mm256_set1_epi32(row.w), col, _mm256_castps_si256(inside));
-    // One shift for a run of lanes: their slots are consecutive. Slots in the spare one never
-    // are (the shift differs by lane), so such lanes all lie inside the row.
     const __m256i shift = _mm256_sub_epi32(slot, xi);
-    auto sameAs = [&](__m256i lanes) {
-        const __m256i first = _mm256_permutevar8x32_epi32(shift, lanes);
-        return unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, first))));
-    };
-    if (sameAs(_mm256_setzero_si256()) == 0xFFu) {
-        const int t0 = _mm256_cvtsi256_si32(slot);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(row.from + t0),
-                            _mm256_add_epi32(xi, _mm256_set1_epi32(row.tag)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(row.color + t0),
-                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(row.srcColor + x)));
-        return;
-    }
+    const __m256i firstOfHalf =
+        _mm256_permutevar8x32_epi32(shift, _mm256_setr_epi32(0, 0, 0, 0, 4, 4, 4, 4));
+    const unsigned halves =
+        unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, firstOfHalf))));
     alignas(32) int32_t tx[8];
     _mm256_store_si256(reinterpret_cast<__m256i*>(tx), slot);
-    const unsigned halves = sameAs(_mm256_setr_epi32(0, 0, 0, 0, 4, 4, 4, 4));
     for (int i = 0; i < 2; ++i) {
         const int h = leftToRight ? i : 1 - i;
         if ((halves >> (4 * h) & 0xFu) == 0xFu)
@@ -101,6 +82,49 @@ void landGroup(const RowScatter& row, __m256 a, __m256 b, int x, bool leftToRigh
         else
             storeLanes(row, tx + 4 * h, x + 4 * h, 4, leftToRight);
     }
+}
+
+// The whole groups of eight columns [0, groups) in occlusion-compatible order, each landed with
+// the same float operations in the same order as landOne (the build does not contract them):
+// eight at once when they land one column apart, as a surface's pixels mostly do, else
+// landMixedGroup.
+void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
+    // The row's fields as locals: the landings' stores could alias `row` itself.
+    const float* const depth = row.srcDepth;
+    const Rgba8* const srcColor = row.srcColor;
+    int32_t* const from = row.from;
+    Rgba8* const color = row.color;
+    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b),
+                 width = _mm256_set1_ps(float(row.w));
+    const __m256i spare = _mm256_set1_epi32(row.w), tag = _mm256_set1_epi32(row.tag),
+                  iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    auto land = [&](int x) {
+        const __m256i xi = _mm256_add_epi32(_mm256_set1_epi32(x), iota);
+        const __m256 pos =
+            _mm256_add_ps(_mm256_cvtepi32_ps(xi),
+                          _mm256_add_ps(_mm256_mul_ps(va, _mm256_loadu_ps(depth + x)), vb));
+        // Inside [0, w) (false for NaN): its column; else the spare slot.
+        const __m256 inside = _mm256_and_ps(_mm256_cmp_ps(pos, _mm256_setzero_ps(), _CMP_GE_OQ),
+                                            _mm256_cmp_ps(pos, width, _CMP_LT_OQ));
+        const __m256i slot = _mm256_blendv_epi8(
+            spare, _mm256_cvttps_epi32(_mm256_and_ps(pos, inside)), _mm256_castps_si256(inside));
+        // One shift for all eight: their slots are consecutive. Slots in the spare one never
+        // are (the shift differs by lane), so such lanes all lie inside the row.
+        const __m256i shift = _mm256_sub_epi32(slot, xi);
+        const __m256i first = _mm256_broadcastd_epi32(_mm256_castsi256_si128(shift));
+        if (_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, first))) != 0xFF) {
+            landMixedGroup(row, slot, x, leftToRight);
+            return;
+        }
+        const int t0 = _mm256_cvtsi256_si32(slot);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from + t0), _mm256_add_epi32(xi, tag));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(color + t0),
+                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(srcColor + x)));
+    };
+    if (leftToRight)
+        for (int x = 0; x < groups; x += kLanes) land(x);
+    else
+        for (int x = groups - kLanes; x >= 0; x -= kLanes) land(x);
 }
 #elif PLX_ROW_SSE2
 constexpr int kLanes = 4;
@@ -131,6 +155,16 @@ void landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRigh
     _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
     storeLanes(row, tx, x, 4, leftToRight);
 }
+
+// The whole groups of four columns [0, groups) in occlusion-compatible order.
+void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
+    const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
+    const __m128 va = _mm_set1_ps(a), vb = _mm_set1_ps(b);
+    if (leftToRight)
+        for (int x = 0; x < groups; x += kLanes) landGroup(r, va, vb, x, true);
+    else
+        for (int x = groups - kLanes; x >= 0; x -= kLanes) landGroup(r, va, vb, x, false);
+}
 #endif
 
 // One pixel of RowWrite; returns whether it is a hole.
@@ -150,7 +184,8 @@ bool writeOne(const RowWrite& r, int t) {
 // Pixels [t, end of the last whole step) eight a step, streaming stores (the caller aligned
 // dstColor + t, and with planes dstDepth + t and dstId + t, to 32 bytes); returns the column
 // after them.
-int writeVectors(const RowWrite& r, int t, bool* anyHole) {
+int writeVectors(const RowWrite& row, int t, bool* anyHole) {
+    const RowWrite r = row;  // a copy in locals: the hole bytes' stores could alias `row`
     const __m256i tag = _mm256_set1_epi32(r.tag);
     __m256i anyMissed = _mm256_setzero_si256();
     for (; t + 8 <= r.w; t += 8) {
@@ -184,7 +219,8 @@ constexpr uintptr_t kStreamAlign = 32;
 // Pixels [t, end of the last whole step) four a step, streaming stores (the caller aligned
 // dstColor + t, and with planes dstDepth + t and dstId + t, to 16 bytes); returns the column
 // after them.
-int writeVectors(const RowWrite& r, int t, bool* anyHole) {
+int writeVectors(const RowWrite& row, int t, bool* anyHole) {
+    const RowWrite r = row;  // a copy in locals: the hole bytes' stores could alias `row`
     const __m128i tag = _mm_set1_epi32(r.tag);
     __m128i anyMissed = _mm_setzero_si128();
     alignas(16) int32_t at[4];
@@ -223,17 +259,12 @@ void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight)
     // Whole groups from the row's start on; the columns after the last one one by one, last
     // when walking left to right and first when walking right to left.
     const int groups = row.w / kLanes * kLanes;
-#if PLX_ROW_AVX2
-    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b);
-#else
-    const __m128 va = _mm_set1_ps(a), vb = _mm_set1_ps(b);
-#endif
     if (leftToRight) {
-        for (int x = 0; x < groups; x += kLanes) landGroup(row, va, vb, x, true);
+        landGroups(row, a, b, groups, true);
         landRange(row, a, b, groups, row.w, true);
     } else {
         landRange(row, a, b, groups, row.w, false);
-        for (int x = groups - kLanes; x >= 0; x -= kLanes) landGroup(row, va, vb, x, false);
+        landGroups(row, a, b, groups, false);
     }
 #else
     landRange(row, a, b, 0, row.w, leftToRight);

@@ -94,8 +94,9 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
     if (setUp) *setUp = false;
     detail::Viewport vp(camera);
     detail::ShadeContext ctx(options, targets);
-    detail::RasterVertex tris[detail::kMaxClippedTriangles][3];
-    const int count = detail::clipReferenceCorners(corners.data(), camera, vp, tris);
+    detail::ClippedPieces pieces;
+    const int count = detail::clipReferenceCorners(corners.data(), camera, vp, pieces.tris);
+    const auto& tris = pieces.tris;
     size_t mesh = 0;
     uint32_t local = 0;
     bool identified = false;

@@ -321,20 +321,28 @@ private:
     // Gives every pixel of the piece not drawn as an expansion its PixelSource; empty ones the
     // clear colour (depth and ID are already 0).
     void classify(std::span<const PixelSpan> piece) {
+        // Row pointers and counts in locals: the class bytes' stores could alias the frame's
+        // views and the stats, which the compiler would then reload for every pixel.
+        const Rgba8 clear = mFrame.options.render.clearColor;
+        int64_t disoccluded = 0, empty = 0;
         for (const PixelSpan& p : piece) {
+            uint8_t* cls = mFrame.holeClass.row(p.y);
+            const uint32_t* id = mFrame.targets.id.row(p.y);
+            Rgba8* color = mFrame.second.color.row(p.y);
             for (int x = p.x0; x <= p.x1; ++x) {
-                uint8_t& c = mFrame.holeClass.at(x, p.y);
-                if (c == uint8_t(PixelSource::kExpansion)) continue;
-                if (mFrame.targets.id.at(x, p.y) != 0) {
-                    c = uint8_t(PixelSource::kDisocclusion);
-                    ++mSlot.stats.disocclusionPixels;
+                if (cls[x] == uint8_t(PixelSource::kExpansion)) continue;
+                if (id[x] != 0) {
+                    cls[x] = uint8_t(PixelSource::kDisocclusion);
+                    ++disoccluded;
                 } else {
-                    c = uint8_t(PixelSource::kDisocclusionEmpty);
-                    mFrame.second.color.at(x, p.y) = mFrame.options.render.clearColor;
-                    ++mSlot.stats.emptyPixels;
+                    cls[x] = uint8_t(PixelSource::kDisocclusionEmpty);
+                    color[x] = clear;
+                    ++empty;
                 }
             }
         }
+        mSlot.stats.disocclusionPixels += disoccluded;
+        mSlot.stats.emptyPixels += empty;
     }
 
     const FillFrame& mFrame;

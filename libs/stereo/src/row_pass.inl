@@ -89,11 +89,7 @@ constexpr int kLanes = 8;
 // eight at once when they land one column apart, as a surface's pixels mostly do, else
 // landMixedGroup.
 void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
-    // The row's fields as locals: the landings' stores could alias `row` itself.
-    const float* const depth = row.srcDepth;
-    const Rgba8* const srcColor = row.srcColor;
-    int32_t* const from = row.from;
-    Rgba8* const color = row.color;
+    const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
     const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b),
                  width = _mm256_set1_ps(float(row.w));
     const __m256i spare = _mm256_set1_epi32(row.w), tag = _mm256_set1_epi32(row.tag),
@@ -102,7 +98,7 @@ void landGroups(const RowScatter& row, float a, float b, int groups, bool leftTo
         const __m256i xi = _mm256_add_epi32(_mm256_set1_epi32(x), iota);
         const __m256 pos =
             _mm256_add_ps(_mm256_cvtepi32_ps(xi),
-                          _mm256_add_ps(_mm256_mul_ps(va, _mm256_loadu_ps(depth + x)), vb));
+                          _mm256_add_ps(_mm256_mul_ps(va, _mm256_loadu_ps(r.srcDepth + x)), vb));
         // Inside [0, w) (false for NaN): its column; else the spare slot.
         const __m256 inside = _mm256_and_ps(_mm256_cmp_ps(pos, _mm256_setzero_ps(), _CMP_GE_OQ),
                                             _mm256_cmp_ps(pos, width, _CMP_LT_OQ));
@@ -117,9 +113,9 @@ void landGroups(const RowScatter& row, float a, float b, int groups, bool leftTo
             return;
         }
         const int t0 = _mm256_cvtsi256_si32(slot);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(from + t0), _mm256_add_epi32(xi, tag));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(color + t0),
-                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(srcColor + x)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.from + t0), _mm256_add_epi32(xi, tag));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.color + t0),
+                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(r.srcColor + x)));
     };
     if (leftToRight)
         for (int x = 0; x < groups; x += kLanes) land(x);

@@ -79,6 +79,36 @@ Result<OffsetLut> OffsetLut::create(const DisparityLine& line, float maxInvW, in
 
 namespace {
 
+template <class A, class B>
+bool overlap(const ImageView<A>& a, const ImageView<B>& b) {
+    auto begin = [](const auto& v) { return reinterpret_cast<uintptr_t>(v.data); };
+    auto end = [](const auto& v) {
+        return reinterpret_cast<uintptr_t>(v.row(v.height - 1) + v.width);
+    };
+    return begin(a) < end(b) && begin(b) < end(a);
+}
+
+template <class T>
+bool sameView(const ImageView<const T>& a, const ImageView<T>& b) {
+    return a.data == b.data && a.strideElems == b.strideElems;
+}
+
+// Apart or, for a second eye without depthAndIds, the same views (SecondEyeTargets).
+Status checkPlanesApart(const FirstEyeTargets& first, const SecondEyeTargets& second) {
+    if (sameView(first.depth, second.depth) && sameView(first.id, second.id)) {
+        if (!second.depthAndIds) return Status::ok();
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "a second eye with depth and IDs in full cannot share the first eye's "
+                           "depth and ID planes");
+    }
+    if (overlap(first.depth, second.depth) || overlap(first.depth, second.id) ||
+        overlap(first.id, second.depth) || overlap(first.id, second.id))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           "the second eye's depth and ID planes overlap the first eye's without "
+                           "being the same two planes");
+    return Status::ok();
+}
+
 Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second) {
     int w = first.color.width, h = first.color.height;
     auto same = [&](auto& v) { return v.width == w && v.height == h && v.data != nullptr; };
@@ -99,8 +129,15 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
                            fmt::format("reprojection targets of {}x{} pixels are too large for "
                                        "the row pass's 32-bit landing tags",
                                        w, h));
-    return Status::ok();
+    return checkPlanesApart(first, second);
 }
+
+// A hole run [start, end) of a row and the landed 1/w and ID beside it (markHoleRuns).
+struct MarkedRun {
+    int start = 0, end = 0;
+    float leftDepth = 0.0f, rightDepth = 0.0f;
+    uint32_t leftId = 0, rightId = 0;
+};
 
 // A row's landings, kept apart from the images: the first-eye column that reached each
 // second-eye pixel and that column's colour, each with one spare slot that takes every landing
@@ -115,6 +152,7 @@ struct RowLandings {
     std::vector<int32_t> from;
     std::vector<Rgba8> color;
     int32_t tag = 0;
+    std::vector<MarkedRun> runs;  // the row's hole runs, for markHoleRuns
     explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1) {}
     int32_t column(int t) const { return from[size_t(t)] - tag; }
 };
@@ -157,39 +195,61 @@ void scatterRowByTable(const RowScatter& row, const OffsetLut& lut, RowOrder ord
         for (int x = row.w - 1; x >= 0; --x) landByTable(row, lut, x);
 }
 
-// Depth 0 and ID 0 over the hole run [start, end) of row y, and the landed 1/w and ID beside it:
-// what the fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not
-// written in full.
-void markHoleRun(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                 const RowLandings& landings, int start, int end) {
+// Depth 0 and ID 0 over each hole run of row y, and the landed 1/w and ID beside it: what the
+// fill, classifyHoles and fillExpansionHoles read of a second eye whose planes are not written in
+// full. Every value beside the runs is read before any run is marked, since the second eye's
+// planes may be the first eye's (SecondEyeTargets).
+void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
+                  RowLandings& landings) {
+    const float* srcDepth = first.depth.row(y);
+    const uint32_t* srcId = first.id.row(y);
+    const int w = second.color.width;
+    for (MarkedRun& run : landings.runs) {
+        if (run.start > 0) {
+            const int from = landings.column(run.start - 1);
+            run.leftDepth = srcDepth[from];
+            run.leftId = srcId[from];
+        }
+        if (run.end < w) {
+            const int from = landings.column(run.end);
+            run.rightDepth = srcDepth[from];
+            run.rightId = srcId[from];
+        }
+    }
     float* dstDepth = second.depth.row(y);
     uint32_t* dstId = second.id.row(y);
-    auto copyLanded = [&](int t) {
-        dstDepth[t] = first.depth.row(y)[landings.column(t)];
-        dstId[t] = first.id.row(y)[landings.column(t)];
-    };
-    std::fill(dstDepth + start, dstDepth + end, 0.0f);
-    std::fill(dstId + start, dstId + end, 0u);
-    if (start > 0) copyLanded(start - 1);
-    if (end < second.color.width) copyLanded(end);
+    for (const MarkedRun& run : landings.runs) {
+        std::fill(dstDepth + run.start, dstDepth + run.end, 0.0f);
+        std::fill(dstId + run.start, dstId + run.end, 0u);
+        if (run.start > 0) {
+            dstDepth[run.start - 1] = run.leftDepth;
+            dstId[run.start - 1] = run.leftId;
+        }
+        if (run.end < w) {
+            dstDepth[run.end] = run.rightDepth;
+            dstId[run.end] = run.rightId;
+        }
+    }
 }
 
 // What a row with holes needs beyond its pixels: its runs listed (second.holeRuns) and, for a
-// second eye without full planes, each run marked (markHoleRun). The row is still in cache.
+// second eye without full planes, marked (markHoleRuns). The row is still in cache.
 void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-                    const RowLandings& landings) {
+                    RowLandings& landings) {
     std::vector<HoleRun>* runs = second.holeRuns ? &second.holeRuns->rows[size_t(y)] : nullptr;
+    landings.runs.clear();
     forEachNonZeroRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
         if (runs) runs->push_back({start, end - 1});
-        if (!second.depthAndIds) markHoleRun(first, second, y, landings, start, end);
+        if (!second.depthAndIds) landings.runs.push_back({start, end});
     });
+    if (!second.depthAndIds) markHoleRuns(first, second, y, landings);
 }
 
 // Writes one second-eye row from its landings (detail::writeRowPixels): colour and the hole
-// byte at every pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRun
+// byte at every pixel; depth and ID at every pixel when second.depthAndIds, else as markHoleRuns
 // says; the row's hole runs when second.holeRuns.
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
-              const RowLandings& landings, bool (*writeRowPixels)(const detail::RowWrite&)) {
+              RowLandings& landings, bool (*writeRowPixels)(const detail::RowWrite&)) {
     detail::RowWrite row{landings.from.data(), landings.color.data(), landings.tag,
                          second.color.width,   second.color.row(y),   second.holeMask.row(y)};
     if (second.depthAndIds) {

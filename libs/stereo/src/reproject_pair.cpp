@@ -98,8 +98,11 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     PLX_CHECK(preparedFor(scene, options.fillSearch));
     const Camera& cam = rig.first();
     const int w = cam.width(), h = cam.height();
-    raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mFirstPlanes);
-    raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mSecondPlanes);
+    // A colour-only pair keeps the first eye's depth and IDs in scratch planes that are dead once
+    // the row pass has read them, so the second eye's scratch planes are the same planes
+    // (SecondEyeTargets): its marks land in depth lines the row pass has just read.
+    raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mScratchPlanes);
+    raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mScratchPlanes);
     if (frame->holeClass.width() != w || frame->holeClass.height() != h)
         frame->holeClass.resize(w, h);
 

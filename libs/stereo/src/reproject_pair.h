@@ -45,8 +45,9 @@ private:
     std::optional<SceneKey> mKey;
     FillScene mFill;
     double mPrepareMs = 0.0;
-    // Depth and ID planes for eyes whose frame planes are not written (writeDepthAndIds false).
-    raster::FrameBuffers mFirstPlanes, mSecondPlanes;
+    // Depth and ID planes for eyes whose frame planes are not written (writeDepthAndIds false),
+    // shared by both eyes.
+    raster::FrameBuffers mScratchPlanes;
     HoleRuns mHoleRuns;  // the row pass's hole runs, which findHoles merges
     HoleScratch mHoleScratch;
     HoleSet mHoles;

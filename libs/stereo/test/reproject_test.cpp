@@ -369,34 +369,45 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
             EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
 
             // A second eye shown as colour only: colour and mask everywhere, depth and ID where the
-            // hole search reads them (hole pixels and their row neighbours), the rest untouched.
-            SecondEye lean(w, h);
-            lean.buffers.depth.view().fill(-7.0f);
-            lean.buffers.id.view().fill(0xdeadu);
-            SecondEyeTargets leanTargets = lean.targets();
-            leanTargets.depthAndIds = false;
-            ASSERT_TRUE(reproject(firstTargets(first), line, leanTargets, &pool).isOk());
-            EXPECT_TRUE(lean.buffers.color == expected.buffers.color) << line.perInvW;
-            EXPECT_TRUE(lean.holeMask == expected.holeMask) << line.perInvW;
-            int holes = 0, untouched = 0;
-            for (int y = 0; y < h; ++y)
-                for (int x = 0; x < w; ++x) {
-                    auto isHole = [&](int c) {
-                        return c >= 0 && c < w && expected.holeMask.at(c, y);
-                    };
-                    if (isHole(x)) {
-                        ++holes;
-                        EXPECT_EQ(lean.buffers.depth.at(x, y), 0.0f);
-                        EXPECT_EQ(lean.buffers.id.at(x, y), 0u);
-                    } else if (isHole(x - 1) || isHole(x + 1)) {
-                        EXPECT_EQ(lean.buffers.id.at(x, y), expected.buffers.id.at(x, y));
-                        EXPECT_EQ(lean.buffers.depth.at(x, y), expected.buffers.depth.at(x, y));
-                    } else {
-                        untouched += lean.buffers.id.at(x, y) == 0xdeadu;
-                    }
+            // hole search reads them (hole pixels and their row neighbours), the rest untouched;
+            // in its own planes, or in the first eye's (read beside each run before it is marked).
+            for (bool shared : {false, true}) {
+                SCOPED_TRACE(shared ? "planes shared" : "planes apart");
+                raster::FrameBuffers source = first;
+                SecondEye lean(w, h);
+                lean.buffers.depth.view().fill(-7.0f);
+                lean.buffers.id.view().fill(0xdeadu);
+                SecondEyeTargets leanTargets = lean.targets();
+                leanTargets.depthAndIds = false;
+                if (shared) {
+                    leanTargets.depth = source.depth.view();
+                    leanTargets.id = source.id.view();
                 }
-            EXPECT_GT(holes, 0);
-            EXPECT_GT(untouched, 0);
+                ASSERT_TRUE(reproject(firstTargets(source), line, leanTargets, &pool).isOk());
+                EXPECT_TRUE(lean.buffers.color == expected.buffers.color) << line.perInvW;
+                EXPECT_TRUE(lean.holeMask == expected.holeMask) << line.perInvW;
+                int holes = 0, untouched = 0;
+                for (int y = 0; y < h; ++y)
+                    for (int x = 0; x < w; ++x) {
+                        auto isHole = [&](int c) {
+                            return c >= 0 && c < w && expected.holeMask.at(c, y);
+                        };
+                        const float depth = leanTargets.depth.at(x, y);
+                        const uint32_t id = leanTargets.id.at(x, y);
+                        if (isHole(x)) {
+                            ++holes;
+                            EXPECT_EQ(depth, 0.0f);
+                            EXPECT_EQ(id, 0u);
+                        } else if (isHole(x - 1) || isHole(x + 1)) {
+                            EXPECT_EQ(id, expected.buffers.id.at(x, y));
+                            EXPECT_EQ(depth, expected.buffers.depth.at(x, y));
+                        } else {
+                            untouched += id == (shared ? first.id.at(x, y) : 0xdeadu);
+                        }
+                    }
+                EXPECT_GT(holes, 0);
+                EXPECT_GT(untouched, 0);
+            }
         }
 }
 
@@ -462,6 +473,23 @@ TEST(Reproject, BadParametersAreRejected) {
     EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, maskOff).isOk());
     EXPECT_FALSE(
         reproject(firstTargets(first), DisparityLine{0.0f, std::nanf("")}, ok.targets()).isOk());
+    // The second eye's planes: the first eye's own only without depthAndIds, never partly.
+    SecondEyeTargets shared = ok.targets();
+    shared.depth = first.depth.view();
+    shared.id = first.id.view();
+    EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, shared).isOk());
+    shared.depthAndIds = false;
+    EXPECT_TRUE(reproject(firstTargets(first), DisparityLine{}, shared).isOk());
+    SecondEyeTargets crossed = shared;
+    crossed.depth = {reinterpret_cast<float*>(first.id.data()), 16, 8, 16};
+    crossed.id = {reinterpret_cast<uint32_t*>(first.depth.data()), 16, 8, 16};
+    Status overlapping = reproject(firstTargets(first), DisparityLine{}, crossed);
+    EXPECT_FALSE(overlapping.isOk());
+    EXPECT_NE(overlapping.message().find("overlap"), std::string::npos) << overlapping.message();
+    SecondEyeTargets halfShared = shared;
+    halfShared.id = ok.buffers.id.view();
+    EXPECT_FALSE(reproject(firstTargets(first), DisparityLine{}, halfShared).isOk());
+
     raster::FrameBuffers empty;
     SecondEye none(0, 0);
     EXPECT_FALSE(reproject(firstTargets(empty), DisparityLine{}, none.targets()).isOk());

@@ -99,7 +99,9 @@ struct HoleRuns {
 // ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
 // pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
 // fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
-// skips the two planes' 7.4 MB of writes at 1280x720.
+// skips the two planes' 7.4 MB of writes at 1280x720. Without depthAndIds the depth and ID views
+// may be the first eye's own (the same data and stride): each row's values beside its holes are
+// read before the row is marked, and the first eye's planes hold the second eye's marks after.
 struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;
@@ -115,8 +117,9 @@ struct SecondEyeTargets {
 // bench BM_Reproject measures both).
 // Rows run in parallel on `pool` when given (Fu section 1's parallel mode), else on the calling
 // thread; the result does not depend on the thread count. Errors: targets of different sizes,
-// an empty target, a line that is not finite. Precondition: first and second targets do not
-// overlap in memory.
+// an empty target, a line that is not finite, second-eye depth or ID planes that overlap the
+// first eye's without being those planes in a second eye without depthAndIds. Precondition: the
+// colour and hole mask targets overlap no other target.
 Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
                  const SecondEyeTargets& second, ThreadPool* pool = nullptr);
 // The same with the offset look-up table (see OffsetLut for its error).

@@ -90,9 +90,8 @@ constexpr int kLanes = 8;
 // landMixedGroup.
 void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
     const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
-    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b),
-                 width = _mm256_set1_ps(float(row.w));
-    const __m256i spare = _mm256_set1_epi32(row.w), tag = _mm256_set1_epi32(row.tag),
+    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b), width = _mm256_set1_ps(float(r.w));
+    const __m256i spare = _mm256_set1_epi32(r.w), tag = _mm256_set1_epi32(r.tag),
                   iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     auto land = [&](int x) {
         const __m256i xi = _mm256_add_epi32(_mm256_set1_epi32(x), iota);
@@ -109,6 +108,8 @@ void landGroups(const RowScatter& row, float a, float b, int groups, bool leftTo
         const __m256i shift = _mm256_sub_epi32(slot, xi);
         const __m256i first = _mm256_broadcastd_epi32(_mm256_castsi256_si128(shift));
         if (_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, first))) != 0xFF) {
+            // `row`, not `r`: passing the copy's address out of line would let the stores
+            // above alias it again.
             landMixedGroup(row, slot, x, leftToRight);
             return;
         }

@@ -118,8 +118,8 @@ struct SecondEyeTargets {
 // Rows run in parallel on `pool` when given (Fu section 1's parallel mode), else on the calling
 // thread; the result does not depend on the thread count. Errors: targets of different sizes,
 // an empty target, a line that is not finite, second-eye depth or ID planes that overlap the
-// first eye's without being those planes in a second eye without depthAndIds. Precondition: the
-// colour and hole mask targets overlap no other target.
+// first eye's (unless they are the first eye's two planes themselves and depthAndIds is false).
+// Precondition: the colour and hole mask targets overlap no other target.
 Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
                  const SecondEyeTargets& second, ThreadPool* pool = nullptr);
 // The same with the offset look-up table (see OffsetLut for its error).

@@ -425,7 +425,7 @@ Command registerStereo(CLI::App& app) {
         "pbuffer: widen the visible set (guard band + second depth layer at depth edges)");
     sub->add_flag("--reproject-lut", a->reprojectLut,
                   "reproject: offsets from a look-up table over depth (Fu, Bao, Peng) instead of "
-                  "a division per pixel");
+                  "the multiply-add per pixel (the offset is linear in 1/w)");
     sub->add_flag("--surrounding-first", a->surroundingFirst,
                   "reproject: fill disocclusion holes from the polygons around them first, "
                   "searching only what they leave open (faster, approximate)");

@@ -64,31 +64,36 @@ void joinRow(HoleScratch& scratch, size_t prevBegin, size_t prevEnd, size_t curB
 
 // Holes in the order of their first segment (scan order); each hole's segments placed
 // contiguously with a stable counting sort, so they stay in scan order.
+//
+// Provisional holes are numbered in the scan order of the segment that opened each, and every
+// merge (joinRow) and path compression (findRoot) points a hole at a smaller number, so
+// parent[i] <= i: one forward pass gives every provisional hole its final index, the roots
+// numbered in the order of their first segments, without a root search per segment.
 void compactHoles(HoleScratch& scratch, HoleSet& out) {
     const std::vector<HoleSegment>& segs = scratch.rowSegments;
-    std::vector<int32_t>& label = scratch.label;
-    std::vector<int32_t>& parent = scratch.parent;
+    const std::vector<int32_t>& parent = scratch.parent;
     std::vector<int32_t>& finalIndex = scratch.finalIndex;
-    finalIndex.assign(parent.size(), -1);
-    out.holes.clear();
+    finalIndex.resize(parent.size());
+    int32_t holeCount = 0;
+    for (size_t i = 0; i < parent.size(); ++i) {
+        PLX_DCHECK(parent[i] <= int32_t(i));
+        finalIndex[i] = parent[i] == int32_t(i) ? holeCount++ : finalIndex[size_t(parent[i])];
+    }
+    out.holes.assign(size_t(holeCount), Hole{});
     out.pixelCount = 0;
+    std::vector<int32_t>& label = scratch.label;
     for (size_t s = 0; s < segs.size(); ++s) {
-        int32_t root = findRoot(parent, label[s]);
-        int32_t& index = finalIndex[size_t(root)];
-        if (index < 0) {
-            index = int32_t(out.holes.size());
-            Hole h;
-            h.box = {segs[s].xStart, segs[s].y, segs[s].xEnd, segs[s].y};
-            out.holes.push_back(h);
-        }
-        Hole& h = out.holes[size_t(index)];
+        const int32_t index = finalIndex[size_t(label[s])];
         label[s] = index;
+        Hole& h = out.holes[size_t(index)];
+        const HoleSegment& seg = segs[s];
+        if (h.segmentCount == 0) h.box = {seg.xStart, seg.y, seg.xEnd, seg.y};
         h.segmentCount += 1;
-        h.pixelCount += segs[s].count;
-        h.box.x0 = std::min(h.box.x0, segs[s].xStart);
-        h.box.x1 = std::max(h.box.x1, segs[s].xEnd);
-        h.box.y1 = segs[s].y;  // segments come in row order
-        out.pixelCount += segs[s].count;
+        h.pixelCount += seg.count;
+        h.box.x0 = std::min(h.box.x0, seg.xStart);
+        h.box.x1 = std::max(h.box.x1, seg.xEnd);
+        h.box.y1 = seg.y;  // segments come in row order
+        out.pixelCount += seg.count;
     }
     std::vector<int32_t>& cursor = scratch.cursor;
     cursor.resize(out.holes.size());
@@ -100,13 +105,11 @@ void compactHoles(HoleScratch& scratch, HoleSet& out) {
     }
     out.segments.resize(segs.size());
     for (size_t s = 0; s < segs.size(); ++s) {
-        int32_t slot = cursor[size_t(label[s])]++;
-        out.segments[size_t(slot)] = segs[s];
-    }
-    for (const Hole& h : out.holes) {
-        int32_t last = h.firstSegment + h.segmentCount - 1;
-        for (int32_t s = h.firstSegment; s < last; ++s) out.segments[size_t(s)].next = s + 1;
-        out.segments[size_t(last)].next = -1;
+        const Hole& h = out.holes[size_t(label[s])];
+        const int32_t slot = cursor[size_t(label[s])]++;
+        HoleSegment& placed = out.segments[size_t(slot)];
+        placed = segs[s];
+        placed.next = slot + 1 < h.firstSegment + h.segmentCount ? slot + 1 : -1;
     }
 }
 

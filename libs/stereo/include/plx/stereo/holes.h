@@ -74,7 +74,7 @@ struct HoleScratch {
     std::vector<HoleSegment> rowSegments;  // all segments in scan order
     std::vector<int32_t> label;            // provisional hole of each segment
     std::vector<int32_t> parent;           // union-find over provisional holes
-    std::vector<int32_t> finalIndex;       // provisional root -> index in HoleSet::holes
+    std::vector<int32_t> finalIndex;       // provisional hole -> index in HoleSet::holes
     std::vector<int32_t> cursor;           // per final hole: next free slot in HoleSet::segments
 };
 

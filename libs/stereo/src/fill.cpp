@@ -95,6 +95,7 @@ struct DrawnTriangle {
 struct FillScratch::Slot {
     scene::HoleFlags flags;
     std::vector<PixelSpan> spans, next;  // the hole's open segments, and the next list
+    std::vector<PixelSpan> searched;     // the segments an expansion left open
     std::vector<DrawnTriangle> drawn;
     FillStats stats;
 };
@@ -136,10 +137,6 @@ public:
     HoleFiller(const FillFrame& frame, FillScratch::Slot& slot) : mFrame(frame), mSlot(slot) {}
 
     void fill(const Hole& hole, std::span<const PixelSpan> piece, int64_t pixels) {
-        // Whatever holeClass held here (the pair's hole mask) gives way to the classes below.
-        for (const PixelSpan& p : piece)
-            std::fill_n(&mFrame.holeClass.at(p.x0, p.y), p.x1 - p.x0 + 1,
-                        uint8_t(PixelSource::kReprojected));
         mSlot.spans.assign(piece.begin(), piece.end());
         mSlot.drawn.clear();
         mOpen = pixels;
@@ -152,6 +149,10 @@ public:
                     drawExpansion(polygons.ids[size_t(i)] - 1);
             }
         }
+        // What the steps below draw lies inside the segments open now, so the pixels outside
+        // them are the expansion's.
+        const bool expanded = mOpen < pixels;
+        if (expanded) mSlot.searched.assign(mSlot.spans.begin(), mSlot.spans.end());
         if (mOpen > 0 && hole.holeClass == HoleClass::kDisocclusion &&
             mFrame.options.surroundingFirst)
             drawSurroundingPolygons(hole);
@@ -165,7 +166,7 @@ public:
                 searchBoxHierarchy(frame, mSlot.spans, &mSlot.stats);
             }
         }
-        classify(piece);
+        classify(piece, expanded ? std::span<const PixelSpan>(mSlot.searched) : piece, expanded);
     }
 
 private:
@@ -223,10 +224,6 @@ private:
             raster::drawTriangleInSpans(mFrame.scene, triangle, mFrame.camera,
                                         mFrame.options.render, mFrame.targets, mSlot.spans);
         if (written == 0) return;
-        for (const PixelSpan& p : mSlot.spans)
-            for (int x = p.x0; x <= p.x1; ++x)
-                if (mFrame.targets.id.at(x, p.y) != 0)
-                    mFrame.holeClass.at(x, p.y) = uint8_t(PixelSource::kExpansion);
         mSlot.stats.expansionPixels += written;
         shrink();
     }
@@ -318,27 +315,36 @@ private:
         return r;
     }
 
-    // Gives every pixel of the piece not drawn as an expansion its PixelSource; empty ones the
-    // clear colour (depth and ID are already 0).
-    void classify(std::span<const PixelSpan> piece) {
+    // Counts the pixels of `searched` (the piece's pixels the expansion left open) as drawn or
+    // empty, gives the empty ones the clear colour (depth and ID are already 0) and, where the
+    // frame keeps hole classes, writes every pixel's PixelSource: the rest of the piece's pixels
+    // (when `expanded`) were drawn from the expansion polygon.
+    void classify(std::span<const PixelSpan> piece, std::span<const PixelSpan> searched,
+                  bool expanded) {
+        const bool classes = mFrame.holeClass.data != nullptr;
+        if (classes && expanded)
+            for (const PixelSpan& p : piece)
+                std::fill_n(mFrame.holeClass.row(p.y) + p.x0, p.x1 - p.x0 + 1,
+                            uint8_t(PixelSource::kExpansion));
         // Row pointers and counts in locals: the class bytes' stores could alias the frame's
         // views and the stats, which the compiler would then reload for every pixel.
         const Rgba8 clear = mFrame.options.render.clearColor;
         int64_t disoccluded = 0, empty = 0;
-        for (const PixelSpan& p : piece) {
-            uint8_t* cls = mFrame.holeClass.row(p.y);
+        for (const PixelSpan& p : searched) {
             const uint32_t* id = mFrame.targets.id.row(p.y);
             Rgba8* color = mFrame.second.color.row(p.y);
+            uint8_t* cls = classes ? mFrame.holeClass.row(p.y) : nullptr;
             for (int x = p.x0; x <= p.x1; ++x) {
-                if (cls[x] == uint8_t(PixelSource::kExpansion)) continue;
-                if (id[x] != 0) {
-                    cls[x] = uint8_t(PixelSource::kDisocclusion);
+                const bool drawn = id[x] != 0;
+                if (drawn) {
                     ++disoccluded;
                 } else {
-                    cls[x] = uint8_t(PixelSource::kDisocclusionEmpty);
                     color[x] = clear;
                     ++empty;
                 }
+                if (cls)
+                    cls[x] = uint8_t(drawn ? PixelSource::kDisocclusion
+                                           : PixelSource::kDisocclusionEmpty);
             }
         }
         mSlot.stats.disocclusionPixels += disoccluded;
@@ -421,17 +427,19 @@ void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* fr
     }
 }
 
-// Marks the pixels of the expansion holes that fillExpansionHoles filled.
+// Counts the pixels of the expansion holes that fillExpansionHoles filled and, where the frame
+// keeps hole classes, marks them.
 int64_t markInterpolated(const HoleSet& holes, ImageView<uint8_t> holeClass) {
     int64_t pixels = 0;
     for (const Hole& hole : holes.holes) {
         if (hole.holeClass != HoleClass::kExpansion) continue;
+        pixels += hole.pixelCount;
+        if (!holeClass.data) continue;
         for (int32_t i = hole.firstSegment; i < hole.firstSegment + hole.segmentCount; ++i) {
             const HoleSegment& seg = holes.segments[size_t(i)];
             for (int x = seg.xStart; x <= seg.xEnd; ++x)
                 holeClass.at(x, seg.y) = uint8_t(PixelSource::kExpansion);
         }
-        pixels += hole.pixelCount;
     }
     return pixels;
 }
@@ -443,7 +451,8 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
                     const SecondEyeTargets& second, ImageView<uint8_t> holeClass,
                     FillScratch* scratch, ThreadPool* pool) {
     PLX_CHECK(second.id.width == camera.width() && second.id.height == camera.height());
-    PLX_CHECK(holeClass.width == camera.width() && holeClass.height == camera.height());
+    PLX_CHECK(!holeClass.data ||
+              (holeClass.width == camera.width() && holeClass.height == camera.height()));
     PLX_CHECK(fill.serves(options.search));
     PLX_CHECK(!fill.bspBuilt || fill.fragmentsOfTriangle.size() == scene.triangleCount());
     FillStats total;

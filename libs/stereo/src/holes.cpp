@@ -214,7 +214,7 @@ void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second) {
             Rgba8* color = second.color.row(seg.y);
             float* depth = second.depth.row(seg.y);
             uint32_t* id = second.id.row(seg.y);
-            uint8_t* hole = second.holeMask.row(seg.y);
+            uint8_t* hole = second.holeMask.data ? second.holeMask.row(seg.y) : nullptr;
             Rgba8 cl = color[xl], cr = color[xr];
             float dl = depth[xl], dr = depth[xr];
             float span = float(xr - xl);
@@ -227,7 +227,7 @@ void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second) {
                             mix(cl.a, cr.a, t)};
                 depth[x] = dl + (dr - dl) * t;
                 id[x] = h.polygonCount <= 1 ? h.polygonId : (t < 0.5f ? id[xl] : id[xr]);
-                hole[x] = 0;
+                if (hole) hole[x] = 0;
             }
         }
     }

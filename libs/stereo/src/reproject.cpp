@@ -113,7 +113,8 @@ Status checkTargets(const FirstEyeTargets& first, const SecondEyeTargets& second
     int w = first.color.width, h = first.color.height;
     auto same = [&](auto& v) { return v.width == w && v.height == h && v.data != nullptr; };
     if (w <= 0 || h <= 0 || !same(first.color) || !same(first.depth) || !same(first.id) ||
-        !same(second.color) || !same(second.depth) || !same(second.id) || !same(second.holeMask))
+        !same(second.color) || !same(second.depth) || !same(second.id) ||
+        (second.holeMask.data && !same(second.holeMask)))
         return errorStatus(
             ErrorCode::kInvalidArgument,
             fmt::format("reprojection targets differ in size or are empty (first eye {}x{}, "
@@ -153,7 +154,8 @@ struct RowLandings {
     std::vector<Rgba8> color;
     int32_t tag = 0;
     std::vector<MarkedRun> runs;  // the row's hole runs, for markHoleRuns
-    explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1) {}
+    std::vector<uint8_t> hole;    // the row's hole bytes where the second eye has no hole mask
+    explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1), hole(size_t(w)) {}
     int32_t column(int t) const { return from[size_t(t)] - tag; }
 };
 
@@ -232,13 +234,19 @@ void markHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, 
     }
 }
 
+// Row y's hole bytes: the hole mask's row, or without a mask the landings' own row, which stays
+// in L1 (a colour-only pair leaves its 0.9 MB mask unwritten at 1280x720).
+uint8_t* holeRow(const SecondEyeTargets& second, int y, RowLandings& landings) {
+    return second.holeMask.data ? second.holeMask.row(y) : landings.hole.data();
+}
+
 // What a row with holes needs beyond its pixels: its runs listed (second.holeRuns) and, for a
 // second eye without full planes, marked (markHoleRuns). The row is still in cache.
 void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
                     RowLandings& landings) {
     std::vector<HoleRun>* runs = second.holeRuns ? &second.holeRuns->rows[size_t(y)] : nullptr;
     landings.runs.clear();
-    forEachNonZeroRun(second.holeMask.row(y), second.color.width, [&](int start, int end) {
+    forEachNonZeroRun(holeRow(second, y, landings), second.color.width, [&](int start, int end) {
         if (runs) runs->push_back({start, end - 1});
         if (!second.depthAndIds) landings.runs.push_back({start, end});
     });
@@ -251,7 +259,7 @@ void finishHoleRuns(const FirstEyeTargets& first, const SecondEyeTargets& second
 void writeRow(const FirstEyeTargets& first, const SecondEyeTargets& second, int y,
               RowLandings& landings, bool (*writeRowPixels)(const detail::RowWrite&)) {
     detail::RowWrite row{landings.from.data(), landings.color.data(), landings.tag,
-                         second.color.width,   second.color.row(y),   second.holeMask.row(y)};
+                         second.color.width,   second.color.row(y),   holeRow(second, y, landings)};
     if (second.depthAndIds) {
         row.srcDepth = reinterpret_cast<const int32_t*>(first.depth.row(y));
         row.srcId = reinterpret_cast<const int32_t*>(first.id.row(y));

@@ -103,8 +103,17 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // (SecondEyeTargets): its marks land in depth lines the row pass has just read.
     raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mScratchPlanes);
     raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mScratchPlanes);
-    if (frame->holeClass.width() != w || frame->holeClass.height() != h)
-        frame->holeClass.resize(w, h);
+    // The hole classes are a per-pixel plane like depth and IDs: a colour-only pair leaves them
+    // out, and its row pass and fill touch no class byte (reproject step and fill -2.5% each at
+    // 1M triangles and 1280x720).
+    ImageView<uint8_t> classes;
+    if (!options.writeDepthAndIds) {
+        frame->holeClass = {};
+    } else {
+        if (frame->holeClass.width() != w || frame->holeClass.height() != h)
+            frame->holeClass.resize(w, h);
+        classes = frame->holeClass.view();
+    }
 
     Stopwatch clock;
     raster::RenderOptions firstOptions = options.render;
@@ -119,10 +128,10 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // where the hole search reads them.
     const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
     const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
-    // The row pass writes its hole mask into holeClass: 0, kReprojected, where a pixel landed;
-    // the fill gives each hole pixel its class.
-    SecondEyeTargets to{second.color,    second.depth, second.id, frame->holeClass.view(),
-                        secondHasPlanes, &mHoleRuns};
+    // The row pass writes its hole mask into holeClass, if kept: 0, kReprojected, where a pixel
+    // landed; the fill gives each hole pixel its class.
+    SecondEyeTargets to{second.color, second.depth,    second.id,
+                        classes,      secondHasPlanes, &mHoleRuns};
     const DisparityLine line = disparityLine(rig);
     Status moved = options.reprojectWithLut ? reproject(from, lutFor(line, cam), to, &mPool)
                                             : reproject(from, line, to, &mPool);
@@ -139,8 +148,8 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     fillOptions.render = firstOptions;
     fillOptions.search = options.fillSearch;
     fillOptions.surroundingFirst = options.reprojectSurroundingFirst;
-    FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to,
-                                 frame->holeClass.view(), &mFillScratch, &mPool);
+    FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to, classes,
+                                 &mFillScratch, &mPool);
     stats->fillMs = clock.elapsedMs();
 
     stats->secondEyeMs = stats->reprojectMs + stats->fillMs;

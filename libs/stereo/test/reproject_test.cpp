@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -703,6 +704,7 @@ void expectSameHoles(const HoleSet& a, const HoleSet& b) {
 TEST(Holes, RowPassRunsGiveTheMasksHoles) {
     // The runs the row pass lists (one thread or two, planes written or not) merge into the holes
     // found on its mask, and classifying them on two threads gives the classes of one thread.
+    // Without a mask the row pass lists the same runs and writes the same pixels.
     ThreadPool pool(2);
     auto check = [&](const raster::FrameBuffers& first, const DisparityLine& line, int w, int h) {
         for (bool planes : {true, false}) {
@@ -723,6 +725,25 @@ TEST(Holes, RowPassRunsGiveTheMasksHoles) {
                 classifyHoles(ro(second.buffers.id), fromMask);
                 classifyHoles(ro(second.buffers.id), fromRuns, {}, &pool);
                 expectSameHoles(fromMask, fromRuns);
+
+                SecondEye bare(w, h);
+                std::fill_n(bare.holeMask.data(), bare.holeMask.pixelCount(), uint8_t(7));
+                HoleRuns bareRuns;
+                SecondEyeTargets noMask = bare.targets();
+                noMask.holeMask = {};
+                noMask.depthAndIds = planes;
+                noMask.holeRuns = &bareRuns;
+                ASSERT_TRUE(reproject(firstTargets(first), line, noMask, threads).isOk());
+                HoleSet fromBareRuns;
+                findHoles(bareRuns, HoleConnectivity::k8, scratch, fromBareRuns);
+                classifyHoles(ro(bare.buffers.id), fromBareRuns);
+                expectSameHoles(fromMask, fromBareRuns);
+                EXPECT_TRUE(bare.buffers.color == second.buffers.color);
+                EXPECT_TRUE(bare.buffers.depth == second.buffers.depth);
+                EXPECT_TRUE(bare.buffers.id == second.buffers.id);
+                EXPECT_TRUE(std::all_of(bare.holeMask.data(),
+                                        bare.holeMask.data() + bare.holeMask.pixelCount(),
+                                        [](uint8_t b) { return b == 7; }));
             }
         }
     };

@@ -110,10 +110,11 @@ void classifyHoles(ImageView<const uint32_t> id, HoleSet& holes,
 
 // Fills every expansion hole by linear interpolation along its rows between each segment's two
 // neighbours (Fu section 3): colour per channel and 1/w linear in the column, ID the hole's
-// polygon (of two, the nearer neighbour's), hole mask cleared. Disocclusion holes are left as they
-// are. (Evaluating the polygon itself at the hole pixels is exact where this is linear in sRGB; it
-// needs the rasterizer's subset render over the hole segments, which comes with the disocclusion
-// fill.) Preconditions: holes classified by classifyHoles() on second.id; targets of one size.
+// polygon (of two, the nearer neighbour's), hole mask cleared (unless empty). Disocclusion holes
+// are left as they are. (Evaluating the polygon itself at the hole pixels is exact where this is
+// linear in sRGB; it needs the rasterizer's subset render over the hole segments, which comes
+// with the disocclusion fill.) Preconditions: holes classified by classifyHoles() on second.id;
+// targets of one size.
 void fillExpansionHoles(const HoleSet& holes, const SecondEyeTargets& second);
 
 }  // namespace plx::stereo

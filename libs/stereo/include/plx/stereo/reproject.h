@@ -95,8 +95,9 @@ struct HoleRuns {
     std::vector<std::vector<HoleRun>> rows;
 };
 
-// The second eye's targets. reproject() writes colour and the hole mask at every pixel; depth and
-// ID at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
+// The second eye's targets. reproject() writes colour and the hole mask at every pixel (a hole
+// mask with no data is not written: the holes are then known only from holeRuns); depth and ID
+// at every pixel when depthAndIds, else only where the hole search reads them: 0 at the hole
 // pixels and the landed 1/w and ID beside each hole segment's ends (classifyHoles,
 // fillExpansionHoles), leaving the rest as it was. A pair whose second eye is shown as colour only
 // skips the two planes' 7.4 MB of writes at 1280x720. Without depthAndIds the depth and ID views
@@ -106,7 +107,7 @@ struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;
     ImageView<uint32_t> id;
-    ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0
+    ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0; or no data
     bool depthAndIds = true;
     HoleRuns* holeRuns = nullptr;  // when given, reproject() lists each row's hole runs there too
 };

@@ -42,7 +42,8 @@ struct StereoOptions {
     // depth test and the P-buffer's IDs stay in the renderer's tile memory (raster::
     // RenderTargets), as a GPU discards buffers nobody reads back. A display shows colour alone,
     // and the stereo experiment times both methods this way. The conservative method's first
-    // eye keeps its planes (it is cropped from a wider render). compareSecondEye needs them.
+    // eye keeps its planes (it is cropped from a wider render); the reproject method leaves
+    // StereoFrame::holeClass empty too. compareSecondEye needs the planes.
     bool writeDepthAndIds = true;
     raster::RenderOptions render;
     // reproject method: the offset look-up table instead of the direct form (reproject.h).
@@ -95,7 +96,7 @@ struct StereoFrameStats {
 // Colour, depth and IDs of both eyes.
 struct StereoFrame {
     raster::FrameBuffers left, right;
-    // reproject method: PixelSource of every second-eye pixel; empty for the other methods.
+    // reproject method with writeDepthAndIds: PixelSource of every second-eye pixel; else empty.
     Image<uint8_t> holeClass;
     raster::FrameBuffers& eye(Eye e) { return e == Eye::kLeft ? left : right; }
     const raster::FrameBuffers& eye(Eye e) const { return e == Eye::kLeft ? left : right; }

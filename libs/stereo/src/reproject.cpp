@@ -284,9 +284,13 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
         RowLandings landings(first.color.width);
         for (size_t y = begin; y < end; ++y) {
             landings.tag = rowTag(int(y), first.color.width);
-            const RowScatter row{first.depth.row(int(y)), first.color.row(int(y)),
-                                 first.color.width,       landings.tag,
-                                 landings.from.data(),    landings.color.data()};
+            const RowScatter row{first.depth.row(int(y)),
+                                 first.color.row(int(y)),
+                                 first.color.width,
+                                 landings.tag,
+                                 landings.from.data(),
+                                 landings.color.data(),
+                                 second.depthAndIds ? nullptr : first.id.row(int(y))};
             scatter(row);
             writeRow(first, second, int(y), landings, writeRowPixels);
         }

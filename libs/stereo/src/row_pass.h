@@ -21,6 +21,9 @@ struct RowScatter {
     int32_t tag;
     int32_t* from;
     Rgba8* color;
+    // The first eye's ID row, read ahead where the shift changes (holes open there, and marking
+    // a colour-only second eye's hole runs reads the IDs beside them); or null.
+    const uint32_t* readAheadId = nullptr;
 };
 
 // One second-eye row written from its landings: slot t landed when from[t] >= tag, from

@@ -47,6 +47,17 @@ void storeLanes(const RowScatter& row, const int32_t* slot, int x, int n, bool l
     }
 }
 
+// Where the shift changes at first-eye column x, landing at slot t, a hole may open: the first
+// eye's ID lines there are read ahead for markHoleRuns, which reads the IDs beside each run and,
+// for a colour-only second eye in the first eye's planes, writes its marks there. The planes
+// come from memory (the first eye streams them), so the row's write-out would otherwise wait on
+// each line.
+void readAheadIds(const RowScatter& row, int x, int t) {
+    if (!row.readAheadId) return;
+    _mm_prefetch(reinterpret_cast<const char*>(row.readAheadId + x), _MM_HINT_T0);
+    if (t < row.w) _mm_prefetch(reinterpret_cast<const char*>(row.readAheadId + t), _MM_HINT_T0);
+}
+
 // Four landings one column apart, as a surface's pixels mostly land (its disparity changes by a
 // small fraction of a pixel per column), stored as one vector each of columns and colours: their
 // slots are distinct, so the order in which they are written does not matter.
@@ -75,6 +86,7 @@ constexpr int kLanes = 8;
         unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, firstOfHalf))));
     alignas(32) int32_t tx[8];
     _mm256_store_si256(reinterpret_cast<__m256i*>(tx), slot);
+    readAheadIds(row, x, tx[0]);
     for (int i = 0; i < 2; ++i) {
         const int h = leftToRight ? i : 1 - i;
         if ((halves >> (4 * h) & 0xFu) == 0xFu)
@@ -150,6 +162,7 @@ void landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRigh
     }
     alignas(16) int32_t tx[4];
     _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
+    readAheadIds(row, x, tx[0]);
     storeLanes(row, tx, x, 4, leftToRight);
 }
 

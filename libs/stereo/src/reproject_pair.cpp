@@ -102,12 +102,15 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // the row pass has read them, so the second eye's scratch planes are the same planes
     // (SecondEyeTargets): its marks land in depth lines the row pass has just read.
     raster::RenderTargets first = withPlanes(frame->eye(rig.desc().firstEye), &mScratchPlanes);
+    // A second eye shown as colour only keeps its depth and IDs in scratch planes, written only
+    // where the hole search reads them.
+    const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
+    const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
     raster::RenderTargets second = withPlanes(frame->eye(rig.secondEye()), &mScratchPlanes);
     // The hole classes are a per-pixel plane like depth and IDs: a colour-only pair leaves them
-    // out, and its row pass and fill touch no class byte (reproject step and fill -2.5% each at
-    // 1M triangles and 1280x720).
+    // out, and its row pass and fill touch no class byte.
     ImageView<uint8_t> classes;
-    if (!options.writeDepthAndIds) {
+    if (!secondHasPlanes) {
         frame->holeClass = {};
     } else {
         if (frame->holeClass.width() != w || frame->holeClass.height() != h)
@@ -124,10 +127,6 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     // Fu section 2: reprojection, hole segments merged into holes; section 3: their classes.
     clock.restart();
     FirstEyeTargets from{readOnly(first.color), readOnly(first.depth), readOnly(first.id)};
-    // A second eye shown as colour only keeps its depth and IDs in scratch planes, written only
-    // where the hole search reads them.
-    const raster::FrameBuffers& secondEye = frame->eye(rig.secondEye());
-    const bool secondHasPlanes = !secondEye.depth.empty() && !secondEye.id.empty();
     // The row pass writes its hole mask into holeClass, if kept: 0, kReprojected, where a pixel
     // landed; the fill gives each hole pixel its class.
     SecondEyeTargets to{second.color, second.depth,    second.id,

@@ -158,11 +158,10 @@ public:
             drawSurroundingPolygons(hole);
         if (mOpen > 0) {
             if (mFrame.options.search == FillSearch::kBspOrder) {
-                search(FrontBound(mFrame.camera, nearestNeighbourInvW(hole)));
+                search(FrontBound(mFrame.camera, frontInvW(hole)));
             } else {
-                const BoxSearchFrame frame{mFrame.scene,   mFrame.fill,
-                                           mFrame.camera,  mFrame.options.render,
-                                           mFrame.targets, nearestNeighbourInvW(hole)};
+                const BoxSearchFrame frame{mFrame.scene,          mFrame.fill,    mFrame.camera,
+                                           mFrame.options.render, mFrame.targets, frontInvW(hole)};
                 searchBoxHierarchy(frame, mSlot.spans, &mSlot.stats);
             }
         }
@@ -203,6 +202,16 @@ private:
                                             mSlot.spans) > 0)
                 shrink();
         }
+    }
+
+    // nearestNeighbourInvW of the hole, found once for the consecutive pieces of one hole: each
+    // piece of a large hole would otherwise read the neighbours of all its segments.
+    float frontInvW(const Hole& hole) {
+        if (&hole != mFrontOf) {
+            mFrontOf = &hole;
+            mFrontInvW = nearestNeighbourInvW(hole);
+        }
+        return mFrontInvW;
     }
 
     // The largest 1/w beside the ends of the hole's segments: the nearest of the polygons
@@ -354,6 +363,8 @@ private:
     const FillFrame& mFrame;
     FillScratch::Slot& mSlot;
     int64_t mOpen = 0;
+    const Hole* mFrontOf = nullptr;  // the hole mFrontInvW belongs to
+    float mFrontInvW = 0.0f;
 };
 
 void addStats(const FillStats& a, FillStats* sum) {

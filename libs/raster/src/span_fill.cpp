@@ -3,6 +3,12 @@
 #include <plx/raster/span_fill.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+#include <emmintrin.h>
+#endif
 
 #include "pipeline.h"
 
@@ -19,6 +25,11 @@ namespace {
 // it too (the edge function is linear along the row), so the rasterizer would write nothing
 // there: such spans are skipped. The test passes a few spans without a covered sample (ends
 // outside two different edges); the pixel loop writes nothing in them.
+//
+// Most spans a triangle's rows reach are skipped (drawTriangleInSpans), so the exact test runs
+// only on the spans that a float test of four spans at once cannot skip: its values are within a
+// bound of the exact ones, and it skips a span only where both ends lie outside one edge by more
+// than that bound.
 class SpanRows {
 public:
     // The values of one span clipped to the box.
@@ -41,6 +52,39 @@ public:
             mStepX[i] = -int64_t(b.y - a.y) * kScale;
             mStepY[i] = int64_t(b.x - a.x) * kScale;
         }
+        setUpFloatTest();
+    }
+
+    // Bit k set where span k of the `count` (1 to 4) from `s` may hold a covered sample: the
+    // spans mayCover passes, and perhaps a few it does not.
+    uint32_t mayCoverFour(const PixelSpan* s, size_t count) const {
+        const uint32_t all = (1u << count) - 1u;
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        const PixelSpan& l = s[count - 1];  // repeated past the end
+        const PixelSpan& s1 = count > 1 ? s[1] : l;
+        const PixelSpan& s2 = count > 2 ? s[2] : l;
+        const __m128 y = _mm_cvtepi32_ps(_mm_setr_epi32(s[0].y, s1.y, s2.y, l.y));
+        const __m128 x0 = _mm_max_ps(_mm_cvtepi32_ps(_mm_setr_epi32(s[0].x0, s1.x0, s2.x0, l.x0)),
+                                     _mm_set1_ps(float(mBox.minX)));
+        const __m128 x1 = _mm_min_ps(_mm_cvtepi32_ps(_mm_setr_epi32(s[0].x1, s1.x1, s2.x1, l.x1)),
+                                     _mm_set1_ps(float(mBox.maxX)));
+        const __m128 dy = _mm_sub_ps(y, _mm_set1_ps(float(mBox.minY)));
+        const __m128 dx0 = _mm_sub_ps(x0, _mm_set1_ps(float(mBox.minX)));
+        const __m128 width = _mm_sub_ps(x1, x0);
+        __m128 skip = _mm_cmplt_ps(width, _mm_setzero_ps());  // empty once clipped to the box
+        for (int i = 0; i < 3; ++i) {
+            const __m128 stepX = _mm_set1_ps(mFloatStepX[i]), limit = _mm_set1_ps(mFloatLimit[i]);
+            const __m128 e0 = _mm_add_ps(_mm_add_ps(_mm_set1_ps(mFloatAtCorner[i]),
+                                                    _mm_mul_ps(_mm_set1_ps(mFloatStepY[i]), dy)),
+                                         _mm_mul_ps(stepX, dx0));
+            const __m128 e1 = _mm_add_ps(e0, _mm_mul_ps(stepX, width));
+            skip = _mm_or_ps(skip, _mm_and_ps(_mm_cmplt_ps(e0, limit), _mm_cmplt_ps(e1, limit)));
+        }
+        return ~uint32_t(_mm_movemask_ps(skip)) & all;
+#else
+        (void)s;
+        return all;
+#endif
     }
 
     // False when the span, clipped to the box, is empty or lies outside one edge; else its values.
@@ -61,8 +105,27 @@ public:
     const int64_t* stepX() const { return mStepX; }
 
 private:
+    // The biased values at the box's first sample and the steps as floats, and per edge the
+    // skip limit: minus a bound on the float values' error anywhere in the box. Each of the nine
+    // roundings behind a span's second value (three conversions, six operations) errs by at most
+    // 2^-24 of a value no larger than `magnitude`; the limit allows 2^-19, over three times their
+    // sum.
+    void setUpFloatTest() {
+        const double width = mBox.maxX - mBox.minX, height = mBox.maxY - mBox.minY;
+        for (int i = 0; i < 3; ++i) {
+            const double atCorner = double(mAtCorner[i] + mBias[i]);
+            mFloatAtCorner[i] = float(atCorner);
+            mFloatStepX[i] = float(mStepX[i]);
+            mFloatStepY[i] = float(mStepY[i]);
+            const double magnitude = std::fabs(atCorner) + std::fabs(double(mStepX[i])) * width +
+                                     std::fabs(double(mStepY[i])) * height;
+            mFloatLimit[i] = -float(magnitude * 0x1p-19);
+        }
+    }
+
     const detail::TriangleBox& mBox;
     int64_t mAtCorner[3], mBias[3], mStepX[3], mStepY[3];
+    float mFloatAtCorner[3], mFloatStepX[3], mFloatStepY[3], mFloatLimit[3];
 };
 
 void checkSpanRequest(const scene::Scene& scene, uint32_t globalTriangle, const Camera& camera,
@@ -115,25 +178,36 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
         // would otherwise pay for nothing; and per span after it: three in four spans of a
         // triangle's rows in the reproject fill hold none of its samples (office:280).
         const SpanRows rows(tris[i], box);
-        SpanRows::Row row;
-        while (first != last && !rows.mayCover(*first, &row)) ++first;
-        if (first == last) continue;
-        if (!identified) {
-            mesh = scene.meshOfTriangle(globalTriangle);
-            local = uint32_t(globalTriangle - scene.firstTriangle(mesh));
-            identified = true;
-        }
-        if (setUp) *setUp = true;
+        const PixelSpan* rowSpans = spans.data() + (first - spans.begin());
+        const size_t rowCount = size_t(last - first);
         detail::TriangleSetup t;
-        detail::setTriangleIdentity(scene, mesh, local, &t);
-        detail::isa_scalar::setupTriangleInBox(scene, mesh, local, tris[i], box, ctx, &t);
-        for (auto s = first; s != last; ++s) {
-            if (s != first && !rows.mayCover(*s, &row)) continue;
-            // rowBarycentrics from the exact values: edge 2 (vertex 2 to 0) gives b1, edge 0 b2.
-            const float b1Row = float(row.atMinX[2]) * t.invArea;
-            const float b2Row = float(row.atMinX[0]) * t.invArea;
-            written += detail::rasterizeReferencePixels(t, ctx, targets, s->y, row.x0, row.x1,
-                                                        row.eAtX0, rows.stepX(), b1Row, b2Row);
+        bool ready = false;
+        auto setUpOnce = [&] {
+            if (!identified) {
+                mesh = scene.meshOfTriangle(globalTriangle);
+                local = uint32_t(globalTriangle - scene.firstTriangle(mesh));
+                identified = true;
+            }
+            if (setUp) *setUp = true;
+            detail::setTriangleIdentity(scene, mesh, local, &t);
+            detail::isa_scalar::setupTriangleInBox(scene, mesh, local, tris[i], box, ctx, &t);
+            ready = true;
+        };
+        for (size_t group = 0; group < rowCount; group += 4) {
+            uint32_t candidates =
+                rows.mayCoverFour(rowSpans + group, std::min<size_t>(4, rowCount - group));
+            for (; candidates != 0; candidates &= candidates - 1) {
+                const PixelSpan& s = rowSpans[group + size_t(std::countr_zero(candidates))];
+                SpanRows::Row row;
+                if (!rows.mayCover(s, &row)) continue;
+                if (!ready) setUpOnce();
+                // rowBarycentrics from the exact values: edge 2 (vertex 2 to 0) gives b1, edge 0
+                // b2.
+                const float b1Row = float(row.atMinX[2]) * t.invArea;
+                const float b2Row = float(row.atMinX[0]) * t.invArea;
+                written += detail::rasterizeReferencePixels(t, ctx, targets, s.y, row.x0, row.x1,
+                                                            row.eAtX0, rows.stepX(), b1Row, b2Row);
+            }
         }
     }
     return written;

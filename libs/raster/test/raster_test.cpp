@@ -523,6 +523,35 @@ TEST_P(RasterPath, SpanFillEqualsTheFullRenderAtSpanPixels) {
     }
 }
 
+// Every pixel in short spans, so that every span test of a triangle's rows runs, four spans at a
+// time where the build has vectors: the span fill of all triangles gives back the full render.
+TEST_P(RasterPath, SpanFillOverEveryPixelEqualsTheFullRender) {
+    Scene s = randomSoup(300, 23, false);
+    std::mt19937 rng(29);
+    std::uniform_int_distribution<int> len(0, 6);
+    for (Vec3 eye : {Vec3(1, 2, 9), Vec3(0.5f, 0.3f, 2.0f), Vec3(-0.2f, 0.1f, 0.8f)}) {
+        Camera cam = makeCamera(eye, {0, 0, 0}, 96, 64, 60.0f, 0.5f);
+        RenderOptions opt;
+        FrameBuffers full, spans;
+        full.resize(96, 64);
+        makeRenderer(2, 32)->render(s, cam, opt, full.targets());
+        spans.resize(96, 64);
+        spans.color.view().fill(opt.clearColor);
+        std::vector<PixelSpan> list;
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x < 96;) {
+                const int x1 = std::min(95, x + len(rng));
+                list.push_back({y, x, x1});
+                x = x1 + 1;
+            }
+        int64_t written = 0;
+        for (uint32_t t = 0; t < s.triangleCount(); ++t)
+            written += drawTriangleInSpans(s, t, cam, opt, spans.targets(), list);
+        EXPECT_GT(written, 96 * 64 / 2);
+        expectSameTargets(spans, full, "span fill over every pixel");
+    }
+}
+
 // Subsets are binned in equal chunks, a whole number per thread: sizes around the chunk
 // boundaries, for thread counts that do and do not divide them, all match the reference.
 TEST_P(RasterPath, SubsetsOfEverySizeMatchTheReference) {

@@ -172,8 +172,8 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
             continue;
         auto first = std::lower_bound(spans.begin(), spans.end(), box.minY,
                                       [](const PixelSpan& p, int y) { return p.y < y; });
-        auto last = first;
-        while (last != spans.end() && last->y <= box.maxY) ++last;
+        auto last = std::upper_bound(first, spans.end(), box.maxY,
+                                     [](int y, const PixelSpan& p) { return y < p.y; });
         // Decided before the setup, which a large triangle passing beside a few hole pixels
         // would otherwise pay for nothing; and per span after it: three in four spans of a
         // triangle's rows in the reproject fill hold none of its samples (office:280).

@@ -92,27 +92,28 @@ struct DrawnTriangle {
     uint32_t fragmentsLeft;
 };
 
-struct FillScratch::Slot {
-    scene::HoleFlags flags;
-    std::vector<PixelSpan> spans, next;  // the hole's open segments, and the next list
-    std::vector<PixelSpan> searched;     // the segments an expansion left open
-    std::vector<DrawnTriangle> drawn;
-    FillStats stats;
-};
-
-// The frame's pieces: the pixels of one hole inside one kFillTile tile.
+// A piece: the pixels of one hole inside one kFillTile tile.
 struct FillPiece {
-    uint32_t hole = 0;
-    uint32_t firstSpan = 0;  // into FillScratch::Frame::spans, row order
+    uint32_t firstSpan = 0;  // into HolePieces::spans, row order
     uint32_t spanCount = 0;
     int64_t pixels = 0;
 };
 
-struct FillScratch::Frame {
+// The pieces of the hole being filled.
+struct HolePieces {
     std::vector<PixelSpan> spans;
     std::vector<FillPiece> pieces;
     std::vector<std::pair<uint32_t, PixelSpan>> tiled;  // (tile column, span) of one tile row
     std::vector<uint32_t> columnStart;                  // cutIntoTiles' counting sort
+};
+
+struct FillScratch::Slot {
+    scene::HoleFlags flags;
+    HolePieces pieces;
+    std::vector<PixelSpan> spans, next;  // the piece's open segments, and the next list
+    std::vector<PixelSpan> searched;     // the segments an expansion left open
+    std::vector<DrawnTriangle> drawn;
+    FillStats stats;
 };
 
 FillScratch::FillScratch() = default;
@@ -380,61 +381,57 @@ void addStats(const FillStats& a, FillStats* sum) {
 // The pieces of a hole larger than a tile: its segments cut at tile columns and grouped by tile,
 // tile rows in order (the segments come in row order), each tile row's cuts placed by tile column
 // with a counting sort, which keeps them in row order within a tile.
-void cutIntoTiles(const HoleSet& holes, uint32_t h, FillScratch::Frame* frame) {
+void cutIntoTiles(const HoleSet& holes, uint32_t h, HolePieces* out) {
     const Hole& hole = holes.holes[h];
     const int firstColumn = hole.box.x0 / kFillTile;
     const size_t columns = size_t(hole.box.x1 / kFillTile - firstColumn + 1);
     const int32_t end = hole.firstSegment + hole.segmentCount;
     for (int32_t i = hole.firstSegment; i < end;) {
         const int tileRow = holes.segments[size_t(i)].y / kFillTile;
-        frame->tiled.clear();
+        out->tiled.clear();
         for (; i < end && holes.segments[size_t(i)].y / kFillTile == tileRow; ++i) {
             const HoleSegment& seg = holes.segments[size_t(i)];
             for (int x0 = seg.xStart; x0 <= seg.xEnd;) {
                 const int x1 = std::min(seg.xEnd, (x0 / kFillTile + 1) * kFillTile - 1);
-                frame->tiled.push_back({uint32_t(x0 / kFillTile - firstColumn), {seg.y, x0, x1}});
+                out->tiled.push_back({uint32_t(x0 / kFillTile - firstColumn), {seg.y, x0, x1}});
                 x0 = x1 + 1;
             }
         }
-        std::vector<uint32_t>& start = frame->columnStart;
+        std::vector<uint32_t>& start = out->columnStart;
         start.assign(columns + 1, 0);
-        for (const auto& [column, span] : frame->tiled) ++start[column + 1];
+        for (const auto& [column, span] : out->tiled) ++start[column + 1];
         for (size_t c = 0; c < columns; ++c) start[c + 1] += start[c];
-        const uint32_t base = uint32_t(frame->spans.size());
-        const size_t firstPiece = frame->pieces.size();
+        const uint32_t base = uint32_t(out->spans.size());
+        const size_t firstPiece = out->pieces.size();
         for (size_t c = 0; c < columns; ++c)
             if (start[c + 1] > start[c])
-                frame->pieces.push_back({h, base + start[c], start[c + 1] - start[c], 0});
-        frame->spans.resize(base + frame->tiled.size());
-        for (const auto& [column, span] : frame->tiled) frame->spans[base + start[column]++] = span;
-        for (size_t p = firstPiece; p < frame->pieces.size(); ++p) {
-            FillPiece& piece = frame->pieces[p];
+                out->pieces.push_back({base + start[c], start[c + 1] - start[c], 0});
+        out->spans.resize(base + out->tiled.size());
+        for (const auto& [column, span] : out->tiled) out->spans[base + start[column]++] = span;
+        for (size_t p = firstPiece; p < out->pieces.size(); ++p) {
+            FillPiece& piece = out->pieces[p];
             for (uint32_t k = piece.firstSpan; k < piece.firstSpan + piece.spanCount; ++k)
-                piece.pixels += frame->spans[k].x1 - frame->spans[k].x0 + 1;
+                piece.pixels += out->spans[k].x1 - out->spans[k].x0 + 1;
         }
     }
 }
 
-// Cuts every hole to be drawn into pieces: one for a hole whose box fits in a kFillTile square
+// Cuts hole h into pieces, in place of out's: one for a hole whose box fits in a kFillTile square
 // (box nodes tested 56.9k -> 53.0k on office:280 against cutting those at tile boundaries too),
 // else one per kFillTile tile it touches.
-void makePieces(const HoleSet& holes, bool skipExpansion, FillScratch::Frame* frame) {
-    frame->spans.clear();
-    frame->pieces.clear();
-    for (size_t h = 0; h < holes.holes.size(); ++h) {
-        const Hole& hole = holes.holes[h];
-        if (skipExpansion && hole.holeClass == HoleClass::kExpansion) continue;
-        if (hole.box.x1 - hole.box.x0 >= kFillTile || hole.box.y1 - hole.box.y0 >= kFillTile) {
-            cutIntoTiles(holes, uint32_t(h), frame);
-            continue;
-        }
-        const int32_t first = hole.firstSegment, end = first + hole.segmentCount;
-        frame->pieces.push_back(
-            {uint32_t(h), uint32_t(frame->spans.size()), uint32_t(end - first), hole.pixelCount});
-        for (int32_t i = first; i < end; ++i) {
-            const HoleSegment& seg = holes.segments[size_t(i)];
-            frame->spans.push_back({seg.y, seg.xStart, seg.xEnd});
-        }
+void cutIntoPieces(const HoleSet& holes, uint32_t h, HolePieces* out) {
+    out->spans.clear();
+    out->pieces.clear();
+    const Hole& hole = holes.holes[h];
+    if (hole.box.x1 - hole.box.x0 >= kFillTile || hole.box.y1 - hole.box.y0 >= kFillTile) {
+        cutIntoTiles(holes, h, out);
+        return;
+    }
+    const int32_t first = hole.firstSegment, end = first + hole.segmentCount;
+    out->pieces.push_back({0, uint32_t(end - first), hole.pixelCount});
+    for (int32_t i = first; i < end; ++i) {
+        const HoleSegment& seg = holes.segments[size_t(i)];
+        out->spans.push_back({seg.y, seg.xStart, seg.xEnd});
     }
 }
 
@@ -482,31 +479,32 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
                     holes,
                     {second.color, second.depth, second.id, {}},
                     holeClass};
-    if (!scratch->mFrame) scratch->mFrame = std::make_unique<FillScratch::Frame>();
-    FillScratch::Frame& pieces = *scratch->mFrame;
-    makePieces(holes, interpolate, &pieces);
     const size_t slots = pool ? size_t(pool->threadCount()) : 1;
     while (scratch->mSlots.size() < slots)
         scratch->mSlots.push_back(std::make_unique<FillScratch::Slot>());
     for (auto& slot : scratch->mSlots) slot->stats = {};
+    // Each hole cut into pieces by the thread that fills it, so no thread waits for the cuts.
     auto body = [&](size_t begin, size_t end) {
         FillScratch::Slot& slot = *scratch->mSlots[size_t(currentThreadSlot()) % slots];
+        HolePieces& cut = slot.pieces;
         HoleFiller filler(frame, slot);
-        for (size_t i = begin; i < end; ++i) {
-            const FillPiece& piece = pieces.pieces[i];
-            filler.fill(
-                holes.holes[piece.hole],
-                std::span<const PixelSpan>(pieces.spans).subspan(piece.firstSpan, piece.spanCount),
-                piece.pixels);
+        for (size_t h = begin; h < end; ++h) {
+            if (interpolate && holes.holes[h].holeClass == HoleClass::kExpansion) continue;
+            cutIntoPieces(holes, uint32_t(h), &cut);
+            for (const FillPiece& piece : cut.pieces)
+                filler.fill(
+                    holes.holes[h],
+                    std::span<const PixelSpan>(cut.spans).subspan(piece.firstSpan, piece.spanCount),
+                    piece.pixels);
         }
     };
-    // Pieces differ in cost by orders of magnitude (a one-pixel crack, a wall's shadow); small
-    // chunks let the threads balance.
-    constexpr size_t kPieceGrain = 8;
+    // Holes differ in cost by orders of magnitude (a one-pixel crack, the strip at the image
+    // border): single holes let the threads balance.
+    constexpr size_t kHoleGrain = 1;
     if (pool)
-        pool->parallelFor(pieces.pieces.size(), kPieceGrain, body);
+        pool->parallelFor(holes.holes.size(), kHoleGrain, body);
     else
-        body(0, pieces.pieces.size());
+        body(0, holes.holes.size());
     for (auto& slot : scratch->mSlots) addStats(slot->stats, &total);
     return total;
 }

@@ -200,14 +200,12 @@ public:
     FillScratch();
     ~FillScratch();
     struct Slot;
-    struct Frame;
 
 private:
     friend FillStats fillHoles(const scene::Scene&, const FillScene&, const Camera&,
                                const FillOptions&, const HoleSet&, const SecondEyeTargets&,
                                ImageView<uint8_t>, FillScratch*, ThreadPool*);
     std::vector<std::unique_ptr<Slot>> mSlots;
-    std::unique_ptr<Frame> mFrame;
 };
 
 // Fills every hole of `holes` in the second eye's targets and writes the PixelSource of each

@@ -38,6 +38,12 @@ public:
           mFront(frame.camera, frame.frontInvW) {
         const Mat4& m = frame.camera.clipFromWorld();
         mRowW = Vec4(m[0][3], m[1][3], m[2][3], m[3][3]);
+        // Geometry the front bound passes reaches beyond it, so beyond a near plane in front of
+        // it: the near plane's test then rejects nothing more (up to rounding, which can only
+        // let a box through that the rasterizer's near clipping empties).
+        mPlanes = std::span(mFrustum.planes())
+                      .first(mFront.frontW() > mNearPlane ? scene::RectFrustum::kSidePlanes
+                                                          : scene::RectFrustum::kPlanes);
     }
 
     // Nearest box first, so that the pieces fill early and the hidden test prunes the rest.
@@ -97,7 +103,7 @@ private:
         auto near = [](__m128 a, __m128 b) { return _mm_min_ps(a, b); };
         const __m128 zero = _mm_setzero_ps();
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (const Vec4& p : mFrustum.planes())  // rejected only below 0 (as the scalar test)
+        for (const Vec4& p : mPlanes)  // rejected only below 0 (as the scalar test)
             pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(p, far), zero));
         if (mFront.frontW() != 0.0f)
             pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(mRowW, far), _mm_set1_ps(mFront.frontW())));
@@ -107,7 +113,8 @@ private:
         for (int k = 0; k < n.lanes; ++k) {
             const Aabb box = n.box(size_t(k));
             out.nearW[size_t(k)] = nearestW(box);
-            if (mFrustum.mayCoverBox(box) && !mFront.inFront(box)) out.pass |= 1u << k;
+            if (mFrustum.mayCoverBox(box, mPlanes.size()) && !mFront.inFront(box))
+                out.pass |= 1u << k;
         }
 #endif
         return out;
@@ -166,8 +173,7 @@ private:
                 _mm_cmpge_ps(value(p, 2), limit));
         };
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (const Vec4& p : mFrustum.planes())
-            pass = _mm_and_ps(pass, anyAtLeast(p, _mm_setzero_ps()));
+        for (const Vec4& p : mPlanes) pass = _mm_and_ps(pass, anyAtLeast(p, _mm_setzero_ps()));
         if (mFront.frontW() != 0.0f)
             pass = _mm_and_ps(pass, anyAtLeast(mRowW, _mm_set1_ps(mFront.frontW())));
         _mm_storeu_ps(out.nearW.data(),
@@ -179,7 +185,8 @@ private:
             float w = std::numeric_limits<float>::infinity();
             for (const Vec3& p : corners) w = std::min(w, clipW(p));
             out.nearW[k] = w;
-            if (mFrustum.mayCoverPoints(corners) && !mFront.inFront(corners)) out.pass |= 1u << k;
+            if (mFrustum.mayCoverPoints(corners, mPlanes.size()) && !mFront.inFront(corners))
+                out.pass |= 1u << k;
         }
 #endif
         return out;
@@ -267,6 +274,7 @@ private:
     FillStats* mStats;
     scene::PixelRect mRect;  // the spans' box
     scene::RectFrustum mFrustum;
+    std::span<const Vec4> mPlanes;  // the frustum's planes the tests need
     float mNearPlane;
     Vec4 mRowW;
     FrontBound mFront;

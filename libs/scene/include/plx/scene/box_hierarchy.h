@@ -70,18 +70,24 @@ class RectFrustum {
 public:
     // Preconditions: camera is the view the rectangle is in; the rectangle is not empty.
     RectFrustum(const Camera& camera, const PixelRect& rect);
-    // False only if the box lies wholly outside one plane. Precondition: the box is not empty.
-    bool mayCoverBox(const Aabb& box) const {
-        for (const Vec4& p : mPlanes) {
+    // The planes: the rectangle's four sides, then the near plane.
+    static constexpr size_t kPlanes = 5;
+    static constexpr size_t kSidePlanes = 4;
+
+    // False only if the box lies wholly outside one of the first `planeCount` planes.
+    // Precondition: the box is not empty.
+    bool mayCoverBox(const Aabb& box, size_t planeCount = kPlanes) const {
+        for (const Vec4& p : std::span(mPlanes).first(planeCount)) {
             Vec3 far(p.x >= 0.0f ? box.hi.x : box.lo.x, p.y >= 0.0f ? box.hi.y : box.lo.y,
                      p.z >= 0.0f ? box.hi.z : box.lo.z);
             if (p.x * far.x + p.y * far.y + p.z * far.z + p.w < 0.0f) return false;
         }
         return true;
     }
-    // False only if every point lies outside one plane (the convex hull misses the frustum).
-    bool mayCoverPoints(std::span<const Vec3> points) const {
-        for (const Vec4& p : mPlanes) {
+    // False only if every point lies outside one of the first `planeCount` planes (the convex
+    // hull misses the frustum).
+    bool mayCoverPoints(std::span<const Vec3> points, size_t planeCount = kPlanes) const {
+        for (const Vec4& p : std::span(mPlanes).first(planeCount)) {
             bool inside = false;
             for (const Vec3& v : points) inside |= p.x * v.x + p.y * v.y + p.z * v.z + p.w >= 0.0f;
             if (!inside) return false;
@@ -89,11 +95,11 @@ public:
         return true;
     }
 
-    // (n, d) of the five planes: inside where dot(n, p) + d >= 0.
-    const std::array<Vec4, 5>& planes() const { return mPlanes; }
+    // (n, d) of the planes: inside where dot(n, p) + d >= 0.
+    const std::array<Vec4, kPlanes>& planes() const { return mPlanes; }
 
 private:
-    std::array<Vec4, 5> mPlanes;  // (n, d): inside where dot(n, p) + d >= 0
+    std::array<Vec4, kPlanes> mPlanes;  // (n, d): inside where dot(n, p) + d >= 0
 };
 
 // How an inner node's triangles are divided between its two children.

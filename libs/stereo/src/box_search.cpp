@@ -44,6 +44,11 @@ public:
         mPlanes = std::span(mFrustum.planes())
                       .first(mFront.frontW() > mNearPlane ? scene::RectFrustum::kSidePlanes
                                                           : scene::RectFrustum::kPlanes);
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        for (size_t i = 0; i < mPlanes.size(); ++i) mLanePlanes[i] = LanePlane(mPlanes[i], true);
+        mFrontPlane = LanePlane(mRowW, true);
+        mNearestW = LanePlane(mRowW, false);
+#endif
     }
 
     // Nearest box first, so that the pieces fill early and the hidden test prunes the rest.
@@ -77,44 +82,83 @@ private:
         float nearW;
     };
 
-    // One node's lane boxes against the frustum's planes and the front bound, and each box's
-    // smallest clip w for the hidden test, with the scalar expressions' operations in their order
-    // (RectFrustum::mayCoverBox, FrontBound, nearestW), so both paths pass the same boxes: a
-    // plane's value at the box's far corner takes, per axis, the larger of the two products.
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    // A plane over the four lanes of a WideBoxNode: its coefficients broadcast, and per axis the
+    // lane bound that is the box's far corner (the larger product: the upper bound where the
+    // coefficient is not negative, as RectFrustum::mayCoverBox and FrontBound pick it) or its
+    // near corner (nearestW).
+    struct LanePlane {
+        using Bound = std::array<float, 4> WideBoxNode::*;
+        __m128 x, y, z, w;
+        Bound cornerX, cornerY, cornerZ;
+
+        LanePlane() = default;
+        LanePlane(const Vec4& p, bool farCorner)
+            : x(_mm_set1_ps(p.x)),
+              y(_mm_set1_ps(p.y)),
+              z(_mm_set1_ps(p.z)),
+              w(_mm_set1_ps(p.w)),
+              cornerX((p.x >= 0.0f) == farCorner ? &WideBoxNode::hiX : &WideBoxNode::loX),
+              cornerY((p.y >= 0.0f) == farCorner ? &WideBoxNode::hiY : &WideBoxNode::loY),
+              cornerZ((p.z >= 0.0f) == farCorner ? &WideBoxNode::hiZ : &WideBoxNode::loZ) {}
+
+        // ((x + y) + z) + w at each lane's corner.
+        __m128 atCorners(const WideBoxNode& n) const {
+            const __m128 px = _mm_mul_ps(x, _mm_loadu_ps((n.*cornerX).data()));
+            const __m128 py = _mm_mul_ps(y, _mm_loadu_ps((n.*cornerY).data()));
+            const __m128 pz = _mm_mul_ps(z, _mm_loadu_ps((n.*cornerZ).data()));
+            return _mm_add_ps(_mm_add_ps(_mm_add_ps(px, py), pz), w);
+        }
+        // ((x + y) + z) + w at four points.
+        __m128 at(__m128 px, __m128 py, __m128 pz) const {
+            const __m128 xy = _mm_add_ps(_mm_mul_ps(x, px), _mm_mul_ps(y, py));
+            return _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(z, pz)), w);
+        }
+    };
+#endif
+
+    // One node's lane boxes against the frustum's planes and the front bound, each box's
+    // smallest clip w for the hidden test, and the squared distance from the eye to each box's
+    // centre, with the scalar expressions' operations in their order (RectFrustum::mayCoverBox,
+    // FrontBound, nearestW, Aabb::center), so both paths pass and order the same boxes.
     struct LaneTest {
         uint32_t pass = 0;  // bit per lane
         std::array<float, 4> nearW{};
+        std::array<float, 4> distance2{};
     };
     LaneTest testLanes(const WideBoxNode& n) const {
         LaneTest out;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-        const __m128 lx = _mm_loadu_ps(n.loX.data()), ly = _mm_loadu_ps(n.loY.data()),
-                     lz = _mm_loadu_ps(n.loZ.data()), hx = _mm_loadu_ps(n.hiX.data()),
-                     hy = _mm_loadu_ps(n.hiY.data()), hz = _mm_loadu_ps(n.hiZ.data());
-        // ((x + y) + z) + w over the lanes, x, y, z chosen per axis by `pick` (max: far corner).
-        auto plane = [&](const Vec4& p, auto pick) {
-            const __m128 px = _mm_set1_ps(p.x), py = _mm_set1_ps(p.y), pz = _mm_set1_ps(p.z);
-            const __m128 x = pick(_mm_mul_ps(px, lx), _mm_mul_ps(px, hx));
-            const __m128 y = pick(_mm_mul_ps(py, ly), _mm_mul_ps(py, hy));
-            const __m128 z = pick(_mm_mul_ps(pz, lz), _mm_mul_ps(pz, hz));
-            return _mm_add_ps(_mm_add_ps(_mm_add_ps(x, y), z), _mm_set1_ps(p.w));
-        };
-        auto far = [](__m128 a, __m128 b) { return _mm_max_ps(a, b); };
-        auto near = [](__m128 a, __m128 b) { return _mm_min_ps(a, b); };
         const __m128 zero = _mm_setzero_ps();
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (const Vec4& p : mPlanes)  // rejected only below 0 (as the scalar test)
-            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(p, far), zero));
+        for (size_t i = 0; i < mPlanes.size(); ++i)  // rejected only below 0 (as the scalar test)
+            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(mLanePlanes[i].atCorners(n), zero));
         if (mFront.frontW() != 0.0f)
-            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(plane(mRowW, far), _mm_set1_ps(mFront.frontW())));
-        _mm_storeu_ps(out.nearW.data(), plane(mRowW, near));
+            pass = _mm_and_ps(
+                pass, _mm_cmpnlt_ps(mFrontPlane.atCorners(n), _mm_set1_ps(mFront.frontW())));
+        _mm_storeu_ps(out.nearW.data(), mNearestW.atCorners(n));
         out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
+        const Vec3 eye = mFrame.camera.eyePos();
+        auto fromEye = [half = _mm_set1_ps(0.5f)](const std::array<float, 4>& lo,
+                                                  const std::array<float, 4>& hi, float e) {
+            const __m128 centre =
+                _mm_mul_ps(half, _mm_add_ps(_mm_loadu_ps(lo.data()), _mm_loadu_ps(hi.data())));
+            return _mm_sub_ps(centre, _mm_set1_ps(e));
+        };
+        const __m128 dx = fromEye(n.loX, n.hiX, eye.x), dy = fromEye(n.loY, n.hiY, eye.y),
+                     dz = fromEye(n.loZ, n.hiZ, eye.z);
+        _mm_storeu_ps(
+            out.distance2.data(),
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)));
 #else
+        const Vec3 eye = mFrame.camera.eyePos();
         for (int k = 0; k < n.lanes; ++k) {
             const Aabb box = n.box(size_t(k));
             out.nearW[size_t(k)] = nearestW(box);
             if (mFrustum.mayCoverBox(box, mPlanes.size()) && !mFront.inFront(box))
                 out.pass |= 1u << k;
+            const Vec3 d = box.center() - eye;
+            out.distance2[size_t(k)] = d.x * d.x + d.y * d.y + d.z * d.z;
         }
 #endif
         return out;
@@ -127,12 +171,10 @@ private:
         const LaneTest t = testLanes(n);
         std::array<std::pair<float, int>, 4> order;
         int count = 0;
-        const Vec3 eye = mFrame.camera.eyePos();
         for (int k = 0; k < n.lanes; ++k) {
             if (!(t.pass >> k & 1u) || hidden(t.nearW[size_t(k)])) continue;
-            const Vec3 d = n.box(size_t(k)).center() - eye;
             // Insertion into farthest-first order.
-            const std::pair<float, int> lane{d.x * d.x + d.y * d.y + d.z * d.z, k};
+            const std::pair<float, int> lane{t.distance2[size_t(k)], k};
             int at = count++;
             for (; at > 0 && order[size_t(at - 1)].first < lane.first; --at)
                 order[size_t(at)] = order[size_t(at - 1)];
@@ -162,22 +204,19 @@ private:
             y[k] = _mm_loadu_ps(c.y[k].data() + entry);
             z[k] = _mm_loadu_ps(c.z[k].data() + entry);
         }
-        auto value = [&](const Vec4& p, size_t k) {  // ((x + y) + z) + w at corner k
-            const __m128 xy =
-                _mm_add_ps(_mm_mul_ps(_mm_set1_ps(p.x), x[k]), _mm_mul_ps(_mm_set1_ps(p.y), y[k]));
-            return _mm_add_ps(_mm_add_ps(xy, _mm_mul_ps(_mm_set1_ps(p.z), z[k])), _mm_set1_ps(p.w));
-        };
-        auto anyAtLeast = [&](const Vec4& p, __m128 limit) {
-            return _mm_or_ps(
-                _mm_or_ps(_mm_cmpge_ps(value(p, 0), limit), _mm_cmpge_ps(value(p, 1), limit)),
-                _mm_cmpge_ps(value(p, 2), limit));
+        auto anyAtLeast = [&](const LanePlane& p, __m128 limit) {
+            return _mm_or_ps(_mm_or_ps(_mm_cmpge_ps(p.at(x[0], y[0], z[0]), limit),
+                                       _mm_cmpge_ps(p.at(x[1], y[1], z[1]), limit)),
+                             _mm_cmpge_ps(p.at(x[2], y[2], z[2]), limit));
         };
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (const Vec4& p : mPlanes) pass = _mm_and_ps(pass, anyAtLeast(p, _mm_setzero_ps()));
+        for (size_t i = 0; i < mPlanes.size(); ++i)
+            pass = _mm_and_ps(pass, anyAtLeast(mLanePlanes[i], _mm_setzero_ps()));
         if (mFront.frontW() != 0.0f)
-            pass = _mm_and_ps(pass, anyAtLeast(mRowW, _mm_set1_ps(mFront.frontW())));
-        _mm_storeu_ps(out.nearW.data(),
-                      _mm_min_ps(_mm_min_ps(value(mRowW, 0), value(mRowW, 1)), value(mRowW, 2)));
+            pass = _mm_and_ps(pass, anyAtLeast(mFrontPlane, _mm_set1_ps(mFront.frontW())));
+        _mm_storeu_ps(out.nearW.data(), _mm_min_ps(_mm_min_ps(mFrontPlane.at(x[0], y[0], z[0]),
+                                                              mFrontPlane.at(x[1], y[1], z[1])),
+                                                   mFrontPlane.at(x[2], y[2], z[2])));
         out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << lanes) - 1u);
 #else
         for (uint32_t k = 0; k < lanes; ++k) {
@@ -275,6 +314,11 @@ private:
     scene::PixelRect mRect;  // the spans' box
     scene::RectFrustum mFrustum;
     std::span<const Vec4> mPlanes;  // the frustum's planes the tests need
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    std::array<LanePlane, scene::RectFrustum::kPlanes> mLanePlanes;  // mPlanes, far corners
+    LanePlane mFrontPlane;  // the clip-w row at the far corners (FrontBound)
+    LanePlane mNearestW;    // the clip-w row at the near corners (nearestW)
+#endif
     float mNearPlane;
     Vec4 mRowW;
     FrontBound mFront;

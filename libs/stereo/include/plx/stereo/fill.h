@@ -48,7 +48,8 @@
 //    converged rig opens at the image border) would otherwise have one rectangle reaching most of
 //    the scene, so every polygon along the strip would be tested against and drawn over all of its
 //    rows. Pieces are independent (disjoint pixels, and each pixel's result is the nearest polygon
-//    there whatever the grouping) and run in parallel, each thread with its own flags.
+//    there whatever the grouping); the holes run in parallel, a thread cutting one hole into its
+//    pieces and filling them, each thread with its own flags.
 // FillSearch::kBoxHierarchy (the default; beyond the paper) replaces steps 1-3 and 5 by one
 // walk of the box hierarchy per piece, without the BSP order, over its four-wide copy
 // (FillScene::wideBoxes: four boxes, or four of a leaf's triangles, tested in one SIMD step): a
@@ -83,9 +84,10 @@ namespace plx::stereo {
 
 // Side in pixels of the screen tiles that cut holes into pieces (see above): small enough that a
 // piece's rectangle stays local, large enough that most holes (cracks and slivers of a few
-// pixels) are one piece. 16 and 8 cost more per frame on office:3 (more pieces, each with
-// its own search from the root).
-constexpr int kFillTile = 32;
+// pixels) are one piece. Against 64, the fill costs 3-6% more with 32 (more pieces, each with
+// its own search from the root), 3% more with 128 and about as much with 96 (office:3, 28 and
+// 280).
+constexpr int kFillTile = 64;
 
 // How the disocclusion search orders the polygons it draws (see the top of this header).
 enum class FillSearch {

@@ -39,47 +39,6 @@ void rasterizeReference(const TriangleSetup& t, const ShadeContext& ctx, const R
 
 namespace detail {
 
-int64_t rasterizeReferencePixels(const TriangleSetup& t, const ShadeContext& ctx,
-                                 const RenderTargets& rt, int y, int x0, int x1,
-                                 const int64_t eAtX0[3], const int64_t step[3], float b1Row,
-                                 float b2Row) {
-    int64_t written = 0;
-    // Flat: shadeSample's first case, without a call per pixel.
-    auto shade = [&](float b1, float b2, float invW) {
-        return ctx.shading == Shading::kFlat ? flatColorFor(t, ctx)
-                                             : isa_scalar::shadeSample(t, ctx, b1, b2, invW);
-    };
-    // The edge functions stepped exactly along the row.
-    int64_t e[3] = {eAtX0[0], eAtX0[1], eAtX0[2]};
-    for (int x = x0; x <= x1; ++x, e[0] += step[0], e[1] += step[1], e[2] += step[2]) {
-        if ((e[0] | e[1] | e[2]) < 0) continue;
-        float k = float(x - t.minX);
-        float b1 = b1Row + k * t.stepB1, b2 = b2Row + k * t.stepB2;
-        float invW = t.invW[0] + b1 * (t.invW[1] - t.invW[0]) + b2 * (t.invW[2] - t.invW[0]);
-        if (ctx.colorOnly) {  // no depth test: submission order decides
-            rt.color.at(x, y) = shade(b1, b2, invW);
-            ++written;
-            continue;
-        }
-        if (!(invW > rt.depth.at(x, y))) {
-            if (rt.visibility.id2.data && invW > rt.visibility.depth2.at(x, y)) {
-                rt.visibility.depth2.at(x, y) = invW;
-                rt.visibility.id2.at(x, y) = t.id;
-            }
-            continue;
-        }
-        if (rt.visibility.id2.data) {
-            rt.visibility.depth2.at(x, y) = rt.depth.at(x, y);
-            rt.visibility.id2.at(x, y) = rt.id.at(x, y);
-        }
-        rt.depth.at(x, y) = invW;
-        rt.id.at(x, y) = t.id;
-        if (rt.color.data) rt.color.at(x, y) = shade(b1, b2, invW);
-        ++written;
-    }
-    return written;
-}
-
 int clipReferenceTriangle(const scene::Scene& scene, uint32_t globalTri, const Camera& camera,
                           const Viewport& vp, RasterVertex out[kMaxClippedTriangles][3],
                           size_t* meshIndex, uint32_t* localTri) {

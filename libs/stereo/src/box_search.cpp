@@ -41,11 +41,11 @@ public:
         // Geometry the front bound passes reaches beyond it, so beyond a near plane in front of
         // it: the near plane's test then rejects nothing more (up to rounding, which can only
         // let a box through that the rasterizer's near clipping empties).
-        mPlanes = std::span(mFrustum.planes())
-                      .first(mFront.frontW() > mNearPlane ? scene::RectFrustum::kSidePlanes
-                                                          : scene::RectFrustum::kPlanes);
+        mPlaneCount = mFront.frontW() > mNearPlane ? scene::RectFrustum::kSidePlanes
+                                                   : scene::RectFrustum::kPlanes;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-        for (size_t i = 0; i < mPlanes.size(); ++i) mLanePlanes[i] = LanePlane(mPlanes[i], true);
+        for (size_t i = 0; i < mPlaneCount; ++i)
+            mLanePlanes[i] = LanePlane(mFrustum.planes()[i], true);
         mFrontPlane = LanePlane(mRowW, true);
         mNearestW = LanePlane(mRowW, false);
 #endif
@@ -131,7 +131,7 @@ private:
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
         const __m128 zero = _mm_setzero_ps();
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (size_t i = 0; i < mPlanes.size(); ++i)  // rejected only below 0 (as the scalar test)
+        for (size_t i = 0; i < mPlaneCount; ++i)  // rejected only below 0 (as the scalar test)
             pass = _mm_and_ps(pass, _mm_cmpnlt_ps(mLanePlanes[i].atCorners(n), zero));
         if (mFront.frontW() != 0.0f)
             pass = _mm_and_ps(
@@ -155,8 +155,7 @@ private:
         for (int k = 0; k < n.lanes; ++k) {
             const Aabb box = n.box(size_t(k));
             out.nearW[size_t(k)] = nearestW(box);
-            if (mFrustum.mayCoverBox(box, mPlanes.size()) && !mFront.inFront(box))
-                out.pass |= 1u << k;
+            if (mFrustum.mayCoverBox(box, mPlaneCount) && !mFront.inFront(box)) out.pass |= 1u << k;
             const Vec3 d = box.center() - eye;
             out.distance2[size_t(k)] = d.x * d.x + d.y * d.y + d.z * d.z;
         }
@@ -210,7 +209,7 @@ private:
                              _mm_cmpge_ps(p.at(x[2], y[2], z[2]), limit));
         };
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (size_t i = 0; i < mPlanes.size(); ++i)
+        for (size_t i = 0; i < mPlaneCount; ++i)
             pass = _mm_and_ps(pass, anyAtLeast(mLanePlanes[i], _mm_setzero_ps()));
         if (mFront.frontW() != 0.0f)
             pass = _mm_and_ps(pass, anyAtLeast(mFrontPlane, _mm_set1_ps(mFront.frontW())));
@@ -224,7 +223,7 @@ private:
             float w = std::numeric_limits<float>::infinity();
             for (const Vec3& p : corners) w = std::min(w, clipW(p));
             out.nearW[k] = w;
-            if (mFrustum.mayCoverPoints(corners, mPlanes.size()) && !mFront.inFront(corners))
+            if (mFrustum.mayCoverPoints(corners, mPlaneCount) && !mFront.inFront(corners))
                 out.pass |= 1u << k;
         }
 #endif
@@ -313,9 +312,10 @@ private:
     FillStats* mStats;
     scene::PixelRect mRect;  // the spans' box
     scene::RectFrustum mFrustum;
-    std::span<const Vec4> mPlanes;  // the frustum's planes the tests need
+    size_t mPlaneCount;  // the frustum's planes the tests need, from the first
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
-    std::array<LanePlane, scene::RectFrustum::kPlanes> mLanePlanes;  // mPlanes, far corners
+    std::array<LanePlane, scene::RectFrustum::kPlanes>
+        mLanePlanes;        // the first mPlaneCount, far corners
     LanePlane mFrontPlane;  // the clip-w row at the far corners (FrontBound)
     LanePlane mNearestW;    // the clip-w row at the near corners (nearestW)
 #endif

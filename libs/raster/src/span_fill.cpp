@@ -175,8 +175,8 @@ int64_t drawTriangleInSpans(const scene::Scene& scene, uint32_t globalTriangle,
         auto last = std::upper_bound(first, spans.end(), box.maxY,
                                      [](int y, const PixelSpan& p) { return y < p.y; });
         // Decided before the setup, which a large triangle passing beside a few hole pixels
-        // would otherwise pay for nothing; and per span after it: three in four spans of a
-        // triangle's rows in the reproject fill hold none of its samples (office:280).
+        // would otherwise pay for nothing; and per span after it: in the reproject fill most
+        // spans of a triangle's rows hold none of its samples.
         const SpanRows rows(tris[i], box);
         const PixelSpan* rowSpans = spans.data() + (first - spans.begin());
         const size_t rowCount = size_t(last - first);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -25,6 +26,65 @@ namespace {
 constexpr float kHiddenSlack = 1.0f / 1024.0f;
 // Relative slack of FrontBound.
 constexpr float kFrontSlack = 1.0f / 64.0f;
+// How far from a pixel's sample, in pixels, a triangle whose scan conversion covers it may lie:
+// the rasterizer snaps corners to 1/256 pixel, moving each point of the triangle by at most
+// sqrt 2 / 512 = 1/362 pixel; 1/16 leaves the float rounding of the tests a wide margin.
+constexpr float kRayMarginPx = 1.0f / 16.0f;
+
+// The rays through the samples of a piece of at most kFillRayPixels pixels (box_search.h). A ray's
+// parameter is clip w.
+struct SampleRays {
+    static constexpr int kMax = kFillRayPixels;
+    Vec3 origin;  // the eye
+    // Per ray and axis, 1 / the direction that advances clip w by 1 per unit.
+    std::array<Vec3, kMax> invDir;
+    int count = 0;
+    float widenPerW = 0.0f;  // kRayMarginPx pixels in world units, times sqrt 2, per unit of w
+
+    // False when the spans hold more than kMax pixels or a ray has no usable direction.
+    static bool make(const Camera& camera, std::span<const PixelSpan> spans, SampleRays* out) {
+        int pixels = 0;
+        for (const PixelSpan& p : spans) pixels += p.x1 - p.x0 + 1;
+        if (pixels > kMax) return false;
+        out->count = 0;
+        for (const PixelSpan& p : spans)
+            for (int x = p.x0; x <= p.x1; ++x)
+                if (!addRay(camera, x, p.y, out)) return false;
+        out->origin = camera.eyePos();
+        // One pixel spans 2 w / (W m00) across and 2 w / (H m11) down in view space (w is minus
+        // the view z for Camera's glm::perspective); a square of half-side r lies within
+        // r sqrt 2 of its centre, whatever the axes.
+        const Mat4& m = camera.clipFromView();
+        const float pixel = std::max(2.0f / (float(camera.width()) * std::fabs(m[0][0])),
+                                     2.0f / (float(camera.height()) * std::fabs(m[1][1])));
+        out->widenPerW = kRayMarginPx * std::sqrt(2.0f) * pixel;
+        return out->count > 0 && std::isfinite(out->widenPerW);
+    }
+
+private:
+    static bool addRay(const Camera& camera, int x, int y, SampleRays* out) {
+        const Mat4& m = camera.clipFromWorld();
+        auto row = [&m](int i) { return Vec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
+        const Vec4 rowW = row(3);
+        // The planes through the eye and the sample's column and row (RectFrustum's sides).
+        const float ax = 2.0f * (float(x) + 0.5f) / float(camera.width()) - 1.0f;
+        const float by = 1.0f - 2.0f * (float(y) + 0.5f) / float(camera.height());
+        const Vec4 column = row(0) - ax * rowW, line = row(1) - by * rowW;
+        Vec3 dir = cross(Vec3(column), Vec3(line));
+        const float perUnit = dot(Vec3(rowW), dir);
+        if (!(std::fabs(perUnit) > 0.0f) || !std::isfinite(perUnit)) return false;
+        dir /= perUnit;
+        // A zero component stands in as a tiny one, so that the slab test forms no 0 * inf.
+        auto inverse = [](float d) {
+            constexpr float kTiny = std::numeric_limits<float>::min();
+            return 1.0f / (std::fabs(d) >= kTiny ? d : std::copysign(kTiny, d));
+        };
+        const Vec3 inv(inverse(dir.x), inverse(dir.y), inverse(dir.z));
+        if (!std::isfinite(inv.x) || !std::isfinite(inv.y) || !std::isfinite(inv.z)) return false;
+        out->invDir[size_t(out->count++)] = inv;
+        return true;
+    }
+};
 
 class BoxSearch {
 public:
@@ -43,6 +103,8 @@ public:
         // let a box through that the rasterizer's near clipping empties).
         mPlaneCount = mFront.frontW() > mNearPlane ? scene::RectFrustum::kSidePlanes
                                                    : scene::RectFrustum::kPlanes;
+        mRayMode = SampleRays::make(frame.camera, spans, &mRays);
+        mStats->rayPieces += mRayMode;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
         for (size_t i = 0; i < mPlaneCount; ++i)
             mLanePlanes[i] = LanePlane(mFrustum.planes()[i], true);
@@ -117,18 +179,20 @@ private:
     };
 #endif
 
-    // One node's lane boxes against the frustum's planes and the front bound, each box's
-    // smallest clip w for the hidden test, and the squared distance from the eye to each box's
-    // centre, with the scalar expressions' operations in their order (RectFrustum::mayCoverBox,
-    // FrontBound, nearestW, Aabb::center), so both paths pass and order the same boxes.
+    // One node's lane boxes against the frustum's planes (or the samples' rays) and the front
+    // bound, each box's smallest clip w (or the rays' nearest entry) for the hidden test, and the
+    // squared distance from the eye to each box's centre (or that entry again) that orders them,
+    // with the scalar expressions' operations in their order (RectFrustum::mayCoverBox,
+    // FrontBound, nearestW, Aabb::center, rayEntry), so both paths pass and order the same boxes.
     struct LaneTest {
         uint32_t pass = 0;  // bit per lane
         std::array<float, 4> nearW{};
-        std::array<float, 4> distance2{};
+        std::array<float, 4> order{};  // the smallest first
     };
     LaneTest testLanes(const WideBoxNode& n) const {
         LaneTest out;
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+        if (mRayMode) return testLanesOnRay(n);
         const __m128 zero = _mm_setzero_ps();
         __m128 pass = _mm_castsi128_ps(_mm_set1_epi32(-1));
         for (size_t i = 0; i < mPlaneCount; ++i)  // rejected only below 0 (as the scalar test)
@@ -148,20 +212,73 @@ private:
         const __m128 dx = fromEye(n.loX, n.hiX, eye.x), dy = fromEye(n.loY, n.hiY, eye.y),
                      dz = fromEye(n.loZ, n.hiZ, eye.z);
         _mm_storeu_ps(
-            out.distance2.data(),
+            out.order.data(),
             _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)));
 #else
         const Vec3 eye = mFrame.camera.eyePos();
         for (int k = 0; k < n.lanes; ++k) {
             const Aabb box = n.box(size_t(k));
+            if (mRayMode) {
+                const float entry = rayEntry(box);
+                out.nearW[size_t(k)] = entry;
+                out.order[size_t(k)] = entry;
+                if (entry < std::numeric_limits<float>::infinity() && !mFront.inFront(box))
+                    out.pass |= 1u << k;
+                continue;
+            }
             out.nearW[size_t(k)] = nearestW(box);
             if (mFrustum.mayCoverBox(box, mPlaneCount) && !mFront.inFront(box)) out.pass |= 1u << k;
             const Vec3 d = box.center() - eye;
-            out.distance2[size_t(k)] = d.x * d.x + d.y * d.y + d.z * d.z;
+            out.order[size_t(k)] = d.x * d.x + d.y * d.y + d.z * d.z;
         }
 #endif
         return out;
     }
+
+#if defined(__SSE2__) && !defined(PLX_NO_SIMD)
+    // testLanes on the samples' rays: rayEntry four lanes at a time.
+    LaneTest testLanesOnRay(const WideBoxNode& n) const {
+        LaneTest out;
+        const __m128 farW = mFrontPlane.atCorners(n);
+        const __m128 widen =
+            _mm_mul_ps(_mm_max_ps(farW, _mm_setzero_ps()), _mm_set1_ps(mRays.widenPerW));
+        // Per axis, the widened box's sides less the eye.
+        auto sides = [&](const std::array<float, 4>& lo, const std::array<float, 4>& hi, float o,
+                         __m128* low, __m128* high) {
+            *low = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(lo.data()), widen), _mm_set1_ps(o));
+            *high = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(hi.data()), widen), _mm_set1_ps(o));
+        };
+        __m128 lx, hx, ly, hy, lz, hz;
+        sides(n.loX, n.hiX, mRays.origin.x, &lx, &hx);
+        sides(n.loY, n.hiY, mRays.origin.y, &ly, &hy);
+        sides(n.loZ, n.hiZ, mRays.origin.z, &lz, &hz);
+        const __m128 infinity = _mm_set1_ps(std::numeric_limits<float>::infinity());
+        __m128 nearest = infinity;
+        for (int r = 0; r < mRays.count; ++r) {
+            const Vec3& inv = mRays.invDir[size_t(r)];
+            __m128 entry = _mm_set1_ps(mNearPlane), exit = infinity;
+            auto slab = [&](__m128 low, __m128 high, float i) {
+                const __m128 t0 = _mm_mul_ps(low, _mm_set1_ps(i));
+                const __m128 t1 = _mm_mul_ps(high, _mm_set1_ps(i));
+                entry = _mm_max_ps(entry, _mm_min_ps(t0, t1));
+                exit = _mm_min_ps(exit, _mm_max_ps(t0, t1));
+            };
+            slab(lx, hx, inv.x);
+            slab(ly, hy, inv.y);
+            slab(lz, hz, inv.z);
+            const __m128 hit = _mm_cmple_ps(entry, exit);
+            nearest = _mm_min_ps(nearest,
+                                 _mm_or_ps(_mm_and_ps(hit, entry), _mm_andnot_ps(hit, infinity)));
+        }
+        __m128 pass = _mm_cmplt_ps(nearest, infinity);
+        if (mFront.frontW() != 0.0f)
+            pass = _mm_and_ps(pass, _mm_cmpnlt_ps(farW, _mm_set1_ps(mFront.frontW())));
+        _mm_storeu_ps(out.nearW.data(), nearest);
+        _mm_storeu_ps(out.order.data(), nearest);
+        out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
+        return out;
+    }
+#endif
 
     // Tests a node's lanes and pushes those that pass, farthest first so that the nearest is
     // taken next. Returns the new top.
@@ -173,7 +290,7 @@ private:
         for (int k = 0; k < n.lanes; ++k) {
             if (!(t.pass >> k & 1u) || hidden(t.nearW[size_t(k)])) continue;
             // Insertion into farthest-first order.
-            const std::pair<float, int> lane{t.distance2[size_t(k)], k};
+            const std::pair<float, int> lane{t.order[size_t(k)], k};
             int at = count++;
             for (; at > 0 && order[size_t(at - 1)].first < lane.first; --at)
                 order[size_t(at)] = order[size_t(at - 1)];
@@ -295,6 +412,31 @@ private:
                mRowW.y * (mRowW.y >= 0.0f ? b.lo.y : b.hi.y) +
                mRowW.z * (mRowW.z >= 0.0f ? b.lo.z : b.hi.z) + mRowW.w;
     }
+    // Largest clip w over a box (FrontBound's far corner), in LanePlane::atCorners' order.
+    float farthestW(const Aabb& b) const {
+        return mRowW.x * (mRowW.x >= 0.0f ? b.hi.x : b.lo.x) +
+               mRowW.y * (mRowW.y >= 0.0f ? b.hi.y : b.lo.y) +
+               mRowW.z * (mRowW.z >= 0.0f ? b.hi.z : b.lo.z) + mRowW.w;
+    }
+    // The smallest clip w (at least the near plane's) where one of the samples' rays, widened
+    // for the box, enters it; infinity when every ray misses it.
+    float rayEntry(const Aabb& b) const {
+        const float widen = std::max(farthestW(b), 0.0f) * mRays.widenPerW;
+        const Vec3 low = (b.lo - Vec3(widen)) - mRays.origin;
+        const Vec3 high = (b.hi + Vec3(widen)) - mRays.origin;
+        float nearest = std::numeric_limits<float>::infinity();
+        for (int r = 0; r < mRays.count; ++r) {
+            const Vec3& inv = mRays.invDir[size_t(r)];
+            float entry = mNearPlane, exit = std::numeric_limits<float>::infinity();
+            for (int a = 0; a < 3; ++a) {
+                const float t0 = low[a] * inv[a], t1 = high[a] * inv[a];
+                entry = std::max(entry, std::min(t0, t1));
+                exit = std::min(exit, std::max(t0, t1));
+            }
+            if (entry <= exit) nearest = std::min(nearest, entry);
+        }
+        return nearest;
+    }
     static scene::PixelRect rectOf(std::span<const PixelSpan> spans) {
         scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
                            std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
@@ -321,6 +463,8 @@ private:
 #endif
     float mNearPlane;
     Vec4 mRowW;
+    bool mRayMode = false;  // a piece of at most SampleRays::kMax pixels, searched along mRays
+    SampleRays mRays{};
     FrontBound mFront;
     // The first pixel not yet seen filled, in span order: (span index, column), the column
     // kSpanStart for the span's first.

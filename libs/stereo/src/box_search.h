@@ -50,9 +50,13 @@ std::vector<WideBoxNode> collapseFourWide(const scene::BoxHierarchy& boxes);
 // nearest triangle there, as the full render does: every triangle whose box, corners and
 // projection may reach the spans is scan-converted with the depth test, nearest boxes first, and
 // once no pixel is left empty a box wholly behind the farthest pixel drawn is skipped with its
-// subtree. The walk goes over fill.wideBoxes, four boxes tested at a time. Adds its counts to
-// *stats (boxNodesTested counts boxes). Preconditions: fill.boxCorners and fill.wideBoxes are
-// filled (buildFillScene).
+// subtree. The walk goes over fill.wideBoxes, four boxes tested at a time. Beyond the paper, spans
+// of at most kFillRayPixels pixels are walked along the rays through their samples: a box is
+// entered where a ray widened by 1/16 pixel at the box's depth passes through it (tighter than
+// the frustum's plane tests, which pass boxes beside a thin frustum), and the hidden test takes
+// the nearest point where a ray enters it rather than its nearest corner. Adds its counts to
+// *stats (boxNodesTested counts boxes, rayPieces the walks along rays). Preconditions:
+// fill.boxCorners and fill.wideBoxes are filled (buildFillScene).
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const raster::PixelSpan> spans,
                         FillStats* stats);
 

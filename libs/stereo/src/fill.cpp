@@ -376,6 +376,7 @@ void addStats(const FillStats& a, FillStats* sum) {
     sum->boxNodesTested += a.boxNodesTested;
     sum->polygonsTested += a.polygonsTested;
     sum->polygonsDrawn += a.polygonsDrawn;
+    sum->rayPieces += a.rayPieces;
 }
 
 // The pieces of a hole larger than a tile: its segments cut at tile columns and grouped by tile,

@@ -390,6 +390,84 @@ struct MovedSecondEye {
     }
 };
 
+// Confetti (small triangles in a plane, apart) before thin rods and a wall: most holes are slivers
+// of a few pixels beside the confetti, which the box search walks along their samples' rays, the
+// rest by their frustums. Every disocclusion pixel (drawn or empty) equals the full render's, the
+// rods' too, and the BSP search, which walks no rays, fills the same frame.
+TEST(Fill, SmallPiecesSearchedAlongTheirRaysGetTheFullRendersPolygons) {
+    scene::Scene s;
+    scene::Mesh wall, confetti, rods;
+    Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    scene::appendQuad(&wall, {-3, -2, -6}, {6, 0, 0}, {0, 4, 0}, uv);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> jitter(-0.05f, 0.05f), x(-2.5f, 2.5f), z(-5.0f, -3.0f);
+    // A triangle of about 0.1 (five pixels) every 0.25 in the plane z = -2.
+    for (int i = 0; i < 14; ++i) {
+        for (int j = 0; j < 10; ++j) {
+            const Vec3 c(-1.6f + 0.25f * float(i), -1.1f + 0.25f * float(j), -2.0f);
+            for (Vec3 corner :
+                 {Vec3(-0.05f, -0.05f, 0), Vec3(0.05f, -0.04f, 0), Vec3(0, 0.05f, 0)}) {
+                confetti.positions.push_back(c + corner + Vec3(jitter(rng), jitter(rng), 0));
+                confetti.normals.push_back({0, 0, 1});
+                confetti.indices.push_back(uint32_t(confetti.positions.size() - 1));
+            }
+        }
+    }
+    // Rods of one to four pixels' width at their depths: narrower ones, which the first eye's
+    // samples may miss, can show in a hole in front of every pixel around it, where the fill's
+    // front bound (Fu section 3) does not look.
+    for (int i = 0; i < 16; ++i)
+        scene::appendCylinder(&rods, {x(rng), -2, z(rng)}, 0.02f + 0.008f * float(i % 4), 4, 6);
+    confetti.materialIndex = 1;
+    rods.materialIndex = 2;
+    s.meshes = {wall, confetti, rods};
+    s.materials = {{"wall", {0.6f, 0.6f, 0.7f, 1}, -1},
+                   {"confetti", {0.9f, 0.4f, 0.2f, 1}, -1},
+                   {"rods", {0.2f, 0.8f, 0.3f, 1}, -1}};
+    ASSERT_TRUE(s.finalize().isOk());
+    const uint32_t firstRodId = uint32_t(s.firstTriangle(2)) + 1;
+    const FillScene boxes = *buildFillScene(s), both = *buildFillScene(s, FillSearch::kBspOrder);
+    auto r = std::move(raster::Renderer::create({1})).value();
+    for (StereoRigDesc desc : allRigs(0.15f)) {
+        StereoRig rig = *StereoRig::create(lookAt({0, 0, 0}, {0, 0, -1}, 200, 150), desc);
+        raster::FrameBuffers first, full;
+        first.resize(200, 150);
+        full.resize(200, 150);
+        r->render(s, rig.first(), {}, first.targets());
+        r->render(s, rig.second(), {}, full.targets());
+        MovedSecondEye a(s, rig, first), b(s, rig, first);
+        FillScratch scratch;
+        const FillStats st =
+            fillHoles(s, boxes, rig.second(), {}, a.holes, a.targets(), a.classes.view(), &scratch);
+        FillOptions bsp;
+        bsp.search = FillSearch::kBspOrder;
+        fillHoles(s, both, rig.second(), bsp, b.holes, b.targets(), b.classes.view(), &scratch);
+        const std::string what = rigName(desc);
+        size_t pieces = 0;
+        for (const Hole& h : a.holes.holes) pieces += h.holeClass == HoleClass::kDisocclusion;
+        EXPECT_GT(st.rayPieces, 20u) << what;
+        EXPECT_LT(st.rayPieces, pieces) << what;  // larger holes walk their frustums
+        int64_t compared = 0, mismatches = 0, rodPixels = 0;
+        for (size_t i = 0; i < a.classes.pixelCount(); ++i) {
+            const uint8_t c = a.classes.data()[i];
+            if (c != uint8_t(PixelSource::kDisocclusion) &&
+                c != uint8_t(PixelSource::kDisocclusionEmpty))
+                continue;
+            ++compared;
+            rodPixels += full.id.data()[i] >= firstRodId;
+            mismatches += a.eye.id.data()[i] != full.id.data()[i] ||
+                          !(a.eye.color.data()[i] == full.color.data()[i]) ||
+                          a.eye.depth.data()[i] != full.depth.data()[i];
+        }
+        EXPECT_GT(compared, 300) << what;
+        EXPECT_GT(rodPixels, 5) << what;
+        EXPECT_EQ(mismatches, 0) << what;
+        EXPECT_TRUE(a.eye.color == b.eye.color) << what;
+        EXPECT_TRUE(a.eye.id == b.eye.id) << what;
+        EXPECT_TRUE(a.classes == b.classes) << what;
+    }
+}
+
 // Expansion holes by evaluation or interpolation: both fill every hole pixel; evaluation gives
 // the polygon's exact colour, so it is at least as close to the full render. Either fill without
 // a hole mask or class image draws the same pixels and counts the same.

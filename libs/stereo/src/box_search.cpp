@@ -31,8 +31,22 @@ constexpr float kFrontSlack = 1.0f / 64.0f;
 // sqrt 2 / 512 = 1/362 pixel; 1/16 leaves the float rounding of the tests a wide margin.
 constexpr float kRayMarginPx = 1.0f / 16.0f;
 
-// The rays through the samples of a piece of at most kFillRayPixels pixels (box_search.h). A ray's
-// parameter is clip w.
+// The direction of the ray from the eye through pixel point (x, y) (pixel centres at +0.5) that
+// advances clip w by 1 per unit, so that a ray's parameter is clip w; not finite when the camera
+// gives no such direction.
+Vec3 directionThrough(const Camera& camera, float x, float y) {
+    const Mat4& m = camera.clipFromWorld();
+    auto row = [&m](int i) { return Vec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
+    const Vec4 rowW = row(3);
+    // The planes through the eye and the point's column and row (RectFrustum's sides).
+    const float ax = 2.0f * x / float(camera.width()) - 1.0f;
+    const float by = 1.0f - 2.0f * y / float(camera.height());
+    const Vec4 column = row(0) - ax * rowW, line = row(1) - by * rowW;
+    const Vec3 dir = cross(Vec3(column), Vec3(line));
+    return dir / dot(Vec3(rowW), dir);
+}
+
+// The rays through the samples of a piece of at most kFillRayPixels pixels (box_search.h).
 struct SampleRays {
     static constexpr int kMax = kFillRayPixels;
     Vec3 origin;  // the eye
@@ -63,17 +77,8 @@ struct SampleRays {
 
 private:
     static bool addRay(const Camera& camera, int x, int y, SampleRays* out) {
-        const Mat4& m = camera.clipFromWorld();
-        auto row = [&m](int i) { return Vec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
-        const Vec4 rowW = row(3);
-        // The planes through the eye and the sample's column and row (RectFrustum's sides).
-        const float ax = 2.0f * (float(x) + 0.5f) / float(camera.width()) - 1.0f;
-        const float by = 1.0f - 2.0f * (float(y) + 0.5f) / float(camera.height());
-        const Vec4 column = row(0) - ax * rowW, line = row(1) - by * rowW;
-        Vec3 dir = cross(Vec3(column), Vec3(line));
-        const float perUnit = dot(Vec3(rowW), dir);
-        if (!(std::fabs(perUnit) > 0.0f) || !std::isfinite(perUnit)) return false;
-        dir /= perUnit;
+        const Vec3 dir = directionThrough(camera, float(x) + 0.5f, float(y) + 0.5f);
+        if (!std::isfinite(dir.x) || !std::isfinite(dir.y) || !std::isfinite(dir.z)) return false;
         // A zero component stands in as a tiny one, so that the slab test forms no 0 * inf.
         auto inverse = [](float d) {
             constexpr float kTiny = std::numeric_limits<float>::min();
@@ -83,6 +88,39 @@ private:
         if (!std::isfinite(inv.x) || !std::isfinite(inv.y) || !std::isfinite(inv.z)) return false;
         out->invDir[size_t(out->count++)] = inv;
         return true;
+    }
+};
+
+// Beyond the paper: the rays through a larger piece's rectangle as one bundle, bounded per axis
+// by the rays through its corners (interval arithmetic; a direction normalised to advance clip w
+// by 1 is affine in the pixel point, so each component lies between its values at the corners).
+// A box is entered only where some direction of the bounds reaches it on every axis, at a clip w
+// no smaller than the least of its slabs' bounds: a test the plane tests do not make along the
+// depth, and a lower bound on the box's depth inside the rectangle, often far beyond its nearest
+// corner, for the hidden test. The corners lie half a pixel beyond the outer samples, which
+// covers the rasterizer's snapping (1/362 pixel).
+struct RayBundle {
+    // Per axis, 1 / the smallest and 1 / the largest direction component; an axis on which the
+    // components change sign, or are not finite, gives no bound (bounded false).
+    std::array<float, 3> invLow{}, invHigh{};
+    std::array<bool, 3> bounded{};
+
+    static RayBundle of(const Camera& camera, const scene::PixelRect& rect) {
+        Vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo);
+        for (int x : {rect.x0, rect.x1})
+            for (int y : {rect.y0, rect.y1}) {
+                const Vec3 d = directionThrough(camera, float(x), float(y));
+                lo = min(lo, d);
+                hi = max(hi, d);
+            }
+        RayBundle b;
+        for (int a = 0; a < 3; ++a) {
+            b.bounded[size_t(a)] =
+                std::isfinite(lo[a]) && std::isfinite(hi[a]) && (lo[a] > 0.0f || hi[a] < 0.0f);
+            b.invLow[size_t(a)] = 1.0f / lo[a];
+            b.invHigh[size_t(a)] = 1.0f / hi[a];
+        }
+        return b;
     }
 };
 
@@ -105,6 +143,7 @@ public:
                                                    : scene::RectFrustum::kPlanes;
         mRayMode = SampleRays::make(frame.camera, spans, &mRays);
         mStats->rayPieces += mRayMode;
+        if (!mRayMode) mBundle = RayBundle::of(frame.camera, mRect);
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
         for (size_t i = 0; i < mPlaneCount; ++i)
             mLanePlanes[i] = LanePlane(mFrustum.planes()[i], true);
@@ -200,9 +239,27 @@ private:
         if (mFront.frontW() != 0.0f)
             pass = _mm_and_ps(
                 pass, _mm_cmpnlt_ps(mFrontPlane.atCorners(n), _mm_set1_ps(mFront.frontW())));
-        _mm_storeu_ps(out.nearW.data(), mNearestW.atCorners(n));
-        out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
         const Vec3 eye = mFrame.camera.eyePos();
+        // The bundle's slabs (bundleSlabs).
+        __m128 entry = _mm_set1_ps(mNearPlane);
+        __m128 exit = _mm_set1_ps(std::numeric_limits<float>::infinity());
+        const std::array<const std::array<float, 4>*, 3> boxLo{&n.loX, &n.loY, &n.loZ},
+            boxHi{&n.hiX, &n.hiY, &n.hiZ};
+        for (size_t a = 0; a < 3; ++a) {
+            if (!mBundle.bounded[a]) continue;
+            const __m128 e = _mm_set1_ps(eye[int(a)]);
+            const __m128 l = _mm_sub_ps(_mm_loadu_ps(boxLo[a]->data()), e);
+            const __m128 h = _mm_sub_ps(_mm_loadu_ps(boxHi[a]->data()), e);
+            const __m128 invLow = _mm_set1_ps(mBundle.invLow[a]);
+            const __m128 invHigh = _mm_set1_ps(mBundle.invHigh[a]);
+            const __m128 l0 = _mm_mul_ps(l, invLow), l1 = _mm_mul_ps(l, invHigh);
+            const __m128 h0 = _mm_mul_ps(h, invLow), h1 = _mm_mul_ps(h, invHigh);
+            entry = _mm_max_ps(entry, _mm_min_ps(_mm_min_ps(l0, l1), _mm_min_ps(h0, h1)));
+            exit = _mm_min_ps(exit, _mm_max_ps(_mm_max_ps(l0, l1), _mm_max_ps(h0, h1)));
+        }
+        pass = _mm_and_ps(pass, _mm_cmple_ps(entry, exit));
+        _mm_storeu_ps(out.nearW.data(), _mm_max_ps(mNearestW.atCorners(n), entry));
+        out.pass = uint32_t(_mm_movemask_ps(pass)) & ((1u << n.lanes) - 1u);
         auto fromEye = [half = _mm_set1_ps(0.5f)](const std::array<float, 4>& lo,
                                                   const std::array<float, 4>& hi, float e) {
             const __m128 centre =
@@ -226,8 +283,10 @@ private:
                     out.pass |= 1u << k;
                 continue;
             }
-            out.nearW[size_t(k)] = nearestW(box);
-            if (mFrustum.mayCoverBox(box, mPlaneCount) && !mFront.inFront(box)) out.pass |= 1u << k;
+            const auto [entry, exit] = bundleSlabs(box);
+            out.nearW[size_t(k)] = std::max(nearestW(box), entry);
+            if (mFrustum.mayCoverBox(box, mPlaneCount) && !mFront.inFront(box) && entry <= exit)
+                out.pass |= 1u << k;
             const Vec3 d = box.center() - eye;
             out.order[size_t(k)] = d.x * d.x + d.y * d.y + d.z * d.z;
         }
@@ -437,6 +496,21 @@ private:
         }
         return nearest;
     }
+    // The clip w (at least the near plane's) from which the bundle may reach the box on every
+    // bounded axis, and up to which it may: it misses the box when the first exceeds the second.
+    std::pair<float, float> bundleSlabs(const Aabb& b) const {
+        const Vec3 eye = mFrame.camera.eyePos();
+        float entry = mNearPlane, exit = std::numeric_limits<float>::infinity();
+        for (size_t a = 0; a < 3; ++a) {
+            if (!mBundle.bounded[a]) continue;
+            const float l = b.lo[int(a)] - eye[int(a)], h = b.hi[int(a)] - eye[int(a)];
+            const float l0 = l * mBundle.invLow[a], l1 = l * mBundle.invHigh[a];
+            const float h0 = h * mBundle.invLow[a], h1 = h * mBundle.invHigh[a];
+            entry = std::max(entry, std::min(std::min(l0, l1), std::min(h0, h1)));
+            exit = std::min(exit, std::max(std::max(l0, l1), std::max(h0, h1)));
+        }
+        return {entry, exit};
+    }
     static scene::PixelRect rectOf(std::span<const PixelSpan> spans) {
         scene::PixelRect r{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
                            std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
@@ -465,6 +539,7 @@ private:
     Vec4 mRowW;
     bool mRayMode = false;  // a piece of at most SampleRays::kMax pixels, searched along mRays
     SampleRays mRays{};
+    RayBundle mBundle{};  // the rectangle's rays, for a piece not in mRayMode
     FrontBound mFront;
     // The first pixel not yet seen filled, in span order: (span index, column), the column
     // kSpanStart for the span's first.

@@ -54,7 +54,9 @@ std::vector<WideBoxNode> collapseFourWide(const scene::BoxHierarchy& boxes);
 // of at most kFillRayPixels pixels are walked along the rays through their samples: a box is
 // entered where a ray widened by 1/16 pixel at the box's depth passes through it (tighter than
 // the frustum's plane tests, which pass boxes beside a thin frustum), and the hidden test takes
-// the nearest point where a ray enters it rather than its nearest corner. Adds its counts to
+// the nearest point where a ray enters it rather than its nearest corner; larger spans test boxes
+// against the bundle of their rectangle's rays too, and the hidden test takes the larger of the
+// box's nearest corner and the bundle's entry. Adds its counts to
 // *stats (boxNodesTested counts boxes, rayPieces the walks along rays). Preconditions:
 // fill.boxCorners and fill.wideBoxes are filled (buildFillScene).
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const raster::PixelSpan> spans,

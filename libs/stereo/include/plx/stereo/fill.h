@@ -64,7 +64,9 @@
 // 4.1x (1M) faster, with the same pixels (docs/stereo-results.md, reprojection section).
 // A piece of at most kFillRayPixels pixels is walked along the rays through its samples instead
 // of its frustum (box_search.h): a box is entered where a ray, widened by a fraction of a pixel,
-// passes through it, and its depth for the bound is where the first ray enters it.
+// passes through it, and its depth for the bound is where the first ray enters it. A larger
+// piece's boxes also meet the bundle of its rectangle's rays (bounds on their directions per
+// axis), which rejects boxes the plane tests pass and bounds a box's depth inside the rectangle.
 // FillSearch::kBspOrder keeps the paper's search for comparison.
 // Result: a disocclusion pixel equals the full render's wherever the nearest polygon there is
 // in the tree (degenerate triangles are not) and, for the BSP search, the BSP order is exact

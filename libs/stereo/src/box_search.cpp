@@ -49,7 +49,6 @@ Vec3 directionThrough(const Camera& camera, float x, float y) {
 // The rays through the samples of a piece of at most kFillRayPixels pixels (box_search.h).
 struct SampleRays {
     static constexpr int kMax = kFillRayPixels;
-    Vec3 origin;  // the eye
     // Per ray and axis, 1 / the direction that advances clip w by 1 per unit.
     std::array<Vec3, kMax> invDir;
     int count = 0;
@@ -64,7 +63,6 @@ struct SampleRays {
         for (const PixelSpan& p : spans)
             for (int x = p.x0; x <= p.x1; ++x)
                 if (!addRay(camera, x, p.y, out)) return false;
-        out->origin = camera.eyePos();
         // One pixel spans 2 w / (W m00) across and 2 w / (H m11) down in view space (w is minus
         // the view z for Camera's glm::perspective); a square of half-side r lies within
         // r sqrt 2 of its centre, whatever the axes.
@@ -308,9 +306,10 @@ private:
             *high = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(hi.data()), widen), _mm_set1_ps(o));
         };
         __m128 lx, hx, ly, hy, lz, hz;
-        sides(n.loX, n.hiX, mRays.origin.x, &lx, &hx);
-        sides(n.loY, n.hiY, mRays.origin.y, &ly, &hy);
-        sides(n.loZ, n.hiZ, mRays.origin.z, &lz, &hz);
+        const Vec3 eye = mFrame.camera.eyePos();
+        sides(n.loX, n.hiX, eye.x, &lx, &hx);
+        sides(n.loY, n.hiY, eye.y, &ly, &hy);
+        sides(n.loZ, n.hiZ, eye.z, &lz, &hz);
         const __m128 infinity = _mm_set1_ps(std::numeric_limits<float>::infinity());
         __m128 nearest = infinity;
         for (int r = 0; r < mRays.count; ++r) {
@@ -465,24 +464,26 @@ private:
     float clipW(const Vec3& p) const {
         return mRowW.x * p.x + mRowW.y * p.y + mRowW.z * p.z + mRowW.w;
     }
-    // Smallest clip w over a box: the corner minimising the linear function.
+    // Smallest (or largest) clip w over a box: the corner minimising (or maximising) the linear
+    // function, in LanePlane::atCorners' order.
     float nearestW(const Aabb& b) const {
-        return mRowW.x * (mRowW.x >= 0.0f ? b.lo.x : b.hi.x) +
-               mRowW.y * (mRowW.y >= 0.0f ? b.lo.y : b.hi.y) +
-               mRowW.z * (mRowW.z >= 0.0f ? b.lo.z : b.hi.z) + mRowW.w;
+        return cornerW(b, false);
     }
-    // Largest clip w over a box (FrontBound's far corner), in LanePlane::atCorners' order.
     float farthestW(const Aabb& b) const {
-        return mRowW.x * (mRowW.x >= 0.0f ? b.hi.x : b.lo.x) +
-               mRowW.y * (mRowW.y >= 0.0f ? b.hi.y : b.lo.y) +
-               mRowW.z * (mRowW.z >= 0.0f ? b.hi.z : b.lo.z) + mRowW.w;
+        return cornerW(b, true);
+    }
+    float cornerW(const Aabb& b, bool farthest) const {
+        return mRowW.x * ((mRowW.x >= 0.0f) != farthest ? b.lo.x : b.hi.x) +
+               mRowW.y * ((mRowW.y >= 0.0f) != farthest ? b.lo.y : b.hi.y) +
+               mRowW.z * ((mRowW.z >= 0.0f) != farthest ? b.lo.z : b.hi.z) + mRowW.w;
     }
     // The smallest clip w (at least the near plane's) where one of the samples' rays, widened
     // for the box, enters it; infinity when every ray misses it.
     float rayEntry(const Aabb& b) const {
         const float widen = std::max(farthestW(b), 0.0f) * mRays.widenPerW;
-        const Vec3 low = (b.lo - Vec3(widen)) - mRays.origin;
-        const Vec3 high = (b.hi + Vec3(widen)) - mRays.origin;
+        const Vec3 eye = mFrame.camera.eyePos();
+        const Vec3 low = (b.lo - Vec3(widen)) - eye;
+        const Vec3 high = (b.hi + Vec3(widen)) - eye;
         float nearest = std::numeric_limits<float>::infinity();
         for (int r = 0; r < mRays.count; ++r) {
             const Vec3& inv = mRays.invDir[size_t(r)];

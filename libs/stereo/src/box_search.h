@@ -56,9 +56,9 @@ std::vector<WideBoxNode> collapseFourWide(const scene::BoxHierarchy& boxes);
 // the frustum's plane tests, which pass boxes beside a thin frustum), and the hidden test takes
 // the nearest point where a ray enters it rather than its nearest corner; larger spans test boxes
 // against the bundle of their rectangle's rays too, and the hidden test takes the larger of the
-// box's nearest corner and the bundle's entry. Adds its counts to
-// *stats (boxNodesTested counts boxes, rayPieces the walks along rays). Preconditions:
-// fill.boxCorners and fill.wideBoxes are filled (buildFillScene).
+// box's nearest corner and the bundle's entry. Adds its counts to *stats (boxNodesTested counts
+// boxes, rayPieces the walks along rays). Preconditions: fill.boxCorners and fill.wideBoxes are
+// filled (buildFillScene).
 void searchBoxHierarchy(const BoxSearchFrame& frame, std::span<const raster::PixelSpan> spans,
                         FillStats* stats);
 

@@ -1,5 +1,3 @@
-#include <cmath>
-
 #include <fmt/format.h>
 
 #include <plx/scene/import.h>
@@ -13,7 +11,8 @@ void addViewOptions(CLI::App* app, ViewArgs* args) {
     app->add_option("--eye", args->eye, "Eye position x,y,z (overrides the viewpoint)");
     app->add_option("--target", args->target, "Point looked at x,y,z (with --eye)");
     app->add_option("--up", args->up, "Up direction x,y,z (with --eye)")->capture_default_str();
-    app->add_option("--fov", args->fovDegrees, "Vertical field of view in degrees");
+    app->add_option("--fov", args->fovDegrees, "Vertical field of view in degrees")
+        ->each([args](const std::string&) { args->fovGiven = true; });
     app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
 }
 
@@ -36,9 +35,8 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     scene::Viewpoint vp;
     if (args.eye.empty() && !args.target.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "--target needs --eye");
-    // Not given is NaN; any given value must be a usable angle (0 used to mean "default").
-    const bool fovGiven = !std::isnan(args.fovDegrees);
-    if (fovGiven && !(args.fovDegrees > 0.0f && args.fovDegrees < 180.0f))
+    // Any given value must be a usable angle (0 used to mean "default", NaN "not given").
+    if (args.fovGiven && !(args.fovDegrees > 0.0f && args.fovDegrees < 180.0f))
         return errorStatus(
             ErrorCode::kInvalidArgument,
             fmt::format("--fov {:g} must lie strictly between 0 and 180 degrees", args.fovDegrees));
@@ -62,7 +60,7 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
         if (!picked) return picked.status();
         vp = *picked;
     }
-    if (fovGiven) vp.fovYDegrees = args.fovDegrees;
+    if (args.fovGiven) vp.fovYDegrees = args.fovDegrees;
     auto cam = scene::cameraAt(scene, vp, size->x, size->y);
     if (!cam) return cam.status();
     return cam;

@@ -13,8 +13,8 @@ namespace plx::cli {
 struct ViewArgs {
     std::string size = "1280x720";
     std::string eye, target, up = "0,1,0";
-    float fovDegrees = kFovNotGiven;  // NaN: the viewpoint's own
-    static constexpr float kFovNotGiven = __builtin_nanf("");
+    float fovDegrees = 0.0f;  // read only when fovGiven; else the viewpoint's own
+    bool fovGiven = false;    // --fov was given (whatever its value, NaN included)
     std::string viewpoint;    // name or index
 };
 

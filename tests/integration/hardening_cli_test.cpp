@@ -180,6 +180,9 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax(render + " --fov 0"), "--fov 0 must lie strictly between", 2);
     expectOneLineError(runParallax(render + " --fov 180"), "--fov 180", 2);
     expectOneLineError(runParallax(render + " --fov -5"), "--fov -5", 2);
+    // Once read as "not given" and replaced by the viewpoint's own.
+    expectOneLineError(runParallax(render + " --fov nan"), "--fov nan must lie strictly between",
+                       2);
     expectOneLineError(runParallax(render + " --target 1,1,1"), "--target needs --eye", 2);
     expectOneLineError(runParallax(render + " --eye 1e38,1,1 --target 0,0,0"),
                        "camera eye (1e+38, 1, 1) is too far from the origin", 2);

@@ -26,6 +26,8 @@ struct PredistortBenchArgs {
 };
 
 int runPredistortBench(const PredistortBenchArgs& a) {
+    if (Status s = checkPredistortThresholds(a.thresholdsMm); !s)
+        return fail("--thresholds: " + s.message(), kExitUsage);
     auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
     std::error_code ec;

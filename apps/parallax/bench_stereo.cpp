@@ -49,9 +49,6 @@ int runStereoBench(const StereoBenchArgs& a) {
     for (int n : a.rooms)
         if (n < 1 || n > 4096)
             return fail(fmt::format("--rooms {} outside 1 .. 4096", n), kExitUsage);
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
     StereoExperimentConfig config;
     config.rooms = a.rooms;
     config.width = size->x;
@@ -62,6 +59,13 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.rig.convergence = a.convergence;
     config.conservative = !a.noConservative;
     config.reproject = !a.noReproject;
+    // The rig's numbers are usage, checked as `parallax stereo` checks them (a throwaway camera)
+    // before any scene is built or folder made.
+    if (auto probe = StereoRig::create(*Camera::create({}), config.rig); !probe)
+        return fail(probe.status().message(), kExitUsage);
+    std::error_code ec;
+    std::filesystem::create_directories(a.out, ec);
+    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
     Progress progress("bench stereo", a.rooms.size());
     auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return fail(rows.status());

@@ -44,16 +44,23 @@ nlohmann::json adaptiveJson(const AdaptiveGridResult& g) {
 
 }  // namespace
 
+Status checkPredistortThresholds(const std::vector<double>& thresholdsMm) {
+    if (thresholdsMm.empty())
+        return errorStatus(ErrorCode::kInvalidArgument, "no error thresholds given");
+    for (double t : thresholdsMm)
+        if (!std::isfinite(t) || t <= 0.0)
+            return errorStatus(
+                ErrorCode::kInvalidArgument,
+                fmt::format("error threshold {:g} mm must be a finite number > 0", t));
+    return Status::ok();
+}
+
 Result<PredistortExperiment> runPredistortExperiment(const display::Display& display,
                                                      const display::DVec3& viewerMm,
                                                      const scene::Scene& sceneMm,
                                                      const PredistortExperimentConfig& config) {
     using namespace display;
-    if (config.thresholdsMm.empty())
-        return errorStatus(ErrorCode::kInvalidArgument, "no error thresholds given");
-    for (double t : config.thresholdsMm)
-        if (!std::isfinite(t) || t <= 0.0)
-            return errorStatus(ErrorCode::kInvalidArgument, "thresholds must be positive");
+    PLX_RETURN_IF_ERROR(checkPredistortThresholds(config.thresholdsMm));
     if (config.repetitions < 1 || config.repetitions > 1000)
         return errorStatus(ErrorCode::kInvalidArgument, "repetitions must lie in [1, 1000]");
     Display viewed = display;

@@ -61,8 +61,12 @@ struct PredistortExperiment {
     std::vector<PredistortExperimentRow> rows;
 };
 
-// Runs the experiment for one viewer on a scene in display millimetres. Errors: empty or
-// non-positive thresholds, repetitions outside [1, 1000], an invalid display or viewer.
+// kInvalidArgument naming the first error threshold that is not a finite number > 0 mm, or
+// for none given.
+Status checkPredistortThresholds(const std::vector<double>& thresholdsMm);
+
+// Runs the experiment for one viewer on a scene in display millimetres. Errors: those of
+// checkPredistortThresholds, repetitions outside [1, 1000], an invalid display or viewer.
 Result<PredistortExperiment> runPredistortExperiment(const display::Display& display,
                                                      const display::DVec3& viewerMm,
                                                      const scene::Scene& sceneMm,

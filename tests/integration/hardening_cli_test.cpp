@@ -3,6 +3,7 @@
 // Each case was observed before the fix; the files are written here, in a scratch folder.
 
 #include <cstring>
+#include <utility>
 
 #include <sys/stat.h>
 
@@ -188,6 +189,16 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
                        "camera eye (1e+38, 1, 1) is too far from the origin", 2);
     const std::string stereo = "stereo office:1 --size 32x24 --out " + (hardDir() / "s").string();
     expectOneLineError(runParallax(stereo + " --walk 0"), "--walk 0 outside 1 .. 100000", 2);
+    // The experiments' numbers are usage too (exit status 2), named in the message.
+    const std::pair<std::string, std::string> benchErrors[] = {
+        {"stereo --separation nan", "eye separation nan must be a finite number >= 0"},
+        {"stereo --convergence 0", "convergence distance 0 must be a finite number > 0"},
+        {"predistort --thresholds 4,nan",
+         "--thresholds: error threshold nan mm must be a finite number > 0"},
+    };
+    for (const auto& [args, message] : benchErrors)
+        expectOneLineError(runParallax("bench " + args + " --out " + (hardDir() / "b").string()),
+                           message, 2);
     // Once "PSNR 99 dB" and blank images: the eyes, 5e29 to each side, are refused up front.
     expectOneLineError(runParallax(stereo + " --separation 1e30"), "too far from the origin", 2);
     // Within float range but looking past the scene: refused after the first eye.

@@ -221,7 +221,8 @@ TEST(PredistortExperiment, RejectsBadThresholds) {
     config.thresholdsMm = {1.0, -2.0};
     auto e = runPredistortExperiment(d, d.defaultViewerMm, content, config);
     ASSERT_FALSE(e.isOk());
-    EXPECT_NE(e.status().message().find("thresholds"), std::string::npos);
+    EXPECT_NE(e.status().message().find("error threshold -2 mm"), std::string::npos)
+        << e.status().message();
 }
 
 WarpExperimentConfig tinyWarpConfig() {

@@ -59,10 +59,7 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.rig.convergence = a.convergence;
     config.conservative = !a.noConservative;
     config.reproject = !a.noReproject;
-    // The rig's numbers are usage, checked as `parallax stereo` checks them (a throwaway camera)
-    // before any scene is built or folder made.
-    if (auto probe = StereoRig::create(*Camera::create({}), config.rig); !probe)
-        return fail(probe.status().message(), kExitUsage);
+    if (Status s = checkStereoRigNumbers(config.rig); !s) return fail(s.message(), kExitUsage);
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));

@@ -82,6 +82,10 @@ Result<Vec3> parseVec3(const std::string& text) {
     return out;
 }
 
+Status checkStereoRigNumbers(const StereoRigDesc& rig) {
+    auto probe = StereoRig::create(*Camera::create({}), rig);
+    return probe ? Status::ok() : probe.status();
+}
 
 void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }
 

@@ -13,6 +13,7 @@
 
 #include <plx/core/core.h>
 #include <plx/core/image_io.h>
+#include <plx/core/stereo_rig.h>
 
 namespace plx::cli {
 
@@ -52,6 +53,10 @@ int fail(const Status& status);
 // "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
 Result<Vec3> parseVec3(const std::string& text);
 inline Result<IVec2> parseSize(const std::string& text) { return parseImageSize(text); }
+
+// A stereo rig's numbers (separation, convergence) checked as usage, before any scene is loaded:
+// the rig built around a throwaway default camera, whose errors name the bad number.
+Status checkStereoRigNumbers(const StereoRigDesc& rig);
 
 // Bytes of a size given in MiB on the command line (--budget 1.5).
 inline uint64_t mebibytes(double mb) { return uint64_t(std::llround(mb * double(1 << 20))); }

@@ -99,9 +99,7 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     p.rig.convergence = a.convergence;
     p.rig.firstEye = a.firstEye == "left" ? Eye::kLeft : Eye::kRight;
     p.layout = *layout;
-    // Validate the rig numbers now, with a throwaway camera.
-    auto probe = StereoRig::create(*Camera::create({}), p.rig);
-    if (!probe) return probe.status();
+    PLX_RETURN_IF_ERROR(checkStereoRigNumbers(p.rig));
     return p;
 }
 

@@ -35,7 +35,7 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     scene::Viewpoint vp;
     if (args.eye.empty() && !args.target.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "--target needs --eye");
-    // Any given value must be a usable angle (0 used to mean "default", NaN "not given").
+    // A given value must be a usable angle, whatever it is (0 and NaN included).
     if (args.fovGiven && !(args.fovDegrees > 0.0f && args.fovDegrees < 180.0f))
         return errorStatus(
             ErrorCode::kInvalidArgument,

@@ -75,7 +75,7 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("serve office:1 --latency -5 --port 0"), "latency", 2);
     expectOneLineError(runParallax("serve office:1 --max-sessions 0 --port 0"), "max sessions", 2);
     expectOneLineError(runParallax("serve office:1 --prediction magic --port 0"), "magic", 2);
-    expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1");
+    expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1", 2);
     expectOneLineError(runParallax("serve no-such-scene.glb --port 0"), "no-such-scene.glb");
     expectOneLineError(runParallax("client http://127.0.0.1:1 --walk 3 --scene office:1"), "ws://",
                        2);

@@ -41,6 +41,7 @@ Vec3 predictEye(const Vec3& eye, const Vec3& velocity, double leadMs) {
 Status checkServerConfig(const ServerConfig& c) {
     auto bad = [](const std::string& m) { return errorStatus(ErrorCode::kInvalidArgument, m); };
     if (c.port < 0 || c.port > 65535) return bad(fmt::format("port {} outside 0..65535", c.port));
+    PLX_RETURN_IF_ERROR(checkBindAddress(c.bind));
     if (c.token.size() > size_t(kMaxTokenBytes))
         return bad(fmt::format("token longer than {} bytes", kMaxTokenBytes));
     if (c.reference.faceSize < kMinFaceSize || c.reference.faceSize > kMaxFaceSize)

@@ -69,6 +69,15 @@ private:
     Clock::time_point mWireFree{}, mLastRelease{};
 };
 
+Result<asio::ip::address> parseBindAddress(const std::string& bind) {
+    ErrorCodeB ec;
+    asio::ip::address address = asio::ip::make_address(bind, ec);
+    if (ec)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("bind address '{}' is not an IP address", bind));
+    return address;
+}
+
 Status fromBoost(const ErrorCodeB& ec, const char* what) {
     if (!ec || ec == websocket::error::closed) return Status::ok();
     return errorStatus(ErrorCode::kIoError, fmt::format("{}: {}", what, ec.message()));
@@ -371,6 +380,10 @@ private:
 
 }  // namespace
 
+Status checkBindAddress(const std::string& bind) {
+    return parseBindAddress(bind).status();
+}
+
 struct Transport::Impl {
     std::unique_ptr<asio::io_context> io = std::make_unique<asio::io_context>(1);
     asio::executor_work_guard<asio::io_context::executor_type> work{io->get_executor()};
@@ -415,11 +428,9 @@ Result<int> Transport::listen(const std::string& bind, int port, const Connectio
                               AcceptHandler onAccept) {
     if (port < 0 || port > 65535)
         return errorStatus(ErrorCode::kInvalidArgument, fmt::format("port {} out of range", port));
-    ErrorCodeB ec;
-    asio::ip::address address = asio::ip::make_address(bind, ec);
-    if (ec)
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("bind address '{}' is not an IP address", bind));
+    auto parsed = parseBindAddress(bind);
+    if (!parsed) return parsed.status();
+    const asio::ip::address address = *parsed;
     std::promise<Result<int>> bound;
     asio::post(*mImpl->io, [&] {
         Impl& m = *mImpl;

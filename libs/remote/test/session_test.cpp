@@ -605,6 +605,9 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     ServerConfig c = smallServer();
     c.bind = "not-an-address";
     EXPECT_FALSE(Server::create(*scene::generateFromSpec("office:1"), c).isOk());
+    EXPECT_FALSE(checkServerConfig(c).isOk());  // refused before anything is started
+    EXPECT_TRUE(checkBindAddress("::1").isOk());
+    EXPECT_FALSE(checkBindAddress("300.1.1.1").isOk());
     c = smallServer();
     c.link.latencyMs = -1.0;
     EXPECT_FALSE(checkServerConfig(c).isOk());

@@ -34,6 +34,10 @@ struct LinkEmulation {
 };
 Status checkLinkEmulation(const LinkEmulation& link);
 
+// Whether `bind` is an IPv4 or IPv6 address a listener can bind (Transport::listen); the error
+// names it.
+Status checkBindAddress(const std::string& bind);
+
 // A file a listener serves to plain HTTP GET requests on its port: the browser page.
 struct HttpFile {
     std::span<const uint8_t> bytes;  // must outlive the listener (embedded assets do)

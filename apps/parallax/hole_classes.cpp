@@ -8,8 +8,11 @@ namespace plx::cli {
 Image<Rgba8> holeClassImage(const Image<Rgba8>& secondEye, const Image<uint8_t>& holeClass) {
     PLX_CHECK(secondEye.width() == holeClass.width() && secondEye.height() == holeClass.height());
     // Indexed by PixelSource; saturated colours stay readable over the dimmed image.
-    constexpr Rgba8 kColours[] = {
-        {0, 0, 0, 255}, {255, 220, 0, 255}, {0, 200, 255, 255}, {255, 0, 0, 255}};
+    constexpr Rgba8 kColours[] = {{0, 0, 0, 255},
+                                  {255, 220, 0, 255},
+                                  {0, 200, 255, 255},
+                                  {255, 0, 0, 255},
+                                  {255, 0, 255, 255}};
     Image<Rgba8> out(secondEye.width(), secondEye.height());
     for (size_t i = 0; i < out.pixelCount(); ++i) {
         const uint8_t source = holeClass.data()[i];

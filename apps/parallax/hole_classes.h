@@ -12,7 +12,8 @@ namespace plx::cli {
 // The colours of holeClassImage, for legends in --help, the demo and the docs.
 inline constexpr const char* kHoleClassLegend =
     "reprojected pixels dimmed; expansion holes yellow, disocclusion holes cyan, disocclusion "
-    "holes no polygon covers red";
+    "holes no polygon covers red, reprojected pixels hidden by what the first eye could not see "
+    "magenta";
 
 // The second eye dimmed to a third where its pixels were reprojected, and the holes painted in
 // their class's colour (kHoleClassLegend). Precondition: both images have the same size.

@@ -237,7 +237,9 @@ nlohmann::json holeJson(const stereo::StereoFrameStats& st, int pixels) {
             {"disocclusion_holes", st.disocclusionHoles},
             {"fill_nodes_visited", st.fillNodesVisited},
             {"fill_polygons_tested", st.fillPolygonsTested},
-            {"fill_polygons_drawn", st.fillPolygonsDrawn}};
+            {"fill_polygons_drawn", st.fillPolygonsDrawn},
+            {"unseen_pixels", st.unseenPixels},
+            {"unseen_triangles", st.unseenTriangles}};
 }
 
 // Medians over poses of each pose's values.

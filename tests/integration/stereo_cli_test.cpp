@@ -55,7 +55,7 @@ TEST(StereoCli, ReprojectPairJsonHasHolesAndQuality) {
     for (const char* key :
          {"hole_pixels", "expansion_holes", "disocclusion_holes", "fill_polygons_tested",
           "fill_polygons_drawn", "reproject_ms", "fill_ms", "identical_fraction", "frames",
-          "prepare_ms", "second_eye_psnr_db"})
+          "prepare_ms", "second_eye_psnr_db", "unseen_pixels", "unseen_triangles"})
         EXPECT_TRUE(doc.contains(key)) << key;
     EXPECT_EQ(doc["method"], "reproject");
     EXPECT_EQ(doc["frames"], 2);

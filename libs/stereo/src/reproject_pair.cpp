@@ -149,6 +149,11 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     fillOptions.surroundingFirst = options.reprojectSurroundingFirst;
     FillStats filled = fillHoles(scene, mFill, rig.second(), fillOptions, mHoles, to, classes,
                                  &mFillScratch, &mPool);
+    // Beyond the paper: geometry outside the first eye's view hides some landed pixels.
+    raster::RenderTargets secondOut = second;
+    if (!secondHasPlanes) secondOut.depth = {}, secondOut.id = {};
+    UnseenStats unseen = drawUnseenOccluders(scene, mFill, cam, rig.second(), line, firstOptions,
+                                             secondOut, classes, &mUnseenScratch);
     stats->fillMs = clock.elapsedMs();
 
     stats->secondEyeMs = stats->reprojectMs + stats->fillMs;
@@ -161,6 +166,8 @@ void ReprojectPair::render(raster::Renderer& renderer, const scene::Scene& scene
     stats->fillPolygonsTested = filled.polygonsTested;
     stats->fillPolygonsDrawn = filled.polygonsDrawn;
     stats->secondEyeTriangles = filled.polygonsDrawn;
+    stats->unseenPixels = unseen.pixels;
+    stats->unseenTriangles = unseen.trianglesDrawn;
 }
 
 }  // namespace plx::stereo

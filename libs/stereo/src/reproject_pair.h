@@ -11,6 +11,7 @@
 #include <plx/stereo/holes.h>
 #include <plx/stereo/reproject.h>
 #include <plx/stereo/stereo.h>
+#include <plx/stereo/unseen.h>
 
 namespace plx::stereo {
 
@@ -26,8 +27,8 @@ public:
     bool preparedFor(const scene::Scene& scene, FillSearch search) const;
 
     // Renders the pair: first eye with depth and IDs, reprojection, holes found, classified and
-    // filled. Precondition: preparedFor(scene, options.fillSearch); frame's eyes sized by the
-    // caller.
+    // filled, then what the first eye could not see drawn over them (unseen.h). Precondition:
+    // preparedFor(scene, options.fillSearch); frame's eyes sized by the caller.
     void render(raster::Renderer& renderer, const scene::Scene& scene, const StereoRig& rig,
                 const StereoOptions& options, StereoFrame* frame, StereoFrameStats* stats);
 
@@ -52,6 +53,7 @@ private:
     HoleScratch mHoleScratch;
     HoleSet mHoles;
     FillScratch mFillScratch;
+    UnseenScratch mUnseenScratch;
     std::optional<OffsetLut> mLut;
     DisparityLine mLutLine;
     float mLutMaxInvW = 0.0f;

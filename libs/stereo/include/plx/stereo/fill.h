@@ -26,7 +26,9 @@
 //  5. the pixels it covers leave the segments, and the walk stops once none are left (the
 //     paper's termination: "until the hole is filled").
 // Pixels still open when the walk ends show nothing: clear colour, depth 0, ID 0
-// (PixelSource::kDisocclusionEmpty).
+// (PixelSource::kDisocclusionEmpty). Pixels that are not holes are left alone here; where
+// geometry outside the first eye's view hides what landed on them, drawUnseenOccluders
+// (unseen.h) draws it after the fill.
 //
 // Where this differs from the paper:
 //  - The separating tests (steps 1-3) are plane tests against the rectangle's frustum

@@ -60,6 +60,7 @@ enum class PixelSource : uint8_t {
     kExpansion = 1,          // expansion hole, drawn from its polygon
     kDisocclusion = 2,       // disocclusion hole, drawn from the polygon the search found
     kDisocclusionEmpty = 3,  // disocclusion hole no polygon covers: clear colour, depth 0
+    kUnseen = 4,  // reprojected, then hidden by geometry outside the first eye's view (unseen.h)
 };
 
 struct StereoFrameStats {
@@ -80,7 +81,7 @@ struct StereoFrameStats {
 
     // reproject method; secondEyeMs = reprojectMs + fillMs.
     double reprojectMs = 0.0;     // moving the pixels, finding and classifying the holes
-    double fillMs = 0.0;          // drawing the expansion and disocclusion holes
+    double fillMs = 0.0;          // drawing the holes, and what the first eye did not see
     int64_t holePixels = 0;       // second-eye pixels no first-eye pixel landed on
     int64_t expansionPixels = 0;  // drawn from an expansion hole's polygon (PixelSource 1)
     // The rest of the hole pixels (PixelSource 2 and 3): disocclusion holes, and the pixels of
@@ -91,6 +92,10 @@ struct StereoFrameStats {
     size_t fillNodesVisited = 0;    // nodes of FillSearch's tree the searches reached
     size_t fillPolygonsTested = 0;  // fragments given the separating test
     size_t fillPolygonsDrawn = 0;   // fragments whose triangle was scan-converted into a hole
+    // Second-eye pixels whose nearest surface lies outside the first eye's view, in front of
+    // what landed there, and the triangles drawn for them (unseen.h; part of fillMs).
+    int64_t unseenPixels = 0;
+    size_t unseenTriangles = 0;
 };
 
 // Colour, depth and IDs of both eyes.

@@ -45,7 +45,7 @@ struct StereoExperimentRow {
     double reprojectFirstMs = 0, reprojectSecondMs = 0, reprojectMs = 0, fillMs = 0;
     double reprojectPairSpeedup = 0;  // full pair / reproject pair
     double reprojectPsnrDb = 0, reprojectIdenticalFraction = 0;
-    double reprojectHoleFraction = 0;  // second-eye pixels no first-eye pixel landed on
+    double reprojectHoleFraction = 0;  // second-eye hole pixels (reproject.h)
     size_t reprojectExpansionHoles = 0, reprojectDisocclusionHoles = 0;
     size_t reprojectFillPolygonsDrawn = 0;
     int64_t reprojectMissedPixels = 0;

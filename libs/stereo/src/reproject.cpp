@@ -18,6 +18,7 @@
 namespace plx::stereo {
 
 namespace detail {
+
 namespace {
 // The active ISA's row kernels (row_pass.inl): scalar (SSE2) or AVX2.
 auto activeScatterDirectRow() {
@@ -25,6 +26,9 @@ auto activeScatterDirectRow() {
 }
 auto activeWriteRowPixels() {
     return PLX_ISA_PICK_UP_TO_AVX2(writeRowPixels);
+}
+auto activeCloseGap() {
+    return PLX_ISA_PICK_UP_TO_AVX2(closeGap);
 }
 }  // namespace
 }  // namespace detail
@@ -183,18 +187,28 @@ using detail::RowScatter;
 // pixel floor() of it. The range test in float also drops positions too large for int (and NaN);
 // those land in the spare slot w. The direct form's scatter is the row kernel's
 // (detail::scatterDirectRow), the same with the offset a (1/w) + b.
-void landByTable(const RowScatter& row, const OffsetLut& lut, int x) {
+// Each landing then closes the gap after its neighbour's as the row kernels' do (follow,
+// detail::closeGap); returns its slot.
+int landByTable(const RowScatter& row, const OffsetLut& lut, int x, int prevSlot, bool leftToRight,
+                void (*closeGap)(const RowScatter&, int, int, int, int)) {
     const float pos = float(x) + lut.centredOffset(row.srcDepth[x]);
     const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
     row.from[t] = row.tag + x;
     row.color[t] = row.srcColor[x];
+    const int apart = leftToRight ? t - prevSlot : prevSlot - t;
+    if (apart >= 2 && prevSlot < row.w && t < row.w)
+        closeGap(row, prevSlot, t, leftToRight ? x - 1 : x + 1, x);
+    return t;
 }
 
 void scatterRowByTable(const RowScatter& row, const OffsetLut& lut, RowOrder order) {
+    const auto closeGap = detail::activeCloseGap();
     if (order == RowOrder::kLeftToRight)
-        for (int x = 0; x < row.w; ++x) landByTable(row, lut, x);
+        for (int x = 0, prev = row.w; x < row.w; ++x)
+            prev = landByTable(row, lut, x, prev, true, closeGap);
     else
-        for (int x = row.w - 1; x >= 0; --x) landByTable(row, lut, x);
+        for (int x = row.w - 1, prev = -1; x >= 0; --x)
+            prev = landByTable(row, lut, x, prev, false, closeGap);
 }
 
 // Depth 0 and ID 0 over each hole run of row y, and the landed 1/w and ID beside it: what the

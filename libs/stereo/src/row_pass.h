@@ -50,6 +50,15 @@ PLX_ISA_DECLARE(
     void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight);
     // Writes the row; returns whether a pixel of it is a hole. Streaming stores: the caller
     // fences before the row is read on another thread.
-    bool writeRowPixels(const RowWrite& row))
+    bool writeRowPixels(const RowWrite& row);
+    // Beyond the paper: first-eye columns xA and xB, neighbours in the row and walked one after
+    // the other, landed at slots tA and tB at least two apart in the columns' order: the surface
+    // they sample is spread apart, and a landing an earlier column left between them lies behind
+    // it (McMillan's order) unless the two belong to different surfaces. One farther than both is
+    // taken off (its slot made a hole), so that the hole fill draws the surface there instead of
+    // the background showing through. The scatters above call it where that happens; the offset
+    // table's scatter (reproject.cpp) calls it through here. Preconditions: tA and tB inside the
+    // row.
+    void closeGap(const RowScatter& row, int tA, int tB, int xA, int xB))
 
 }  // namespace plx::stereo::detail

@@ -2,6 +2,7 @@
 // scalar unit steps four pixels at a time with SSE2 (one at a time in a PLX_NO_SIMD build, the
 // reference), the avx2 unit eight with AVX2. Every path writes the same landings and pixels.
 
+#include <algorithm>
 #include <cstring>
 
 #include "row_pass.h"
@@ -21,19 +22,59 @@ namespace {
 // One landing of the direct form: first-eye column x lands at x + (a (1/w) + b), in the pixel
 // floor() of it. The range test in float also drops positions too large for int (and NaN); those
 // land in the spare slot w.
-void landOne(const RowScatter& row, float a, float b, int x) {
+int landOne(const RowScatter& row, float a, float b, int x) {
     const float pos = float(x) + (a * row.srcDepth[x] + b);
     const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
     row.from[t] = row.tag + x;
     row.color[t] = row.srcColor[x];
+    return t;
+}
+
+// closeGap (row_pass.h), here so that the scatters' calls keep their registers: the compiler
+// sees what it clobbers. Out of line: gaps are rare, and the walks stay small.
+[[gnu::noinline]] void closeGapInRow(const RowScatter& row, int tA, int tB, int xA, int xB) {
+    const float limit = std::min(row.srcDepth[xA], row.srcDepth[xB]);
+    for (int t = std::min(tA, tB) + 1; t < std::max(tA, tB); ++t) {
+        const int32_t from = row.from[t];
+        if (from >= row.tag && row.srcDepth[from - row.tag] < limit) row.from[t] = 0;
+    }
+}
+
+// Column x landed at slot t right after its neighbour (x - 1 walking left to right, x + 1 right
+// to left) landed at prevSlot (the spare slot w for none yet when walking left to right, -1
+// when walking right to left): where the two lie two or more slots apart in their columns'
+// order, closeGap (row_pass.h). Returns t, the next one's prevSlot.
+[[gnu::always_inline]] inline int follow(const RowScatter& row, int prevSlot, int t, int x,
+                                         bool leftToRight) {
+    const int apart = leftToRight ? t - prevSlot : prevSlot - t;
+    if (apart >= 2 && prevSlot < row.w && t < row.w) [[unlikely]]
+        closeGapInRow(row, prevSlot, t, leftToRight ? x - 1 : x + 1, x);
+    return t;
+}
+
+// The same for n landings stored at once in consecutive slots from t0, of columns x .. x + n - 1:
+// only the first of them in occlusion-compatible order can lie apart from its neighbour.
+[[gnu::always_inline]] inline int followRun(const RowScatter& row, int prevSlot, int t0, int x,
+                                            int n, bool leftToRight) {
+    if (leftToRight) {
+        follow(row, prevSlot, t0, x, true);
+        return t0 + n - 1;
+    }
+    follow(row, prevSlot, t0 + n - 1, x + n - 1, false);
+    return t0;
 }
 
 // Columns [x0, x1) one by one in occlusion-compatible order.
-void landRange(const RowScatter& row, float a, float b, int x0, int x1, bool leftToRight) {
+// Returns the last landing's slot (follow).
+int landRange(const RowScatter& row, float a, float b, int x0, int x1, bool leftToRight,
+              int prevSlot) {
     if (leftToRight)
-        for (int x = x0; x < x1; ++x) landOne(row, a, b, x);
+        for (int x = x0; x < x1; ++x)
+            prevSlot = follow(row, prevSlot, landOne(row, a, b, x), x, true);
     else
-        for (int x = x1 - 1; x >= x0; --x) landOne(row, a, b, x);
+        for (int x = x1 - 1; x >= x0; --x)
+            prevSlot = follow(row, prevSlot, landOne(row, a, b, x), x, false);
+    return prevSlot;
 }
 
 #if PLX_ROW_SSE2 || PLX_ROW_AVX2
@@ -75,8 +116,8 @@ constexpr int kLanes = 8;
 // The landings of columns x .. x + 7 into `slot` when their shifts differ (one group in nine on
 // office:280): each half of four that shares one shift as one vector, the rest one by one, in
 // occlusion-compatible order. Out of line, so that the walk over the row keeps its registers.
-[[gnu::noinline]] void landMixedGroup(const RowScatter& row, __m256i slot, int x,
-                                      bool leftToRight) {
+[[gnu::noinline]] int landMixedGroup(const RowScatter& row, __m256i slot, int x, bool leftToRight,
+                                     int prevSlot) {
     const __m256i xi =
         _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
     const __m256i shift = _mm256_sub_epi32(slot, xi);
@@ -94,13 +135,31 @@ constexpr int kLanes = 8;
         else
             storeLanes(row, tx + 4 * h, x + 4 * h, 4, leftToRight);
     }
+    // Then follow for the group's first landing in occlusion-compatible order and each pair of
+    // neighbours, the pairs two or more slots apart inside the row found at once. Closing a gap
+    // once both its ends have landed, rather than as the second lands, takes off the same
+    // landings: one that lands in it later is nearer than its ends.
+    const __m256i next =
+        _mm256_permutevar8x32_epi32(slot, _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7));
+    const __m256i w = _mm256_set1_epi32(row.w);
+    const __m256i gap = _mm256_and_si256(
+        _mm256_cmpgt_epi32(_mm256_sub_epi32(next, slot), _mm256_set1_epi32(1)),
+        _mm256_and_si256(_mm256_cmpgt_epi32(w, slot), _mm256_cmpgt_epi32(w, next)));
+    for (unsigned pairs = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(gap))); pairs != 0;
+         pairs &= pairs - 1) {
+        const int i = __builtin_ctz(pairs);
+        closeGapInRow(row, tx[i], tx[i + 1], x + i, x + i + 1);
+    }
+    follow(row, prevSlot, leftToRight ? tx[0] : tx[7], leftToRight ? x : x + 7, leftToRight);
+    return leftToRight ? tx[7] : tx[0];
 }
 
 // The whole groups of eight columns [0, groups) in occlusion-compatible order, each landed with
 // the same float operations in the same order as landOne (the build does not contract them):
 // eight at once when they land one column apart, as a surface's pixels mostly do, else
 // landMixedGroup.
-void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
+int landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight,
+               int prevSlot) {
     const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
     const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b), width = _mm256_set1_ps(float(r.w));
     const __m256i spare = _mm256_set1_epi32(r.w), tag = _mm256_set1_epi32(r.tag),
@@ -122,26 +181,41 @@ void landGroups(const RowScatter& row, float a, float b, int groups, bool leftTo
         if (_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(shift, first))) != 0xFF) {
             // `row`, not `r`: passing the copy's address out of line would let the stores
             // above alias it again.
-            landMixedGroup(row, slot, x, leftToRight);
+            prevSlot = landMixedGroup(row, slot, x, leftToRight, prevSlot);
             return;
         }
         const int t0 = _mm256_cvtsi256_si32(slot);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.from + t0), _mm256_add_epi32(xi, tag));
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.color + t0),
                             _mm256_loadu_si256(reinterpret_cast<const __m256i*>(r.srcColor + x)));
+        prevSlot = followRun(row, prevSlot, t0, x, kLanes, leftToRight);
     };
     if (leftToRight)
         for (int x = 0; x < groups; x += kLanes) land(x);
     else
         for (int x = groups - kLanes; x >= 0; x -= kLanes) land(x);
+    return prevSlot;
 }
 #elif PLX_ROW_SSE2
 constexpr int kLanes = 4;
 
+// After a group's landings of columns x .. x + n - 1 at slots tx[0 .. n) are stored: follow for
+// the group's first in occlusion-compatible order after prevSlot, and for each pair of
+// neighbours among them. Closing a gap once both its ends have landed, rather than as the second
+// lands, takes off the same landings: one that lands in it later is nearer than its ends.
+// Returns the group's last slot in that order.
+int closeGroupGaps(const RowScatter& row, const int32_t* tx, int x, int n, int prevSlot,
+                   bool leftToRight) {
+    follow(row, prevSlot, leftToRight ? tx[0] : tx[n - 1], leftToRight ? x : x + n - 1,
+           leftToRight);
+    for (int i = 0; i + 1 < n; ++i) follow(row, tx[i], tx[i + 1], x + i + 1, true);
+    return leftToRight ? tx[n - 1] : tx[0];
+}
+
 // Lands columns x .. x + 3 with the same float operations in the same order as landOne (the
 // build does not contract them): as one vector when they land one column apart, else one by one
 // in occlusion-compatible order.
-void landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight) {
+int landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight, int prevSlot) {
     const __m128i xi = _mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0));
     const __m128 d = _mm_loadu_ps(row.srcDepth + x);
     const __m128 pos = _mm_add_ps(_mm_cvtepi32_ps(xi), _mm_add_ps(_mm_mul_ps(a, d), b));
@@ -157,23 +231,28 @@ void landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRigh
     const __m128i shift = _mm_sub_epi32(slot, xi);
     const __m128i same = _mm_cmpeq_epi32(shift, _mm_shuffle_epi32(shift, 0));
     if (_mm_movemask_epi8(same) == 0xffff) {
-        storeFour(row, x, _mm_cvtsi128_si32(slot));
-        return;
+        const int t0 = _mm_cvtsi128_si32(slot);
+        storeFour(row, x, t0);
+        return followRun(row, prevSlot, t0, x, kLanes, leftToRight);
     }
     alignas(16) int32_t tx[4];
     _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
     readAheadIds(row, x, tx[0]);
     storeLanes(row, tx, x, 4, leftToRight);
+    return closeGroupGaps(row, tx, x, 4, prevSlot, leftToRight);
 }
 
 // The whole groups of four columns [0, groups) in occlusion-compatible order.
-void landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight) {
+int landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight,
+               int prevSlot) {
     const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
     const __m128 va = _mm_set1_ps(a), vb = _mm_set1_ps(b);
     if (leftToRight)
-        for (int x = 0; x < groups; x += kLanes) landGroup(r, va, vb, x, true);
+        for (int x = 0; x < groups; x += kLanes) prevSlot = landGroup(r, va, vb, x, true, prevSlot);
     else
-        for (int x = groups - kLanes; x >= 0; x -= kLanes) landGroup(r, va, vb, x, false);
+        for (int x = groups - kLanes; x >= 0; x -= kLanes)
+            prevSlot = landGroup(r, va, vb, x, false, prevSlot);
+    return prevSlot;
 }
 #endif
 
@@ -270,15 +349,17 @@ void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight)
     // when walking left to right and first when walking right to left.
     const int groups = row.w / kLanes * kLanes;
     if (leftToRight) {
-        landGroups(row, a, b, groups, true);
-        landRange(row, a, b, groups, row.w, true);
+        landRange(row, a, b, groups, row.w, true, landGroups(row, a, b, groups, true, row.w));
     } else {
-        landRange(row, a, b, groups, row.w, false);
-        landGroups(row, a, b, groups, false);
+        landGroups(row, a, b, groups, false, landRange(row, a, b, groups, row.w, false, -1));
     }
 #else
-    landRange(row, a, b, 0, row.w, leftToRight);
+    landRange(row, a, b, 0, row.w, leftToRight, leftToRight ? row.w : -1);
 #endif
+}
+
+void closeGap(const RowScatter& row, int tA, int tB, int xA, int xB) {
+    closeGapInRow(row, tA, tB, xA, xB);
 }
 
 bool writeRowPixels(const RowWrite& r) {

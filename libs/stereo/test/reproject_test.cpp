@@ -304,10 +304,16 @@ TEST(Reproject, ParallelRowsEqualOneThread) {
 }
 
 // Fu section 2 as written, pixel by pixel: clear the second eye to holes, move each first-eye
-// pixel to floor(x + 0.5 + offset), and keep it where the target is a hole or lies farther.
+// pixel to floor(x + 0.5 + offset), and keep it where the target is a hole or lies farther. Then
+// the gaps closed (detail::closeGap): between the landings of neighbouring columns two or more
+// pixels apart in their order, a pixel whose landing lies farther than both becomes a hole.
 void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
                         SecondEye* second) {
     const int w = first.color.width(), h = first.color.height();
+    auto landing = [&](int x, int y) {
+        float pos = float(x) + (line.perInvW * first.depth.at(x, y) + (line.offsetPx + 0.5f));
+        return pos >= 0.0f && pos < float(w) ? int(pos) : -1;
+    };
     for (int y = 0; y < h; ++y) {
         for (int x = 0; x < w; ++x) {
             second->buffers.color.at(x, y) = Rgba8{};
@@ -325,6 +331,19 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
                 second->buffers.depth.at(tx, y) = invW;
                 second->buffers.id.at(tx, y) = first.id.at(x, y);
                 second->holeMask.at(tx, y) = 0;
+            }
+        }
+        for (int x = 0; x + 1 < w; ++x) {
+            const int tA = landing(x, y), tB = landing(x + 1, y);
+            if (tA < 0 || tB < 0) continue;
+            const float limit = std::min(first.depth.at(x, y), first.depth.at(x + 1, y));
+            for (int t = tA + 1; t < tB; ++t) {
+                if (second->holeMask.at(t, y) || !(second->buffers.depth.at(t, y) < limit))
+                    continue;
+                second->buffers.color.at(t, y) = Rgba8{};
+                second->buffers.depth.at(t, y) = 0.0f;
+                second->buffers.id.at(t, y) = 0;
+                second->holeMask.at(t, y) = 1;
             }
         }
     }

@@ -18,8 +18,19 @@
 // kept. Two pixels of equal 1/w never land in one pixel (their positions differ by their column
 // distance), so the result is unique; it is reached without comparing depths by walking each row
 // in occlusion-compatible order (reproject.cpp). Cleared first-eye pixels (1/w = 0,
-// ID 0: nothing drawn, infinitely far) move too, by b, so the background is carried over and
-// only pixels nothing lands on are holes: depth 0, ID 0, colour {0,0,0,0}, hole mask 1.
+// ID 0: nothing drawn, infinitely far) move too, by b, so the background is carried over.
+//
+// Gaps (beyond the paper). A surface the second eye sees more frontally spreads its pixels
+// apart, and a farther pixel landing between two neighbours of it would show through it (a
+// background seen through a wall, at wide separations). Where two neighbouring first-eye
+// columns land two or more pixels apart in their order, a pixel between them whose landing lies
+// farther than both is made a hole, so that the hole fill draws the surface there (row_pass.h,
+// closeGap; office:8 at 1 m separation: 33.9 -> 41.2 dB, docs/stereo-results.md). At an object's
+// edge the two neighbours are two surfaces, and such a pixel is then drawn by the fill's search,
+// exactly, where it would have been moved.
+//
+// Holes are the pixels nothing lands on, and those the gaps take: depth 0, ID 0, colour
+// {0,0,0,0}, hole mask 1.
 
 #include <cstdint>
 #include <vector>
@@ -107,7 +118,7 @@ struct SecondEyeTargets {
     ImageView<Rgba8> color;
     ImageView<float> depth;
     ImageView<uint32_t> id;
-    ImageView<uint8_t> holeMask;  // 1 where no first-eye pixel landed, else 0; or no data
+    ImageView<uint8_t> holeMask;  // 1 at the holes (see above), else 0; or no data
     bool depthAndIds = true;
     HoleRuns* holeRuns = nullptr;  // when given, reproject() lists each row's hole runs there too
 };

@@ -82,7 +82,7 @@ struct StereoFrameStats {
     // reproject method; secondEyeMs = reprojectMs + fillMs.
     double reprojectMs = 0.0;     // moving the pixels, finding and classifying the holes
     double fillMs = 0.0;          // drawing the holes, and what the first eye did not see
-    int64_t holePixels = 0;       // second-eye pixels no first-eye pixel landed on
+    int64_t holePixels = 0;       // second-eye pixels nothing landed on, or gaps (reproject.h)
     int64_t expansionPixels = 0;  // drawn from an expansion hole's polygon (PixelSource 1)
     // The rest of the hole pixels (PixelSource 2 and 3): disocclusion holes, and the pixels of
     // expansion holes their polygon does not cover, which fall through to the search.

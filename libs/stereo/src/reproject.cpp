@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <vector>
 
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)
@@ -27,9 +28,7 @@ auto activeScatterDirectRow() {
 auto activeWriteRowPixels() {
     return PLX_ISA_PICK_UP_TO_AVX2(writeRowPixels);
 }
-auto activeCloseGap() {
-    return PLX_ISA_PICK_UP_TO_AVX2(closeGap);
-}
+
 }  // namespace
 }  // namespace detail
 
@@ -159,7 +158,10 @@ struct RowLandings {
     int32_t tag = 0;
     std::vector<MarkedRun> runs;  // the row's hole runs, for markHoleRuns
     std::vector<uint8_t> hole;    // the row's hole bytes where the second eye has no hole mask
-    explicit RowLandings(int w) : from(size_t(w) + 1, 0), color(size_t(w) + 1), hole(size_t(w)) {}
+    std::vector<detail::RowGap> gaps;  // the row's gaps, one at most per column
+    int gapCount = 0;
+    explicit RowLandings(int w)
+        : from(size_t(w) + 1, 0), color(size_t(w) + 1), hole(size_t(w)), gaps(size_t(w)) {}
     int32_t column(int t) const { return from[size_t(t)] - tag; }
 };
 
@@ -187,28 +189,39 @@ using detail::RowScatter;
 // pixel floor() of it. The range test in float also drops positions too large for int (and NaN);
 // those land in the spare slot w. The direct form's scatter is the row kernel's
 // (detail::scatterDirectRow), the same with the offset a (1/w) + b.
-// Each landing then closes the gap after its neighbour's as the row kernels' do (follow,
-// detail::closeGap); returns its slot.
-int landByTable(const RowScatter& row, const OffsetLut& lut, int x, int prevSlot, bool leftToRight,
-                void (*closeGap)(const RowScatter&, int, int, int, int)) {
+// Each landing then records the gap after its neighbour's as the row kernels' do (follow).
+int landByTable(const RowScatter& row, const OffsetLut& lut, int x, int prevSlot,
+                bool leftToRight) {
     const float pos = float(x) + lut.centredOffset(row.srcDepth[x]);
     const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
     row.from[t] = row.tag + x;
     row.color[t] = row.srcColor[x];
     const int apart = leftToRight ? t - prevSlot : prevSlot - t;
     if (apart >= 2 && prevSlot < row.w && t < row.w)
-        closeGap(row, prevSlot, t, leftToRight ? x - 1 : x + 1, x);
+        row.gaps[(*row.gapCount)++] = {prevSlot, t, leftToRight ? x - 1 : x + 1, x};
     return t;
 }
 
 void scatterRowByTable(const RowScatter& row, const OffsetLut& lut, RowOrder order) {
-    const auto closeGap = detail::activeCloseGap();
     if (order == RowOrder::kLeftToRight)
-        for (int x = 0, prev = row.w; x < row.w; ++x)
-            prev = landByTable(row, lut, x, prev, true, closeGap);
+        for (int x = 0, prev = row.w; x < row.w; ++x) prev = landByTable(row, lut, x, prev, true);
     else
         for (int x = row.w - 1, prev = -1; x >= 0; --x)
-            prev = landByTable(row, lut, x, prev, false, closeGap);
+            prev = landByTable(row, lut, x, prev, false);
+}
+
+// The row's gaps closed (reproject.h): each landing between the ends of a RowGap that lies
+// farther than the nearer end is taken off. After the whole row, so that what lands in a gap
+// later in the walk is judged too.
+void closeGaps(const RowScatter& row) {
+    for (const detail::RowGap& gap : std::span(row.gaps, size_t(*row.gapCount))) {
+        const float limit = std::max(row.srcDepth[gap.xA], row.srcDepth[gap.xB]);
+        for (int t = std::min(gap.tA, gap.tB) + 1; t < std::max(gap.tA, gap.tB); ++t) {
+            const int32_t from = row.from[t];
+            if (from >= row.tag && row.srcDepth[from - row.tag] < limit) row.from[t] = 0;
+        }
+    }
+    *row.gapCount = 0;
 }
 
 // Depth 0 and ID 0 over each hole run of row y, and the landed 1/w and ID beside it: what the
@@ -304,8 +317,11 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
                                  landings.tag,
                                  landings.from.data(),
                                  landings.color.data(),
-                                 second.depthAndIds ? nullptr : first.id.row(int(y))};
+                                 second.depthAndIds ? nullptr : first.id.row(int(y)),
+                                 landings.gaps.data(),
+                                 &landings.gapCount};
             scatter(row);
+            closeGaps(row);
             writeRow(first, second, int(y), landings, writeRowPixels);
         }
 #if defined(__SSE2__) && !defined(PLX_NO_SIMD)

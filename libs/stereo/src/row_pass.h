@@ -11,9 +11,19 @@
 
 namespace plx::stereo::detail {
 
+// Beyond the paper: first-eye columns xA and xB, neighbours in the row, landed at slots tA and tB
+// inside the row, at least two apart in the columns' order. The surface they sample is spread
+// apart between them, and a pixel landing there from elsewhere may lie behind it: reproject.cpp
+// takes off, after the row's scatter, each landing between them that lies farther than the
+// nearer of the two (reproject.h, gaps).
+struct RowGap {
+    int32_t tA, tB, xA, xB;
+};
+
 // One row's scatter: its first-eye depth and colour in, its landings (w + 1 slots each, the last
-// the spare slot that takes every landing outside the row) out. A landing stores tag + its
-// first-eye column in from[] and that column's colour in color[].
+// the spare slot that takes every landing outside the row) and gaps out. A landing stores tag +
+// its first-eye column in from[] and that column's colour in color[]; a gap is appended to
+// gaps[0 .. *gapCount) (room for w).
 struct RowScatter {
     const float* srcDepth;
     const Rgba8* srcColor;
@@ -24,6 +34,8 @@ struct RowScatter {
     // The first eye's ID row, read ahead where the shift changes (holes open there, and marking
     // a colour-only second eye's hole runs reads the IDs beside them); or null.
     const uint32_t* readAheadId = nullptr;
+    RowGap* gaps = nullptr;
+    int* gapCount = nullptr;
 };
 
 // One second-eye row written from its landings: slot t landed when from[t] >= tag, from
@@ -50,15 +62,6 @@ PLX_ISA_DECLARE(
     void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight);
     // Writes the row; returns whether a pixel of it is a hole. Streaming stores: the caller
     // fences before the row is read on another thread.
-    bool writeRowPixels(const RowWrite& row);
-    // Beyond the paper: first-eye columns xA and xB, neighbours in the row and walked one after
-    // the other, landed at slots tA and tB at least two apart in the columns' order: the surface
-    // they sample is spread apart, and a landing an earlier column left between them lies behind
-    // it (McMillan's order) unless the two belong to different surfaces. One farther than both is
-    // taken off (its slot made a hole), so that the hole fill draws the surface there instead of
-    // the background showing through. The scatters above call it where that happens; the offset
-    // table's scatter (reproject.cpp) calls it through here. Preconditions: tA and tB inside the
-    // row.
-    void closeGap(const RowScatter& row, int tA, int tB, int xA, int xB))
+    bool writeRowPixels(const RowWrite& row))
 
 }  // namespace plx::stereo::detail

@@ -2,7 +2,6 @@
 // scalar unit steps four pixels at a time with SSE2 (one at a time in a PLX_NO_SIMD build, the
 // reference), the avx2 unit eight with AVX2. Every path writes the same landings and pixels.
 
-#include <algorithm>
 #include <cstring>
 
 #include "row_pass.h"
@@ -30,25 +29,15 @@ int landOne(const RowScatter& row, float a, float b, int x) {
     return t;
 }
 
-// closeGap (row_pass.h), here so that the scatters' calls keep their registers: the compiler
-// sees what it clobbers. Out of line: gaps are rare, and the walks stay small.
-[[gnu::noinline]] void closeGapInRow(const RowScatter& row, int tA, int tB, int xA, int xB) {
-    const float limit = std::min(row.srcDepth[xA], row.srcDepth[xB]);
-    for (int t = std::min(tA, tB) + 1; t < std::max(tA, tB); ++t) {
-        const int32_t from = row.from[t];
-        if (from >= row.tag && row.srcDepth[from - row.tag] < limit) row.from[t] = 0;
-    }
-}
-
 // Column x landed at slot t right after its neighbour (x - 1 walking left to right, x + 1 right
 // to left) landed at prevSlot (the spare slot w for none yet when walking left to right, -1
 // when walking right to left): where the two lie two or more slots apart in their columns'
-// order, closeGap (row_pass.h). Returns t, the next one's prevSlot.
+// order, a RowGap. Returns t, the next one's prevSlot.
 [[gnu::always_inline]] inline int follow(const RowScatter& row, int prevSlot, int t, int x,
                                          bool leftToRight) {
     const int apart = leftToRight ? t - prevSlot : prevSlot - t;
     if (apart >= 2 && prevSlot < row.w && t < row.w) [[unlikely]]
-        closeGapInRow(row, prevSlot, t, leftToRight ? x - 1 : x + 1, x);
+        row.gaps[(*row.gapCount)++] = {prevSlot, t, leftToRight ? x - 1 : x + 1, x};
     return t;
 }
 
@@ -136,9 +125,8 @@ constexpr int kLanes = 8;
             storeLanes(row, tx + 4 * h, x + 4 * h, 4, leftToRight);
     }
     // Then follow for the group's first landing in occlusion-compatible order and each pair of
-    // neighbours, the pairs two or more slots apart inside the row found at once. Closing a gap
-    // once both its ends have landed, rather than as the second lands, takes off the same
-    // landings: one that lands in it later is nearer than its ends.
+    // neighbours, the pairs two or more slots apart inside the row found at once (the gaps are
+    // closed after the row, so their order does not matter).
     const __m256i next =
         _mm256_permutevar8x32_epi32(slot, _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7));
     const __m256i w = _mm256_set1_epi32(row.w);
@@ -148,7 +136,7 @@ constexpr int kLanes = 8;
     for (unsigned pairs = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(gap))); pairs != 0;
          pairs &= pairs - 1) {
         const int i = __builtin_ctz(pairs);
-        closeGapInRow(row, tx[i], tx[i + 1], x + i, x + i + 1);
+        row.gaps[(*row.gapCount)++] = {tx[i], tx[i + 1], x + i, x + i + 1};
     }
     follow(row, prevSlot, leftToRight ? tx[0] : tx[7], leftToRight ? x : x + 7, leftToRight);
     return leftToRight ? tx[7] : tx[0];
@@ -201,8 +189,7 @@ constexpr int kLanes = 4;
 
 // After a group's landings of columns x .. x + n - 1 at slots tx[0 .. n) are stored: follow for
 // the group's first in occlusion-compatible order after prevSlot, and for each pair of
-// neighbours among them. Closing a gap once both its ends have landed, rather than as the second
-// lands, takes off the same landings: one that lands in it later is nearer than its ends.
+// neighbours among them (the gaps are closed after the row, so their order does not matter).
 // Returns the group's last slot in that order.
 int closeGroupGaps(const RowScatter& row, const int32_t* tx, int x, int n, int prevSlot,
                    bool leftToRight) {
@@ -356,10 +343,6 @@ void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight)
 #else
     landRange(row, a, b, 0, row.w, leftToRight, leftToRight ? row.w : -1);
 #endif
-}
-
-void closeGap(const RowScatter& row, int tA, int tB, int xA, int xB) {
-    closeGapInRow(row, tA, tB, xA, xB);
 }
 
 bool writeRowPixels(const RowWrite& r) {

@@ -384,10 +384,10 @@ TEST(Fill, SpreadSurfaceHidesTheWallBehindIt) {
             wallShown += p.mine().id.data()[i] != 0 && p.mine().id.data()[i] < firstPanelId;
         }
         // Without the gaps closed the wall shows through 78% (converged) and 75% (parallel) of
-        // the panel; with them 20% and 12%: what remains lies along the panel's edges, which the
-        // first eye places to a pixel and the spread widens.
+        // the panel; with them 16% and none: what remains lies along the panel's near edge,
+        // which the first eye places to a pixel and the spread widens.
         EXPECT_GT(panelPixels, 500) << rigName(desc);
-        EXPECT_LE(wallShown, panelPixels / 4) << rigName(desc) << " of " << panelPixels;
+        EXPECT_LE(wallShown, panelPixels / 5) << rigName(desc) << " of " << panelPixels;
     }
 }
 
@@ -522,7 +522,9 @@ TEST(Fill, SmallPiecesSearchedAlongTheirRaysGetTheFullRendersPolygons) {
         const std::string what = rigName(desc);
         size_t pieces = 0;
         for (const Hole& h : a.holes.holes) pieces += h.holeClass == HoleClass::kDisocclusion;
-        EXPECT_GT(st.rayPieces, 20u) << what;
+        // 10 to 18 per rig: the row pass's gaps (reproject.h) join some of the confetti's small
+        // holes at their edges.
+        EXPECT_GT(st.rayPieces, 5u) << what;
         EXPECT_LT(st.rayPieces, pieces) << what;  // larger holes walk their frustums
         int64_t compared = 0, mismatches = 0, rodPixels = 0;
         for (size_t i = 0; i < a.classes.pixelCount(); ++i) {

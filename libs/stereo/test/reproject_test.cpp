@@ -305,8 +305,9 @@ TEST(Reproject, ParallelRowsEqualOneThread) {
 
 // Fu section 2 as written, pixel by pixel: clear the second eye to holes, move each first-eye
 // pixel to floor(x + 0.5 + offset), and keep it where the target is a hole or lies farther. Then
-// the gaps closed (detail::closeGap): between the landings of neighbouring columns two or more
-// pixels apart in their order, a pixel whose landing lies farther than both becomes a hole.
+// the gaps closed (detail::RowGap): between the landings of neighbouring columns two or more
+// pixels apart in their order, a pixel whose landing lies farther than the nearer of them becomes
+// a hole.
 void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
                         SecondEye* second) {
     const int w = first.color.width(), h = first.color.height();
@@ -336,7 +337,7 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
         for (int x = 0; x + 1 < w; ++x) {
             const int tA = landing(x, y), tB = landing(x + 1, y);
             if (tA < 0 || tB < 0) continue;
-            const float limit = std::min(first.depth.at(x, y), first.depth.at(x + 1, y));
+            const float limit = std::max(first.depth.at(x, y), first.depth.at(x + 1, y));
             for (int t = tA + 1; t < tB; ++t) {
                 if (second->holeMask.at(t, y) || !(second->buffers.depth.at(t, y) < limit))
                     continue;

@@ -19,7 +19,6 @@
 namespace plx::stereo {
 
 namespace detail {
-
 namespace {
 // The active ISA's row kernels (row_pass.inl): scalar (SSE2) or AVX2.
 auto activeScatterDirectRow() {
@@ -28,7 +27,6 @@ auto activeScatterDirectRow() {
 auto activeWriteRowPixels() {
     return PLX_ISA_PICK_UP_TO_AVX2(writeRowPixels);
 }
-
 }  // namespace
 }  // namespace detail
 

@@ -191,8 +191,8 @@ constexpr int kLanes = 4;
 // the group's first in occlusion-compatible order after prevSlot, and for each pair of
 // neighbours among them (the gaps are closed after the row, so their order does not matter).
 // Returns the group's last slot in that order.
-int closeGroupGaps(const RowScatter& row, const int32_t* tx, int x, int n, int prevSlot,
-                   bool leftToRight) {
+int followGroup(const RowScatter& row, const int32_t* tx, int x, int n, int prevSlot,
+                bool leftToRight) {
     follow(row, prevSlot, leftToRight ? tx[0] : tx[n - 1], leftToRight ? x : x + n - 1,
            leftToRight);
     for (int i = 0; i + 1 < n; ++i) follow(row, tx[i], tx[i + 1], x + i + 1, true);
@@ -226,7 +226,7 @@ int landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight
     _mm_store_si128(reinterpret_cast<__m128i*>(tx), slot);
     readAheadIds(row, x, tx[0]);
     storeLanes(row, tx, x, 4, leftToRight);
-    return closeGroupGaps(row, tx, x, 4, prevSlot, leftToRight);
+    return followGroup(row, tx, x, 4, prevSlot, leftToRight);
 }
 
 // The whole groups of four columns [0, groups) in occlusion-compatible order.

@@ -278,8 +278,8 @@ TEST(Fill, BoxesInFrontOfWallsGetTheFullRendersPolygons) {
     }
 }
 
-// A wall, and poles just outside both image borders of the centre view of poleCamera(), near the
-// camera. Their IDs start at firstPoleId.
+// A wall, and poles just outside both image borders of a 96x64 view down -z from the origin, near
+// the camera. Their IDs start at firstPoleId.
 struct PoleScene {
     scene::Scene s;
     uint32_t firstPoleId = 0;
@@ -300,24 +300,26 @@ struct PoleScene {
         PLX_CHECK(s.finalize().isOk());
         firstPoleId = uint32_t(s.firstTriangle(1)) + 1;
     }
-    static Camera camera() { return lookAt({0, 0, 0}, {0, 0, -1}, 96, 64); }
+    // The reproject and full pairs of `desc` converged at `convergence`, their holes checked.
+    Pairs pairs(StereoRigDesc desc, float convergence) const {
+        desc.convergence = convergence;
+        Pairs p(s, *StereoRig::create(lookAt({0, 0, 0}, {0, 0, -1}, 96, 64), desc));
+        expectHolesFilledLikeFull(p, true, rigName(desc));
+        return p;
+    }
 };
 
 // The second eye sees one of the poles enter at its border, in front of everything there. The
 // root-started search finds it.
 TEST(Fill, PoleEnteringAtTheBorderIsFound) {
     const PoleScene poles;
-    const scene::Scene& s = poles.s;
     const uint32_t firstPoleId = poles.firstPoleId;
     for (StereoRigDesc desc : allRigs(0.2f)) {
         // Convergence nearer than every surface, so that the whole image moves and a hole opens
         // at the border as in the parallel rig. (Converged at the wall, the wall would not move
         // and would cover the border columns: a pole entering over a surface that reprojects
         // there leaves no hole; the test below.)
-        desc.convergence = 0.5f;
-        StereoRig rig = *StereoRig::create(PoleScene::camera(), desc);
-        Pairs p(s, rig);
-        expectHolesFilledLikeFull(p, true, rigName(desc));
+        const Pairs p = poles.pairs(desc, 0.5f);
         int64_t polePixels = 0;
         for (size_t i = 0; i < p.mine().id.pixelCount(); ++i)
             if (p.reprojected.holeClass.data()[i] == uint8_t(PixelSource::kDisocclusion) &&
@@ -332,13 +334,9 @@ TEST(Fill, PoleEnteringAtTheBorderIsFound) {
 // drawUnseenOccluders (unseen.h) draws it there as the full render does.
 TEST(Fill, PoleOutsideTheFirstViewHidesWhatLanded) {
     const PoleScene poles;
-    const scene::Scene& s = poles.s;
     const uint32_t firstPoleId = poles.firstPoleId;
     for (StereoRigDesc desc : allRigs(0.2f)) {
-        desc.convergence = 8.0f;
-        StereoRig rig = *StereoRig::create(PoleScene::camera(), desc);
-        Pairs p(s, rig);
-        expectHolesFilledLikeFull(p, true, rigName(desc));
+        const Pairs p = poles.pairs(desc, 8.0f);
         int64_t unseen = 0, polePixels = 0, poleMissed = 0;
         for (size_t i = 0; i < p.mine().id.pixelCount(); ++i) {
             const uint32_t mine = p.mine().id.data()[i], full = p.theirs().id.data()[i];

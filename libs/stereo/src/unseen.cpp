@@ -99,67 +99,193 @@ ClipPolygon clipToWedge(const Wedge& wedge, const std::array<Vec3, 3>& triangle)
     return poly;
 }
 
-// The pixel rectangle of a clipped part's projection (every corner is on or behind the near
-// plane, so w > 0), one pixel more on each side for rounding; empty for a degenerate clip.
-UnseenScratch::Kept rectOf(const Camera& camera, const ClipPolygon& part, uint32_t entry) {
+// A triangle or a box to draw or test: the pixel rectangle, inclusive, its part in the wedge can
+// reach (empty when x0 > x1), and that part's nearest clip w.
+struct Footprint {
+    int32_t x0, x1, y0, y1;
+    float nearW;
+};
+
+// The footprint of points at clip w > 0: their projection's rectangle, one pixel more on each
+// side for rounding, within the image; empty for NaN.
+Footprint footprintOf(const Camera& camera, std::span<const Vec3> points, float nearW) {
     float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
-    for (const Vec3& p : part.view()) {
+    for (const Vec3& p : points) {
         Vec2 px = camera.pixelFromClip(camera.clipFromWorld() * Vec4(p, 1.0f));
         x0 = std::min(x0, px.x), x1 = std::max(x1, px.x);
         y0 = std::min(y0, px.y), y1 = std::max(y1, px.y);
     }
-    UnseenScratch::Kept k{entry, 0, -1, 0, -1, INFINITY};
-    for (const Vec3& p : part.view())
-        k.nearW = std::min(k.nearW, glm::dot(rowW(camera), Vec4(p, 1.0f)));
-    if (!(x0 <= x1 && y0 <= y1)) return k;  // NaN
+    Footprint f{0, -1, 0, -1, nearW};
+    if (!(x0 <= x1 && y0 <= y1)) return f;  // NaN
     const float w = float(camera.width() - 1), h = float(camera.height() - 1);
-    k.x0 = int(std::clamp(std::floor(x0) - 1.0f, 0.0f, w));
-    k.x1 = int(std::clamp(std::floor(x1) + 1.0f, 0.0f, w));
-    k.y0 = int(std::clamp(std::floor(y0) - 1.0f, 0.0f, h));
-    k.y1 = int(std::clamp(std::floor(y1) + 1.0f, 0.0f, h));
-    return k;
+    f.x0 = int(std::clamp(std::floor(x0) - 1.0f, 0.0f, w));
+    f.x1 = int(std::clamp(std::floor(x1) + 1.0f, 0.0f, w));
+    f.y0 = int(std::clamp(std::floor(y0) - 1.0f, 0.0f, h));
+    f.y1 = int(std::clamp(std::floor(y1) + 1.0f, 0.0f, h));
+    return f;
 }
 
-// Steps 1 and 2: the triangles whose clipped part reaches the wedge with their rectangles, and
-// the band's rows (their union).
-void collectTriangles(const FillScene& fill, const Camera& second, const Wedge& wedge,
-                      UnseenScratch* s) {
+// The footprint of a triangle's clipped part (every corner is on or behind the near plane).
+Footprint partFootprint(const Camera& camera, const ClipPolygon& part) {
+    float nearW = INFINITY;
+    for (const Vec3& p : part.view())
+        nearW = std::min(nearW, glm::dot(rowW(camera), Vec4(p, 1.0f)));
+    return footprintOf(camera, part.view(), nearW);
+}
+
+// The columns a wedge sample of a point at clip w >= minW can fall on, one more on the inner
+// side for rounding (empty when first > last). With a < 0 such a sample has X + 0.5 - (a v + b)
+// >= width for a 1/w v <= 1/minW, so X >= width - 0.5 + a / minW + b; with a > 0, X <= a / minW
+// + b - 0.5 (unseen.h).
+std::pair<int, int> wedgeColumns(const DisparityLine& line, int width, float minW) {
+    const float reach = line.perInvW / minW + line.offsetPx;
+    if (line.perInvW < 0.0f) {
+        const float first = std::floor(float(width) - 0.5f + reach) - 1.0f;
+        return {int(std::clamp(first, 0.0f, float(width))), width - 1};
+    }
+    const float last = std::ceil(reach - 0.5f) + 1.0f;
+    return {0, int(std::clamp(last, -1.0f, float(width - 1)))};
+}
+
+// The smallest clip w of a box's points (the row of clip w taken at the box's nearest corner).
+float nearestW(const Vec4& w, const Aabb& box) {
+    return w.x * (w.x >= 0.0f ? box.lo.x : box.hi.x) + w.y * (w.y >= 0.0f ? box.lo.y : box.hi.y) +
+           w.z * (w.z >= 0.0f ? box.lo.z : box.hi.z) + w.w;
+}
+
+// The footprint of a box's part in the wedge, whose nearest clip w is nearW: the box's, within
+// the wedge's columns at that depth. Empty where the box reaches in front of the near plane,
+// whose projection is unbounded.
+Footprint boxFootprint(const Camera& camera, const DisparityLine& line, const Aabb& box,
+                       float nearW) {
+    if (!(nearW >= camera.desc().nearPlane)) return {0, -1, 0, -1, nearW};
+    std::array<Vec3, 8> corners;
+    for (int c = 0; c < 8; ++c)
+        corners[c] = {c & 1 ? box.hi.x : box.lo.x, c & 2 ? box.hi.y : box.lo.y,
+                      c & 4 ? box.hi.z : box.lo.z};
+    Footprint f = footprintOf(camera, corners, nearW);
+    const auto [wedgeX0, wedgeX1] = wedgeColumns(line, camera.width(), nearW);
+    f.x0 = std::max(f.x0, wedgeX0), f.x1 = std::min(f.x1, wedgeX1);
+    return f;
+}
+
+// The band the triangles are drawn into: the columns a wedge sample can fall on from the
+// nearest triangle drawn on (no later one reaches farther, as the walk goes nearest box first),
+// packed (UnseenScratch::bandTargets), and on each row a run of columns cleared as triangles
+// are drawn over it.
+class Band {
+public:
+    Band(UnseenScratch* scratch, int width, int height) : mS(*scratch), mW(width), mH(height) {
+        mS.rowX0.assign(size_t(height), width);
+        mS.rowX1.assign(size_t(height), -1);
+    }
+
+    bool started() const { return mX0 <= mX1; }
+    // Fixes the band's columns: those a wedge sample of a point at clip w >= minW can fall on.
+    void start(const DisparityLine& line, float minW) {
+        std::tie(mX0, mX1) = wedgeColumns(line, mW, minW);
+        if (started()) mTargets = mS.bandTargets(mW, mH, mX0, mX1);
+    }
+
+    // Whether every pixel of f's rectangle, not empty, holds something nearer than f's nearest
+    // point.
+    bool hides(const Footprint& f) const {
+        if (f.x0 > f.x1 || f.y0 > f.y1) return false;
+        const float nearInvW = 1.0f / f.nearW;
+        for (int y = f.y0; y <= f.y1; ++y) {
+            if (f.x0 < mS.rowX0[y] || f.x1 > mS.rowX1[y]) return false;
+            for (int x = f.x0; x <= f.x1; ++x)
+                if (!(mTargets.depth.at(x, y) > nearInvW)) return false;
+        }
+        return true;
+    }
+
+    // Clamps f's columns to the band's; false when none are left.
+    bool clampColumns(Footprint* f) const {
+        f->x0 = std::max(f->x0, mX0), f->x1 = std::min(f->x1, mX1);
+        return f->x0 <= f->x1;
+    }
+
+    // Clears the pixels of f's rectangle not cleared before (each row's run grows to hold it).
+    void clear(const Footprint& f) {
+        for (int y = f.y0; y <= f.y1; ++y) {
+            int32_t &x0 = mS.rowX0[y], &x1 = mS.rowX1[y];
+            if (x0 > x1) {
+                clearColumns(y, f.x0, f.x1);
+                x0 = f.x0, x1 = f.x1;
+                continue;
+            }
+            if (f.x0 < x0) clearColumns(y, f.x0, x0 - 1), x0 = f.x0;
+            if (f.x1 > x1) clearColumns(y, x1 + 1, f.x1), x1 = f.x1;
+        }
+    }
+
+    const raster::RenderTargets& targets() const { return mTargets; }
+
+private:
+    void clearColumns(int y, int x0, int x1) {
+        std::fill_n(&mTargets.depth.at(x0, y), x1 - x0 + 1, 0.0f);
+        std::fill_n(&mTargets.id.at(x0, y), x1 - x0 + 1, 0u);
+    }
+
+    UnseenScratch& mS;
+    int mW, mH;
+    int mX0 = 0, mX1 = -1;
+    raster::RenderTargets mTargets;
+};
+
+// Steps 1 to 3: the box hierarchy walked nearest box first (a heap on their nearest clip w),
+// each leaf's triangles clipped to the wedge and those with a part left drawn over their
+// rectangles, unless the band already holds something nearer throughout; a box whose own
+// rectangle is so hidden is not opened. The parallel rig's wedge runs deep, past the walls
+// that hide most of what it holds: the walk ends at them.
+void drawWedge(const scene::Scene& scene, const FillScene& fill, const Camera& second,
+               const DisparityLine& line, const Wedge& wedge, const raster::RenderOptions& options,
+               Band* band, UnseenScratch* s, UnseenStats* stats) {
     const scene::BoxHierarchy& boxes = fill.boxes;
     if (boxes.nodeCount() == 0) return;
-    // One pending second child per level, and the node being split.
-    std::array<uint32_t, scene::BoxHierarchy::kMaxDepth + 1> stack;
-    size_t top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        const uint32_t index = stack[--top];
+    const Vec4 clipW = rowW(second);
+    const float nearPlane = second.desc().nearPlane;
+    auto& heap = s->heap;
+    const auto farther = [](const auto& a, const auto& b) { return a.first > b.first; };
+    auto push = [&](uint32_t index) {
+        const Aabb& box = boxes.node(index).box;
+        ++stats->boxNodesTested;
+        if (!wedge.mayCoverBox(box)) return;
+        heap.emplace_back(nearestW(clipW, box), index);
+        std::push_heap(heap.begin(), heap.end(), farther);
+    };
+    heap.clear();
+    push(0);
+    while (!heap.empty()) {
+        std::pop_heap(heap.begin(), heap.end(), farther);
+        const auto [boxNearW, index] = heap.back();
+        heap.pop_back();
         const scene::BoxNode& node = boxes.node(index);
-        if (!wedge.mayCoverBox(node.box)) continue;
+        if (band->started() && band->hides(boxFootprint(second, line, node.box, boxNearW)))
+            continue;
         if (!node.isLeaf()) {
-            stack[top++] = node.first;  // second child; the first follows its parent
-            stack[top++] = index + 1;
+            push(index + 1);
+            push(node.first);
             continue;
         }
         for (uint32_t e = node.first; e < node.first + node.count; ++e) {
             const ClipPolygon part = clipToWedge(wedge, fill.boxCorners.triangle(e));
             if (part.size == 0) continue;
-            UnseenScratch::Kept k = rectOf(second, part, e);
-            if (k.x0 > k.x1 || k.y0 > k.y1) continue;
-            s->kept.push_back(k);
-            for (int y = k.y0; y <= k.y1; ++y) {
-                s->rowX0[y] = std::min(s->rowX0[y], k.x0);
-                s->rowX1[y] = std::max(s->rowX1[y], k.x1);
-            }
+            Footprint f = partFootprint(second, part);
+            if (f.x0 > f.x1 || f.y0 > f.y1) continue;
+            ++stats->trianglesReached;
+            if (!band->started()) band->start(line, std::max(boxNearW, nearPlane));
+            if (!band->clampColumns(&f) || band->hides(f)) continue;
+            band->clear(f);
+            s->rectSpans.clear();
+            for (int y = f.y0; y <= f.y1; ++y) s->rectSpans.push_back({y, f.x0, f.x1});
+            const std::array<Vec3, 3> corners = fill.boxCorners.triangle(e);
+            raster::drawTriangleInSpans(scene, boxes.triangles()[e], corners, second, options,
+                                        band->targets(), s->rectSpans);
+            ++stats->trianglesDrawn;
         }
     }
-}
-
-// Whether every pixel of k's rectangle holds something nearer than k's nearest point.
-bool hiddenInBand(const raster::RenderTargets& band, const UnseenScratch::Kept& k) {
-    const float nearInvW = 1.0f / k.nearW;
-    for (int y = k.y0; y <= k.y1; ++y)
-        for (int x = k.x0; x <= k.x1; ++x)
-            if (!(band.depth.at(x, y) > nearInvW)) return false;
-    return true;
 }
 
 template <class T>
@@ -187,59 +313,28 @@ UnseenStats drawUnseenOccluders(const scene::Scene& scene, const FillScene& fill
     if (line.perInvW == 0.0f) return stats;
     const int w = secondCamera.width(), h = secondCamera.height();
     const bool rightSide = line.perInvW < 0.0f;
-    UnseenScratch& s = *scratch;
-    s.kept.clear();
-    s.rowX0.assign(size_t(h), w);
-    s.rowX1.assign(size_t(h), -1);
-    collectTriangles(fill, secondCamera, wedgeOf(first, secondCamera, line), &s);
-    if (s.kept.empty()) return stats;
-
-    // Step 3: the kept triangles, whole, over the band with the depth test.
-    s.spans.clear();
-    int bandX0 = w, bandX1 = -1;
-    for (int y = 0; y < h; ++y) {
-        if (s.rowX0[y] > s.rowX1[y]) continue;
-        s.spans.push_back({y, s.rowX0[y], s.rowX1[y]});
-        bandX0 = std::min(bandX0, s.rowX0[y]);
-        bandX1 = std::max(bandX1, s.rowX1[y]);
-    }
-    const raster::RenderTargets band = s.bandTargets(w, h, bandX0, bandX1);
-    for (const raster::PixelSpan& span : s.spans) {
-        std::fill_n(&band.depth.at(span.x0, span.y), span.x1 - span.x0 + 1, 0.0f);
-        std::fill_n(&band.id.at(span.x0, span.y), span.x1 - span.x0 + 1, 0u);
-    }
     raster::RenderOptions options = render;
     options.colorOnly = false;
-    // Nearest first, each over its own rectangle: elsewhere its points lie in the first eye's
-    // view, behind any wedge point on their rays, and step 4 keeps wedge points only. One whose
-    // rectangle is drawn nearer than its nearest point throughout cannot win a pixel: skipped
-    // (the parallel rig's wedge runs deep, past walls that hide most of what it holds).
-    std::sort(s.kept.begin(), s.kept.end(),
-              [](const auto& a, const auto& b) { return a.nearW < b.nearW; });
-    for (const UnseenScratch::Kept& k : s.kept) {
-        if (hiddenInBand(band, k)) continue;
-        s.rectSpans.clear();
-        for (int y = k.y0; y <= k.y1; ++y) s.rectSpans.push_back({y, k.x0, k.x1});
-        const std::array<Vec3, 3> corners = fill.boxCorners.triangle(k.entry);
-        raster::drawTriangleInSpans(scene, fill.boxes.triangles()[k.entry], corners, secondCamera,
-                                    options, band, s.rectSpans);
-        ++stats.trianglesDrawn;
-    }
+    Band band(scratch, w, h);
+    drawWedge(scene, fill, secondCamera, line, wedgeOf(first, secondCamera, line), options, &band,
+              scratch, &stats);
+    if (!band.started()) return stats;
 
     // Step 4: the samples whose nearest point lies in the wedge (unseen.h).
     const float width = float(w);
-    for (const raster::PixelSpan& span : s.spans) {
-        for (int x = span.x0; x <= span.x1; ++x) {
-            const uint32_t id = band.id.at(x, span.y);
+    const raster::RenderTargets& drawn = band.targets();
+    for (int y = 0; y < h; ++y) {
+        for (int x = scratch->rowX0[y]; x <= scratch->rowX1[y]; ++x) {
+            const uint32_t id = drawn.id.at(x, y);
             if (id == 0) continue;
-            const float invW = band.depth.at(x, span.y);
+            const float invW = drawn.depth.at(x, y);
             const float x1 = float(x) + 0.5f - (line.perInvW * invW + line.offsetPx);
             if (rightSide ? !(x1 >= width) : !(x1 <= 0.0f)) continue;
-            second.color.at(x, span.y) = band.color.at(x, span.y);
-            if (second.depth.data) second.depth.at(x, span.y) = invW;
-            if (second.id.data) second.id.at(x, span.y) = id;
-            if (holeClass.data && holeClass.at(x, span.y) == uint8_t(PixelSource::kReprojected))
-                holeClass.at(x, span.y) = uint8_t(PixelSource::kUnseen);
+            second.color.at(x, y) = drawn.color.at(x, y);
+            if (second.depth.data) second.depth.at(x, y) = invW;
+            if (second.id.data) second.id.at(x, y) = id;
+            if (holeClass.data && holeClass.at(x, y) == uint8_t(PixelSource::kReprojected))
+                holeClass.at(x, y) = uint8_t(PixelSource::kUnseen);
             ++stats.pixels;
         }
     }

@@ -13,6 +13,7 @@
 #include <plx/scene/primitives.h>
 #include <plx/stereo/fill.h>
 #include <plx/stereo/stereo.h>
+#include <plx/stereo/unseen.h>
 
 #include "../src/box_search.h"
 #include "../src/polygon_spans.h"
@@ -353,6 +354,59 @@ TEST(Fill, PoleOutsideTheFirstViewHidesWhatLanded) {
         // landed edge pixel rounding to the other column could be.
         EXPECT_LE(poleMissed, polePixels / 50)
             << rigName(desc) << ": " << poleMissed << " of " << polePixels;
+    }
+}
+
+// The parallel rig's unseen wedge runs deep (to clip w 2 |a|, 22 here): poles stand in it from
+// 4 to 19 units away, behind a wall at 3 that hides them from the second eye. The walk goes
+// nearest box first and opens no box the wall already hides (unseen.h): without the wall it
+// reaches the poles' triangles, with it not one, and the pixels it writes are the full render's.
+TEST(Fill, UnseenWalkEndsAtTheWallThatHidesTheRest) {
+    for (bool withWall : {false, true}) {
+        scene::Scene s;
+        scene::Mesh wall, poles;
+        Vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+        scene::appendQuad(&wall, {-10, -5, -3}, {20, 0, 0}, {0, 10, 0}, uv);
+        // The half-width of the view at depth z is 0.866 z (PoleScene): each pole stands
+        // between the two eyes' side planes there, in the wedge of either eye first.
+        for (int i = 0; i < 16; ++i) {
+            const float z = 4.0f + float(i);
+            for (float side : {-1.0f, 1.0f})
+                scene::appendCylinder(&poles, {side * 0.866f * z, -3, -z}, 0.02f, 6, 8);
+        }
+        poles.materialIndex = 1;
+        s.meshes = withWall ? std::vector<scene::Mesh>{poles, wall} : std::vector{poles};
+        s.materials = {{"wall", {0.5f, 0.6f, 0.7f, 1}, -1}, {"pole", {0.9f, 0.9f, 0.1f, 1}, -1}};
+        ASSERT_TRUE(s.finalize().isOk());
+        const FillScene fill = *buildFillScene(s);
+        auto renderer = std::move(raster::Renderer::create({1})).value();
+        for (StereoRigDesc desc : allRigs(0.2f)) {
+            if (desc.type != StereoRigType::kParallel) continue;
+            const std::string what = rigName(desc) + (withWall ? ", wall" : ", no wall");
+            const StereoRig rig = *StereoRig::create(lookAt({0, 0, 0}, {0, 0, -1}, 96, 64), desc);
+            raster::FrameBuffers full, mine;
+            full.resize(96, 64), mine.resize(96, 64);
+            renderer->render(s, rig.second(), {}, full.targets());
+            constexpr uint32_t kUnwritten = ~0u;
+            mine.id.view().fill(kUnwritten);
+            UnseenScratch scratch;
+            const UnseenStats st =
+                drawUnseenOccluders(s, fill, rig.first(), rig.second(), disparityLine(rig), {},
+                                    mine.targets(), {}, &scratch);
+            // 16 poles stand in the wedge, each of 32 triangles.
+            if (withWall)
+                EXPECT_LE(st.trianglesReached, s.meshes[1].triangleCount()) << what;
+            else
+                EXPECT_GE(st.trianglesReached, 16u * 8u) << what;
+            int64_t written = 0;
+            for (size_t i = 0; i < mine.id.pixelCount(); ++i) {
+                if (mine.id.data()[i] == kUnwritten) continue;
+                ++written;
+                EXPECT_EQ(mine.id.data()[i], full.id.data()[i]) << what << " pixel " << i;
+            }
+            EXPECT_EQ(written, st.pixels) << what;
+            EXPECT_GT(written, 0) << what;
+        }
     }
 }
 

@@ -19,18 +19,20 @@
 // shows, whatever landed or was filled there; where it does not, nothing in the wedge is on
 // the ray and the pixel keeps its value.
 //
-// drawUnseenOccluders: (1) walks the box hierarchy with the wedge's planes (the second eye's
-// frustum, the first eye's side plane flipped, and a far plane where the rig's offset leaves the
-// wedge no sample beyond it) and clips each triangle of the leaves it reaches to them; (2) keeps
-// those with a part left, with the pixel rectangle of that part's projection; (3) scan-converts
-// them, nearest part first, each whole over its own rectangle, with the depth test, into scratch
-// targets (drawTriangleInSpans), skipping one whose rectangle already holds something nearer
-// than its nearest point throughout; (4) where the nearest sample lies in the wedge (the test
-// above on its 1/w), copies it into the second eye. With the converged rig the wedge closes at
-// the convergence distance and holds a few triangles or none; the parallel rig's runs as deep as
-// the offset allows a sample in it (clip w up to 2 |a|).
+// drawUnseenOccluders: (1) walks the box hierarchy nearest box first with the wedge's planes (the
+// second eye's frustum, the first eye's side plane flipped, and a far plane where the rig's
+// offset leaves the wedge no sample beyond it) and clips each triangle of the leaves it reaches
+// to them; (2) takes the pixel rectangle of a clipped part's projection, within the columns a
+// wedge sample can fall on; (3) scan-converts the triangle over it with the depth test into
+// scratch targets (drawTriangleInSpans), unless they already hold something nearer than its
+// nearest point throughout, and does not open a box whose own rectangle they so hide; (4) where
+// the nearest sample lies in the wedge (the test above on its 1/w), copies it into the second
+// eye. With the converged rig the wedge closes at the convergence distance and holds a few
+// triangles or none; the parallel rig's runs as deep as the offset allows a sample in it (clip
+// w up to 2 |a|), and the walk ends at the walls that hide the rest.
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <plx/raster/raster.h>
@@ -41,7 +43,9 @@
 namespace plx::stereo {
 
 struct UnseenStats {
-    size_t trianglesDrawn = 0;  // triangles reaching the wedge and not hidden there, drawn
+    size_t boxNodesTested = 0;    // box hierarchy nodes tested against the wedge
+    size_t trianglesReached = 0;  // triangles with a part in the wedge
+    size_t trianglesDrawn = 0;    // of those, the ones not hidden there, drawn
     // Second-eye pixels whose nearest surface lies in the wedge, written from it (hole pixels
     // among them held the same surface already when the hole search is exact).
     int64_t pixels = 0;
@@ -49,13 +53,6 @@ struct UnseenStats {
 
 // Working memory of drawUnseenOccluders, kept between frames.
 struct UnseenScratch {
-    // A kept triangle (entry of BoxHierarchy::triangles()), the pixel rectangle, inclusive, its
-    // clipped part can reach, and that part's nearest clip w.
-    struct Kept {
-        uint32_t entry;
-        int32_t x0, x1, y0, y1;
-        float nearW;
-    };
     // Colour, depth and ID of the band, columns x0..x1 of every row: views of the second eye's
     // size whose stride is the band's width, so that the band's rows lie packed in a few
     // cache lines (a full-size plane costs a miss a row). Only columns x0..x1 may be touched:
@@ -64,9 +61,9 @@ struct UnseenScratch {
     std::vector<Rgba8> color;
     std::vector<float> depth;
     std::vector<uint32_t> id;
-    std::vector<Kept> kept;
-    std::vector<int32_t> rowX0, rowX1;  // per row, the band's columns (x0 > x1: none)
-    std::vector<raster::PixelSpan> spans, rectSpans;
+    std::vector<int32_t> rowX0, rowX1;  // per row, the band's cleared columns (x0 > x1: none)
+    std::vector<raster::PixelSpan> rectSpans;
+    std::vector<std::pair<float, uint32_t>> heap;  // box nodes to open, by their nearest clip w
 };
 
 // Writes into `second` (colour; depth and ID where their views have data) the nearest surface of

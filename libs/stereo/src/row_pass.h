@@ -60,8 +60,8 @@ PLX_ISA_DECLARE(
     // The direct form's scatter (offset a (1/w) + b, b including the pixel centre), in
     // occlusion-compatible order: left to right when leftToRight, else right to left.
     void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight);
-    // Writes the row; returns whether a pixel of it is a hole. Streaming stores: the caller
-    // fences before the row is read on another thread.
+    // Writes the row; returns whether a pixel of it is a hole. Colour by streaming stores: the
+    // caller fences before the row is read on another thread.
     bool writeRowPixels(const RowWrite& row))
 
 }  // namespace plx::stereo::detail

@@ -208,16 +208,32 @@ void scatterRowByTable(const RowScatter& row, const OffsetLut& lut, RowOrder ord
             prev = landByTable(row, lut, x, prev, false);
 }
 
+// Takes off each landing in slots [begin, end) whose first-eye 1/w is below `limit`.
+void takeOffFarther(const RowScatter& row, int begin, int end, float limit) {
+    if (!(limit > 0.0f)) return;  // nothing lies farther
+    for (int t = begin; t < end; ++t) {
+        const int32_t from = row.from[t];
+        if (from >= row.tag && row.srcDepth[from - row.tag] < limit) row.from[t] = 0;
+    }
+}
+
 // The row's gaps closed (reproject.h): each landing between the ends of a RowGap that lies
 // farther than the nearer end is taken off. After the whole row, so that what lands in a gap
-// later in the walk is judged too.
+// later in the walk is judged too. Beyond each end, over the gap's width less one, the surface
+// may go on (the first eye places its edge to a pixel, which the spread widens): a landing
+// there farther than the end by more than two of the surface's steps between the ends is taken
+// off too. A gap between two surfaces (an object's edge) has a step so large that nothing is.
 void closeGaps(const RowScatter& row) {
     for (const detail::RowGap& gap : std::span(row.gaps, size_t(*row.gapCount))) {
-        const float limit = std::max(row.srcDepth[gap.xA], row.srcDepth[gap.xB]);
-        for (int t = std::min(gap.tA, gap.tB) + 1; t < std::max(gap.tA, gap.tB); ++t) {
-            const int32_t from = row.from[t];
-            if (from >= row.tag && row.srcDepth[from - row.tag] < limit) row.from[t] = 0;
-        }
+        const float depthA = row.srcDepth[gap.xA], depthB = row.srcDepth[gap.xB];
+        const int lo = std::min(gap.tA, gap.tB), hi = std::max(gap.tA, gap.tB);
+        takeOffFarther(row, lo + 1, hi, std::max(depthA, depthB));
+        if (hi - lo < 3) continue;  // the edge lies within a pixel of the end, as unspread
+        const float margin = 2.0f * std::fabs(depthA - depthB);
+        const float depthLo = gap.tA < gap.tB ? depthA : depthB;
+        const float depthHi = gap.tA < gap.tB ? depthB : depthA;
+        takeOffFarther(row, std::max(0, lo - (hi - lo) + 1), lo, depthLo - margin);
+        takeOffFarther(row, hi + 1, std::min(row.w, hi + (hi - lo)), depthHi - margin);
     }
     *row.gapCount = 0;
 }

@@ -436,10 +436,11 @@ TEST(Fill, SpreadSurfaceHidesTheWallBehindIt) {
             wallShown += p.mine().id.data()[i] != 0 && p.mine().id.data()[i] < firstPanelId;
         }
         // Without the gaps closed the wall shows through 78% (converged) and 75% (parallel) of
-        // the panel; with them 16% and none: what remains lies along the panel's near edge,
-        // which the first eye places to a pixel and the spread widens.
+        // the panel; with them, but not beyond their ends, 16% and none, along the panel's near
+        // edge, which the first eye places to a pixel and the spread widens; with them closed
+        // beyond their ends too, 2.3% and none.
         EXPECT_GT(panelPixels, 500) << rigName(desc);
-        EXPECT_LE(wallShown, panelPixels / 5) << rigName(desc) << " of " << panelPixels;
+        EXPECT_LE(wallShown, panelPixels / 25) << rigName(desc) << " of " << panelPixels;
     }
 }
 

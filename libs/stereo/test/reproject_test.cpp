@@ -307,7 +307,8 @@ TEST(Reproject, ParallelRowsEqualOneThread) {
 // pixel to floor(x + 0.5 + offset), and keep it where the target is a hole or lies farther. Then
 // the gaps closed (detail::RowGap): between the landings of neighbouring columns two or more
 // pixels apart in their order, a pixel whose landing lies farther than the nearer of them becomes
-// a hole.
+// a hole; where they are three or more apart, so does one beyond an end, as far again less one,
+// whose landing lies farther than that end by more than twice the two columns' difference.
 void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
                         SecondEye* second) {
     const int w = first.color.width(), h = first.color.height();
@@ -334,11 +335,8 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
                 second->holeMask.at(tx, y) = 0;
             }
         }
-        for (int x = 0; x + 1 < w; ++x) {
-            const int tA = landing(x, y), tB = landing(x + 1, y);
-            if (tA < 0 || tB < 0) continue;
-            const float limit = std::max(first.depth.at(x, y), first.depth.at(x + 1, y));
-            for (int t = tA + 1; t < tB; ++t) {
+        auto takeOffFarther = [&](int begin, int end, float limit) {
+            for (int t = std::max(begin, 0); t < std::min(end, w); ++t) {
                 if (second->holeMask.at(t, y) || !(second->buffers.depth.at(t, y) < limit))
                     continue;
                 second->buffers.color.at(t, y) = Rgba8{};
@@ -346,6 +344,16 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
                 second->buffers.id.at(t, y) = 0;
                 second->holeMask.at(t, y) = 1;
             }
+        };
+        for (int x = 0; x + 1 < w; ++x) {
+            const int tA = landing(x, y), tB = landing(x + 1, y);
+            if (tA < 0 || tB < 0 || tB - tA < 2) continue;
+            const float depthA = first.depth.at(x, y), depthB = first.depth.at(x + 1, y);
+            takeOffFarther(tA + 1, tB, std::max(depthA, depthB));
+            if (tB - tA < 3) continue;
+            const float margin = 2.0f * std::fabs(depthA - depthB);
+            takeOffFarther(tA - (tB - tA) + 1, tA, depthA - margin);
+            takeOffFarther(tB + 1, tB + (tB - tA), depthB - margin);
         }
     }
 }

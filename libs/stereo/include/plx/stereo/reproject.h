@@ -28,6 +28,11 @@
 // hole fill draws the surface there (row_pass.h, RowGap; office:8 at 1 m separation: 33.9 ->
 // 43.4 dB, docs/stereo-results.md). At an object's edge the two neighbours are two surfaces,
 // and such a pixel is then drawn by the fill's search, exactly, where it would have been moved.
+// The spread surface may also go on beyond its last pixel, the first eye placing its edge only
+// to a pixel: where two neighbours land three or more pixels apart, a pixel beyond either, as
+// far again less one, whose landing lies farther than that end by more than twice the two
+// columns' difference in 1/w (so not the surface going on, nor anything beside an object's
+// edge, where the difference is large) is made a hole too.
 //
 // Holes are the pixels nothing lands on, and those the gaps take: depth 0, ID 0, colour
 // {0,0,0,0}, hole mask 1.

@@ -31,7 +31,7 @@ struct ClientArgs {
     std::string url;
     std::string token;
     std::string path;
-    int walk = -1;
+    std::optional<int> walk;
     std::string size = "1280x720";
     std::string refs = "cube4";
     bool stereo = false;
@@ -62,10 +62,9 @@ Result<ClientPlan> plan(const ClientArgs& a) {
     if (!layout) return layout.status();
     p.layout = *layout;
     auto bad = [](const std::string& m) { return errorStatus(ErrorCode::kInvalidArgument, m); };
-    if ((a.walk > 0) == !a.path.empty()) return bad("give exactly one of --path and --walk");
-    if (a.walk != -1 && (a.walk < 1 || a.walk > 100000))
-        return bad(fmt::format("--walk {} outside 1 .. 100000", a.walk));
-    if (a.walk > 0 && a.scene.empty())
+    if (a.walk.has_value() == !a.path.empty()) return bad("give exactly one of --path and --walk");
+    PLX_RETURN_IF_ERROR(checkWalk(a.walk));
+    if (a.walk && a.scene.empty())
         return bad("--walk needs --scene (the walk starts at the scene's default viewpoint)");
     if (a.frames < 0 || a.frames > 1000000)
         return bad(fmt::format("--frames {} outside 1 .. 1000000", a.frames));

@@ -32,7 +32,7 @@ struct StereoArgs {
     std::string format = "pair";
     std::string shading = "flat";
     std::string path;
-    int walk = -1;  // not given
+    std::optional<int> walk;
     int threads = 0;
     int frames = 9;
     std::string out;
@@ -79,13 +79,11 @@ Result<StereoPlan> plan(const StereoArgs& a) {
     if (a.firstEye != "left" && a.firstEye != "right")
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--first-eye '{}' must be left or right", a.firstEye));
-    if (a.walk != -1 && (a.walk < 1 || a.walk > 100000))
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--walk {} outside 1 .. 100000", a.walk));
+    PLX_RETURN_IF_ERROR(checkWalk(a.walk));
     if (a.frames < 1 || a.frames > kMaxFrames)
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--frames {} outside 1 .. {}", a.frames, kMaxFrames));
-    if (a.walk > 0 && !a.path.empty())
+    if (a.walk && !a.path.empty())
         return errorStatus(ErrorCode::kInvalidArgument, "--walk and --path exclude each other");
     if (auto size = parseSize(a.view.size); !size) return size.status();
     p.options.method = *method;
@@ -299,7 +297,7 @@ void printText(const StereoArgs& a, const nlohmann::json& doc, size_t poses,
 Result<std::vector<Camera>> camerasFor(const scene::Scene& scene, const StereoArgs& a, IVec2 size,
                                        int* errorExit) {
     *errorExit = kExitFailure;
-    if (a.walk > 0 || !a.path.empty()) return walkCameras(scene, a, size);
+    if (a.walk || !a.path.empty()) return walkCameras(scene, a, size);
     *errorExit = kExitUsage;
     auto cam = cameraFor(scene, a.view);
     if (!cam) return cam.status();

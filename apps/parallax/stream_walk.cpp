@@ -15,6 +15,7 @@
 #include <plx/stream/tour.h>
 
 #include "commands.h"
+#include "view.h"
 
 namespace plx::cli {
 namespace {
@@ -26,7 +27,7 @@ struct WalkArgs {
     double budgetMb = 4.0, staticBudgetMb = 16.0, dtMaxS = 0.5, dtMaxStaticS = 20.0;
     double tStaticS = 1.0;
     std::string path;
-    int walk = -1;
+    std::optional<int> walk;
     bool tour = false;
     std::string policy = "ach";
     double stopS = stream::TourConfig{}.stopS;
@@ -54,11 +55,9 @@ Status checkArgs(const WalkArgs& a) {
     PLX_RETURN_IF_ERROR(checkRange("--dt-max-static", a.dtMaxStaticS, 0.0, kMaxSeconds));
     PLX_RETURN_IF_ERROR(checkRange("--t-static", a.tStaticS, 0.0, kMaxSeconds));
     PLX_RETURN_IF_ERROR(checkRange("--fps", a.fps, 1.0, 1000.0));
-    if (a.walk != -1 && (a.walk < 1 || a.walk > 100000))
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--walk {} outside 1 .. 100000", a.walk));
+    PLX_RETURN_IF_ERROR(checkWalk(a.walk));
     PLX_RETURN_IF_ERROR(checkRange("--stop", a.stopS, 0.0, 3600.0));
-    const int walks = int(a.walk > 0) + int(!a.path.empty()) + int(a.tour);
+    const int walks = int(a.walk.has_value()) + int(!a.path.empty()) + int(a.tour);
     if (walks > 1)
         return errorStatus(ErrorCode::kInvalidArgument,
                            "--walk, --path and --tour exclude each other");
@@ -124,11 +123,11 @@ Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFil
         auto tour = tourPoses(fetcher, root, a.stopS, a.fps);
         if (!tour) return tour.status();
         poses = std::move(tour).value();
-    } else if (a.walk > 0) {
+    } else if (a.walk) {
         scene::Scene s;  // the built-in walk needs only the start viewpoint
         const stream::RootViewpoint& v = root.viewpoints.front();
         s.viewpoints.push_back({v.name, v.eyePos, v.targetPos, v.upDir, v.fovYDegrees});
-        poses = stereo::builtinWalk(s, a.walk);
+        poses = stereo::builtinWalk(s, *a.walk);
     } else {
         auto loaded = stereo::loadPath(a.path);
         if (!loaded) return loaded.status();

@@ -66,9 +66,17 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     return cam;
 }
 
-Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene, int walk,
+Status checkWalk(const std::optional<int>& walk) {
+    if (walk && (*walk < 1 || *walk > kMaxWalkPoses))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("--walk {} outside 1 .. {}", *walk, kMaxWalkPoses));
+    return Status::ok();
+}
+
+Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene,
+                                                  const std::optional<int>& walk,
                                                   const std::string& pathFile) {
-    if (walk > 0) return stereo::builtinWalk(*scene, walk);
+    if (walk) return stereo::builtinWalk(*scene, *walk);
     return stereo::loadPath(pathFile);
 }
 

@@ -3,6 +3,8 @@
 // --viewpoint. Without --eye the scene's default viewpoint is used, or a camera framing the
 // scene's bounds when it has none.
 
+#include <optional>
+
 #include <plx/scene/scene.h>
 #include <plx/stereo/path.h>
 
@@ -27,9 +29,14 @@ Result<scene::Scene> loadSceneChecked(const std::string& spec);
 // The camera the options describe for this scene; errors name the bad option.
 Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args);
 
-// The poses of a walkthrough: `walk` > 0 poses of the built-in walk through `scene` (not null
-// then), else the JSON path file's.
-Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene, int walk,
+// --walk N, when given: N in 1 .. kMaxWalkPoses, else an error naming it.
+constexpr int kMaxWalkPoses = 100000;
+Status checkWalk(const std::optional<int>& walk);
+
+// The poses of a walkthrough: `walk` poses of the built-in walk through `scene` (not null then)
+// when given, else the JSON path file's.
+Result<std::vector<stereo::Pose>> walkOrPathPoses(const scene::Scene* scene,
+                                                  const std::optional<int>& walk,
                                                   const std::string& pathFile);
 
 }  // namespace plx::cli

@@ -189,6 +189,8 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
                        "camera eye (1e+38, 1, 1) is too far from the origin", 2);
     const std::string stereo = "stereo office:1 --size 32x24 --out " + (hardDir() / "s").string();
     expectOneLineError(runParallax(stereo + " --walk 0"), "--walk 0 outside 1 .. 100000", 2);
+    // Once read as "not given" (the old sentinel) and the single pose rendered.
+    expectOneLineError(runParallax(stereo + " --walk -1"), "--walk -1 outside 1 .. 100000", 2);
     // The experiments' numbers are usage too (exit status 2), named in the message.
     const std::pair<std::string, std::string> benchErrors[] = {
         {"stereo --separation nan", "eye separation nan must be a finite number >= 0"},

@@ -83,6 +83,8 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
                        "99999", 2);
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3"), "--walk needs --scene", 2);
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --scene office:1"), "--path", 2);
+    expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk -1 --scene office:1"),
+                       "--walk -1 outside", 2);
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --size 0x4"),
                        "0x4", 2);
     // Nobody listening: the client retries with backoff, then gives up after --wait.

@@ -92,6 +92,7 @@ TEST(StreamWalkCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("stream walk " + db + " --tour --stop -1"), "--stop", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --policy fifo"), "policy", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 0"), "--walk", 2);
+    expectOneLineError(runParallax("stream walk " + db + " --walk -1"), "--walk -1", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --budget -1"), "--budget", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --fps 0"), "--fps", 2);
     expectOneLineError(runParallax("stream walk " + db + " --walk 5 --size 0x3"), "size", 2);

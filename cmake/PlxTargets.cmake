@@ -103,13 +103,17 @@ function(plx_add_test name)
 endfunction()
 
 # plx_add_bench(NAME SOURCES ... DEPS ...): one Google Benchmark executable (not run by CTest).
+# Its main comes from plx_bench_main (libs/core/bench), which refuses an unknown PLX_FORCE_ISA;
+# a driver that defines its own main keeps it (a static library's object is only linked where
+# it resolves something) and calls plx::bench::refuseUnknownForcedIsa itself.
 function(plx_add_bench name)
     cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
     if(NOT PLX_BUILD_BENCH)
         return()
     endif()
     add_executable(${name} ${ARG_SOURCES})
-    target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark plx_flags)
+    target_link_libraries(${name} PRIVATE ${ARG_DEPS} plx_bench_main benchmark::benchmark
+                                          plx_flags)
     target_compile_definitions(${name} PRIVATE PLX_SHARED_DATA_DIR="${PLX_SHARED_DATA_DIR}")
 endfunction()
 

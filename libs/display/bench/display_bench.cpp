@@ -106,5 +106,3 @@ BENCHMARK(BM_PassTwo)->Args({20, 1})->Args({5, 1})->Args({1, 1})->Args({20, 2})-
     ->Args({0, 0})->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -21,6 +21,8 @@
 #include <plx/ptm/format.h>
 #include <plx/ptm/mip.h>
 
+#include "forced_isa.h"
+
 namespace {
 
 using plx::ByteImage;
@@ -68,6 +70,7 @@ Repeats countRepeats(const ByteImage& im) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    if (plx::bench::refuseUnknownForcedIsa(argv[0])) return 2;
     if (argc < 2) {
         std::fprintf(stderr, "usage: plx_ptm_repeats FILES...\n");
         return 2;

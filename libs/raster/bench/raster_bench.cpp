@@ -89,5 +89,3 @@ BENCHMARK(BM_RenderSmallTriangles)->Args({100000, 1})->Args({100000, 2})->Args({
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

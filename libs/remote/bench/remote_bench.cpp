@@ -410,5 +410,3 @@ BENCHMARK(BM_SessionSetCodec)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

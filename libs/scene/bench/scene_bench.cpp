@@ -56,5 +56,3 @@ void importHelmet(benchmark::State& state) {
 BENCHMARK(importHelmet)->ArgName("textures")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

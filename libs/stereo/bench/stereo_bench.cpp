@@ -716,5 +716,3 @@ BENCHMARK(BM_UnseenOccluders)
     ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

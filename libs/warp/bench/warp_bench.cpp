@@ -239,5 +239,3 @@ BENCHMARK(BM_Quality)
     ->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

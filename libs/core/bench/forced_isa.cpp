@@ -1,0 +1,17 @@
+#include "forced_isa.h"
+
+#include <cstdio>
+#include <string>
+
+#include <plx/core/cpu.h>
+
+namespace plx::bench {
+
+bool refuseUnknownForcedIsa(const char* program) {
+    const std::string problem = isaEnvironmentError();
+    if (problem.empty()) return false;
+    std::fprintf(stderr, "%s: error: %s\n", program, problem.c_str());
+    return true;
+}
+
+}  // namespace plx::bench

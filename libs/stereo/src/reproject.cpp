@@ -24,6 +24,9 @@ namespace {
 auto activeScatterDirectRow() {
     return PLX_ISA_PICK_UP_TO_AVX2(scatterDirectRow);
 }
+auto activeScatterTableRow() {
+    return PLX_ISA_PICK_UP_TO_AVX2(scatterTableRow);
+}
 auto activeWriteRowPixels() {
     return PLX_ISA_PICK_UP_TO_AVX2(writeRowPixels);
 }
@@ -178,35 +181,11 @@ int32_t rowTag(int y, int w) {
 // comparison is needed; the result equals the depth test's (Fu Fig. 3) pixel for pixel. For
 // a > 0 (right eye first) the mirror holds, right to left. The offset table's entries are
 // monotone in 1/w in the same way, so the same order serves it.
-enum class RowOrder { kLeftToRight, kRightToLeft };
+bool walksLeftToRight(const DisparityLine& line) {
+    return line.perInvW <= 0.0f;
+}
 
 using detail::RowScatter;
-
-// The offset table's scatter of one row: from[tx] = tag + x, color[tx] = its colour, in
-// occlusion-compatible order. One landing: first-eye column x lands at x + 0.5 + offset, in the
-// pixel floor() of it. The range test in float also drops positions too large for int (and NaN);
-// those land in the spare slot w. The direct form's scatter is the row kernel's
-// (detail::scatterDirectRow), the same with the offset a (1/w) + b.
-// Each landing then records the gap after its neighbour's as the row kernels' do (follow).
-int landByTable(const RowScatter& row, const OffsetLut& lut, int x, int prevSlot,
-                bool leftToRight) {
-    const float pos = float(x) + lut.centredOffset(row.srcDepth[x]);
-    const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
-    row.from[t] = row.tag + x;
-    row.color[t] = row.srcColor[x];
-    const int apart = leftToRight ? t - prevSlot : prevSlot - t;
-    if (apart >= 2 && prevSlot < row.w && t < row.w)
-        row.gaps[(*row.gapCount)++] = {prevSlot, t, leftToRight ? x - 1 : x + 1, x};
-    return t;
-}
-
-void scatterRowByTable(const RowScatter& row, const OffsetLut& lut, RowOrder order) {
-    if (order == RowOrder::kLeftToRight)
-        for (int x = 0, prev = row.w; x < row.w; ++x) prev = landByTable(row, lut, x, prev, true);
-    else
-        for (int x = row.w - 1, prev = -1; x >= 0; --x)
-            prev = landByTable(row, lut, x, prev, false);
-}
 
 // Takes off each landing in slots [begin, end) whose first-eye 1/w is below `limit`.
 void takeOffFarther(const RowScatter& row, int begin, int end, float limit) {
@@ -350,10 +329,6 @@ void reprojectRows(const FirstEyeTargets& first, const SecondEyeTargets& second,
         body(0, rows);
 }
 
-RowOrder orderFor(const DisparityLine& line) {
-    return line.perInvW <= 0.0f ? RowOrder::kLeftToRight : RowOrder::kRightToLeft;
-}
-
 }  // namespace
 
 Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
@@ -363,7 +338,7 @@ Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
         return errorStatus(ErrorCode::kInvalidArgument, "disparity line is not finite");
     const auto scatterDirectRow = detail::activeScatterDirectRow();
     const float a = line.perInvW, b = line.offsetPx + 0.5f;
-    const bool leftToRight = orderFor(line) == RowOrder::kLeftToRight;
+    const bool leftToRight = walksLeftToRight(line);
     reprojectRows(first, second, pool,
                   [&](const RowScatter& row) { scatterDirectRow(row, a, b, leftToRight); });
     return Status::ok();
@@ -372,9 +347,11 @@ Status reproject(const FirstEyeTargets& first, const DisparityLine& line,
 Status reproject(const FirstEyeTargets& first, const OffsetLut& lut, const SecondEyeTargets& second,
                  ThreadPool* pool) {
     if (Status s = checkTargets(first, second); !s.isOk()) return s;
-    const RowOrder order = orderFor(lut.line());
+    const auto scatterTableRow = detail::activeScatterTableRow();
+    const detail::OffsetTable offsets{lut.table(), lut.scale(), float(lut.entries() - 1)};
+    const bool leftToRight = walksLeftToRight(lut.line());
     reprojectRows(first, second, pool,
-                  [&](const RowScatter& row) { scatterRowByTable(row, lut, order); });
+                  [&](const RowScatter& row) { scatterTableRow(row, offsets, leftToRight); });
     return Status::ok();
 }
 

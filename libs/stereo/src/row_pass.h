@@ -1,8 +1,9 @@
 #pragma once
 // The reprojection's row kernels (reproject.cpp), compiled once per ISA (row_pass.inl,
-// plx_add_isa_kernels ... ISAS avx2): the direct form's scatter of one first-eye row into its
-// landings, and one second-eye row written from them. Plain data only here: the kernels are
-// compiled under several ISAs' flags, so nothing they share may be an inline function.
+// plx_add_isa_kernels ... ISAS avx2): the scatter of one first-eye row into its landings, by the
+// direct form or the offset table, and one second-eye row written from them. Plain data only here:
+// the kernels are compiled under several ISAs' flags, so nothing they share may be an inline
+// function.
 
 #include <cstdint>
 
@@ -56,10 +57,20 @@ struct RowWrite {
     int32_t* dstId = nullptr;
 };
 
+// The offset table's entries as OffsetLut holds them (reproject.h): a pixel of 1/w v lands at
+// its column + table[q], q = v scale + 0.5 clamped to [0, last] (NaN to 0), truncated.
+struct OffsetTable {
+    const float* table;
+    float scale;
+    float last;
+};
+
 PLX_ISA_DECLARE(
     // The direct form's scatter (offset a (1/w) + b, b including the pixel centre), in
     // occlusion-compatible order: left to right when leftToRight, else right to left.
     void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight);
+    // The same with the offsets from the table (Fu section 2).
+    void scatterTableRow(const RowScatter& row, const OffsetTable& offsets, bool leftToRight);
     // Writes the row; returns whether a pixel of it is a hole. Colour by streaming stores: the
     // caller fences before the row is read on another thread.
     bool writeRowPixels(const RowWrite& row))

@@ -18,11 +18,56 @@ namespace plx::stereo::detail::PLX_ISA_NS {
 
 namespace {
 
-// One landing of the direct form: first-eye column x lands at x + (a (1/w) + b), in the pixel
-// floor() of it. The range test in float also drops positions too large for int (and NaN); those
-// land in the spare slot w.
-int landOne(const RowScatter& row, float a, float b, int x) {
-    const float pos = float(x) + (a * row.srcDepth[x] + b);
+// The offset of a first-eye pixel of 1/w v, the pixel centre's 0.5 included: the direct form's
+// a v + b, or the table's entry (OffsetLut::centredOffset), for one pixel and for a vector of
+// them with the same float operations in the same order (the build does not contract them).
+struct DirectOffset {
+    float a, b;
+    float operator()(float v) const { return a * v + b; }
+#if PLX_ROW_AVX2
+    __m256 operator()(__m256 v) const {
+        return _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(a), v), _mm256_set1_ps(b));
+    }
+#elif PLX_ROW_SSE2
+    __m128 operator()(__m128 v) const {
+        return _mm_add_ps(_mm_mul_ps(_mm_set1_ps(a), v), _mm_set1_ps(b));
+    }
+#endif
+};
+
+// The vector forms clamp with max, which returns its second operand, 0, for a NaN first, as the
+// scalar form's test does.
+struct TableOffset {
+    OffsetTable t;
+    float operator()(float v) const {
+        float q = v * t.scale + 0.5f;
+        if (!(q >= 0.0f)) q = 0.0f;
+        if (q > t.last) q = t.last;
+        return t.table[int(q)];
+    }
+#if PLX_ROW_AVX2
+    __m256 operator()(__m256 v) const {
+        __m256 q = _mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(t.scale)), _mm256_set1_ps(0.5f));
+        q = _mm256_min_ps(_mm256_max_ps(q, _mm256_setzero_ps()), _mm256_set1_ps(t.last));
+        return _mm256_i32gather_ps(t.table, _mm256_cvttps_epi32(q), 4);
+    }
+#elif PLX_ROW_SSE2
+    __m128 operator()(__m128 v) const {
+        __m128 q = _mm_add_ps(_mm_mul_ps(v, _mm_set1_ps(t.scale)), _mm_set1_ps(0.5f));
+        q = _mm_min_ps(_mm_max_ps(q, _mm_setzero_ps()), _mm_set1_ps(t.last));
+        alignas(16) int32_t i[4];
+        _mm_store_si128(reinterpret_cast<__m128i*>(i), _mm_cvttps_epi32(q));
+        return _mm_setr_ps(t.table[i[0]], t.table[i[1]], t.table[i[2]], t.table[i[3]]);
+    }
+#endif
+};
+
+// One landing: first-eye column x lands at x + offset(1/w), in the pixel floor() of it. The
+// range test in float also drops positions too large for int (and NaN); those land in the spare
+// slot w.
+template <class Offset>
+int landOne(const RowScatter& row, const Offset& offset, int x) {
+    const float pos = float(x) + offset(row.srcDepth[x]);
     const int t = pos >= 0.0f && pos < float(row.w) ? int(pos) : row.w;
     row.from[t] = row.tag + x;
     row.color[t] = row.srcColor[x];
@@ -55,14 +100,15 @@ int landOne(const RowScatter& row, float a, float b, int x) {
 
 // Columns [x0, x1) one by one in occlusion-compatible order.
 // Returns the last landing's slot (follow).
-int landRange(const RowScatter& row, float a, float b, int x0, int x1, bool leftToRight,
+template <class Offset>
+int landRange(const RowScatter& row, const Offset& offset, int x0, int x1, bool leftToRight,
               int prevSlot) {
     if (leftToRight)
         for (int x = x0; x < x1; ++x)
-            prevSlot = follow(row, prevSlot, landOne(row, a, b, x), x, true);
+            prevSlot = follow(row, prevSlot, landOne(row, offset, x), x, true);
     else
         for (int x = x1 - 1; x >= x0; --x)
-            prevSlot = follow(row, prevSlot, landOne(row, a, b, x), x, false);
+            prevSlot = follow(row, prevSlot, landOne(row, offset, x), x, false);
     return prevSlot;
 }
 
@@ -143,20 +189,19 @@ constexpr int kLanes = 8;
 }
 
 // The whole groups of eight columns [0, groups) in occlusion-compatible order, each landed with
-// the same float operations in the same order as landOne (the build does not contract them):
-// eight at once when they land one column apart, as a surface's pixels mostly do, else
-// landMixedGroup.
-int landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight,
+// the same float operations in the same order as landOne: eight at once when they land one
+// column apart, as a surface's pixels mostly do, else landMixedGroup.
+template <class Offset>
+int landGroups(const RowScatter& row, const Offset& offset, int groups, bool leftToRight,
                int prevSlot) {
     const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
-    const __m256 va = _mm256_set1_ps(a), vb = _mm256_set1_ps(b), width = _mm256_set1_ps(float(r.w));
+    const __m256 width = _mm256_set1_ps(float(r.w));
     const __m256i spare = _mm256_set1_epi32(r.w), tag = _mm256_set1_epi32(r.tag),
                   iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     auto land = [&](int x) {
         const __m256i xi = _mm256_add_epi32(_mm256_set1_epi32(x), iota);
         const __m256 pos =
-            _mm256_add_ps(_mm256_cvtepi32_ps(xi),
-                          _mm256_add_ps(_mm256_mul_ps(va, _mm256_loadu_ps(r.srcDepth + x)), vb));
+            _mm256_add_ps(_mm256_cvtepi32_ps(xi), offset(_mm256_loadu_ps(r.srcDepth + x)));
         // Inside [0, w) (false for NaN): its column; else the spare slot.
         const __m256 inside = _mm256_and_ps(_mm256_cmp_ps(pos, _mm256_setzero_ps(), _CMP_GE_OQ),
                                             _mm256_cmp_ps(pos, width, _CMP_LT_OQ));
@@ -199,13 +244,12 @@ int followGroup(const RowScatter& row, const int32_t* tx, int x, int n, int prev
     return leftToRight ? tx[n - 1] : tx[0];
 }
 
-// Lands columns x .. x + 3 with the same float operations in the same order as landOne (the
-// build does not contract them): as one vector when they land one column apart, else one by one
-// in occlusion-compatible order.
-int landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight, int prevSlot) {
+// Lands columns x .. x + 3 with the same float operations in the same order as landOne: as one
+// vector when they land one column apart, else one by one in occlusion-compatible order.
+template <class Offset>
+int landGroup(const RowScatter& row, const Offset& offset, int x, bool leftToRight, int prevSlot) {
     const __m128i xi = _mm_add_epi32(_mm_set1_epi32(x), _mm_set_epi32(3, 2, 1, 0));
-    const __m128 d = _mm_loadu_ps(row.srcDepth + x);
-    const __m128 pos = _mm_add_ps(_mm_cvtepi32_ps(xi), _mm_add_ps(_mm_mul_ps(a, d), b));
+    const __m128 pos = _mm_add_ps(_mm_cvtepi32_ps(xi), offset(_mm_loadu_ps(row.srcDepth + x)));
     // Inside [0, w) (false for NaN): its column; else the spare slot.
     const __m128 inside = _mm_and_ps(_mm_cmpge_ps(pos, _mm_setzero_ps()),
                                      _mm_cmplt_ps(pos, _mm_set1_ps(float(row.w))));
@@ -230,15 +274,15 @@ int landGroup(const RowScatter& row, __m128 a, __m128 b, int x, bool leftToRight
 }
 
 // The whole groups of four columns [0, groups) in occlusion-compatible order.
-int landGroups(const RowScatter& row, float a, float b, int groups, bool leftToRight,
+template <class Offset>
+int landGroups(const RowScatter& row, const Offset& offset, int groups, bool leftToRight,
                int prevSlot) {
     const RowScatter r = row;  // a copy in locals: the landings' stores could alias `row`
-    const __m128 va = _mm_set1_ps(a), vb = _mm_set1_ps(b);
     if (leftToRight)
-        for (int x = 0; x < groups; x += kLanes) prevSlot = landGroup(r, va, vb, x, true, prevSlot);
+        for (int x = 0; x < groups; x += kLanes) prevSlot = landGroup(r, offset, x, true, prevSlot);
     else
         for (int x = groups - kLanes; x >= 0; x -= kLanes)
-            prevSlot = landGroup(r, va, vb, x, false, prevSlot);
+            prevSlot = landGroup(r, offset, x, false, prevSlot);
     return prevSlot;
 }
 #endif
@@ -328,21 +372,31 @@ int writeVectors(const RowWrite& row, int t, bool* anyHole) {
 constexpr uintptr_t kStreamAlign = 16;
 #endif
 
-}  // namespace
-
-void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight) {
+// One row's scatter with either offset form.
+template <class Offset>
+void scatterRow(const RowScatter& row, const Offset& offset, bool leftToRight) {
 #if PLX_ROW_SSE2 || PLX_ROW_AVX2
     // Whole groups from the row's start on; the columns after the last one one by one, last
     // when walking left to right and first when walking right to left.
     const int groups = row.w / kLanes * kLanes;
     if (leftToRight) {
-        landRange(row, a, b, groups, row.w, true, landGroups(row, a, b, groups, true, row.w));
+        landRange(row, offset, groups, row.w, true, landGroups(row, offset, groups, true, row.w));
     } else {
-        landGroups(row, a, b, groups, false, landRange(row, a, b, groups, row.w, false, -1));
+        landGroups(row, offset, groups, false, landRange(row, offset, groups, row.w, false, -1));
     }
 #else
-    landRange(row, a, b, 0, row.w, leftToRight, leftToRight ? row.w : -1);
+    landRange(row, offset, 0, row.w, leftToRight, leftToRight ? row.w : -1);
 #endif
+}
+
+}  // namespace
+
+void scatterDirectRow(const RowScatter& row, float a, float b, bool leftToRight) {
+    scatterRow(row, DirectOffset{a, b}, leftToRight);
+}
+
+void scatterTableRow(const RowScatter& row, const OffsetTable& offsets, bool leftToRight) {
+    scatterRow(row, TableOffset{offsets}, leftToRight);
 }
 
 bool writeRowPixels(const RowWrite& r) {

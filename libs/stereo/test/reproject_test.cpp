@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -309,11 +310,13 @@ TEST(Reproject, ParallelRowsEqualOneThread) {
 // pixels apart in their order, a pixel whose landing lies farther than the nearer of them becomes
 // a hole; where they are three or more apart, so does one beyond an end, as far again less one,
 // whose landing lies farther than that end by more than twice the two columns' difference.
-void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
-                        SecondEye* second) {
+// `centredOffset` gives a pixel's offset plus the pixel centre's 0.5 from its 1/w: the direct
+// form's or the table's (OffsetLut::centredOffset).
+void reprojectByTheBook(const raster::FrameBuffers& first,
+                        const std::function<float(float)>& centredOffset, SecondEye* second) {
     const int w = first.color.width(), h = first.color.height();
     auto landing = [&](int x, int y) {
-        float pos = float(x) + (line.perInvW * first.depth.at(x, y) + (line.offsetPx + 0.5f));
+        float pos = float(x) + centredOffset(first.depth.at(x, y));
         return pos >= 0.0f && pos < float(w) ? int(pos) : -1;
     };
     for (int y = 0; y < h; ++y) {
@@ -325,7 +328,7 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
         }
         for (int x = 0; x < w; ++x) {
             float invW = first.depth.at(x, y);
-            float pos = float(x) + (line.perInvW * invW + (line.offsetPx + 0.5f));
+            float pos = float(x) + centredOffset(invW);
             if (!(pos >= 0.0f && pos < float(w))) continue;
             int tx = int(pos);
             if (second->holeMask.at(tx, y) || invW > second->buffers.depth.at(tx, y)) {
@@ -358,6 +361,12 @@ void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& 
     }
 }
 
+void reprojectByTheBook(const raster::FrameBuffers& first, const DisparityLine& line,
+                        SecondEye* second) {
+    reprojectByTheBook(
+        first, [line](float invW) { return line.perInvW * invW + (line.offsetPx + 0.5f); }, second);
+}
+
 // A first eye of random 1/w from 13 levels (0 is the background), colours and IDs.
 raster::FrameBuffers randomFirstEye(int w, int h, unsigned seed) {
     std::mt19937 rng(seed);
@@ -373,6 +382,15 @@ raster::FrameBuffers randomFirstEye(int w, int h, unsigned seed) {
             first.id.at(x, y) = 1 + (any(rng) % 1000);
         }
     return first;
+}
+
+// Colour, depth, ID and hole mask all equal.
+void expectSameSecondEye(const SecondEye& got, const SecondEye& expected,
+                         const DisparityLine& line) {
+    EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
+    EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
+    EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
+    EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
 }
 
 // Disparity ranges wider than a random first eye of width ~100, so that rows have collisions,
@@ -392,10 +410,7 @@ TEST(Reproject, RowPassEqualsThePaperOnRandomDepths) {
             reprojectByTheBook(first, line, &expected);
             ThreadPool pool(2);
             ASSERT_TRUE(reproject(firstTargets(first), line, got.targets(), &pool).isOk());
-            EXPECT_TRUE(got.buffers.color == expected.buffers.color) << line.perInvW;
-            EXPECT_TRUE(got.buffers.depth == expected.buffers.depth) << line.perInvW;
-            EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
-            EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
+            expectSameSecondEye(got, expected, line);
 
             // A second eye shown as colour only: colour and mask everywhere, depth and ID where the
             // hole search reads them (hole pixels and their row neighbours), the rest untouched;
@@ -473,6 +488,30 @@ TEST(Reproject, RowPassEqualsThePaperOnSlantedRuns) {
             EXPECT_TRUE(got.buffers.id == expected.buffers.id) << line.perInvW;
             EXPECT_TRUE(got.holeMask == expected.holeMask) << line.perInvW;
         }
+}
+
+// The offset table's row pass (Fu section 2) on every kernel path, against the paper's pixel
+// loop with the table's offsets: random levels and slanted runs (1/w up to 3), a table of 4096
+// entries over [0, 2], and one of 17 over [0, 1], whose coarse steps make neighbours collide and
+// whose last entry takes two thirds of the levels.
+TEST(Reproject, TableRowPassEqualsThePaper) {
+    const raster::FrameBuffers firsts[] = {randomFirstEye(97, 23, 5), slantedFirstEye(301, 17, 13)};
+    ActiveIsaGuard restore;
+    for (Isa isa : runnableIsas())
+        for (const raster::FrameBuffers& first : firsts)
+            for (DisparityLine line : kWideLines)
+                for (auto [maxInvW, entries] : {std::pair{2.0f, 4096}, std::pair{1.0f, 17}}) {
+                    SCOPED_TRACE(std::string(isaName(isa)) + " entries " + std::to_string(entries));
+                    ASSERT_TRUE(setActiveIsa(isa).isOk());
+                    const int w = first.color.width(), h = first.color.height();
+                    const OffsetLut lut = *OffsetLut::create(line, maxInvW, entries);
+                    SecondEye expected(w, h), got(w, h);
+                    reprojectByTheBook(
+                        first, [&lut](float invW) { return lut.centredOffset(invW); }, &expected);
+                    ThreadPool pool(2);
+                    ASSERT_TRUE(reproject(firstTargets(first), lut, got.targets(), &pool).isOk());
+                    expectSameSecondEye(got, expected, line);
+                }
 }
 
 TEST(Reproject, BadParametersAreRejected) {

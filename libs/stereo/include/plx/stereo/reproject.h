@@ -82,6 +82,10 @@ public:
     float maxErrorPx() const { return mMaxErrorPx; }
     const DisparityLine& line() const { return mLine; }
     int entries() const { return int(mTable.size()); }
+    // The entries (entry i: a i / scale() + b + 0.5) and the scale from 1/w to their index, for
+    // the row kernels, which repeat centredOffset's steps.
+    const float* table() const { return mTable.data(); }
+    float scale() const { return mScale; }
 
 private:
     OffsetLut() = default;

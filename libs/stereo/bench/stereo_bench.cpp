@@ -683,10 +683,11 @@ BENCHMARK(BM_FillHoles)
     ->ArgNames({"rooms", "interpolate", "threads", "gouraud"})
     ->Unit(benchmark::kMillisecond);
 
-// drawUnseenOccluders (unseen.h) alone, on the benchmark's thread, after a reprojected second eye
-// of office:N at 1280x720: Arg(1) 0 the converged rig (its wedge closes at the convergence
-// distance), 1 the parallel rig (its wedge runs as deep as the offset allows a sample in it).
-// Counters: triangles drawn, pixels written, and the box nodes the walk tested.
+// drawUnseenOccluders (unseen.h) alone, on the benchmark's thread, over a second eye of office:N
+// at 1280x720 (the full render's colour: the pass writes, and reads nothing there): Arg(1) 0 the
+// converged rig (its wedge closes at the convergence distance), 1 the parallel rig (its wedge
+// runs as deep as the offset allows a sample in it). Counters: triangles drawn, pixels written,
+// and the box nodes the walk tested.
 void BM_UnseenOccluders(benchmark::State& state) {
     scene::Scene s = *scene::generateOffice(int(state.range(0)));
     StereoRigDesc desc;

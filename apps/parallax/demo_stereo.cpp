@@ -19,8 +19,6 @@
 namespace plx::cli {
 namespace {
 
-// The reproject method's part: one pair of the largest scene, its hole classes, and the table of
-// the three methods (the plot of their second eyes is among stereoPlots).
 // Beyond the paper: a pair at a separation of 1, where geometry outside the first eye's view
 // (unseen.h) and surfaces spread apart (reproject.h, gaps) would otherwise show what lies behind
 // them; its hole classes and its second eye against the full render's.
@@ -53,6 +51,8 @@ Status wideSeparationPart(DemoContext& ctx, const scene::Scene& scene, const Cam
     return Status::ok();
 }
 
+// The reproject method's part: one pair of the largest scene, its hole classes, the wide pair
+// above, and the table of the three methods (the plot of their second eyes is among stereoPlots).
 Status reprojectPart(DemoContext& ctx, const std::vector<StereoExperimentRow>& rows,
                      const scene::Scene& scene, const Camera& center, const StereoRig& rig,
                      stereo::StereoRenderer& renderer) {

@@ -16,7 +16,8 @@ namespace plx::stereo::detail {
 // inside the row, at least two apart in the columns' order. The surface they sample is spread
 // apart between them, and a pixel landing there from elsewhere may lie behind it: reproject.cpp
 // takes off, after the row's scatter, each landing between them that lies farther than the
-// nearer of the two (reproject.h, gaps).
+// nearer of the two, and beyond a wide gap's ends those the surface may still cover
+// (reproject.h, gaps).
 struct RowGap {
     int32_t tA, tB, xA, xB;
 };

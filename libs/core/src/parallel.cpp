@@ -1,4 +1,7 @@
+#include <optional>
+
 #include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
@@ -8,7 +11,18 @@
 namespace plx {
 
 struct ThreadPool::Impl {
-    explicit Impl(int threads) : arena(threads) {}
+    explicit Impl(int threads) {
+        // TBB's workers number one less than the cores unless a control raises the limit; an
+        // arena asking for more gets the cores only, and TBB says so on stderr. A pool asked for
+        // more threads than cores (a scaling run, a comparison at a fixed count) gets them: the
+        // control lasts as long as the pool. While pools of several such sizes live, TBB takes
+        // the smallest limit.
+        if (threads > tbb::info::default_concurrency())
+            moreThreadsThanCores.emplace(tbb::global_control::max_allowed_parallelism,
+                                         size_t(threads));
+        arena.initialize(threads);
+    }
+    std::optional<tbb::global_control> moreThreadsThanCores;
     tbb::task_arena arena;
 };
 

@@ -1,5 +1,8 @@
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -199,6 +202,26 @@ TEST(Parallel, ParallelForVisitsEveryIndexOnce) {
         for (size_t i = b; i < e; ++i) hits[i]++;
     });
     for (int h : hits) ASSERT_EQ(h, 1);
+}
+
+TEST(Parallel, PoolRunsAsManyThreadsAsAskedEvenBeyondTheCores) {
+    // Every task waits until all are running, so they meet only if the pool runs them all at
+    // once; a bounded wait turns a pool held to the cores into a failure, not a hang.
+    const int threads = int(std::thread::hardware_concurrency()) + 2;
+    ThreadPool pool(threads);
+    ASSERT_EQ(pool.threadCount(), threads);
+    std::atomic<int> running{0}, mostAtOnce{0};
+    pool.parallelFor(size_t(threads), 1, [&](size_t, size_t) {
+        const int now = ++running;
+        for (int most = mostAtOnce.load();
+             now > most && !mostAtOnce.compare_exchange_weak(most, now);) {
+        }
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        while (mostAtOnce.load() < threads && std::chrono::steady_clock::now() < deadline)
+            std::this_thread::sleep_for(std::chrono::microseconds(100));
+        --running;
+    });
+    EXPECT_EQ(mostAtOnce.load(), threads) << "tasks running at once";
 }
 
 }  // namespace

@@ -13,8 +13,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
+#include <plx/core/parallel.h>
 #include <plx/raster/raster.h>
 
 namespace plx::stream {
@@ -197,8 +197,8 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
     std::atomic<size_t> cellsDone{0};
     std::mutex progressMutex;
     tbb::enumerable_thread_specific<Worker> workers;
-    tbb::task_arena arena(config.threads > 0 ? config.threads : tbb::task_arena::automatic);
-    arena.execute([&] {
+    ThreadPool pool(config.threads);
+    pool.run([&] {
         tbb::parallel_for(
             tbb::blocked_range<size_t>(0, perSample.size(), 1),
             [&](const tbb::blocked_range<size_t>& r) {

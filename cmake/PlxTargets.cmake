@@ -84,7 +84,8 @@ endfunction()
 add_custom_target(plx_test_suites)
 
 # plx_add_test(NAME [KERNELS] SOURCES ... DEPS ...): one GoogleTest executable registered with
-# CTest. KERNELS marks a suite that runs hand-written SIMD kernels or checks them against their
+# CTest; its main comes from plx_test_main (libs/core/mains), which refuses an unknown
+# PLX_FORCE_ISA. KERNELS marks a suite that runs hand-written SIMD kernels or checks them against their
 # scalar reference; with PLX_KERNEL_TESTS_ONLY (the scalar preset) only those suites are built.
 function(plx_add_test name)
     cmake_parse_arguments(ARG "KERNELS" "" "SOURCES;DEPS" ${ARGN})
@@ -93,7 +94,7 @@ function(plx_add_test name)
     endif()
     add_executable(${name} ${ARG_SOURCES})
     add_dependencies(plx_test_suites ${name})
-    target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest_main plx_flags)
+    target_link_libraries(${name} PRIVATE ${ARG_DEPS} plx_test_main plx_flags)
     target_compile_definitions(${name} PRIVATE
         PLX_SHARED_DATA_DIR="${PLX_SHARED_DATA_DIR}"
         PLX_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
@@ -103,9 +104,9 @@ function(plx_add_test name)
 endfunction()
 
 # plx_add_bench(NAME SOURCES ... DEPS ...): one Google Benchmark executable (not run by CTest).
-# Its main comes from plx_bench_main (libs/core/bench), which refuses an unknown PLX_FORCE_ISA;
+# Its main comes from plx_bench_main (libs/core/mains), which refuses an unknown PLX_FORCE_ISA;
 # a driver that defines its own main keeps it (a static library's object is only linked where
-# it resolves something) and calls plx::bench::refuseUnknownForcedIsa itself.
+# it resolves something) and calls plx::mains::refuseUnknownForcedIsa itself.
 function(plx_add_bench name)
     cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
     if(NOT PLX_BUILD_BENCH)

@@ -352,7 +352,7 @@ int runPtmSpeed(const std::vector<std::string>& files) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (plx::bench::refuseUnknownForcedIsa(argv[0])) return 2;
+    if (plx::mains::refuseUnknownForcedIsa(argv[0])) return 2;
     if (argc < 3) {
         std::fprintf(stderr, "usage: plx_ptm_bench sizes|speed FILES...\n");
         return 2;

@@ -174,7 +174,7 @@ size_t codedSize(const std::vector<ByteImage>& chain, int variant, bool decorrel
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (plx::bench::refuseUnknownForcedIsa(argv[0])) return 2;
+    if (plx::mains::refuseUnknownForcedIsa(argv[0])) return 2;
     if (argc < 4) {
         std::fprintf(stderr, "usage: plx_ptm_study ZSTD_LEVEL MAX_FILES FILES...\n");
         return 2;

@@ -70,7 +70,7 @@ Repeats countRepeats(const ByteImage& im) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (plx::bench::refuseUnknownForcedIsa(argv[0])) return 2;
+    if (plx::mains::refuseUnknownForcedIsa(argv[0])) return 2;
     if (argc < 2) {
         std::fprintf(stderr, "usage: plx_ptm_repeats FILES...\n");
         return 2;

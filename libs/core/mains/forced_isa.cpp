@@ -5,7 +5,7 @@
 
 #include <plx/core/cpu.h>
 
-namespace plx::bench {
+namespace plx::mains {
 
 bool refuseUnknownForcedIsa(const char* program) {
     const std::string problem = isaEnvironmentError();
@@ -14,4 +14,4 @@ bool refuseUnknownForcedIsa(const char* program) {
     return true;
 }
 
-}  // namespace plx::bench
+}  // namespace plx::mains

@@ -6,7 +6,7 @@
 #include "forced_isa.h"
 
 int main(int argc, char** argv) {
-    if (plx::bench::refuseUnknownForcedIsa(argv[0])) return 2;
+    if (plx::mains::refuseUnknownForcedIsa(argv[0])) return 2;
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     benchmark::RunSpecifiedBenchmarks();

@@ -85,8 +85,9 @@ add_custom_target(plx_test_suites)
 
 # plx_add_test(NAME [KERNELS] SOURCES ... DEPS ...): one GoogleTest executable registered with
 # CTest; its main comes from plx_test_main (libs/core/mains), which refuses an unknown
-# PLX_FORCE_ISA. KERNELS marks a suite that runs hand-written SIMD kernels or checks them against their
-# scalar reference; with PLX_KERNEL_TESTS_ONLY (the scalar preset) only those suites are built.
+# PLX_FORCE_ISA. KERNELS marks a suite that runs hand-written SIMD kernels or checks them against
+# their scalar reference; with PLX_KERNEL_TESTS_ONLY (the scalar preset) only those suites are
+# built.
 function(plx_add_test name)
     cmake_parse_arguments(ARG "KERNELS" "" "SOURCES;DEPS" ${ARGN})
     if(NOT PLX_BUILD_TESTS OR (PLX_KERNEL_TESTS_ONLY AND NOT ARG_KERNELS))

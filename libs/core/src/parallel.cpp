@@ -11,9 +11,9 @@
 namespace plx {
 
 struct ThreadPool::Impl {
-    // The arena is initialised by its first use, not here: initialised when the pool was made, the
-    // reprojection step of a stereo pair (whose renderers hold several pools) took 10-15% longer
-    // on two cores (BM_SecondEyeMethods).
+    // The arena is left to be initialised by its first use: initialised here, it makes the
+    // reprojection step of a stereo pair (whose renderers hold several pools) 10-15% slower on
+    // two cores (BM_SecondEyeMethods).
     explicit Impl(int threads) : arena(threads) {
         // TBB's workers number one less than the cores unless a control raises the limit; an
         // arena asking for more gets the cores only, and TBB says so on stderr. A pool asked for

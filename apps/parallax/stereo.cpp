@@ -171,7 +171,8 @@ struct StereoSession {
     const scene::Scene& scene;
     const StereoPlan& plan;
     int frames = 1;
-    stereo::StereoFrame frame, withPlanes, reference;
+    stereo::StereoFrame frame, withPlanes;
+    raster::FrameBuffers reference;  // the full method's second eye (its first eye is not needed)
 };
 
 // One pose: its timings, the last timed pair's statistics and the second eye's quality.
@@ -206,11 +207,12 @@ PoseResult runPose(StereoSession& s, const StereoRig& rig) {
     if (options.method == stereo::Method::kFull) return r;
     Eye second = rig.secondEye();
     std::vector<uint32_t> drawn = drawnSet(s.renderer, options.method, measured->eye(second));
-    stereo::StereoOptions full = options;
-    full.method = stereo::Method::kFull;
-    full.conservative = false;
-    s.renderer.renderPair(s.scene, rig, full, &s.reference);
-    r.quality = stereo::compareSecondEye(measured->eye(second), s.reference.eye(second), drawn);
+    // The full method's second eye: the whole scene drawn from the second eye's camera by the
+    // same renderer (StereoRenderer's full method, its second half).
+    const Camera& secondCamera = rig.second();
+    s.reference.resize(secondCamera.width(), secondCamera.height());
+    s.renderer.renderer().render(s.scene, secondCamera, options.render, s.reference.targets());
+    r.quality = stereo::compareSecondEye(measured->eye(second), s.reference, drawn);
     return r;
 }
 
@@ -222,7 +224,7 @@ Image<Rgba8> secondEyeDiff(const StereoSession& s, Eye second) {
         s.withPlanes.holeClass.empty() ? s.frame.holeClass : s.withPlanes.holeClass;
     if (s.plan.options.method == stereo::Method::kReproject && !classes.empty())
         return holeClassImage(colour, classes);
-    return diffImage(colour, s.reference.eye(second).color, 4.0f, 40);
+    return diffImage(colour, s.reference.color, 4.0f, 40);
 }
 
 // The reproject method's counts (zero for the other methods).

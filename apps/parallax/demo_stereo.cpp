@@ -30,13 +30,13 @@ Status wideSeparationPart(DemoContext& ctx, const scene::Scene& scene, const Cam
     if (!wide) return wide.status();
     stereo::StereoOptions options;
     options.method = stereo::Method::kReproject;
-    stereo::StereoFrame frame, full;
+    stereo::StereoFrame frame;
     const stereo::StereoFrameStats st = renderer.renderPair(scene, *wide, options, &frame);
-    options.method = stereo::Method::kFull;
-    renderer.renderPair(scene, *wide, options, &full);
+    raster::FrameBuffers full;
+    renderFullSecondEye(renderer, scene, *wide, options.render, &full);
     const Eye second = wide->secondEye();
-    const stereo::SecondEyeQuality q = stereo::compareSecondEye(
-        frame.eye(second), full.eye(second), trianglesShown(frame.eye(second).id));
+    const stereo::SecondEyeQuality q =
+        stereo::compareSecondEye(frame.eye(second), full, trianglesShown(frame.eye(second).id));
     PLX_RETURN_IF_ERROR(writePng(ctx.outDir + "/reproject_wide_holes.png",
                                  holeClassImage(frame.eye(second).color, frame.holeClass)));
     ctx.report->paragraph(fmt::format(

@@ -40,4 +40,12 @@ std::vector<uint32_t> drawnSet(const stereo::StereoRenderer& renderer, stereo::M
     return {renderer.lastVisibleSet().begin(), renderer.lastVisibleSet().end()};
 }
 
+void renderFullSecondEye(stereo::StereoRenderer& renderer, const scene::Scene& scene,
+                         const StereoRig& rig, const raster::RenderOptions& options,
+                         raster::FrameBuffers* out) {
+    const Camera& camera = rig.second();
+    out->resize(camera.width(), camera.height());
+    renderer.renderer().render(scene, camera, options, out->targets());
+}
+
 }  // namespace plx::cli

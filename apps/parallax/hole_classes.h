@@ -1,6 +1,7 @@
 #pragma once
 // What the CLI shows of the reproject method (Fu, Bao, Peng): the second eye with each pixel
-// coloured by how it was produced (stereo::PixelSource), and the polygons an eye shows.
+// coloured by how it was produced (stereo::PixelSource), the polygons an eye shows, and the full
+// method's second eye that compareSecondEye measures it against.
 
 #include <cstdint>
 #include <vector>
@@ -27,5 +28,11 @@ std::vector<uint32_t> trianglesShown(const Image<uint32_t>& ids);
 // eye shows (reprojected or filled): a polygon of the full render it lacks is then missed.
 std::vector<uint32_t> drawnSet(const stereo::StereoRenderer& renderer, stereo::Method method,
                                const raster::FrameBuffers& secondEye);
+
+// The full method's second eye, with depth and IDs: the whole scene drawn from rig.second() by
+// the stereo renderer's own raster renderer (its full method's second half, without the first).
+void renderFullSecondEye(stereo::StereoRenderer& renderer, const scene::Scene& scene,
+                         const StereoRig& rig, const raster::RenderOptions& options,
+                         raster::FrameBuffers* out);
 
 }  // namespace plx::cli

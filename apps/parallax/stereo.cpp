@@ -207,11 +207,7 @@ PoseResult runPose(StereoSession& s, const StereoRig& rig) {
     if (options.method == stereo::Method::kFull) return r;
     Eye second = rig.secondEye();
     std::vector<uint32_t> drawn = drawnSet(s.renderer, options.method, measured->eye(second));
-    // The full method's second eye: the whole scene drawn from the second eye's camera by the
-    // same renderer (StereoRenderer's full method, its second half).
-    const Camera& secondCamera = rig.second();
-    s.reference.resize(secondCamera.width(), secondCamera.height());
-    s.renderer.renderer().render(s.scene, secondCamera, options.render, s.reference.targets());
+    renderFullSecondEye(s.renderer, s.scene, rig, options.render, &s.reference);
     r.quality = stereo::compareSecondEye(measured->eye(second), s.reference, drawn);
     return r;
 }

@@ -59,8 +59,10 @@ Status checkReferenceSetOptions(const ReferenceSetOptions& o) {
         return {
             ErrorCode::kInvalidArgument,
             "wide field of view " + std::to_string(o.wideFovDegrees) + " degrees outside (0, 180)"};
-    if (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect) ||
-        std::lround(double(o.faceSize) * o.wideAspect) > Camera::kMaxImageSide)
+    // The aspect shapes the wide view alone; a cube face is square whatever it holds.
+    if (o.layout == ReferenceLayout::kWide &&
+        (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect) ||
+         std::lround(double(o.faceSize) * o.wideAspect) > Camera::kMaxImageSide))
         return {ErrorCode::kInvalidArgument, "wide aspect " + std::to_string(o.wideAspect) +
                                                  " not positive or too wide for the face size"};
     if (!(o.nearPlane > 0.0f && o.nearPlane < o.farPlane) || !std::isfinite(o.farPlane))

@@ -534,6 +534,16 @@ TEST(Warp, BadInputGetsOneLineErrors) {
     o = {};
     o.wideFovDegrees = 180.0f;
     expectOneLineError(renderReferenceSet(*renderer, s, pose, o, &set), "field of view");
+    // The wide view's aspect bounds its width alone: a cube face above the largest side over
+    // that aspect is square, and refused only above the largest side itself.
+    o = {};
+    o.faceSize = 12000;
+    ASSERT_TRUE(referenceCameras(pose, o).isOk());
+    o.layout = ReferenceLayout::kWide;
+    expectOneLineError(referenceCameras(pose, o).status(), "too wide for the face size");
+    o.layout = ReferenceLayout::kCube6;
+    o.faceSize = Camera::kMaxImageSide + 1;
+    expectOneLineError(referenceCameras(pose, o).status(), "face size");
     expectOneLineError(parseSplat("blob").status(), "blob");
     expectOneLineError(parseReferenceLayout("cube5").status(), "cube5");
     EXPECT_EQ(*parseReferenceLayout("wide"), ReferenceLayout::kWide);

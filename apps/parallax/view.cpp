@@ -12,7 +12,10 @@ void addViewOptions(CLI::App* app, ViewArgs* args) {
     app->add_option("--target", args->target, "Point looked at x,y,z (with --eye)");
     app->add_option("--up", args->up, "Up direction x,y,z (with --eye)")->capture_default_str();
     app->add_option("--fov", args->fovDegrees, "Vertical field of view in degrees")
-        ->each([args](const std::string&) { args->fovGiven = true; });
+        ->each([args](const std::string& text) {
+            args->fovGiven = true;
+            args->fovText = text;
+        });
     app->add_option("--viewpoint", args->viewpoint, "Scene viewpoint by name or index");
 }
 
@@ -39,10 +42,11 @@ Result<Camera> cameraFor(const scene::Scene& scene, const ViewArgs& args) {
     if (args.fovGiven && !(args.fovDegrees > 0.0f && args.fovDegrees < 180.0f))
         return errorStatus(
             ErrorCode::kInvalidArgument,
-            fmt::format("--fov {:g} must lie strictly between 0 and 180 degrees", args.fovDegrees));
+            fmt::format("--fov {} must lie strictly between 0 and 180 degrees", args.fovText));
     if (!args.eye.empty()) {
         auto eye = parseVec3(args.eye);
-        if (!eye) return errorStatus(ErrorCode::kInvalidArgument, "--eye: " + eye.status().message());
+        if (!eye)
+            return errorStatus(ErrorCode::kInvalidArgument, "--eye: " + eye.status().message());
         if (args.target.empty())
             return errorStatus(ErrorCode::kInvalidArgument, "--eye needs --target");
         auto target = parseVec3(args.target);

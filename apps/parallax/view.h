@@ -17,6 +17,7 @@ struct ViewArgs {
     std::string eye, target, up = "0,1,0";
     float fovDegrees = 0.0f;  // read only when fovGiven; else the viewpoint's own
     bool fovGiven = false;    // --fov was given (whatever its value, NaN included)
+    std::string fovText;      // as given, for errors (1e308 reads as inf)
     std::string viewpoint;    // name or index
 };
 

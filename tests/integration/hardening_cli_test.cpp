@@ -181,6 +181,8 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax(render + " --fov 0"), "--fov 0 must lie strictly between", 2);
     expectOneLineError(runParallax(render + " --fov 180"), "--fov 180", 2);
     expectOneLineError(runParallax(render + " --fov -5"), "--fov -5", 2);
+    // Named as typed, not as the float it rounds to (inf).
+    expectOneLineError(runParallax(render + " --fov 1e308"), "--fov 1e308 must lie strictly", 2);
     // Once read as "not given" and replaced by the viewpoint's own.
     expectOneLineError(runParallax(render + " --fov nan"), "--fov nan must lie strictly between",
                        2);

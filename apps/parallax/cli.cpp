@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/memory.h>
+
 #include "cli.h"
 
 namespace plx::cli {
@@ -85,6 +87,25 @@ Result<Vec3> parseVec3(const std::string& text) {
 Status checkStereoRigNumbers(const StereoRigDesc& rig) {
     auto probe = StereoRig::create(*Camera::create({}), rig);
     return probe ? Status::ok() : probe.status();
+}
+
+Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes) {
+    const double estimate = double(residentBytes()) + imageBytes;
+    const std::optional<uint64_t> available = availableMemoryBytes();
+    constexpr double kGiB = double(1 << 30);
+    if (available && imageBytes > double(*available))
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("{} needs about {:.1f} GiB of memory for its images, "
+                                       "{:.1f} GiB is available (memory and swap, cgroup and "
+                                       "ulimit limits)",
+                                       what, imageBytes / kGiB, double(*available) / kGiB));
+    return uint64_t(estimate);
+}
+
+nlohmann::json memoryJson(uint64_t estimateBytes) {
+    constexpr double kMiB = double(1 << 20);
+    return {{"memory_estimate_mb", double(estimateBytes) / kMiB},
+            {"peak_memory_mb", double(peakResidentBytes()) / kMiB}};
 }
 
 void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }

@@ -61,6 +61,18 @@ Status checkStereoRigNumbers(const StereoRigDesc& rig);
 // Bytes of a size given in MiB on the command line (--budget 1.5).
 inline uint64_t mebibytes(double mb) { return uint64_t(std::llround(mb * double(1 << 20))); }
 
+// Work whose memory grows with the image (render, stereo, warp, client, stream walk), checked
+// before it starts: its peak is estimated as what the process holds now (the scene loaded) plus
+// `imageBytes`, the command's measured bytes per pixel times its pixels. Refuses, naming `what`,
+// the image's share and what is available, when that share exceeds what availableMemoryBytes()
+// says the process can still take, where the kernel would otherwise end it without a message.
+// Returns the estimated peak in bytes.
+Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes);
+
+// The estimate checkImageMemory gave and the peak the process reached, in MiB, for --json:
+// {"memory_estimate_mb": ..., "peak_memory_mb": ...}.
+nlohmann::json memoryJson(uint64_t estimateBytes);
+
 // JSON has no infinity: identical images (infinite PSNR) are reported as this many dB.
 inline constexpr double kIdenticalPsnrDb = 99.0;
 

@@ -200,6 +200,19 @@ double medianOf(const std::vector<FrameStat>& frames, double FrameStat::*field) 
     return v.empty() ? 0.0 : median(v);
 }
 
+// Peak bytes per display pixel beyond the scene and the reference sets (whose faces the server
+// caps, remote::kMaxFaceSize), for checkImageMemory: the warped frames (two with --stereo),
+// the local render they are held against (--scene), the frames written (--out). The growth of
+// the peak from 1024x1024 to 2048x2048 (office:2, server face size 512): mono 19.6, stereo
+// 28.8; with --out 27.9 and 42.3; with --scene 29.3, 35.7, and with both 40.2, 54.4. Rounded
+// up; RemoteCli.ClientMemoryEstimateHoldsItsPeak holds them to the measured peak.
+double clientBytesPerPixel(const ClientArgs& a) {
+    double bytes = a.stereo ? 30.0 : 21.0;
+    if (!a.out.empty()) bytes += a.stereo ? 16.0 : 9.0;
+    if (!a.scene.empty()) bytes += 12.0;
+    return bytes;
+}
+
 int runClient(const ClientArgs& a) {
     auto p = plan(a);
     if (!p) return fail(p.status().message(), kExitUsage);
@@ -211,6 +224,10 @@ int runClient(const ClientArgs& a) {
     }
     auto cameras = pathCameras(a, p->size, scene ? &*scene : nullptr);
     if (!cameras) return fail(cameras.status());
+    auto memory = checkImageMemory(
+        fmt::format("client{} at {}x{}", a.stereo ? " --stereo" : "", p->size.x, p->size.y),
+        clientBytesPerPixel(a) * double(p->size.x) * double(p->size.y));
+    if (!memory) return fail(memory.status());
     if (!a.out.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(a.out, ec);
@@ -277,6 +294,7 @@ int runClient(const ClientArgs& a) {
         {"reconnects", std::max<int64_t>(0, cs.connects - 1)},
         {"frames_written", loop->written}};
     if (scene) doc["psnr_db_median"] = medianOf(loop->frames, &FrameStat::psnrDb);
+    doc.update(memoryJson(*memory));
     if (a.json) {
         printJson(doc);
     } else {

@@ -49,6 +49,36 @@ struct StereoPlan {
     stereo::Layout layout = stereo::Layout::kPair;
 };
 
+// Peak bytes per image pixel beyond the scene (checkImageMemory). The growth of the peak from
+// 1024x1024 to 2048x2048 (office:2): full 36.3, pbuffer 52.2 (--conservative 69.5), reproject
+// 69.0; a side-by-side or top-bottom image 12-16 more, an anaglyph 4. Rounded up;
+// MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the measured peak.
+double stereoBytesPerPixel(const StereoPlan& p) {
+    double bytes = 0.0;
+    switch (p.options.method) {
+        case stereo::Method::kFull:
+            bytes = 38.0;
+            break;
+        case stereo::Method::kPBuffer:
+            bytes = p.options.conservative ? 73.0 : 55.0;
+            break;
+        case stereo::Method::kReproject:
+            bytes = 72.0;
+            break;
+    }
+    switch (p.layout) {
+        case stereo::Layout::kPair:
+            return bytes;
+        case stereo::Layout::kSideBySide:
+        case stereo::Layout::kTopBottom:
+            return bytes + 16.0;
+        case stereo::Layout::kAnaglyph:
+        case stereo::Layout::kInterleaved:
+            return bytes + 5.0;
+    }
+    return bytes;
+}
+
 Result<StereoPlan> plan(const StereoArgs& a) {
     StereoPlan p;
     auto method = stereo::parseMethod(a.method);
@@ -314,6 +344,11 @@ int runStereo(const StereoArgs& a) {
     int errorExit = kExitFailure;
     auto cameras = camerasFor(*scene, a, size, &errorExit);
     if (!cameras) return fail(cameras.status().message(), errorExit);
+    auto memory =
+        checkImageMemory(fmt::format("stereo --method {} at {}x{}",
+                                     stereo::methodName(p->options.method), size.x, size.y),
+                         stereoBytesPerPixel(*p) * double(size.x) * double(size.y));
+    if (!memory) return fail(memory.status());
     // What the reproject method's search walks (box hierarchy; BSP tree for --fill-search bsp),
     // built once before any timing.
     double prepareMs = 0.0;
@@ -385,6 +420,7 @@ int runStereo(const StereoArgs& a) {
         {"outputs", single ? nlohmann::json(written) : nlohmann::json(written.size())},
     };
     doc.update(holeJson(last.stats, pixels));
+    doc.update(memoryJson(*memory));
     if (!single) doc["per_pose"] = perPose;
     if (a.json)
         printJson(doc);

@@ -154,6 +154,16 @@ Result<std::vector<Camera>> walkCameras(const WalkArgs& a, const stream::RootFil
 // The paper's screenshot moments (Fig. 3: 10 s, 35 s and 80 s after the downloads start).
 constexpr double kShotTimesS[] = {10.0, 35.0, 80.0};
 
+// Peak bytes per frame pixel beyond the database's scene and textures, for checkImageMemory:
+// the frame's targets, and the PNG of a screenshot when the walk reaches one with --out. The
+// growth of the peak from 1024x1024 to 2048x2048 (museum:4): 12.1, with a screenshot 17.1.
+// Rounded up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the measured peak. What the
+// walk downloads (geometry, texture levels) comes on top, bounded by the budgets, not the size.
+double walkBytesPerPixel(const WalkArgs& a, size_t frames) {
+    const bool screenshot = !a.out.empty() && double(frames) / a.fps >= kShotTimesS[0];
+    return screenshot ? 19.0 : 14.0;
+}
+
 int runWalk(const WalkArgs& a) {
     if (Status s = checkArgs(a); !s) return fail(s.message(), kExitUsage);
     stream::LinkOptions link{a.bandwidthKbit * 1e3, a.latencyMs * 1e-3};
@@ -166,6 +176,11 @@ int runWalk(const WalkArgs& a) {
     if (!root) return fail(root.status());
     auto cameras = walkCameras(a, *root, **probe);
     if (!cameras) return fail(cameras.status());
+    const Camera& view = cameras->front();
+    auto memory = checkImageMemory(
+        fmt::format("stream walk at {}x{}", view.width(), view.height()),
+        walkBytesPerPixel(a, cameras->size()) * double(view.width()) * double(view.height()));
+    if (!memory) return fail(memory.status());
 
     stream::ClientConfig config;
     config.budgetBytes = mebibytes(a.budgetMb);
@@ -227,16 +242,18 @@ int runWalk(const WalkArgs& a) {
     if (!a.out.empty())
         if (Status s = writeText(a.out + "/frames.csv", csv); !s) return fail(s);
     if (a.json) {
-        printJson({{"frames", cameras->size()},
-                   {"budget_bytes", config.budgetBytes},
-                   {"static_budget_bytes", config.staticBudgetBytes},
-                   {"max_resident_bytes", maxResident},
-                   {"downloaded_bytes", last.downloadedBytes},
-                   {"quality_final", last.quality},
-                   {"failed_requests", client.failedRequests()},
-                   {"bandwidth_kbit", a.bandwidthKbit},
-                   {"policy", a.policy},
-                   {"per_frame", frames}});
+        nlohmann::json doc = {{"frames", cameras->size()},
+                              {"budget_bytes", config.budgetBytes},
+                              {"static_budget_bytes", config.staticBudgetBytes},
+                              {"max_resident_bytes", maxResident},
+                              {"downloaded_bytes", last.downloadedBytes},
+                              {"quality_final", last.quality},
+                              {"failed_requests", client.failedRequests()},
+                              {"bandwidth_kbit", a.bandwidthKbit},
+                              {"policy", a.policy},
+                              {"per_frame", frames}};
+        doc.update(memoryJson(*memory));
+        printJson(doc);
     } else {
         fmt::print(
             "{} frames: max resident {} bytes (budget {}, static {}), downloaded {} bytes, "
@@ -265,7 +282,7 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         "time. Frames draw the downloaded geometry with the resident levels only (grey where none "
         "is resident yet). --out DIR writes DIR/frames.csv and the frames at 10, 35 and 80 s.\n"
         "JSON: frames, budget_bytes, max_resident_bytes, downloaded_bytes, quality_final, "
-        "failed_requests, per_frame.");
+        "failed_requests, per_frame, memory_estimate_mb and peak_memory_mb (the process).");
     walk->add_option("location", a->location, "Database folder or http://HOST:PORT/PATH")
         ->required();
     walk->add_option("--bandwidth", a->bandwidthKbit, "Link bandwidth, kbit/s (0: unlimited)");

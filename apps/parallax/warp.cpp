@@ -5,6 +5,7 @@
 
 #include <plx/raster/raster.h>
 #include <plx/scene/import.h>
+#include <plx/warp/reference.h>
 #include <plx/warp/warp.h>
 
 #include "commands.h"
@@ -60,6 +61,22 @@ Result<WarpPlan> plan(const WarpArgs& a) {
     return p;
 }
 
+// Peak bytes beyond the scene (checkImageMemory): per reference pixel (the reference set, and
+// with mesh splats its meshes) and per display pixel (the warped frame, the render it is held
+// against, the PNGs' images). Fitted to the peaks of cube4, cube6 and wide sets at 1024 and 2048
+// pixels a side, square and not (office:2): 8.0 per reference pixel (10.3 with mesh splats) and
+// 56-59 per display pixel. Rounded up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the
+// measured peak.
+double warpImageBytes(const WarpPlan& p, const std::vector<Camera>& references,
+                      const Camera& display) {
+    const double perReferencePixel = p.options.splat == warp::Splat::kMesh ? 11.0 : 8.5;
+    constexpr double kPerDisplayPixel = 62.0;
+    double bytes = kPerDisplayPixel * double(display.width()) * double(display.height());
+    for (const Camera& view : references)
+        bytes += perReferencePixel * double(view.width()) * double(view.height());
+    return bytes;
+}
+
 // The destination camera: the first camera's lens and size at the second pose.
 Result<Camera> destinationCamera(const Camera& from, const WarpPlan& p) {
     CameraDesc d = from.desc();
@@ -102,8 +119,15 @@ int runWarp(const WarpArgs& a) {
     if (!to) return fail(to.status().message(), kExitUsage);
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
-    warp::ReferenceSet set;
     warp::ReferenceSetOptions refOptions = referenceOptionsFor(*scene, *from, p->layout);
+    auto references = warp::referenceCameras(poseOf(*from), refOptions);
+    if (!references) return fail(references.status());
+    auto memory = checkImageMemory(
+        fmt::format("warp --refs {} at {}x{}", warp::referenceLayoutName(p->layout), to->width(),
+                    to->height()),
+        warpImageBytes(*p, *references, *to));
+    if (!memory) return fail(memory.status());
+    warp::ReferenceSet set;
     if (Status s = warp::renderReferenceSet(**renderer, *scene, poseOf(*from), refOptions, &set);
         !s)
         return fail(s);
@@ -133,27 +157,29 @@ int runWarp(const WarpArgs& a) {
     if (Status s = writePng(written[2], holeDiffImage(frame, truth.color)); !s) return fail(s);
 
     if (a.json) {
-        printJson({{"scene", a.scene},
-                   {"refs", warp::referenceLayoutName(p->layout)},
-                   {"splat", warp::splatName(p->options.splat)},
-                   {"size", fmt::format("{}x{}", to->width(), to->height())},
-                   {"face_size", refOptions.faceSize},
-                   {"views", set.views.size()},
-                   {"frames", a.frames},
-                   {"threads", (*warper)->threadCount()},
-                   {"reference_render_ms", set.renderMs},
-                   {"warp_ms", warpMs},
-                   {"mpix_per_s", mpix},
-                   {"source_pixels", sourcePixels},
-                   {"warped_pixels", stats.sourcePixels},
-                   {"rows_total", stats.rowsTotal},
-                   {"rows_clipped", stats.rowsSkipped + stats.rowsCut},
-                   {"rows_skipped", stats.rowsSkipped},
-                   {"rows_cut", stats.rowsCut},
-                   {"hole_fraction", double(stats.holePixels) / pixels},
-                   {"hole_fraction_left", double(stats.holePixelsLeft) / pixels},
-                   {"psnr_db", psnrDb},
-                   {"outputs", written}});
+        nlohmann::json doc = {{"scene", a.scene},
+                              {"refs", warp::referenceLayoutName(p->layout)},
+                              {"splat", warp::splatName(p->options.splat)},
+                              {"size", fmt::format("{}x{}", to->width(), to->height())},
+                              {"face_size", refOptions.faceSize},
+                              {"views", set.views.size()},
+                              {"frames", a.frames},
+                              {"threads", (*warper)->threadCount()},
+                              {"reference_render_ms", set.renderMs},
+                              {"warp_ms", warpMs},
+                              {"mpix_per_s", mpix},
+                              {"source_pixels", sourcePixels},
+                              {"warped_pixels", stats.sourcePixels},
+                              {"rows_total", stats.rowsTotal},
+                              {"rows_clipped", stats.rowsSkipped + stats.rowsCut},
+                              {"rows_skipped", stats.rowsSkipped},
+                              {"rows_cut", stats.rowsCut},
+                              {"hole_fraction", double(stats.holePixels) / pixels},
+                              {"hole_fraction_left", double(stats.holePixelsLeft) / pixels},
+                              {"psnr_db", psnrDb},
+                              {"outputs", written}};
+        doc.update(memoryJson(*memory));
+        printJson(doc);
     } else {
         fmt::print("{}: {} references ({} views of {} px) warped to {}x{} with {} splats\n",
                    a.scene, warp::referenceLayoutName(p->layout), set.views.size(),

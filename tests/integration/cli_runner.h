@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace plx::testing {
 
@@ -29,13 +30,14 @@ inline fs::path scratchDir(const std::string& name) {
     return dir;
 }
 
-inline RunResult runParallax(const std::string& args) {
+// `shellPrefix` runs before the command in its shell (a `ulimit -v N; ` for the memory tests).
+inline RunResult runParallax(const std::string& args, const std::string& shellPrefix = "") {
     // CTest runs tests in parallel processes: stderr goes to a file unique to this run.
     static std::atomic<int> counter{0};
     fs::path errFile = scratchDir("stderr") / ("run-" + std::to_string(getpid()) + "-" +
                                                std::to_string(counter++) + ".txt");
-    std::string cmd = "timeout 120 " + std::string(PARALLAX_EXE) + " " + args + " 2>" +
-                      errFile.string();
+    std::string cmd = shellPrefix + "timeout 120 " + std::string(PARALLAX_EXE) + " " + args +
+                      " 2>" + errFile.string();
     RunResult r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;
@@ -68,6 +70,26 @@ inline void expectOneLineError(const RunResult& r, const std::string& mentions, 
     EXPECT_NE(r.err.find(mentions), std::string::npos)
         << "expected '" << mentions << "' in: " << r.err;
     EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+// Peak memory (the memory tests) means nothing under AddressSanitizer (its shadow memory and
+// quarantine), and no ulimit -v leaves room for its reserved shadow.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kUnderAddressSanitizer = true;
+#else
+inline constexpr bool kUnderAddressSanitizer = false;
+#endif
+
+// The memory a command estimated before its work (checkImageMemory: memory_estimate_mb of its
+// --json) against the peak it reached (peak_memory_mb), at a size where the image dominates:
+// below the peak the check would let through work the kernel may end; far above it, it would
+// refuse work the machine can do.
+inline void expectEstimateHoldsPeak(const std::string& json, const std::string& command) {
+    auto doc = nlohmann::json::parse(json);
+    const double estimate = doc["memory_estimate_mb"].get<double>();
+    const double peak = doc["peak_memory_mb"].get<double>();
+    EXPECT_GE(estimate, 0.97 * peak) << command;
+    EXPECT_LE(estimate, 1.25 * peak) << command;
 }
 
 }  // namespace plx::testing

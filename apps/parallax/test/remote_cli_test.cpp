@@ -56,6 +56,26 @@ TEST(RemoteCli, PathFileAndStereoWithoutScene) {
     EXPECT_FALSE(doc.contains("psnr_db_median"));
 }
 
+TEST(RemoteCli, ClientMemoryEstimateHoldsItsPeak) {
+    if (kUnderAddressSanitizer) GTEST_SKIP() << "no release peak under AddressSanitizer";
+    ServeProcess server("office:1 --face-size 64");
+    ASSERT_GT(server.port(), 0);
+    fs::path out = scratchDir("remote_cli") / "memory";
+    fs::remove_all(out);
+    fs::path path = scratchDir("remote_cli") / "memory_path.json";
+    writeFile(path, R"({"poses": [{"eye": [1,1.6,1], "target": [4,1.2,5]}]})");
+    // The least and the most the client keeps per display pixel (clientBytesPerPixel).
+    for (const std::string& args :
+         {" --path " + path.string(),
+          " --walk 20 --scene office:1 --stereo --every 5 --out " + out.string()}) {
+        const std::string command =
+            "client " + server.url() + args + " --frames 20 --size 1536x1152 --json";
+        RunResult r = runParallax(command);
+        ASSERT_EQ(r.exitCode, 0) << command << ": " << r.err;
+        expectEstimateHoldsPeak(r.out, command);
+    }
+}
+
 TEST(RemoteCli, TokenRefusedAtTheHandshake) {
     ServeProcess server("office:1 --face-size 32 --token abc");
     ASSERT_GT(server.port(), 0);

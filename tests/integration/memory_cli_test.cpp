@@ -1,0 +1,78 @@
+// Commands whose memory grows with the image refuse sizes the process cannot hold, up front, and
+// their estimates hold the peak they reach (client: RemoteCli.ClientMemoryEstimateHoldsItsPeak).
+
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+
+namespace {
+
+using namespace plx::testing;
+
+fs::path memoryDir() {
+    return scratchDir("memory_cli");
+}
+
+// The commands of every estimate (render, each stereo method and layout kind, warp's reference
+// sets and splats), each at 1536x1152 with office:2.
+const char* const kEstimatedCommands[] = {
+    "render office:2",
+    "stereo office:2 --method full --frames 1",
+    "stereo office:2 --method pbuffer --frames 1",
+    "stereo office:2 --method reproject --frames 1",
+    "stereo office:2 --method pbuffer --conservative --format sbs --frames 1",
+    "stereo office:2 --method full --format anaglyph --frames 1",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --frames 1",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --refs cube6 --splat mesh --frames 1",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --refs wide --frames 1",
+};
+
+TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
+    if (kUnderAddressSanitizer) GTEST_SKIP() << "no release peak under AddressSanitizer";
+    for (const char* command : kEstimatedCommands) {
+        RunResult r = runParallax(std::string(command) + " --size 1536x1152 --out " +
+                                  (memoryDir() / "peak").string() + " --json");
+        ASSERT_EQ(r.exitCode, 0) << command << ": " << r.err;
+        expectEstimateHoldsPeak(r.out, command);
+    }
+    // Walks whose downloads, which the budgets bound, stay small beside the frame: 20 frames,
+    // and 160 at 15 frames/s with small budgets, which reach the screenshot at 10 s.
+    const fs::path db = memoryDir() / ("db-" + std::to_string(getpid()));
+    fs::remove_all(db);
+    ASSERT_EQ(runParallax("stream build museum:1 --samples 2 --out " + db.string()).exitCode, 0);
+    const fs::path shots = memoryDir() / ("shots-" + std::to_string(getpid()));
+    for (const std::string& args : {std::string(" --walk 20"),
+                                    " --walk 160 --fps 15 --budget 0.25 --static-budget 0.25 "
+                                    "--out " +
+                                        shots.string()}) {
+        const std::string walk = "stream walk " + db.string() + args + " --size 1536x1152";
+        RunResult r = runParallax(walk + " --json");
+        ASSERT_EQ(r.exitCode, 0) << walk << ": " << r.err;
+        expectEstimateHoldsPeak(r.out, walk);
+    }
+    EXPECT_TRUE(fs::exists(shots / "frame-010s.png"));
+}
+
+TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
+    if (kUnderAddressSanitizer) GTEST_SKIP() << "no ulimit -v leaves AddressSanitizer its shadow";
+    // 1 GiB of address space (ulimit -v): enough for the small run, not for the large ones.
+    const std::string limit = "ulimit -v 1048576; ";
+    const std::string out = " --frames 1 --out " + (memoryDir() / "limited").string();
+    RunResult small = runParallax("warp office:1 --to-eye 1.3,1.6,1.1 --size 320x240" + out, limit);
+    EXPECT_EQ(small.exitCode, 0) << small.err;
+    const std::pair<std::string, std::string> refused[] = {
+        {"warp office:1 --to-eye 1.3,1.6,1.1 --size 4096x4096", "warp --refs cube4 at 4096x4096"},
+        {"stereo office:1 --method reproject --size 8192x8192",
+         "stereo --method reproject at 8192x8192"},
+        {"render office:1 --size 16384x16384", "render at 16384x16384"},
+        // Before it connects: nothing listens on port 1.
+        {"client ws://127.0.0.1:1 --walk 3 --scene office:1 --stereo --size 8192x8192",
+         "client --stereo at 8192x8192"},
+    };
+    for (const auto& [command, what] : refused)
+        expectOneLineError(runParallax(command + out, limit), what + " needs about");
+}
+
+}  // namespace

@@ -11,41 +11,26 @@
 namespace plx {
 namespace {
 
-// The value in kB of `key` ("MemAvailable:") in a /proc file of "Key:   N kB" lines.
-std::optional<uint64_t> procKilobytes(const char* path, const std::string& key) {
+// The number after `key` on its line of a file of "key value" lines: /proc/meminfo's
+// "MemAvailable:   N kB", a cgroup's memory.stat "inactive_file N".
+std::optional<uint64_t> keyedNumber(const std::string& path, const std::string& key) {
     std::ifstream in(path);
     std::string line;
     while (std::getline(in, line))
         if (line.compare(0, key.size(), key) == 0) {
             std::istringstream value(line.substr(key.size()));
-            uint64_t kb = 0;
-            if (value >> kb) return kb;
+            uint64_t n = 0;
+            if (value >> n) return n;
             return std::nullopt;
         }
     return std::nullopt;
 }
 
-// A cgroup v2 interface file holding one number (or "max": no limit).
-std::optional<uint64_t> cgroupNumber(const std::string& file) {
-    std::ifstream in(file);
+// A cgroup interface file holding one number; nullopt for "max" (no limit) or no such file.
+std::optional<uint64_t> fileNumber(const std::string& path) {
+    std::ifstream in(path);
     uint64_t v = 0;
     if (in >> v) return v;
-    return std::nullopt;
-}
-
-// What the process's cgroup (v2) still allows: memory.max less memory.current; nullopt without a
-// limit.
-std::optional<uint64_t> cgroupRemaining() {
-    std::ifstream self("/proc/self/cgroup");
-    std::string line;
-    while (std::getline(self, line)) {
-        if (line.rfind("0::", 0) != 0) continue;
-        const std::string dir = "/sys/fs/cgroup" + line.substr(3);
-        const auto limit = cgroupNumber(dir + "/memory.max");
-        const auto used = cgroupNumber(dir + "/memory.current");
-        if (!limit || !used) return std::nullopt;
-        return *limit > *used ? *limit - *used : 0;
-    }
     return std::nullopt;
 }
 
@@ -53,19 +38,44 @@ std::optional<uint64_t> cgroupRemaining() {
 std::optional<uint64_t> rlimitRemaining(int resource, const char* usedKey) {
     rlimit limit{};
     if (getrlimit(resource, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return std::nullopt;
-    const uint64_t used = procKilobytes("/proc/self/status", usedKey).value_or(0) * 1024;
+    const uint64_t used = keyedNumber("/proc/self/status", usedKey).value_or(0) * 1024;
     return limit.rlim_cur > used ? uint64_t(limit.rlim_cur) - used : 0;
 }
 
 }  // namespace
 
+std::optional<uint64_t> cgroupMemoryRemaining(const std::string& cgroupFile,
+                                              const std::string& root) {
+    std::ifstream self(cgroupFile);
+    std::string line;
+    while (std::getline(self, line)) {
+        // "hierarchy:controllers:path"; v2 is hierarchy 0 with no controllers listed.
+        const size_t first = line.find(':'), second = line.find(':', first + 1);
+        if (first == std::string::npos || second == std::string::npos) continue;
+        const std::string controllers = line.substr(first + 1, second - first - 1);
+        const std::string path = line.substr(second + 1);
+        const bool v2 = line.compare(0, first, "0") == 0 && controllers.empty();
+        const bool v1 = (',' + controllers + ',').find(",memory,") != std::string::npos;
+        if (!v1 && !v2) continue;
+        const std::string dir = root + (v2 ? "" : "/memory") + path;
+        const auto limit = fileNumber(dir + (v2 ? "/memory.max" : "/memory.limit_in_bytes"));
+        const auto usage = fileNumber(dir + (v2 ? "/memory.current" : "/memory.usage_in_bytes"));
+        if (!limit || !usage) continue;
+        const uint64_t inactive =
+            keyedNumber(dir + "/memory.stat", v2 ? "inactive_file " : "total_inactive_file ")
+                .value_or(0);
+        const uint64_t used = *usage - std::min(inactive, *usage);
+        return *limit > used ? *limit - used : 0;
+    }
+    return std::nullopt;
+}
+
 std::optional<uint64_t> availableMemoryBytes() {
-    const auto memAvailable = procKilobytes("/proc/meminfo", "MemAvailable:");
+    const auto memAvailable = keyedNumber("/proc/meminfo", "MemAvailable:");
     if (!memAvailable) return std::nullopt;
-    uint64_t bytes =
-        (*memAvailable + procKilobytes("/proc/meminfo", "SwapFree:").value_or(0)) * 1024;
+    uint64_t bytes = (*memAvailable + keyedNumber("/proc/meminfo", "SwapFree:").value_or(0)) * 1024;
     for (const std::optional<uint64_t>& bound :
-         {cgroupRemaining(), rlimitRemaining(RLIMIT_AS, "VmSize:"),
+         {cgroupMemoryRemaining(), rlimitRemaining(RLIMIT_AS, "VmSize:"),
           rlimitRemaining(RLIMIT_DATA, "VmData:")})
         if (bound) bytes = std::min(bytes, *bound);
     return bytes;

@@ -5,16 +5,26 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 
 namespace plx {
 
 // Bytes this process can still allocate and touch: the least of
 //  - the system's MemAvailable plus free swap (/proc/meminfo),
-//  - its cgroup's memory.max less memory.current (cgroup v2, where a limit is set),
+//  - what its memory cgroup still allows (cgroupMemoryRemaining),
 //  - RLIMIT_AS less the address space it holds (VmSize), and RLIMIT_DATA less its data
 //    mappings (VmData), where those limits are set (ulimit -v, ulimit -d).
 // nullopt where the system does not say (no /proc/meminfo).
 std::optional<uint64_t> availableMemoryBytes();
+
+// What the memory cgroup of the process (as `cgroupFile` lists it, under the hierarchy mounted at
+// `root`) still allows: its limit less its usage, the inactive file cache (which the kernel
+// reclaims before it ends anything) not counted as used. cgroup v2 (memory.max, memory.current,
+// memory.stat's inactive_file) or v1 (memory.limit_in_bytes, memory.usage_in_bytes,
+// total_inactive_file), the first listed with both files readable; nullopt without a limit
+// ("max") or such a hierarchy.
+std::optional<uint64_t> cgroupMemoryRemaining(const std::string& cgroupFile = "/proc/self/cgroup",
+                                              const std::string& root = "/sys/fs/cgroup");
 
 // The resident memory this process holds now (/proc/self/statm), and the most it has held
 // (getrusage's ru_maxrss). 0 where the system does not say.

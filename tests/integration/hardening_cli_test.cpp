@@ -204,7 +204,10 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
         expectOneLineError(runParallax("bench " + args + " --out " + (hardDir() / "b").string()),
                            message, 2);
     // Once "PSNR 99 dB" and blank images: the eyes, 5e29 to each side, are refused up front.
-    expectOneLineError(runParallax(stereo + " --separation 1e30"), "too far from the origin", 2);
+    expectOneLineError(runParallax(stereo + " --separation 1e30"),
+                       "eye separation 1e+30 puts the left eye out of range: camera eye "
+                       "(-5e+29, 0, 5) is too far from the origin",
+                       2);
     // Within float range but looking past the scene: refused after the first eye.
     expectOneLineError(runParallax(stereo + " --separation 1e6 --rig parallel"),
                        "the first eye sees none of the scene");

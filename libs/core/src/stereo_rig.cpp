@@ -28,10 +28,16 @@ Result<StereoRig> StereoRig::create(const Camera& center, const StereoRigDesc& d
         d.principalShiftPx.x = c.principalShiftPx.x + side * shiftPx;
         return Camera::create(d);
     };
+    // A valid centre with an eye it cannot hold (too far out) is the separation's doing.
+    auto eyeError = [&](const char* eye, const Status& s) {
+        return errorStatus(s.code(), fmt::format("eye separation {} puts the {} eye out of range: "
+                                                 "{}",
+                                                 desc.separation, eye, s.message()));
+    };
     auto left = makeEye(-1.0f);
-    if (!left) return left.status();
+    if (!left) return eyeError("left", left.status());
     auto right = makeEye(1.0f);
-    if (!right) return right.status();
+    if (!right) return eyeError("right", right.status());
     return StereoRig(desc, std::move(left).value(), std::move(right).value(), focalPx, shiftPx);
 }
 

@@ -294,6 +294,15 @@ TEST(StereoRig, FirstEyeIsAParameterAndBadValuesAreRejected) {
     EXPECT_EQ(rig->second().eyePos(), rig->left().eyePos());
     desc.separation = -0.01f;
     EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
+    // Valid numbers whose eye a camera cannot hold: the message names the separation.
+    desc.separation = 1e30f;
+    auto far = StereoRig::create(centreCamera(), desc);
+    ASSERT_FALSE(far.isOk());
+    EXPECT_EQ(far.status().message().rfind("eye separation 1e+30 puts the left eye out of range: "
+                                           "camera eye",
+                                           0),
+              0u)
+        << far.status().message();
     desc.separation = 0.06f;
     desc.convergence = 0.0f;
     EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());

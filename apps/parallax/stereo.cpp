@@ -373,9 +373,10 @@ int runStereo(const StereoArgs& a) {
         if (!rig) return fail(rig.status());
         last = runPose(session, *rig);
         if (last.stats.visibleTriangles == 0)  // only blank images could follow, and a perfect score
-            return fail(fmt::format("pose {}: the first eye sees none of the scene (check "
-                                    "--separation, --eye, --target)",
-                                    i));
+            return fail(
+                fmt::format("pose {}: the first eye sees none of the scene (check "
+                            "--separation, --convergence, --eye, --target)",
+                            i));
         if (single && p->options.method != stereo::Method::kFull) {
             std::string diffPath = a.out + ".diff.png";
             if (Status s = writePng(diffPath, secondEyeDiff(session, rig->secondEye())); !s)

@@ -211,6 +211,9 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     // Within float range but looking past the scene: refused after the first eye.
     expectOneLineError(runParallax(stereo + " --separation 1e6 --rig parallel"),
                        "the first eye sees none of the scene");
+    // A convergence point so near that the eyes' image shift leaves the scene out of view.
+    expectOneLineError(runParallax(stereo + " --convergence 1e-30"),
+                       "the first eye sees none of the scene (check --separation, --convergence");
     expectOneLineError(runParallax("predistort cone_showcase --viewer=0,-5000,0 --error 1 --out " +
                                    (hardDir() / "p").string()),
                        "sees none of the display's content");

@@ -192,7 +192,7 @@ int runWalk(const WalkArgs& a) {
     auto renderer = raster::Renderer::create();
     if (!renderer) return fail(renderer.status());
     raster::FrameBuffers buffers;
-    buffers.resize((*cameras)[0].width(), (*cameras)[0].height());
+    buffers.resize(view.width(), view.height());
     raster::RenderOptions options;
     options.shading = raster::Shading::kTextured;
     if (!a.out.empty())

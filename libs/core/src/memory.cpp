@@ -34,12 +34,20 @@ std::optional<uint64_t> fileNumber(const std::string& path) {
     return std::nullopt;
 }
 
-// What a resource limit still allows beyond `usedKey` of /proc/self/status; nullopt without one.
-std::optional<uint64_t> rlimitRemaining(int resource, const char* usedKey) {
+// What a resource limit still allows beyond `used` bytes; nullopt without one.
+std::optional<uint64_t> rlimitRemaining(int resource, uint64_t used) {
     rlimit limit{};
     if (getrlimit(resource, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return std::nullopt;
-    const uint64_t used = keyedNumber("/proc/self/status", usedKey).value_or(0) * 1024;
     return limit.rlim_cur > used ? uint64_t(limit.rlim_cur) - used : 0;
+}
+
+// Field `index` of /proc/self/statm (0: the mapped size, 1: resident) in bytes; 0 if unread.
+uint64_t statmBytes(int index) {
+    std::ifstream in("/proc/self/statm");
+    uint64_t pages = 0;
+    for (int i = 0; i <= index; ++i)
+        if (!(in >> pages)) return 0;
+    return pages * uint64_t(sysconf(_SC_PAGESIZE));
 }
 
 }  // namespace
@@ -75,17 +83,19 @@ std::optional<uint64_t> availableMemoryBytes() {
     if (!memAvailable) return std::nullopt;
     uint64_t bytes = (*memAvailable + keyedNumber("/proc/meminfo", "SwapFree:").value_or(0)) * 1024;
     for (const std::optional<uint64_t>& bound :
-         {cgroupMemoryRemaining(), rlimitRemaining(RLIMIT_AS, "VmSize:"),
-          rlimitRemaining(RLIMIT_DATA, "VmData:")})
+         {cgroupMemoryRemaining(), rlimitRemaining(RLIMIT_AS, mappedBytes()),
+          rlimitRemaining(RLIMIT_DATA,
+                          keyedNumber("/proc/self/status", "VmData:").value_or(0) * 1024)})
         if (bound) bytes = std::min(bytes, *bound);
     return bytes;
 }
 
+uint64_t mappedBytes() {
+    return statmBytes(0);
+}
+
 uint64_t residentBytes() {
-    std::ifstream in("/proc/self/statm");
-    uint64_t sizePages = 0, residentPages = 0;
-    if (!(in >> sizePages >> residentPages)) return 0;
-    return residentPages * uint64_t(sysconf(_SC_PAGESIZE));
+    return statmBytes(1);
 }
 
 uint64_t peakResidentBytes() {

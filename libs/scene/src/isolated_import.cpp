@@ -35,6 +35,8 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/memory.h>
+
 #include "import_unfinalized.h"
 #include "scene_wire.h"
 
@@ -217,14 +219,9 @@ void setLimit(int resource, rlim_t value) {
 // memory limit, so that a caller already mapping gigabytes (thread stacks, a sanitizer's
 // shadow) still leaves the import its full allowance. 0 when unknown: no address-space limit.
 rlim_t addressSpaceFor(const IsolationLimits& limits) {
-    FILE* f = std::fopen("/proc/self/statm", "r");
-    if (!f) return 0;
-    unsigned long pages = 0;
-    bool ok = std::fscanf(f, "%lu", &pages) == 1;
-    std::fclose(f);
-    if (!ok) return 0;
-    return rlim_t(pages) * rlim_t(::sysconf(_SC_PAGESIZE)) + limits.maxMemoryBytes +
-           limits.maxStackBytes;
+    const uint64_t mapped = mappedBytes();
+    if (mapped == 0) return 0;
+    return rlim_t(mapped) + limits.maxMemoryBytes + limits.maxStackBytes;
 }
 
 enum class ReadEnd { kEof, kDeadline, kTooLarge, kError };

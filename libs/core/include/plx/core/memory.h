@@ -26,8 +26,10 @@ std::optional<uint64_t> availableMemoryBytes();
 std::optional<uint64_t> cgroupMemoryRemaining(const std::string& cgroupFile = "/proc/self/cgroup",
                                               const std::string& root = "/sys/fs/cgroup");
 
-// The resident memory this process holds now (/proc/self/statm), and the most it has held
-// (getrusage's ru_maxrss). 0 where the system does not say.
+// The address space this process maps now (VmSize) and the resident memory it holds
+// (/proc/self/statm), and the most it has held (getrusage's ru_maxrss). 0 where the system does
+// not say.
+uint64_t mappedBytes();
 uint64_t residentBytes();
 uint64_t peakResidentBytes();
 

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <tuple>
 
@@ -182,6 +183,13 @@ private:
         return scene::cameraAt(mScene, vp, mConfig.width, mConfig.height);
     }
     double frameMs() const { return 1000.0 / mConfig.displayHz; }
+    // The newest request whose answer has arrived at tMs for RTT j: r_k + RTT <= t, where an
+    // answer due within kArrivalSlackMs after t counts (a refresh typed as 16.6667 ms then lines
+    // up with the 60 Hz frames instead of always missing them by a rounding error).
+    int64_t newestArrived(double tMs, size_t j) const {
+        return int64_t(std::floor((tMs - mConfig.rttsMs[j] + kArrivalSlackMs) / mConfig.refreshMs));
+    }
+    void dropAnswersPast(double tMs);
     Status renderAnswer(const scene::Viewpoint& vp, bool withFrame, Answer* out);
     Result<const Answer*> answer(int64_t k);
     // The set for request k's pose predicted RTT + `refreshes` refresh intervals ahead.
@@ -262,11 +270,7 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
         return Status::ok();
     };
     for (size_t j = 0; j < mConfig.rttsMs.size(); ++j) {
-        // The newest request whose answer has arrived: r_k + RTT <= t, where an answer due
-        // within kArrivalSlackMs after t counts (a refresh typed as 16.6667 ms then lines up
-        // with the 60 Hz frames instead of always missing them by a rounding error).
-        const int64_t k =
-            int64_t(std::floor((tMs - mConfig.rttsMs[j] + kArrivalSlackMs) / mConfig.refreshMs));
+        const int64_t k = newestArrived(tMs, j);
         auto newest = answer(k);
         if (!newest) return newest.status();
         auto older = answer(k - 1);
@@ -304,6 +308,23 @@ Status LatencySimulation::measureFrame(double tMs, const Camera& now, const Imag
     return Status::ok();
 }
 
+// Later frames never need an answer older than the second newest of its RTT (newestArrived
+// never decreases): a predicted set serves its own RTT alone, a plain answer every RTT, so the
+// longest RTT keeps it. (Predicted sets kept for the longest RTT too would hold up to 80 sets at
+// the default RTTs, where 42 serve.)
+void LatencySimulation::dropAnswersPast(double tMs) {
+    int64_t oldestAnswer = std::numeric_limits<int64_t>::max();
+    std::vector<int64_t> oldestPredicted(mConfig.rttsMs.size());
+    for (size_t j = 0; j < mConfig.rttsMs.size(); ++j) {
+        oldestPredicted[j] = newestArrived(tMs, j) - 1;
+        oldestAnswer = std::min(oldestAnswer, oldestPredicted[j]);
+    }
+    std::erase_if(mAnswers, [&](const auto& e) { return e.first < oldestAnswer; });
+    std::erase_if(mPredicted, [&](const auto& e) {
+        return std::get<0>(e.first) < oldestPredicted[std::get<1>(e.first)];
+    });
+}
+
 Status LatencySimulation::run(const std::function<void()>& frameDone) {
     const double maxRtt = *std::max_element(mConfig.rttsMs.begin(), mConfig.rttsMs.end());
     // Lead-in: the first measured frame already has two answers of the longest RTT on a path
@@ -320,10 +341,7 @@ Status LatencySimulation::run(const std::function<void()>& frameDone) {
         const bool capture = mExample && i == frames - 1;
         if (capture) mExample->truth = truth;
         PLX_RETURN_IF_ERROR(measureFrame(tMs, *now, truth, capture));
-        // Later frames never need an answer older than the longest RTT's second newest.
-        const int64_t oldest = int64_t(std::floor((tMs - maxRtt) / mConfig.refreshMs)) - 1;
-        std::erase_if(mAnswers, [&](const auto& e) { return e.first < oldest; });
-        std::erase_if(mPredicted, [&](const auto& e) { return std::get<0>(e.first) < oldest; });
+        dropAnswersPast(tMs);
         if (frameDone) frameDone();
     }
     return Status::ok();

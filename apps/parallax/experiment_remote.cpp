@@ -18,7 +18,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <thread>
 
 #include <fmt/format.h>
@@ -101,10 +100,12 @@ Result<std::vector<Camera>> walkCameras(const scene::Scene& scene, int frames, i
     return cameras;
 }
 
-// A measured display frame kept for the PSNR pass.
+// A measured display frame kept for the PSNR pass: what it showed, and which set it warped (its
+// sequence and pose, not its pixels: holding the set would keep every set of the session).
 struct Kept {
     int frame = 0;
-    std::shared_ptr<const remote::ReceivedSet> ref;
+    uint32_t sequence = 0;
+    warp::Pose pose;
     Image<Rgba8> warped;
 };
 
@@ -174,7 +175,8 @@ Result<SessionResult> playSession(const RemoteExperimentConfig& c, const scene::
         r.warpMs.push_back(ms);
         if (ref->requestTimestampUs != 0)
             r.ageMs.push_back(double(remote::clientNowUs() - ref->requestTimestampUs) * 1e-3);
-        if ((f - leadIn) % c.psnrEvery == 0) r.kept.push_back({f, ref, out.color});
+        if ((f - leadIn) % c.psnrEvery == 0)
+            r.kept.push_back({f, ref->sequence, ref->set.pose, out.color});
     }
     // The measured frames span from the first one's start to when the frame after the last was
     // due (or the loop's actual end, when it fell behind): at most 60 frames/s.
@@ -221,7 +223,10 @@ Status addRows(const std::string& spec, const scene::Scene& scene,
                raster::Renderer& renderer, std::vector<RemoteRow>* rows,
                std::optional<RemoteExample>* example) {
     const size_t exampleAt = example ? s.kept.size() / 2 : s.kept.size();
-    std::map<uint32_t, VideoFrame> video;
+    // The video frame of the set the last kept frame showed: kept frames show the sets in the
+    // order they arrived, so each set's frame is rendered once and dropped when the next arrives.
+    std::optional<uint32_t> videoSequence;
+    VideoFrame video;
     std::vector<double> psnrs[3], timewarpMs, videoBytes;
     raster::FrameBuffers truth;
     Image<Rgba8> timewarped;
@@ -231,32 +236,31 @@ Status addRows(const std::string& spec, const scene::Scene& scene,
         const Camera& cam = cameras[size_t(k.frame)];
         truth.resize(cam.width(), cam.height());
         renderer.render(scene, cam, {}, truth.targets());
-        auto it = video.find(k.ref->sequence);
-        if (it == video.end()) {
-            auto v = videoFrameFor(scene, cam, k.ref->set.pose, renderer);
+        if (videoSequence != k.sequence) {
+            auto v = videoFrameFor(scene, cam, k.pose, renderer);
             if (!v) return v.status();
             videoBytes.push_back(double(v->bytes));
-            it = video.emplace(k.ref->sequence, std::move(v).value()).first;
+            video = std::move(v).value();
+            videoSequence = k.sequence;
         }
         psnrs[0].push_back(cappedPsnr(k.warped, truth.color));
-        psnrs[1].push_back(cappedPsnr(it->second.view.color, truth.color));
+        psnrs[1].push_back(cappedPsnr(video.view.color, truth.color));
         // Timewarp with a transparent clear colour marks the pixels with no source; they are
         // then painted the clear colour (as bench warp does).
         Stopwatch clock;
-        PLX_RETURN_IF_ERROR(warp::rotationTimewarp(it->second.view, cam, marker, &timewarped));
+        PLX_RETURN_IF_ERROR(warp::rotationTimewarp(video.view, cam, marker, &timewarped));
         timewarpMs.push_back(clock.elapsedMs());
         for (Rgba8& p : std::span(timewarped.data(), timewarped.pixelCount()))
             if (p.a == 0) p = clear;
         psnrs[2].push_back(cappedPsnr(timewarped, truth.color));
         if (i == exampleAt)
-            *example =
-                RemoteExample{spec,
-                              link.rttMs,
-                              k.frame,
-                              truth.color,
-                              {{RemoteMethod::kWarp, k.warped, psnrs[0].back()},
-                               {RemoteMethod::kVideo, it->second.view.color, psnrs[1].back()},
-                               {RemoteMethod::kTimewarp, timewarped, psnrs[2].back()}}};
+            *example = RemoteExample{spec,
+                                     link.rttMs,
+                                     k.frame,
+                                     truth.color,
+                                     {{RemoteMethod::kWarp, k.warped, psnrs[0].back()},
+                                      {RemoteMethod::kVideo, video.view.color, psnrs[1].back()},
+                                      {RemoteMethod::kTimewarp, timewarped, psnrs[2].back()}}};
     }
     const double sets = s.seconds > 0.0 ? double(s.references) / s.seconds : 0.0;
     for (RemoteMethod m : kRemoteMethods) {

@@ -96,14 +96,21 @@ void printTable(const RemoteExperiment& e, const std::string& dir) {
 int runRemoteBench(const RemoteBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
+    auto bytes = remoteExperimentImageBytes(*config);
+    if (!bytes) return fail(bytes.status().message(), kExitUsage);
+    auto memory = checkImageMemory(
+        fmt::format("bench remote at {}x{}", config->width, config->height), *bytes);
+    if (!memory) return fail(memory.status());
     if (Status s = createOutputFolder(a.out); !s) return fail(s);
     StepProgress progress("bench remote");
     auto e = runRemoteExperiment(*config, progress.callback());
     if (!e) return fail(e.status());
     auto files = remotePlots(*e);
     files.emplace_back("remote.csv", remoteCsv(*e));
-    return finishExperiment(a.out, a.json, remoteExperimentJson(*e), "remote.json",
-                            std::move(files), [&](const std::string& dir) { printTable(*e, dir); });
+    nlohmann::json doc = remoteExperimentJson(*e);
+    doc.update(memoryJson(*memory));
+    return finishExperiment(a.out, a.json, doc, "remote.json", std::move(files),
+                            [&](const std::string& dir) { printTable(*e, dir); });
 }
 
 }  // namespace

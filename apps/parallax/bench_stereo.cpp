@@ -60,6 +60,9 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.conservative = !a.noConservative;
     config.reproject = !a.noReproject;
     if (Status s = checkStereoRigNumbers(config.rig); !s) return fail(s.message(), kExitUsage);
+    auto memory = checkImageMemory(fmt::format("bench stereo at {}x{}", size->x, size->y),
+                                   stereoExperimentImageBytes(config));
+    if (!memory) return fail(memory.status());
     std::error_code ec;
     std::filesystem::create_directories(a.out, ec);
     if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
@@ -68,6 +71,7 @@ int runStereoBench(const StereoBenchArgs& a) {
     if (!rows) return fail(rows.status());
     std::string dir = a.out + "/";
     nlohmann::json doc = stereoExperimentJson(config, *rows);
+    doc.update(memoryJson(*memory));
     if (Status s = writeText(dir + "table1.json", doc.dump(2)); !s) return fail(s);
     std::string csv = stereoExperimentCsv(*rows);
     if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);

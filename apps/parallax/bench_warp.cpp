@@ -103,6 +103,11 @@ void printTables(const WarpExperiment& e, const std::string& dir) {
 int runWarpBench(const WarpBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
+    auto bytes = warpExperimentImageBytes(*config);
+    if (!bytes) return fail(bytes.status().message(), kExitUsage);
+    auto memory =
+        checkImageMemory(fmt::format("bench warp at {}x{}", config->width, config->height), *bytes);
+    if (!memory) return fail(memory.status());
     if (Status s = createOutputFolder(a.out); !s) return fail(s);
     StepProgress progress("bench warp");
     auto e = runWarpExperiment(*config, progress.callback());
@@ -110,7 +115,9 @@ int runWarpBench(const WarpBenchArgs& a) {
     auto files = warpPlots(*e);
     files.emplace_back("latency.csv", latencyCsv(*e));
     files.emplace_back("throughput.csv", throughputCsv(*e));
-    return finishExperiment(a.out, a.json, warpExperimentJson(*e), "warp.json", std::move(files),
+    nlohmann::json doc = warpExperimentJson(*e);
+    doc.update(memoryJson(*memory));
+    return finishExperiment(a.out, a.json, doc, "warp.json", std::move(files),
                             [&](const std::string& dir) { printTables(*e, dir); });
 }
 

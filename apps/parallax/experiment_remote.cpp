@@ -319,6 +319,22 @@ Status checkRemoteExperimentConfig(const RemoteExperimentConfig& c) {
     return Status::ok();
 }
 
+// Bytes per reference-set pixel (the server's render targets, encoder and queued message, the
+// client's decoded sets) and per display pixel beyond the kept frames (the warped frame, the
+// truth and video frames of the PSNR pass): fitted to the peaks of the quick configuration at
+// 512x512 and 1024x1024 (cube4, 8 and 45 kept frames), rounded up;
+// MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the peak.
+constexpr double kSessionBytesPerSetPixel = 33.0, kSessionBytesPerDisplayPixel = 64.0;
+
+Result<double> remoteExperimentImageBytes(const RemoteExperimentConfig& c) {
+    auto setPixels = referencePixelsFor(c.width, c.height, c.layout);
+    if (!setPixels) return setPixels.status();
+    const double measured = std::lround(c.durationS * kDisplayHz);
+    const double kept = std::ceil(measured / double(c.psnrEvery));
+    return kSessionBytesPerSetPixel * double(*setPixels) +
+           (4.0 * kept + kSessionBytesPerDisplayPixel) * double(c.width) * double(c.height);
+}
+
 Result<RemoteExperiment> runRemoteExperiment(const RemoteExperimentConfig& config,
                                              const std::function<void(size_t, size_t)>& progress) {
     PLX_RETURN_IF_ERROR(checkRemoteExperimentConfig(config));

@@ -94,6 +94,11 @@ struct RemoteExperiment {
 // Mbit/s, a size, duration or PSNR step out of range.
 Status checkRemoteExperimentConfig(const RemoteExperimentConfig& config);
 
+// The experiment's peak bytes beyond its scenes, for checkImageMemory: one session's reference
+// sets on both sides of the socket, and its display frames, those kept for the PSNR pass
+// included. Errors: a size no camera takes.
+Result<double> remoteExperimentImageBytes(const RemoteExperimentConfig& config);
+
 // Runs one session per scene and link; progress(done, total) after each. Errors: those of
 // checkRemoteExperimentConfig, a scene that does not load, a server or client that fails.
 Result<RemoteExperiment> runRemoteExperiment(

@@ -171,6 +171,16 @@ Result<StereoExperimentRow> measureRow(stereo::StereoRenderer& renderer,
 
 }  // namespace
 
+// Bytes per pixel: the growth of the peak from 1024x1024 to 2048x2048 (office:1) is 52.2 with
+// the full and P-buffer methods alone, the conservative set adds 49.1-53.0 and the reprojection
+// 38.7-42.6 (with and without the other). Rounded up; MemoryCli.EstimatesHoldTheMeasuredPeak
+// holds them to the peak.
+double stereoExperimentImageBytes(const StereoExperimentConfig& config) {
+    const double perPixel =
+        55.0 + (config.conservative ? 53.0 : 0.0) + (config.reproject ? 43.0 : 0.0);
+    return perPixel * double(config.width) * double(config.height);
+}
+
 Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     const StereoExperimentConfig& config, const std::function<void(size_t, size_t)>& progress) {
     if (config.rooms.empty() || config.frames < 1 || config.width < 1 || config.height < 1)

@@ -51,6 +51,10 @@ struct StereoExperimentRow {
     int64_t reprojectMissedPixels = 0;
 };
 
+// The experiment's peak bytes beyond its scenes, for checkImageMemory: each method's pair (both
+// eyes' colour, depth and IDs) and the renderer's targets, by the pixel.
+double stereoExperimentImageBytes(const StereoExperimentConfig& config);
+
 // Runs the experiment; progress(i, n) is called after each row. Errors: bad config or scenes.
 Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     const StereoExperimentConfig& config,

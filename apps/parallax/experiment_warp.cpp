@@ -50,6 +50,19 @@ int64_t referencePixels(const warp::ReferenceSet& set) {
     return n;
 }
 
+Result<int64_t> referencePixelsFor(int width, int height, warp::ReferenceLayout layout) {
+    CameraDesc desc;
+    desc.width = width;
+    desc.height = height;
+    auto display = Camera::create(desc);
+    if (!display) return display.status();
+    auto views = warp::referenceCameras(poseOf(*display), referenceDensityFor(*display, layout));
+    if (!views) return views.status();
+    int64_t n = 0;
+    for (const Camera& view : *views) n += int64_t(view.width()) * view.height();
+    return n;
+}
+
 warp::Pose poseOf(const Camera& camera) {
     return {camera.eyePos(), camera.forwardDir(), camera.upDir()};
 }
@@ -348,6 +361,38 @@ Status LatencySimulation::run(const std::function<void()>& frameDone) {
 }
 
 }  // namespace
+
+// Peak bytes of a reference set's pixels (colour and 1/w), and beyond the sets those of the
+// work: per set pixel (the renderer's face targets, the warp's splats; mesh splats' meshes for
+// the two sets warp2 warps) and per display pixel (truth, warped and timewarped frames, the
+// warp's targets). The work's shares are fitted to the peaks of the quick configuration with
+// cube4 sets at 640x480 and 1280x960 (24 sets held, measured: the bound below) and with mesh
+// splats on cube4 sets at 1280x720 and wide ones at 640x360 to 1280x720, and rounded up;
+// MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the peak.
+constexpr double kSetBytesPerPixel = 8.0, kWorkPerDisplayPixel = 62.0;
+double workPerSetPixel(warp::Splat splat) {
+    return splat == warp::Splat::kMesh ? 32.0 : 6.0;
+}
+
+Result<double> warpExperimentImageBytes(const WarpExperimentConfig& c) {
+    auto [minRtt, maxRtt] = std::minmax_element(c.rttsMs.begin(), c.rttsMs.end());
+    // Plain answers from the longest RTT's second newest to the shortest RTT's newest, and the
+    // one rendered before the frame's drop; per RTT at most six predicted sets (dropAnswersPast).
+    const double answers = std::ceil((*maxRtt - *minRtt) / c.refreshMs) + 3.0;
+    const double sets = answers + 6.0 * double(c.rttsMs.size());
+    auto latencyPixels = referencePixelsFor(c.width, c.height, c.layout);
+    if (!latencyPixels) return latencyPixels.status();
+    const double work = workPerSetPixel(c.splat);
+    double bytes = (kSetBytesPerPixel * sets + work) * double(*latencyPixels) +
+                   (4.0 * answers + kWorkPerDisplayPixel) * double(c.width) * double(c.height);
+    for (auto [w, h] : c.throughputSizes) {
+        auto pixels = referencePixelsFor(w, h, c.layout);
+        if (!pixels) return pixels.status();
+        bytes = std::max(bytes, (kSetBytesPerPixel + work) * double(*pixels) +
+                                    kWorkPerDisplayPixel * double(w) * double(h));
+    }
+    return bytes;
+}
 
 Status checkWarpExperimentConfig(const WarpExperimentConfig& c) {
     auto bad = [](const std::string& what) {

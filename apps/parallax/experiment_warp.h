@@ -97,6 +97,9 @@ warp::ReferenceSetOptions referenceDensityFor(const Camera& display, warp::Refer
 
 // Pixels of every view of a set: the "source pixels" of Mpix/s figures, clipped rows included.
 int64_t referencePixels(const warp::ReferenceSet& set);
+// The same for the set referenceDensityFor gives a display of width x height with the scenes'
+// 60-degree field of view, before any is rendered (memory estimates).
+Result<int64_t> referencePixelsFor(int width, int height, warp::ReferenceLayout layout);
 
 // The pose a display camera looks from.
 warp::Pose poseOf(const Camera& camera);
@@ -121,6 +124,11 @@ Result<LatencyExample> latencyExample(const std::string& scene, const WarpExperi
 // Errors: an empty RTT list, an RTT outside 0 .. 10 s, refresh, display rate, duration or a size
 // out of range, no throughput frames.
 Status checkWarpExperimentConfig(const WarpExperimentConfig& config);
+
+// The experiment's peak bytes beyond its scenes, for checkImageMemory: the most reference sets
+// and answer frames the latency simulation holds, once it has run for the longest RTT, or the
+// largest throughput row's set, whichever is more. Errors: a size no camera takes.
+Result<double> warpExperimentImageBytes(const WarpExperimentConfig& config);
 
 // Runs the latency experiment and the throughput table; progress(done, total) after each step.
 // Errors: those of checkWarpExperimentConfig, a scene that does not load.

@@ -16,23 +16,30 @@ fs::path memoryDir() {
 }
 
 // The commands of every estimate (render, each stereo method and layout kind, warp's reference
-// sets and splats), each at 1536x1152 with office:2.
+// sets and splats), each at 1536x1152 with office:2, and the experiments, each at a size where
+// its images outweigh the scenes it loads after the check.
 const char* const kEstimatedCommands[] = {
-    "render office:2",
-    "stereo office:2 --method full --frames 1",
-    "stereo office:2 --method pbuffer --frames 1",
-    "stereo office:2 --method reproject --frames 1",
-    "stereo office:2 --method pbuffer --conservative --format sbs --frames 1",
-    "stereo office:2 --method full --format anaglyph --frames 1",
-    "warp office:2 --to-eye 1.3,1.6,1.1 --frames 1",
-    "warp office:2 --to-eye 1.3,1.6,1.1 --refs cube6 --splat mesh --frames 1",
-    "warp office:2 --to-eye 1.3,1.6,1.1 --refs wide --frames 1",
+    "render office:2 --size 1536x1152",
+    "stereo office:2 --method full --frames 1 --size 1536x1152",
+    "stereo office:2 --method pbuffer --frames 1 --size 1536x1152",
+    "stereo office:2 --method reproject --frames 1 --size 1536x1152",
+    "stereo office:2 --method pbuffer --conservative --format sbs --frames 1 --size 1536x1152",
+    "stereo office:2 --method full --format anaglyph --frames 1 --size 1536x1152",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --frames 1 --size 1536x1152",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --refs cube6 --splat mesh --frames 1 --size 1536x1152",
+    "warp office:2 --to-eye 1.3,1.6,1.1 --refs wide --frames 1 --size 1536x1152",
+    "bench stereo --rooms 1 --frames 1 --size 1536x1152",
+    "bench stereo --rooms 1 --frames 1 --no-conservative --size 1536x1152",
+    // 24 reference sets held once the walk has run for the longest RTT (300 ms).
+    "bench warp --quick --duration 0.5 --size 640x480",
+    "bench warp --quick --duration 0.5 --refs wide --splat mesh --size 640x360",
+    "bench remote --quick --size 1024x1024",
 };
 
 TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
     if (kUnderAddressSanitizer) GTEST_SKIP() << "no release peak under AddressSanitizer";
     for (const char* command : kEstimatedCommands) {
-        RunResult r = runParallax(std::string(command) + " --size 1536x1152 --out " +
+        RunResult r = runParallax(std::string(command) + " --out " +
                                   (memoryDir() / "peak").string() + " --json");
         ASSERT_EQ(r.exitCode, 0) << command << ": " << r.err;
         expectEstimateHoldsPeak(r.out, command);
@@ -59,17 +66,22 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
     if (kUnderAddressSanitizer) GTEST_SKIP() << "no ulimit -v leaves AddressSanitizer its shadow";
     // 1 GiB of address space (ulimit -v): enough for the small run, not for the large ones.
     const std::string limit = "ulimit -v 1048576; ";
-    const std::string out = " --frames 1 --out " + (memoryDir() / "limited").string();
-    RunResult small = runParallax("warp office:1 --to-eye 1.3,1.6,1.1 --size 320x240" + out, limit);
+    const std::string out = " --out " + (memoryDir() / "limited").string();
+    RunResult small =
+        runParallax("warp office:1 --to-eye 1.3,1.6,1.1 --frames 1 --size 320x240" + out, limit);
     EXPECT_EQ(small.exitCode, 0) << small.err;
     const std::pair<std::string, std::string> refused[] = {
-        {"warp office:1 --to-eye 1.3,1.6,1.1 --size 4096x4096", "warp --refs cube4 at 4096x4096"},
-        {"stereo office:1 --method reproject --size 8192x8192",
+        {"warp office:1 --to-eye 1.3,1.6,1.1 --frames 1 --size 4096x4096",
+         "warp --refs cube4 at 4096x4096"},
+        {"stereo office:1 --method reproject --frames 1 --size 8192x8192",
          "stereo --method reproject at 8192x8192"},
-        {"render office:1 --size 16384x16384", "render at 16384x16384"},
+        {"render office:1 --frames 1 --size 16384x16384", "render at 16384x16384"},
         // Before it connects: nothing listens on port 1.
-        {"client ws://127.0.0.1:1 --walk 3 --scene office:1 --stereo --size 8192x8192",
+        {"client ws://127.0.0.1:1 --walk 3 --scene office:1 --stereo --frames 1 --size 8192x8192",
          "client --stereo at 8192x8192"},
+        {"bench stereo --rooms 1 --size 4096x4096", "bench stereo at 4096x4096"},
+        {"bench warp --quick --size 2048x2048", "bench warp at 2048x2048"},
+        {"bench remote --quick --size 2048x2048", "bench remote at 2048x2048"},
     };
     for (const auto& [command, what] : refused)
         expectOneLineError(runParallax(command + out, limit), what + " needs about");

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <plx/remote/server.h>
+#include <plx/warp/reference.h>
 
 #include "commands.h"
 #include "web_assets.h"
@@ -84,11 +85,29 @@ void waitForStop(const sigset_t& set, double seconds) {
     sigtimedwait(&set, nullptr, &limit);
 }
 
+// Peak bytes per pixel of the largest reference set a session can ask for, beyond the scene
+// (checkImageMemory): the one render worker's targets and set, and the set's encoding. The growth
+// of the peak with one client from faces of 1024 to 2048 (office:1) is 8.3 (cube4) and 8.2
+// (cube6); rounded up, RemoteCli.ServeMemoryEstimateHoldsItsPeak holds it to the peak. Each
+// session queues at most one encoded set beside it (1/133 of the raw bytes on office:2 at 2048).
+constexpr double kServeBytesPerSetPixel = 9.0;
+
+Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig& config) {
+    auto views = warp::referenceCameras(warp::Pose{}, config.reference);
+    if (!views) return views.status();
+    double pixels = 0.0;
+    for (const Camera& view : *views) pixels += double(view.width()) * double(view.height());
+    return checkImageMemory(fmt::format("serve --refs {} --face-size {}", a.refs, a.faceSize),
+                            kServeBytesPerSetPixel * pixels);
+}
+
 int runServe(const ServeArgs& a) {
     auto config = plan(a);
     if (!config) return fail(config.status().message(), kExitUsage);
     auto scene = loadSceneChecked(a.scene);
     if (!scene) return fail(scene.status());
+    auto memory = checkServeMemory(a, *config);
+    if (!memory) return fail(memory.status());
     const size_t triangles = scene->triangleCount();
     const sigset_t stopSignals = blockStopSignals();
     auto server = remote::Server::create(std::move(scene).value(), *config);
@@ -116,18 +135,19 @@ int runServe(const ServeArgs& a) {
     (*server)->stop();
     remote::ServerStats s = (*server)->stats();
     if (a.json) {
-        fmt::print("{}\n", nlohmann::json{{"event", "stopped"},
-                                          {"sessions_total", s.sessionsTotal},
-                                          {"refused", s.refused},
-                                          {"protocol_errors", s.protocolErrors},
-                                          {"sets_sent", s.setsSent},
-                                          {"bytes_sent", s.bytesSent},
-                                          {"raw_bytes_sent", s.rawBytesSent},
-                                          {"max_queued_bytes", s.maxQueuedBytes},
-                                          {"max_set_bytes", s.maxSetBytes},
-                                          {"render_ms_mean", s.renderMsMean},
-                                          {"encode_ms_mean", s.encodeMsMean}}
-                               .dump());
+        nlohmann::json stopped{{"event", "stopped"},
+                               {"sessions_total", s.sessionsTotal},
+                               {"refused", s.refused},
+                               {"protocol_errors", s.protocolErrors},
+                               {"sets_sent", s.setsSent},
+                               {"bytes_sent", s.bytesSent},
+                               {"raw_bytes_sent", s.rawBytesSent},
+                               {"max_queued_bytes", s.maxQueuedBytes},
+                               {"max_set_bytes", s.maxSetBytes},
+                               {"render_ms_mean", s.renderMsMean},
+                               {"encode_ms_mean", s.encodeMsMean}};
+        stopped.update(memoryJson(*memory));
+        fmt::print("{}\n", stopped.dump());
     } else {
         fmt::print(
             "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "

@@ -76,6 +76,28 @@ TEST(RemoteCli, ClientMemoryEstimateHoldsItsPeak) {
     }
 }
 
+TEST(RemoteCli, ServeMemoryEstimateHoldsItsPeak) {
+    if (kUnderAddressSanitizer) GTEST_SKIP() << "no release peak under AddressSanitizer";
+    fs::path path = scratchDir("remote_cli") / "serve_memory_path.json";
+    writeFile(path, R"({"poses": [{"eye": [1,1.6,1], "target": [4,1.2,5]}]})");
+    // The client asks faces of 1774 pixels for 1024 rows; both servers render their largest.
+    for (const std::string refs : {"cube4", "cube6"}) {
+        ServeProcess server("office:1 --face-size 1536 --refs " + refs);
+        ASSERT_GT(server.port(), 0);
+        RunResult r = runParallax("client " + server.url() + " --path " + path.string() +
+                                  " --refs " + refs + " --frames 3 --size 1024x1024");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        auto [stopped, code] = server.stop();
+        ASSERT_EQ(code, 0);
+        expectEstimateHoldsPeak(stopped.dump(), "serve --refs " + refs);
+    }
+    // Refused before it listens: 0.8 GiB for cube6 faces of 4096 under 512 MiB of address space.
+    expectOneLineError(
+        runParallax("serve office:1 --refs cube6 --face-size 4096 --port 0 --seconds 1",
+                    "ulimit -v 524288; "),
+        "serve --refs cube6 --face-size 4096 needs about");
+}
+
 TEST(RemoteCli, TokenRefusedAtTheHandshake) {
     ServeProcess server("office:1 --face-size 32 --token abc");
     ASSERT_GT(server.port(), 0);

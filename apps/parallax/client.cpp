@@ -244,8 +244,7 @@ int runClient(const ClientArgs& a) {
     cc.path = p->url.path;
     cc.token = a.token;
     cc.layout = p->layout;
-    cc.faceSize = std::clamp(referenceDensityFor(cameras->front(), p->layout).faceSize,
-                             remote::kMinFaceSize, remote::kMaxFaceSize);
+    cc.faceSize = remoteReferenceFor(cameras->front(), p->layout).faceSize;
     auto client = remote::Client::create(cc);
     if (!client) return fail(client.status().message(), kExitUsage);
     (*client)->setPose(displayPoseMessage(*cameras, 0, kDisplayHz));

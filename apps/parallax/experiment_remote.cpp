@@ -65,6 +65,12 @@ remote::PoseMessage displayPoseMessage(const std::vector<Camera>& cameras, int f
     return m;
 }
 
+warp::ReferenceSetOptions remoteReferenceFor(const Camera& display, warp::ReferenceLayout layout) {
+    warp::ReferenceSetOptions options = referenceDensityFor(display, layout);
+    options.faceSize = std::clamp(options.faceSize, remote::kMinFaceSize, remote::kMaxFaceSize);
+    return options;
+}
+
 namespace {
 
 constexpr double kDisplayHz = 60.0;
@@ -130,7 +136,7 @@ Result<SessionResult> playSession(const RemoteExperimentConfig& c, const scene::
                                   warp::Warper& warper) {
     remote::ServerConfig sc;
     sc.port = 0;
-    sc.reference = referenceDensityFor(cameras.front(), c.layout);
+    sc.reference = remoteReferenceFor(cameras.front(), c.layout);
     sc.maxSessions = 1;
     sc.renderThreads = c.threads;
     // "Over loopback, latency L on the server gives a round trip of 2L" (transport.h).
@@ -327,7 +333,9 @@ Status checkRemoteExperimentConfig(const RemoteExperimentConfig& c) {
 constexpr double kSessionBytesPerSetPixel = 33.0, kSessionBytesPerDisplayPixel = 64.0;
 
 Result<double> remoteExperimentImageBytes(const RemoteExperimentConfig& c) {
-    auto setPixels = referencePixelsFor(c.width, c.height, c.layout);
+    auto display = displayOfSize(c.width, c.height);
+    if (!display) return display.status();
+    auto setPixels = referencePixels(remoteReferenceFor(*display, c.layout));
     if (!setPixels) return setPixels.status();
     const double measured = std::lround(c.durationS * kDisplayHz);
     const double kept = std::ceil(measured / double(c.psnrEvery));

@@ -31,6 +31,10 @@ inline constexpr RemoteMethod kRemoteMethods[] = {RemoteMethod::kWarp, RemoteMet
                                                   RemoteMethod::kTimewarp};
 const char* remoteMethodName(RemoteMethod method);  // warp, video, timewarp
 
+// The reference sets a remote client asks for to show `display`: the display's density
+// (referenceDensityFor) in faces the protocol allows (remote::kMinFaceSize .. kMaxFaceSize).
+warp::ReferenceSetOptions remoteReferenceFor(const Camera& display, warp::ReferenceLayout layout);
+
 // One link setting: the round trip the server's emulation adds (half each way) and its rate.
 struct LinkSetting {
     double rttMs = 0.0;

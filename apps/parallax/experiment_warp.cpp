@@ -50,17 +50,19 @@ int64_t referencePixels(const warp::ReferenceSet& set) {
     return n;
 }
 
-Result<int64_t> referencePixelsFor(int width, int height, warp::ReferenceLayout layout) {
-    CameraDesc desc;
-    desc.width = width;
-    desc.height = height;
-    auto display = Camera::create(desc);
-    if (!display) return display.status();
-    auto views = warp::referenceCameras(poseOf(*display), referenceDensityFor(*display, layout));
+Result<int64_t> referencePixels(const warp::ReferenceSetOptions& options) {
+    auto views = warp::referenceCameras(warp::Pose{}, options);
     if (!views) return views.status();
     int64_t n = 0;
     for (const Camera& view : *views) n += int64_t(view.width()) * view.height();
     return n;
+}
+
+Result<Camera> displayOfSize(int width, int height) {
+    CameraDesc desc;
+    desc.width = width;
+    desc.height = height;
+    return Camera::create(desc);
 }
 
 warp::Pose poseOf(const Camera& camera) {
@@ -384,13 +386,17 @@ Result<double> warpExperimentImageBytes(const WarpExperimentConfig& c) {
     const double answers = std::min(std::ceil((*maxRtt - *minRtt) / c.refreshMs) + 3.0,
                                     rtts * (std::ceil(c.durationS * 1000.0 / c.refreshMs) + 3.0));
     const double sets = answers + 6.0 * rtts;
-    auto latencyPixels = referencePixelsFor(c.width, c.height, c.layout);
+    auto display = displayOfSize(c.width, c.height);
+    if (!display) return display.status();
+    auto latencyPixels = referencePixels(referenceDensityFor(*display, c.layout));
     if (!latencyPixels) return latencyPixels.status();
     const double work = workPerSetPixel(c.splat);
     double bytes = (kSetBytesPerPixel * sets + work) * double(*latencyPixels) +
                    (4.0 * answers + kWorkPerDisplayPixel) * double(c.width) * double(c.height);
     for (auto [w, h] : c.throughputSizes) {
-        auto pixels = referencePixelsFor(w, h, c.layout);
+        auto throughputDisplay = displayOfSize(w, h);
+        if (!throughputDisplay) return throughputDisplay.status();
+        auto pixels = referencePixels(referenceDensityFor(*throughputDisplay, c.layout));
         if (!pixels) return pixels.status();
         bytes = std::max(bytes, (kSetBytesPerPixel + work) * double(*pixels) +
                                     kWorkPerDisplayPixel * double(w) * double(h));

@@ -97,9 +97,10 @@ warp::ReferenceSetOptions referenceDensityFor(const Camera& display, warp::Refer
 
 // Pixels of every view of a set: the "source pixels" of Mpix/s figures, clipped rows included.
 int64_t referencePixels(const warp::ReferenceSet& set);
-// The same for the set referenceDensityFor gives a display of width x height with the scenes'
-// 60-degree field of view, before any is rendered (memory estimates).
-Result<int64_t> referencePixelsFor(int width, int height, warp::ReferenceLayout layout);
+// The same for the set `options` give, before it is rendered (memory estimates).
+Result<int64_t> referencePixels(const warp::ReferenceSetOptions& options);
+// A display of width x height with the scenes' 60-degree field of view (memory estimates).
+Result<Camera> displayOfSize(int width, int height);
 
 // The pose a display camera looks from.
 warp::Pose poseOf(const Camera& camera);

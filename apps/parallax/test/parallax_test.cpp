@@ -16,6 +16,7 @@
 
 #include "example_displays.h"
 #include "experiment_predistort.h"
+#include "experiment_remote.h"
 #include "experiment_stereo.h"
 #include "experiment_warp.h"
 #include "hole_classes.h"
@@ -337,6 +338,23 @@ TEST(WarpExperiment, ReferenceFacesMatchTheDisplayDensity) {
         referenceOptionsFor(*scene, *cam, warp::ReferenceLayout::kWide);
     EXPECT_GT(wide.wideFovDegrees, 60.0f);
     EXPECT_GT(wide.faceSize, 240);
+}
+
+TEST(RemoteExperiment, FacesStayWithinWhatTheProtocolCarries) {
+    // 2560 rows at 60 degrees have the density of 4434-pixel faces: the server renders 4096.
+    auto large = displayOfSize(2560, 2560);
+    ASSERT_TRUE(large.isOk());
+    EXPECT_EQ(referenceDensityFor(*large, warp::ReferenceLayout::kCube4).faceSize, 4434);
+    EXPECT_EQ(remoteReferenceFor(*large, warp::ReferenceLayout::kCube4).faceSize,
+              remote::kMaxFaceSize);
+    auto tiny = displayOfSize(4, 3);
+    ASSERT_TRUE(tiny.isOk());
+    EXPECT_EQ(remoteReferenceFor(*tiny, warp::ReferenceLayout::kCube4).faceSize,
+              remote::kMinFaceSize);
+    // Four faces of 4096 pixels: what the memory estimate counts.
+    auto pixels = referencePixels(remoteReferenceFor(*large, warp::ReferenceLayout::kCube4));
+    ASSERT_TRUE(pixels.isOk());
+    EXPECT_EQ(*pixels, 4 * int64_t(4096) * 4096);
 }
 
 }  // namespace

@@ -32,7 +32,8 @@ inline constexpr RemoteMethod kRemoteMethods[] = {RemoteMethod::kWarp, RemoteMet
 const char* remoteMethodName(RemoteMethod method);  // warp, video, timewarp
 
 // The reference sets a remote client asks for to show `display`: the display's density
-// (referenceDensityFor) in faces the protocol allows (remote::kMinFaceSize .. kMaxFaceSize).
+// (referenceDensityFor) in faces the protocol allows (remote::kMinFaceSize .. kMaxFaceSize) and
+// a server renders (remote::maxServedFaceSize: a wide view at most 4096 pixels wide).
 warp::ReferenceSetOptions remoteReferenceFor(const Camera& display, warp::ReferenceLayout layout);
 
 // One link setting: the round trip the server's emulation adds (half each way) and its rate.

@@ -9,11 +9,11 @@
 #include <fmt/format.h>
 
 #include <plx/remote/server.h>
-#include <plx/warp/reference.h>
 
 #include "commands.h"
-#include "web_assets.h"
+#include "experiment_warp.h"
 #include "view.h"
+#include "web_assets.h"
 
 namespace plx::cli {
 namespace {
@@ -93,12 +93,12 @@ void waitForStop(const sigset_t& set, double seconds) {
 constexpr double kServeBytesPerSetPixel = 9.0;
 
 Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig& config) {
-    auto views = warp::referenceCameras(warp::Pose{}, config.reference);
-    if (!views) return views.status();
-    double pixels = 0.0;
-    for (const Camera& view : *views) pixels += double(view.width()) * double(view.height());
+    warp::ReferenceSetOptions largest = config.reference;
+    largest.faceSize = remote::maxServedFaceSize(largest);
+    auto pixels = referencePixels(largest);
+    if (!pixels) return pixels.status();
     return checkImageMemory(fmt::format("serve --refs {} --face-size {}", a.refs, a.faceSize),
-                            kServeBytesPerSetPixel * pixels);
+                            kServeBytesPerSetPixel * double(*pixels));
 }
 
 int runServe(const ServeArgs& a) {

@@ -351,6 +351,12 @@ TEST(RemoteExperiment, FacesStayWithinWhatTheProtocolCarries) {
     ASSERT_TRUE(tiny.isOk());
     EXPECT_EQ(remoteReferenceFor(*tiny, warp::ReferenceLayout::kCube4).faceSize,
               remote::kMinFaceSize);
+    // A 20:1 wide view of 100 rows has the density of 206-pixel faces, 4120 wide: the server
+    // renders 204 (4080 wide), within the 4096 columns clients decode.
+    auto strip = displayOfSize(2000, 100);
+    ASSERT_TRUE(strip.isOk());
+    EXPECT_EQ(referenceDensityFor(*strip, warp::ReferenceLayout::kWide).faceSize, 206);
+    EXPECT_EQ(remoteReferenceFor(*strip, warp::ReferenceLayout::kWide).faceSize, 204);
     // Four faces of 4096 pixels: what the memory estimate counts.
     auto pixels = referencePixels(remoteReferenceFor(*large, warp::ReferenceLayout::kCube4));
     ASSERT_TRUE(pixels.isOk());

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -15,6 +16,7 @@
 #include <fmt/format.h>
 
 #include <plx/raster/raster.h>
+#include <plx/remote/codec.h>
 #include <plx/remote/protocol.h>
 #include <plx/warp/reference.h>
 
@@ -38,6 +40,17 @@ Vec3 predictEye(const Vec3& eye, const Vec3& velocity, double leadMs) {
     return eye + velocity * float(lead);
 }
 
+int maxServedFaceSize(const warp::ReferenceSetOptions& r) {
+    if (r.layout != warp::ReferenceLayout::kWide || !(r.wideAspect > 0.0f)) return r.faceSize;
+    // The width referenceCameras gives, lround(face x aspect), at most maxViewSide: the face
+    // below (maxViewSide + 0.5) / aspect, then stepped down past any rounding of that quotient.
+    const int maxSide = DecodeLimits{}.maxViewSide;
+    const double aspect = double(r.wideAspect);
+    int face = std::min(r.faceSize, int(std::ceil((double(maxSide) + 0.5) / aspect)) - 1);
+    while (face > 1 && std::lround(double(face) * aspect) > maxSide) --face;
+    return face;
+}
+
 Status checkServerConfig(const ServerConfig& c) {
     auto bad = [](const std::string& m) { return errorStatus(ErrorCode::kInvalidArgument, m); };
     if (c.port < 0 || c.port > 65535) return bad(fmt::format("port {} outside 0..65535", c.port));
@@ -56,7 +69,13 @@ Status checkServerConfig(const ServerConfig& c) {
     if (c.renderThreads < 0 || c.renderThreads > 1024)
         return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
-    return warp::checkReferenceSetOptions(c.reference);
+    // The sets it renders: at most maxServedFaceSize, whatever a session asks for.
+    warp::ReferenceSetOptions served = c.reference;
+    served.faceSize = maxServedFaceSize(c.reference);
+    if (served.faceSize < kMinFaceSize)
+        return bad(fmt::format("wide aspect {} leaves views under {} pixels high within {} wide",
+                               c.reference.wideAspect, kMinFaceSize, DecodeLimits{}.maxViewSide));
+    return warp::checkReferenceSetOptions(served);
 }
 
 namespace {
@@ -201,7 +220,7 @@ struct Server::Impl {
                 ++stats.sessionsActive;
                 ++stats.sessionsTotal;
                 s->state = SessionState::kAccepted;
-                s->faceSize = std::min(hello.faceSize, config.reference.faceSize);
+                s->faceSize = std::min(hello.faceSize, maxServedFaceSize(config.reference));
                 s->disparityCodec = disparity;
             }
         }

@@ -205,6 +205,45 @@ TEST(RemoteSession, ReferencesArriveAndWarp) {
     EXPECT_GE(server->stats().setsSent, 1);
 }
 
+TEST(RemoteSession, WideViewsStayWithinWhatClientsDecode) {
+    warp::ReferenceSetOptions wide;
+    wide.layout = warp::ReferenceLayout::kWide;
+    wide.faceSize = 4096;  // 16:9: 7282 wide, above the decoders' 4096
+    EXPECT_EQ(maxServedFaceSize(wide), 2304);
+    wide.wideAspect = 4096.0f / 300.0f;  // lround(300 x 4096 / 300) is 4096 exactly
+    EXPECT_EQ(maxServedFaceSize(wide), 300);
+    wide.faceSize = 64;
+    EXPECT_EQ(maxServedFaceSize(wide), 64);
+    warp::ReferenceSetOptions cube;
+    cube.faceSize = 4096;
+    EXPECT_EQ(maxServedFaceSize(cube), 4096);
+
+    // A client asking the largest face of a 16:1 wide set gets 256 rows of 4096 and decodes it.
+    ServerConfig config = smallServer(4096);
+    config.reference.layout = warp::ReferenceLayout::kWide;
+    config.reference.wideAspect = 16.0f;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    ClientConfig cc = clientFor(*server, 4096);
+    cc.layout = warp::ReferenceLayout::kWide;
+    auto client = std::move(Client::create(cc)).value();
+    client->setPose(poseNow(*scene::generateFromSpec("office:1")));
+    ASSERT_TRUE(client->waitForFirst(10000.0)) << client->fatal().message();
+    EXPECT_EQ(client->stats().faceSize, 256);
+    auto set = client->newest();
+    ASSERT_EQ(set->set.views.size(), 1u);
+    EXPECT_EQ(set->set.views[0].color.width(), 4096);
+    EXPECT_EQ(set->set.views[0].color.height(), 256);
+    client->stop();
+
+    // An aspect that leaves no face of 16 rows within 4096 columns is refused up front.
+    config.reference.wideAspect = 300.0f;
+    config.reference.faceSize = 32;
+    Status refused = checkServerConfig(config);
+    EXPECT_FALSE(refused.isOk());
+    EXPECT_NE(refused.message().find("wide aspect 300"), std::string::npos) << refused.message();
+}
+
 TEST(RemoteSession, PredictionRendersAheadAlongTheVelocity) {
     EXPECT_EQ(predictEye({1, 2, 3}, {1, 0, -2}, 500.0), Vec3(1.5f, 2.0f, 2.0f));
     EXPECT_EQ(predictEye({1, 2, 3}, {1, 0, 0}, 5000.0), Vec3(2.0f, 2.0f, 3.0f));  // clamped to 1 s

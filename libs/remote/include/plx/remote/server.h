@@ -33,7 +33,7 @@ struct ServerConfig {
     int port = 8080;                 // 0: a free port (Server::port says which)
     std::string token;               // non-empty: ClientHello must carry exactly this token
     // What a set holds: layout, clip planes, shading. faceSize is the largest the server renders;
-    // a session gets min(requested, faceSize).
+    // a session gets min(requested, maxServedFaceSize(reference)).
     warp::ReferenceSetOptions reference;
     // Near and far planes fitted to the scene's bounds from each rendered eye (clipPlanesFor);
     // false: reference.nearPlane and farPlane as given.
@@ -50,6 +50,11 @@ struct ServerConfig {
     HttpFiles pages;
 };
 Status checkServerConfig(const ServerConfig& config);
+
+// The largest face size a server renders for `reference`: its faceSize, lowered for a wide view
+// so that the view's width, faceSize x wideAspect, stays within what decoders take
+// (DecodeLimits::maxViewSide, 4096): a wider view would reach no client.
+int maxServedFaceSize(const warp::ReferenceSetOptions& reference);
 
 struct ServerStats {
     int64_t sessionsActive = 0;  // accepted (handshake done) and open

@@ -9,6 +9,8 @@
 #include <string>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include <plx/core/timing.h>
 #include <plx/warp/reference.h>
 
@@ -60,11 +62,17 @@ Status checkReferenceSetOptions(const ReferenceSetOptions& o) {
             ErrorCode::kInvalidArgument,
             "wide field of view " + std::to_string(o.wideFovDegrees) + " degrees outside (0, 180)"};
     // The aspect shapes the wide view alone; a cube face is square whatever it holds.
-    if (o.layout == ReferenceLayout::kWide &&
-        (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect) ||
-         std::lround(double(o.faceSize) * o.wideAspect) > Camera::kMaxImageSide))
-        return {ErrorCode::kInvalidArgument, "wide aspect " + std::to_string(o.wideAspect) +
-                                                 " not positive or too wide for the face size"};
+    if (o.layout == ReferenceLayout::kWide) {
+        if (!(o.wideAspect > 0.0f) || !std::isfinite(o.wideAspect))
+            return {ErrorCode::kInvalidArgument,
+                    fmt::format("wide aspect {} is not a positive number", o.wideAspect)};
+        const double width = std::round(double(o.faceSize) * o.wideAspect);
+        if (width > Camera::kMaxImageSide)
+            return {ErrorCode::kInvalidArgument,
+                    fmt::format("a wide view of {} rows at aspect {:g} would be {:.0f} pixels "
+                                "wide, above {}",
+                                o.faceSize, o.wideAspect, width, Camera::kMaxImageSide)};
+    }
     if (!(o.nearPlane > 0.0f && o.nearPlane < o.farPlane) || !std::isfinite(o.farPlane))
         return {ErrorCode::kInvalidArgument, "reference near/far planes need 0 < near < far"};
     return {};

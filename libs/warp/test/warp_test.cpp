@@ -540,7 +540,11 @@ TEST(Warp, BadInputGetsOneLineErrors) {
     o.faceSize = 12000;
     ASSERT_TRUE(referenceCameras(pose, o).isOk());
     o.layout = ReferenceLayout::kWide;
-    expectOneLineError(referenceCameras(pose, o).status(), "too wide for the face size");
+    expectOneLineError(referenceCameras(pose, o).status(),
+                       "a wide view of 12000 rows at aspect 1.77778 would be 21333 pixels wide");
+    o.wideAspect = std::numeric_limits<float>::quiet_NaN();
+    expectOneLineError(referenceCameras(pose, o).status(), "wide aspect nan is not a positive");
+    o.wideAspect = 16.0f / 9.0f;
     o.layout = ReferenceLayout::kCube6;
     o.faceSize = Camera::kMaxImageSide + 1;
     expectOneLineError(referenceCameras(pose, o).status(), "face size");

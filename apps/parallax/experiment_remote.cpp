@@ -68,8 +68,7 @@ remote::PoseMessage displayPoseMessage(const std::vector<Camera>& cameras, int f
 warp::ReferenceSetOptions remoteReferenceFor(const Camera& display, warp::ReferenceLayout layout) {
     warp::ReferenceSetOptions options = referenceDensityFor(display, layout);
     options.faceSize = std::clamp(options.faceSize, remote::kMinFaceSize, remote::kMaxFaceSize);
-    options.faceSize =
-        std::clamp(remote::maxServedFaceSize(options), remote::kMinFaceSize, remote::kMaxFaceSize);
+    options.faceSize = std::max(remote::maxServedFaceSize(options), remote::kMinFaceSize);
     return options;
 }
 

@@ -379,9 +379,9 @@ double workPerSetPixel(warp::Splat splat) {
 Result<double> warpExperimentImageBytes(const WarpExperimentConfig& c) {
     auto [minRtt, maxRtt] = std::minmax_element(c.rttsMs.begin(), c.rttsMs.end());
     // Plain answers from the longest RTT's second newest to the shortest RTT's newest, and the
-    // one rendered before the frame's drop, but no more than the walk asks for: each RTT the
-    // requests its frames see, from the second newest at the first to the newest at the last.
-    // Per RTT at most six predicted sets (dropAnswersPast).
+    // one rendered before the frame's drop, but no more than the walk requests: per RTT, from the
+    // second newest at its first frame to the newest at its last. Per RTT at most six predicted
+    // sets (dropAnswersPast).
     const double rtts = double(c.rttsMs.size());
     const double answers = std::min(std::ceil((*maxRtt - *minRtt) / c.refreshMs) + 3.0,
                                     rtts * (std::ceil(c.durationS * 1000.0 / c.refreshMs) + 3.0));

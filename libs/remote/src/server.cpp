@@ -46,7 +46,7 @@ int maxServedFaceSize(const warp::ReferenceSetOptions& r) {
     // below (maxViewSide + 0.5) / aspect, then stepped down past any rounding of that quotient.
     const int maxSide = DecodeLimits{}.maxViewSide;
     const double aspect = double(r.wideAspect);
-    int face = std::min(r.faceSize, int(std::ceil((double(maxSide) + 0.5) / aspect)) - 1);
+    int face = int(std::min(double(r.faceSize), std::ceil((double(maxSide) + 0.5) / aspect) - 1.0));
     while (face > 1 && std::lround(double(face) * aspect) > maxSide) --face;
     return face;
 }

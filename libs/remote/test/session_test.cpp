@@ -214,6 +214,8 @@ TEST(RemoteSession, WideViewsStayWithinWhatClientsDecode) {
     EXPECT_EQ(maxServedFaceSize(wide), 300);
     wide.faceSize = 64;
     EXPECT_EQ(maxServedFaceSize(wide), 64);
+    wide.wideAspect = 1e-30f;  // as narrow as a float goes: the face size stands
+    EXPECT_EQ(maxServedFaceSize(wide), 64);
     warp::ReferenceSetOptions cube;
     cube.faceSize = 4096;
     EXPECT_EQ(maxServedFaceSize(cube), 4096);

@@ -113,6 +113,8 @@ int runServe(const ServeArgs& a) {
     auto server = remote::Server::create(std::move(scene).value(), *config);
     if (!server) return fail(server.status());
     const std::string url = fmt::format("ws://{}:{}/", a.bind, (*server)->port());
+    // The largest a session gets: --face-size, lowered for wide views no client could decode.
+    const int servedFaceSize = remote::maxServedFaceSize(config->reference);
     if (a.json) {
         fmt::print("{}\n", nlohmann::json{{"event", "listening"},
                                           {"url", url},
@@ -121,14 +123,14 @@ int runServe(const ServeArgs& a) {
                                           {"scene", a.scene},
                                           {"triangles", triangles},
                                           {"refs", a.refs},
-                                          {"face_size", a.faceSize},
+                                          {"face_size", servedFaceSize},
                                           {"prediction", a.prediction}}
                                .dump());
     } else {
         fmt::print(
             "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C "
             "stops\n",
-            a.scene, triangles, url, a.refs, a.faceSize, a.prediction);
+            a.scene, triangles, url, a.refs, servedFaceSize, a.prediction);
     }
     std::fflush(stdout);
     waitForStop(stopSignals, a.seconds);

@@ -98,6 +98,13 @@ TEST(RemoteCli, ServeMemoryEstimateHoldsItsPeak) {
         "serve --refs cube6 --face-size 4096 needs about");
 }
 
+TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
+    // 16:9 views of 4096 rows would be 7282 wide; clients decode 4096: 2304 rows.
+    ServeProcess server("office:1 --refs wide --face-size 4096");
+    ASSERT_GT(server.port(), 0);
+    EXPECT_EQ(server.listening.value("face_size", 0), 2304);
+}
+
 TEST(RemoteCli, TokenRefusedAtTheHandshake) {
     ServeProcess server("office:1 --face-size 32 --token abc");
     ASSERT_GT(server.port(), 0);

@@ -67,14 +67,11 @@ Result<WarpPlan> plan(const WarpArgs& a) {
 // pixels a side, square and not (office:2): 8.0 per reference pixel (10.3 with mesh splats) and
 // 56-59 per display pixel. Rounded up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the
 // measured peak.
-double warpImageBytes(const WarpPlan& p, const std::vector<Camera>& references,
-                      const Camera& display) {
+double warpImageBytes(const WarpPlan& p, int64_t referencePixels, const Camera& display) {
     const double perReferencePixel = p.options.splat == warp::Splat::kMesh ? 11.0 : 8.5;
     constexpr double kPerDisplayPixel = 62.0;
-    double bytes = kPerDisplayPixel * double(display.width()) * double(display.height());
-    for (const Camera& view : references)
-        bytes += perReferencePixel * double(view.width()) * double(view.height());
-    return bytes;
+    return kPerDisplayPixel * double(display.width()) * double(display.height()) +
+           perReferencePixel * double(referencePixels);
 }
 
 // The destination camera: the first camera's lens and size at the second pose.
@@ -120,12 +117,12 @@ int runWarp(const WarpArgs& a) {
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
     warp::ReferenceSetOptions refOptions = referenceOptionsFor(*scene, *from, p->layout);
-    auto references = warp::referenceCameras(poseOf(*from), refOptions);
-    if (!references) return fail(references.status());
+    auto setPixels = referencePixels(refOptions);
+    if (!setPixels) return fail(setPixels.status());
     auto memory = checkImageMemory(
         fmt::format("warp --refs {} at {}x{}", warp::referenceLayoutName(p->layout), to->width(),
                     to->height()),
-        warpImageBytes(*p, *references, *to));
+        warpImageBytes(*p, *setPixels, *to));
     if (!memory) return fail(memory.status());
     warp::ReferenceSet set;
     if (Status s = warp::renderReferenceSet(**renderer, *scene, poseOf(*from), refOptions, &set);

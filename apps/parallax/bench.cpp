@@ -12,22 +12,11 @@
 
 #include "bench.h"
 
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include "commands.h"
 
 namespace plx::cli {
-
-Status createOutputFolder(const std::string& dir) {
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec)
-        return errorStatus(ErrorCode::kIoError,
-                           fmt::format("cannot create '{}': {}", dir, ec.message()));
-    return Status::ok();
-}
 
 int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
                      const std::string& jsonName,

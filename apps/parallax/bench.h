@@ -30,8 +30,6 @@ private:
     std::unique_ptr<Progress> mBar;
 };
 
-// An experiment's output folder, created; errors ("cannot create ...") name it.
-Status createOutputFolder(const std::string& dir);
 // The end of an experiment command: writes `files` and the document (as `jsonName`) into the
 // folder `out`, then prints the document (--json) or the human table (printTable(out + "/")).
 // Returns the exit code.

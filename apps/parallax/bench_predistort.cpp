@@ -1,8 +1,6 @@
 // parallax bench predistort: Bimber et al. Table 1 and Figs. 8-10 (uniform against adaptive warp
 // meshes) as CSV, JSON and SVG plots.
 
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include <plx/scene/generators.h>
@@ -30,9 +28,7 @@ int runPredistortBench(const PredistortBenchArgs& a) {
         return fail("--thresholds: " + s.message(), kExitUsage);
     auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create {}: {}", a.out, ec.message()));
+    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     auto containerKind = display::parseContainerKind(a.container);
     if (!containerKind) return fail(containerKind.status());
     PredistortExperimentConfig config;
@@ -46,20 +42,15 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     auto content = display::fitSceneToContent(*showcase, *d);
     auto result = runPredistortExperiment(*d, d->defaultViewerMm, content, config);
     if (!result) return fail(result.status());
-    std::string dir = a.out + "/";
-    nlohmann::json doc = predistortExperimentJson(*result);
-    if (Status s = writeText(dir + "table1.json", doc.dump(2)); !s) return fail(s);
-    std::string csv = predistortExperimentCsv(*result);
-    if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);
-    for (const auto& [file, svg] : predistortPlots(*result))
-        if (Status s = writeText(dir + file, svg); !s) return fail(s);
-    if (a.json) {
-        printJson(doc);
-    } else {
-        fmt::print("{}", csv);
-        fmt::print("wrote {}table1.{{csv,json}} and fig8-10 SVG plots\n", dir);
-    }
-    return kExitOk;
+    auto files = predistortPlots(*result);
+    const std::string csv = predistortExperimentCsv(*result);
+    files.emplace_back("table1.csv", csv);
+    return finishExperiment(a.out, a.json, predistortExperimentJson(*result), "table1.json",
+                            std::move(files), [&](const std::string& dir) {
+                                fmt::print("{}", csv);
+                                fmt::print("wrote {}table1.{{csv,json}} and fig8-10 SVG plots\n",
+                                           dir);
+                            });
 }
 
 }  // namespace

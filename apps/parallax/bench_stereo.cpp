@@ -2,8 +2,6 @@
 // method on office:N), with the reproject method of Fu, Bao, Peng beside them and its paper's
 // timing table, as CSV, JSON, markdown and SVG plots.
 
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include "bench.h"
@@ -63,38 +61,26 @@ int runStereoBench(const StereoBenchArgs& a) {
     auto memory = checkImageMemory(fmt::format("bench stereo at {}x{}", size->x, size->y),
                                    stereoExperimentImageBytes(config));
     if (!memory) return fail(memory.status());
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
+    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     Progress progress("bench stereo", a.rooms.size());
     auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return fail(rows.status());
-    std::string dir = a.out + "/";
     nlohmann::json doc = stereoExperimentJson(config, *rows);
     doc.update(memoryJson(*memory));
-    if (Status s = writeText(dir + "table1.json", doc.dump(2)); !s) return fail(s);
-    std::string csv = stereoExperimentCsv(*rows);
-    if (Status s = writeText(dir + "table1.csv", csv); !s) return fail(s);
-    for (const auto& [file, svg] : stereoPlots(*rows))
-        if (Status s = writeText(dir + file, svg); !s) return fail(s);
+    auto files = stereoPlots(*rows);
+    files.emplace_back("table1.csv", stereoExperimentCsv(*rows));
     if (config.reproject) {
-        if (Status s = writeText(dir + "methods.md", stereoMethodsMarkdown(*rows)); !s)
-            return fail(s);
-        if (Status s =
-                writeText(dir + "reproject_paper_table.md", reprojectPaperTableMarkdown(*rows));
-            !s)
-            return fail(s);
+        files.emplace_back("methods.md", stereoMethodsMarkdown(*rows));
+        files.emplace_back("reproject_paper_table.md", reprojectPaperTableMarkdown(*rows));
     }
-    if (a.json) {
-        printJson(doc);
-        return kExitOk;
-    }
-    printTable(*rows);
-    fmt::print(
-        "times in ms per eye (median of {} frames); wrote {}table1.{{csv,json}}{} and "
-        "Fig. 17 SVG plots\n",
-        a.frames, dir, config.reproject ? ", methods.md, reproject_paper_table.md" : "");
-    return kExitOk;
+    return finishExperiment(
+        a.out, a.json, doc, "table1.json", std::move(files), [&](const std::string& dir) {
+            printTable(*rows);
+            fmt::print(
+                "times in ms per eye (median of {} frames); wrote "
+                "{}table1.{{csv,json}}{} and Fig. 17 SVG plots\n",
+                a.frames, dir, config.reproject ? ", methods.md, reproject_paper_table.md" : "");
+        });
 }
 
 }  // namespace

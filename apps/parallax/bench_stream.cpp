@@ -4,7 +4,6 @@
 // JSON, SVG plots and the Fig. 3 frames.
 
 #include <cmath>
-#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -138,35 +137,23 @@ void printTables(const StreamExperiment& e, const std::string& dir) {
 int runStreamBench(const StreamBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
-    std::unique_ptr<Progress> progress;
-    auto e = runStreamExperiment(*config, [&](size_t, size_t total) {
-        if (!progress) progress = std::make_unique<Progress>("bench stream", total);
-        progress->step();
-    });
+    if (Status s = createOutputFolder(a.out); !s) return fail(s);
+    StepProgress progress("bench stream");
+    auto e = runStreamExperiment(*config, progress.callback());
     if (!e) return fail(e.status());
     const std::string dir = a.out + "/";
-    nlohmann::json doc = streamExperimentJson(*e);
-    if (Status s = writeText(dir + "stream.json", doc.dump(2)); !s) return fail(s);
-    if (Status s = writeText(dir + "walks.csv", streamWalksCsv(*e)); !s) return fail(s);
-    if (Status s = writeText(dir + "policies.csv", streamPoliciesCsv(*e)); !s) return fail(s);
-    if (Status s = writeText(dir + "policy_frames.csv", streamPolicyFramesCsv(*e)); !s)
-        return fail(s);
-    for (const auto& [file, svg] : streamPlots(*e))
-        if (Status s = writeText(dir + file, svg); !s) return fail(s);
     for (const BandwidthRun& run : e->runs)
         for (const auto& [timeS, image] : run.shots)
             if (Status s = writePng(fmt::format("{}stream_{:02}s.png", dir, int(timeS)), image); !s)
                 return fail(s);
     if (!e->fullShot.empty())
         if (Status s = writePng(dir + "stream_full.png", e->fullShot); !s) return fail(s);
-    if (a.json)
-        printJson(doc);
-    else
-        printTables(*e, dir);
-    return kExitOk;
+    auto files = streamPlots(*e);
+    files.emplace_back("walks.csv", streamWalksCsv(*e));
+    files.emplace_back("policies.csv", streamPoliciesCsv(*e));
+    files.emplace_back("policy_frames.csv", streamPolicyFramesCsv(*e));
+    return finishExperiment(a.out, a.json, streamExperimentJson(*e), "stream.json",
+                            std::move(files), [&](const std::string&) { printTables(*e, dir); });
 }
 
 }  // namespace

@@ -114,16 +114,18 @@ Status writeText(const std::string& path, const std::string& text) {
     return writeFileBytes(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
 }
 
-Status ensureParentDirectory(const std::string& prefix) {
-    std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
-    if (parent.empty()) return Status::ok();
+Status createOutputFolder(const std::string& dir) {
     std::error_code ec;
-    std::filesystem::create_directories(parent, ec);
+    std::filesystem::create_directories(dir, ec);
     if (ec)
         return errorStatus(ErrorCode::kIoError,
-                           fmt::format("cannot create directory '{}': {}", parent.string(),
-                                       ec.message()));
+                           fmt::format("cannot create directory '{}': {}", dir, ec.message()));
     return Status::ok();
+}
+
+Status ensureParentDirectory(const std::string& prefix) {
+    std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
+    return parent.empty() ? Status::ok() : createOutputFolder(parent.string());
 }
 
 }  // namespace plx::cli

@@ -82,6 +82,8 @@ void printJson(const nlohmann::json& doc);
 // Writes text to a file; the error names the file.
 Status writeText(const std::string& path, const std::string& text);
 
+// An output folder, created with its parents; the error ("cannot create directory ...") names it.
+Status createOutputFolder(const std::string& dir);
 // Creates the parent directory of an output prefix ("out/x" -> "out/").
 Status ensureParentDirectory(const std::string& prefix);
 

@@ -228,11 +228,8 @@ int runClient(const ClientArgs& a) {
         fmt::format("client{} at {}x{}", a.stereo ? " --stereo" : "", p->size.x, p->size.y),
         clientBytesPerPixel(a) * double(p->size.x) * double(p->size.y));
     if (!memory) return fail(memory.status());
-    if (!a.out.empty()) {
-        std::error_code ec;
-        std::filesystem::create_directories(a.out, ec);
-        if (ec) return fail(fmt::format("cannot create {}: {}", a.out, ec.message()));
-    }
+    if (!a.out.empty())
+        if (Status s = createOutputFolder(a.out); !s) return fail(s);
     auto warper = warp::Warper::create(a.threads);
     if (!warper) return fail(warper.status().message(), kExitUsage);
     std::unique_ptr<raster::Renderer> truthRenderer;

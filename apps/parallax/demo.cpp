@@ -1,8 +1,6 @@
 // parallax demo: the main job. Builds the procedural scenes, renders them, and writes a report
 // with images and plots to out/demo/index.html. Needs no arguments and no network.
 
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include "commands.h"
@@ -19,9 +17,7 @@ struct DemoArgs {
 };
 
 int runDemo(const DemoArgs& a) {
-    std::error_code ec;
-    std::filesystem::create_directories(a.out, ec);
-    if (ec) return fail(fmt::format("cannot create '{}': {}", a.out, ec.message()));
+    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     HtmlReport report("Parallax demo");
     nlohmann::json summary = nlohmann::json::object();
     DemoContext ctx{a.out, &report, &summary, a.threads, a.quick};

@@ -25,7 +25,7 @@ const nowUs = () => Math.round((performance.timeOrigin + performance.now()) * 10
 const WALK_SPEED = 1.5;      // metres per second; Shift triples it
 const LOOK_DEG_PER_PX = 0.2;  // mouse drag
 const PING_INTERVAL_MS = 1000;
-const MAX_BUFFERED_BYTES = 1 << 16;  // skip a pose while the socket has this much unsent
+const MAX_BUFFERED_BYTES = 1 << 16;  // skip a pose, ping or pong while this much is unsent
 
 const normalize = (v) => {
     const l = Math.hypot(v[0], v[1], v[2]);
@@ -88,7 +88,7 @@ class Client {
                 return this.acceptSet(m);
             case 'ping':
                 // At most 10 answers a second (the spec's ping rate).
-                if (this.ping.answersThisSecond++ < 10) this.send(encodePing(MessageType.pong, m.timestampUs, m.nonce));
+                if (this.ping.answersThisSecond++ < 10) this.sendControl(encodePing(MessageType.pong, m.timestampUs, m.nonce));
                 return;
             case 'pong':
                 if (m.nonce === this.ping.nonce && !this.ping.answered) {
@@ -169,6 +169,13 @@ class Client {
         if (this.socket?.readyState === WebSocket.OPEN) this.socket.send(bytes);
     }
 
+    // A Ping or Pong, unless the socket is backed up: a server that stops reading gets no queue
+    // of them (docs/remote-protocol.md, "Limits").
+    sendControl(bytes) {
+        if (this.socket?.bufferedAmount > MAX_BUFFERED_BYTES) return;
+        this.send(bytes);
+    }
+
     sendPose() {
         if (!this.pose || this.held || this.state !== 'session' ||
             this.socket.bufferedAmount > MAX_BUFFERED_BYTES) return;
@@ -181,7 +188,7 @@ class Client {
         this.ping.answersThisSecond = 0;
         this.ping.nonce = (this.ping.nonce + 1) >>> 0;
         this.ping.answered = false;
-        this.send(encodePing(MessageType.ping, nowUs(), this.ping.nonce));
+        this.sendControl(encodePing(MessageType.ping, nowUs(), this.ping.nonce));
     }
 
     // A protocol violation: tell the server (Error kProtocol), close, show the line.

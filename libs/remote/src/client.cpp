@@ -19,6 +19,8 @@
 
 #include <plx/remote/transport.h>
 
+#include "one_unwritten.h"
+
 namespace plx::remote {
 
 using Clock = std::chrono::steady_clock;
@@ -41,6 +43,7 @@ struct Link {
     std::optional<ServerHello> hello;
     Status error;  // an Error message from the server
     uint32_t pingNonce = 0;
+    OneUnwritten pings, pongs;  // a server that stops reading gets no queue of them
 };
 
 }  // namespace
@@ -98,8 +101,8 @@ struct Client::Impl {
         if (auto* hello = std::get_if<ServerHello>(&*m)) {
             link->hello = *hello;
         } else if (auto* ping = std::get_if<Ping>(&*m)) {
-            if (auto pong = encodeMessage(Pong{ping->timestampUs, ping->nonce}); pong && conn)
-                conn->send(std::move(pong).value());
+            auto pong = encodeMessage(Pong{ping->timestampUs, ping->nonce});
+            if (pong && conn && link == current) link->pongs.send(*conn, std::move(pong).value());
         } else if (auto* pong = std::get_if<Pong>(&*m)) {
             // Pongs of earlier pings count too: a round trip longer than the ping interval is
             // normal.
@@ -302,7 +305,7 @@ struct Client::Impl {
             if (now >= nextPing) {
                 nextPing = now + pingInterval;
                 if (auto b = encodeMessage(Ping{clientNowUs(), ++link->pingNonce}))
-                    conn->send(std::move(b).value());
+                    link->pings.send(*conn, std::move(b).value());
             }
         }
         if (stopping && !link->closed) {
@@ -372,7 +375,9 @@ Status Client::fatal() const {
 
 ClientStats Client::stats() const {
     std::lock_guard lock(mImpl->mutex);
-    return mImpl->stats;
+    ClientStats s = mImpl->stats;
+    s.queuedBytes = mImpl->conn ? mImpl->conn->queuedBytes() : 0;
+    return s;
 }
 
 void Client::stop() {

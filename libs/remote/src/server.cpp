@@ -20,6 +20,8 @@
 #include <plx/remote/protocol.h>
 #include <plx/warp/reference.h>
 
+#include "one_unwritten.h"
+
 namespace plx::remote {
 
 using Clock = std::chrono::steady_clock;
@@ -126,6 +128,7 @@ struct Session {
     uint32_t pingNonce = 0;
     Clock::time_point pingWindow{};
     int pingsInWindow = 0;
+    OneUnwritten pings, pongs;  // a peer that stops reading gets no queue of them
 };
 using SessionPtr = std::shared_ptr<Session>;
 
@@ -281,7 +284,8 @@ struct Server::Impl {
                 s->pingWindow = now, s->pingsInWindow = 0;
             if (++s->pingsInWindow > kMaxPingsPerSecond) return;
         }
-        send(s, Pong{ping.timestampUs, ping.nonce});
+        if (auto bytes = encodeMessage(Pong{ping.timestampUs, ping.nonce}))
+            s->pongs.send(*s->conn, std::move(bytes).value());
     }
 
     void onPong(const SessionPtr& s, const Pong& pong) {
@@ -463,8 +467,8 @@ struct Server::Impl {
         }
         for (const SessionPtr& s : drop) s->state = SessionState::kClosed, s->conn->abort();
         for (const SessionPtr& s : ping) {
-            auto bytes = encodeMessage(Ping{nowUs(), s->pingNonce});
-            if (bytes) s->conn->send(std::move(bytes).value());
+            if (auto bytes = encodeMessage(Ping{nowUs(), s->pingNonce}))
+                s->pings.send(*s->conn, std::move(bytes).value());
         }
     }
 };

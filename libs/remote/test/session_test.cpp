@@ -8,6 +8,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -449,9 +450,13 @@ TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
     EXPECT_GE(server->stats().protocolErrors, int64_t(cases.size()));
 }
 
+// A peer that stops reading but keeps sending poses and Pings, while the server pings it every
+// 10 ms: one set waits on the socket, and no queue of Pings or Pongs grows behind it.
 TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     const scene::Scene scene = *scene::generateFromSpec("office:1");
-    auto server = startServer(smallServer(256));
+    ServerConfig config = smallServer(256);
+    config.pingIntervalMs = 10.0;
+    auto server = startServer(config);
     ASSERT_TRUE(server);
     RawPeer peer(server->port());
     ClientHello h;
@@ -459,14 +464,19 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     peer.send(h);
     ASSERT_TRUE(peer.first<ServerHello>());
     peer.conn().setReading(false);
+    uint32_t nonce = 0;
+    auto poseAndPing = [&] {
+        peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
+        peer.send(Ping{clientNowUs(), nonce++});
+        std::this_thread::sleep_for(10ms);
+    };
     // Poses keep coming while nothing is read: the socket's buffers fill, then the session
     // stops rendering (no completed send) and the newest pose waits in its one slot.
     int64_t lastSent = -1;
     auto steadySince = std::chrono::steady_clock::now();
     auto end = steadySince + 8s;
     while (std::chrono::steady_clock::now() < end) {
-        peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
-        std::this_thread::sleep_for(10ms);
+        poseAndPing();
         ServerStats s = server->stats();
         if (s.setsSent != lastSent)
             lastSent = s.setsSent, steadySince = std::chrono::steady_clock::now();
@@ -474,9 +484,13 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     }
     ServerStats s = server->stats();
     EXPECT_GT(s.queuedBytes, 0u) << "the socket never backed up";
-    // One set plus the small messages (pings) queued behind it.
+    // One set plus the small messages (a Ping, a Pong) queued behind it.
     EXPECT_LE(s.queuedBytes, s.maxSetBytes + 4096);
     EXPECT_LE(s.maxQueuedBytes, s.maxSetBytes + 4096);
+    // Two more seconds of 100 server Pings and 100 client Pings a second: nothing more queued
+    // but the one unwritten Ping and Pong (OneUnwritten).
+    for (int i = 0; i < 200; ++i) poseAndPing();
+    EXPECT_LE(server->stats().queuedBytes, s.queuedBytes + 64);
 }
 
 TEST(RemoteSession, ThirtyTwoConcurrentClients) {
@@ -627,6 +641,90 @@ TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
     ASSERT_NE(client->newest(), nullptr);
     EXPECT_EQ(client->newest()->sequence, 7u);
     EXPECT_TRUE(client->fatal().isOk());
+}
+
+// A hostile server that answers the ClientHello, stops reading and sends Pings as fast as the
+// client reads them: the client's queue of Pongs stays at one (OneUnwritten).
+class PingFlooder {
+public:
+    PingFlooder() {
+        mTransport = std::move(Transport::create()).value();
+        ConnectionConfig cc;
+        cc.maxMessageBytes = 4096;
+        auto port = mTransport->listen("127.0.0.1", 0, cc, [this](std::shared_ptr<Connection> c) {
+            ConnectionEvents ev;
+            ev.onMessage = [this, c](std::vector<uint8_t>&& m, bool) {
+                auto decoded = decodeMessage(m);
+                if (!decoded || !std::holds_alternative<ClientHello>(*decoded)) return;
+                ServerHello hello;
+                hello.faceSize = 32;
+                c->send(std::move(encodeMessage(hello)).value());
+                c->setReading(false);
+                std::lock_guard lock(mMutex);
+                if (!mFlood.joinable()) mFlood = std::thread([this, c] { flood(*c); });
+            };
+            ev.onClosed = [](const Status&) {};
+            return ev;
+        });
+        EXPECT_TRUE(port.isOk());
+        mPort = port ? *port : 0;
+    }
+    ~PingFlooder() {
+        mStop = true;
+        if (mFlood.joinable()) mFlood.join();
+        mTransport->stop();
+    }
+    int port() const { return mPort; }
+    uint32_t sent() const { return mSent; }
+    static constexpr uint32_t kPings = 400000;  // 6 MB
+
+private:
+    // kPings, at most 64 KiB of them queued here at once, within 20 s.
+    void flood(Connection& c) {
+        const auto end = std::chrono::steady_clock::now() + 20s;
+        while (!mStop && mSent < kPings && std::chrono::steady_clock::now() < end) {
+            if (c.queuedBytes() > 65536) {
+                std::this_thread::sleep_for(1ms);
+                continue;
+            }
+            for (int i = 0; i < 1000; ++i)
+                c.send(std::move(encodeMessage(Ping{1, mSent++})).value());
+        }
+    }
+
+    std::unique_ptr<Transport> mTransport;
+    int mPort = 0;
+    std::mutex mMutex;
+    std::thread mFlood;
+    std::atomic<bool> mStop{false};
+    std::atomic<uint32_t> mSent{0};
+};
+
+TEST(RemoteSession, AServerThatStopsReadingGetsNoQueueOfPongs) {
+    PingFlooder server;
+    ClientConfig config;
+    config.port = server.port();
+    config.faceSize = 32;
+    config.pingIntervalMs = 10.0;
+    auto client = std::move(Client::create(config)).value();
+    client->setPose(poseNow(*scene::generateFromSpec("office:1")));
+    // The Pongs of the flood fill the sockets' buffers (about 4 MiB on loopback) long before
+    // the client has read the last Ping; watch its queue until two seconds after that.
+    size_t most = 0;
+    auto watch = [&] {
+        most = std::max(most, client->stats().queuedBytes);
+        return false;
+    };
+    ASSERT_TRUE(eventually(
+        [&] {
+            watch();
+            return server.sent() >= PingFlooder::kPings;
+        },
+        25s));
+    eventually(watch, 2s);
+    // A Ping, a Pong and the poses' bound (kMaxQueuedPoseBytes) at most.
+    EXPECT_LE(most, 4096u + 256u);
+    client->stop();
 }
 
 TEST(RemoteSession, LinkEmulationDelaysBothDirections) {

@@ -49,6 +49,7 @@ struct ClientStats {
     int64_t posesSent = 0;
     double rttMs = -1.0;  // smoothed ping round trip; < 0 before the first Pong
     double decodeMsMean = 0.0;
+    size_t queuedBytes = 0;  // now: bytes this side has queued on the socket, not yet written
     bool connected = false;
     int faceSize = 0, poseRateHz = 0;  // from the last ServerHello
 };

@@ -101,8 +101,8 @@ struct Client::Impl {
         if (auto* hello = std::get_if<ServerHello>(&*m)) {
             link->hello = *hello;
         } else if (auto* ping = std::get_if<Ping>(&*m)) {
-            auto pong = encodeMessage(Pong{ping->timestampUs, ping->nonce});
-            if (pong && conn && link == current) link->pongs.send(*conn, std::move(pong).value());
+            if (conn && link == current)
+                link->pongs.send(*conn, Pong{ping->timestampUs, ping->nonce});
         } else if (auto* pong = std::get_if<Pong>(&*m)) {
             // Pongs of earlier pings count too: a round trip longer than the ping interval is
             // normal.
@@ -304,8 +304,7 @@ struct Client::Impl {
             }
             if (now >= nextPing) {
                 nextPing = now + pingInterval;
-                if (auto b = encodeMessage(Ping{clientNowUs(), ++link->pingNonce}))
-                    link->pings.send(*conn, std::move(b).value());
+                link->pings.send(*conn, Ping{clientNowUs(), ++link->pingNonce});
             }
         }
         if (stopping && !link->closed) {

@@ -4,22 +4,25 @@
 // reading is not sent, so such a peer cannot make this side queue without bound.
 
 #include <atomic>
-#include <cstdint>
 #include <memory>
-#include <utility>
-#include <vector>
 
+#include <plx/remote/protocol.h>
 #include <plx/remote/transport.h>
 
 namespace plx::remote {
 
 class OneUnwritten {
 public:
-    // Queues `message` on `conn` unless the message this slot queued before is still unwritten,
-    // else drops it.
-    void send(Connection& conn, std::vector<uint8_t> message) {
+    // Encodes and queues `message` on `conn` unless the message this slot queued before is
+    // still unwritten, else drops it (unencoded).
+    void send(Connection& conn, const Message& message) {
         if (mUnwritten->exchange(true)) return;
-        conn.send(std::move(message),
+        auto bytes = encodeMessage(message);
+        if (!bytes) {  // well-formed by construction; nothing to send otherwise
+            mUnwritten->store(false);
+            return;
+        }
+        conn.send(std::move(bytes).value(),
                   [unwritten = mUnwritten](const Status&) { unwritten->store(false); });
     }
 

@@ -284,8 +284,7 @@ struct Server::Impl {
                 s->pingWindow = now, s->pingsInWindow = 0;
             if (++s->pingsInWindow > kMaxPingsPerSecond) return;
         }
-        if (auto bytes = encodeMessage(Pong{ping.timestampUs, ping.nonce}))
-            s->pongs.send(*s->conn, std::move(bytes).value());
+        s->pongs.send(*s->conn, Pong{ping.timestampUs, ping.nonce});
     }
 
     void onPong(const SessionPtr& s, const Pong& pong) {
@@ -466,10 +465,7 @@ struct Server::Impl {
             }
         }
         for (const SessionPtr& s : drop) s->state = SessionState::kClosed, s->conn->abort();
-        for (const SessionPtr& s : ping) {
-            if (auto bytes = encodeMessage(Ping{nowUs(), s->pingNonce}))
-                s->pings.send(*s->conn, std::move(bytes).value());
-        }
+        for (const SessionPtr& s : ping) s->pings.send(*s->conn, Ping{nowUs(), s->pingNonce});
     }
 };
 

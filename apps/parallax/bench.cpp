@@ -18,6 +18,14 @@
 
 namespace plx::cli {
 
+Result<uint64_t> startExperiment(const std::string& name, int width, int height, double imageBytes,
+                                 const std::string& out) {
+    auto memory = checkImageMemory(fmt::format("{} at {}x{}", name, width, height), imageBytes);
+    if (!memory) return memory.status();
+    PLX_RETURN_IF_ERROR(createOutputFolder(out));
+    return memory;
+}
+
 int finishExperiment(const std::string& out, bool json, const nlohmann::json& doc,
                      const std::string& jsonName,
                      std::vector<std::pair<std::string, std::string>> files,

@@ -30,6 +30,11 @@ private:
     std::unique_ptr<Progress> mBar;
 };
 
+// The start of an experiment command, before any work: its memory check (checkImageMemory of
+// `imageBytes`, the experiment's estimate, as "bench NAME at WxH") and its output folder `out`.
+// Returns the estimated peak, for memoryJson.
+Result<uint64_t> startExperiment(const std::string& name, int width, int height, double imageBytes,
+                                 const std::string& out);
 // The end of an experiment command: writes `files` and the document (as `jsonName`) into the
 // folder `out`, then prints the document (--json) or the human table (printTable(out + "/")).
 // Returns the exit code.

@@ -98,10 +98,8 @@ int runRemoteBench(const RemoteBenchArgs& a) {
     if (!config) return fail(config.status().message(), kExitUsage);
     auto bytes = remoteExperimentImageBytes(*config);
     if (!bytes) return fail(bytes.status().message(), kExitUsage);
-    auto memory = checkImageMemory(
-        fmt::format("bench remote at {}x{}", config->width, config->height), *bytes);
+    auto memory = startExperiment("bench remote", config->width, config->height, *bytes, a.out);
     if (!memory) return fail(memory.status());
-    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     StepProgress progress("bench remote");
     auto e = runRemoteExperiment(*config, progress.callback());
     if (!e) return fail(e.status());

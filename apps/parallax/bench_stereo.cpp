@@ -58,10 +58,9 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.conservative = !a.noConservative;
     config.reproject = !a.noReproject;
     if (Status s = checkStereoRigNumbers(config.rig); !s) return fail(s.message(), kExitUsage);
-    auto memory = checkImageMemory(fmt::format("bench stereo at {}x{}", size->x, size->y),
-                                   stereoExperimentImageBytes(config));
+    auto memory = startExperiment("bench stereo", size->x, size->y,
+                                  stereoExperimentImageBytes(config), a.out);
     if (!memory) return fail(memory.status());
-    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     Progress progress("bench stereo", a.rooms.size());
     auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });
     if (!rows) return fail(rows.status());

@@ -105,10 +105,8 @@ int runWarpBench(const WarpBenchArgs& a) {
     if (!config) return fail(config.status().message(), kExitUsage);
     auto bytes = warpExperimentImageBytes(*config);
     if (!bytes) return fail(bytes.status().message(), kExitUsage);
-    auto memory =
-        checkImageMemory(fmt::format("bench warp at {}x{}", config->width, config->height), *bytes);
+    auto memory = startExperiment("bench warp", config->width, config->height, *bytes, a.out);
     if (!memory) return fail(memory.status());
-    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     StepProgress progress("bench warp");
     auto e = runWarpExperiment(*config, progress.callback());
     if (!e) return fail(e.status());

@@ -26,6 +26,7 @@ struct ServeArgs {
     std::string refs = "cube4";
     int faceSize = 512;
     int maxSessions = 16;
+    double writeTimeoutS = 30.0;
     double latencyMs = 0.0, jitterMs = 0.0, bandwidthMbit = 0.0;
     std::string prediction = "velocity";
     int threads = 0;
@@ -43,6 +44,7 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     c.reference.layout = *layout;
     c.reference.faceSize = a.faceSize;
     c.maxSessions = a.maxSessions;
+    c.writeStallTimeoutMs = a.writeTimeoutS * 1000.0;
     c.link.latencyMs = a.latencyMs;
     c.link.jitterMs = a.jitterMs;
     c.link.bandwidthMbit = a.bandwidthMbit;
@@ -141,6 +143,7 @@ int runServe(const ServeArgs& a) {
                                {"sessions_total", s.sessionsTotal},
                                {"refused", s.refused},
                                {"protocol_errors", s.protocolErrors},
+                               {"write_stalls", s.writeStalls},
                                {"sets_sent", s.setsSent},
                                {"bytes_sent", s.bytesSent},
                                {"raw_bytes_sent", s.rawBytesSent},
@@ -185,6 +188,10 @@ Command registerServe(CLI::App& app) {
                     "Largest face side rendered (a client asking less gets less)")
         ->capture_default_str();
     sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
+        ->capture_default_str();
+    sub->add_option("--write-timeout", a->writeTimeoutS,
+                    "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "
+                    "stopped reading)")
         ->capture_default_str();
     sub->add_option("--latency", a->latencyMs, "Emulated one-way latency, ms (both directions)");
     sub->add_option("--jitter", a->jitterMs, "Emulated extra delay, uniform in 0..MS per message");

@@ -123,6 +123,10 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("serve office:1 --face-size 8 --port 0"), "face size", 2);
     expectOneLineError(runParallax("serve office:1 --latency -5 --port 0"), "latency", 2);
     expectOneLineError(runParallax("serve office:1 --max-sessions 0 --port 0"), "max sessions", 2);
+    expectOneLineError(runParallax("serve office:1 --write-timeout 0 --port 0"),
+                       "write timeout 0 s outside 0.1..3600", 2);
+    expectOneLineError(runParallax("serve office:1 --write-timeout nan --port 0"), "write timeout",
+                       2);
     expectOneLineError(runParallax("serve office:1 --prediction magic --port 0"), "magic", 2);
     expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1", 2);
     expectOneLineError(runParallax("serve no-such-scene.glb --port 0"), "no-such-scene.glb");

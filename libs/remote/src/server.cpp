@@ -71,6 +71,7 @@ Status checkServerConfig(const ServerConfig& c) {
     if (c.renderThreads < 0 || c.renderThreads > 1024)
         return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
+    PLX_RETURN_IF_ERROR(checkWriteStallTimeout(c.writeStallTimeoutMs));
     // The sets it renders: at most maxServedFaceSize, whatever a session asks for.
     warp::ReferenceSetOptions served = c.reference;
     served.faceSize = maxServedFaceSize(c.reference);
@@ -332,8 +333,9 @@ struct Server::Impl {
         s->conn->close();
     }
 
-    void onClosed(const SessionPtr& s) {
+    void onClosed(const SessionPtr& s, const Status& why) {
         std::lock_guard lock(mutex);
+        if (isWriteStall(why)) ++stats.writeStalls;
         if (s->state == SessionState::kAccepted) --stats.sessionsActive;
         s->state = SessionState::kClosed;
         s->pending.reset();
@@ -356,7 +358,7 @@ struct Server::Impl {
         ev.onMessage = [this, s](std::vector<uint8_t>&& m, bool binary) {
             onMessage(s, std::move(m), binary);
         };
-        ev.onClosed = [this, s](const Status&) { onClosed(s); };
+        ev.onClosed = [this, s](const Status& why) { onClosed(s, why); };
         return ev;
     }
 
@@ -489,6 +491,7 @@ Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerC
     ConnectionConfig cc;
     cc.maxMessageBytes = kMaxClientMessageBytes;
     cc.link = config.link;
+    cc.writeStallTimeoutMs = config.writeStallTimeoutMs;
     cc.httpFiles = config.pages;
     Impl* p = impl.get();
     auto port = impl->transport->listen(

@@ -40,6 +40,21 @@ Status checkLinkEmulation(const LinkEmulation& link) {
 }
 
 namespace {
+constexpr std::string_view kWriteStallText = "peer stopped reading";
+}
+
+Status checkWriteStallTimeout(double ms) {
+    if (!(ms >= 100.0 && ms <= 3600e3))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("write timeout {} s outside 0.1..3600", ms / 1000.0));
+    return Status::ok();
+}
+
+bool isWriteStall(const Status& why) {
+    return !why.isOk() && why.message().starts_with(kWriteStallText);
+}
+
+namespace {
 
 // One direction of an emulated link: a message of B bytes enters the wire when the previous one
 // has left it (token bucket at the bandwidth: B * 8 / bandwidth seconds of serialisation), then
@@ -95,6 +110,7 @@ public:
           mConfig(config),
           mSendTimer(io),
           mRecvTimer(io),
+          mStallTimer(io),
           mOutShaper(config.link, config.link.seed),
           mInShaper(config.link, config.link.seed * 2654435761u + 1u) {
         mWs.binary(true);
@@ -229,6 +245,7 @@ private:
         std::vector<uint8_t> bytes;
         std::function<void(const Status&)> done;
         Clock::time_point release;
+        size_t written = 0;  // bytes of it the socket has taken (whole frames)
     };
 
     void enqueue(std::vector<uint8_t> m, std::function<void(const Status&)> done) {
@@ -269,8 +286,39 @@ private:
             });
             return;
         }
-        mWs.async_write(asio::buffer(front.bytes),
-                        [self = shared_from_this()](ErrorCodeB ec, size_t) { self->written(ec); });
+        writeFrame();
+    }
+
+    // Writes the next frame of the outbox's first message (at most kWriteChunkBytes) and times
+    // it: a frame the socket has not taken within writeStallTimeoutMs means the peer stopped
+    // reading, and only dropping it frees what it holds (a session slot, a queued set).
+    void writeFrame() {
+        Outgoing& front = mOutbox.front();
+        const size_t n = std::min(kWriteChunkBytes, front.bytes.size() - front.written);
+        const bool fin = front.written + n == front.bytes.size();
+        const uint64_t frame = ++mFramesStarted;
+        mStallTimer.expires_after(std::chrono::milliseconds(int64_t(mConfig.writeStallTimeoutMs)));
+        mStallTimer.async_wait([self = shared_from_this(), frame](ErrorCodeB ec) {
+            if (ec || self->mFinished || frame != self->mFramesStarted || !self->mWriting) return;
+            self->finish(errorStatus(
+                ErrorCode::kIoError,
+                fmt::format("{}: no {} KiB written in {} ms", kWriteStallText,
+                            kWriteChunkBytes / 1024, self->mConfig.writeStallTimeoutMs)));
+        });
+        mWs.async_write_some(fin, asio::buffer(front.bytes.data() + front.written, n),
+                             [self = shared_from_this(), fin](ErrorCodeB ec, size_t taken) {
+                                 self->frameWritten(ec, taken, fin);
+                             });
+    }
+
+    void frameWritten(ErrorCodeB ec, size_t taken, bool fin) {
+        ++mFramesStarted;  // a stall timer already due finds a newer frame and does nothing
+        mStallTimer.cancel();
+        if (!ec && !fin && !mFinished && !mOutbox.empty()) {
+            mOutbox.front().written += taken;
+            return writeFrame();
+        }
+        written(ec);
     }
 
     void written(ErrorCodeB ec) {
@@ -343,6 +391,7 @@ private:
         mFinished = true;
         mSendTimer.cancel();
         mRecvTimer.cancel();
+        mStallTimer.cancel();
         ErrorCodeB ignored;
         beast::get_lowest_layer(mWs).socket().close(ignored);
         std::deque<Outgoing> left = std::move(mOutbox);
@@ -368,7 +417,8 @@ private:
     websocket::stream<beast::tcp_stream> mWs;
     ConnectionConfig mConfig;
     ConnectionEvents mEvents;
-    asio::steady_timer mSendTimer, mRecvTimer;
+    asio::steady_timer mSendTimer, mRecvTimer, mStallTimer;
+    uint64_t mFramesStarted = 0;  // tells a stall timer whether its frame is still being written
     LinkShaper mOutShaper, mInShaper;
     beast::flat_buffer mReadBuffer;
     std::deque<Outgoing> mOutbox;

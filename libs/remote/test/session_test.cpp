@@ -134,6 +134,16 @@ public:
         h.disparityCodecs = disparityCodecs;
         send(h);
     }
+    // Asks for faces of faceSize, waits for the ServerHello, then stops reading: sets for its
+    // poses back up on the server's socket.
+    bool helloThenStopReading(int faceSize) {
+        ClientHello h;
+        h.faceSize = faceSize;
+        send(h);
+        if (!first<ServerHello>()) return false;
+        mConn->setReading(false);
+        return true;
+    }
     // The bytes of the first reference set message received.
     std::vector<uint8_t> firstRawSet() {
         std::lock_guard lock(mMutex);
@@ -459,11 +469,7 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     auto server = startServer(config);
     ASSERT_TRUE(server);
     RawPeer peer(server->port());
-    ClientHello h;
-    h.faceSize = 256;
-    peer.send(h);
-    ASSERT_TRUE(peer.first<ServerHello>());
-    peer.conn().setReading(false);
+    ASSERT_TRUE(peer.helloThenStopReading(256));
     uint32_t nonce = 0;
     auto poseAndPing = [&] {
         peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
@@ -491,6 +497,31 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     // but the one unwritten Ping and Pong (OneUnwritten).
     for (int i = 0; i < 200; ++i) poseAndPing();
     EXPECT_LE(server->stats().queuedBytes, s.queuedBytes + 64);
+}
+
+// A peer that stops reading is dropped once its socket has taken nothing for the write timeout,
+// and its session's slot goes to the next client.
+TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    ServerConfig config = smallServer(256);
+    config.maxSessions = 1;
+    config.writeStallTimeoutMs = 500.0;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    RawPeer peer(server->port());
+    ASSERT_TRUE(peer.helloThenStopReading(256));
+    // Each pose brings a set until the socket's buffers are full; then one frame waits.
+    EXPECT_TRUE(eventually(
+        [&] {
+            peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
+            return server->stats().writeStalls == 1;
+        },
+        30s));
+    peer.conn().setReading(true);  // and finds its connection closed
+    EXPECT_TRUE(peer.waitClosed());
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 0; }));
+    EXPECT_EQ(server->stats().queuedBytes, 0u);
+    EXPECT_TRUE(servedClient(*server, scene));
 }
 
 TEST(RemoteSession, ThirtyTwoConcurrentClients) {

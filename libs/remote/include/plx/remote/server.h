@@ -45,6 +45,9 @@ struct ServerConfig {
     Prediction prediction = Prediction::kConstantVelocity;
     int renderThreads = 0;          // the renderer's threads (0: all cores)
     double pingIntervalMs = 500.0;  // the server pings each session this often (its RTT)
+    // A session whose socket takes no frame of kWriteChunkBytes in this long is dropped: its peer
+    // stopped reading and would hold one of maxSessions for as long as it stays connected.
+    double writeStallTimeoutMs = 30000.0;
     // Plain HTTP GET on the same port: the browser client's page (`parallax serve` passes the
     // assets embedded in the binary); empty: every such request gets 404.
     HttpFiles pages;
@@ -61,6 +64,7 @@ struct ServerStats {
     int64_t sessionsTotal = 0;   // accepted since start
     int64_t refused = 0;         // refused at the handshake (version, token, overloaded)
     int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
+    int64_t writeStalls = 0;     // sessions dropped because their peer stopped reading
     int64_t setsSent = 0;        // reference sets written to sockets
     int64_t bytesSent = 0;       // their bytes
     int64_t rawBytesSent = 0;    // 8 bytes (RGBA8 + f32) per pixel of those sets

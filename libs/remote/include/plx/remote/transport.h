@@ -53,10 +53,23 @@ struct ConnectionConfig {
     size_t maxMessageBytes = 2048;
     LinkEmulation link;
     double handshakeTimeoutMs = 5000.0;
+    // A peer that stops reading is dropped: messages are written in frames of at most
+    // kWriteChunkBytes, and a frame the socket has not taken within this time closes the
+    // connection (isWriteStall says so of its status). Progress, not a message's whole time, is
+    // timed, so a slow link that keeps taking bytes is never cut.
+    double writeStallTimeoutMs = 30000.0;
     // Listeners only: requests that are not a WebSocket upgrade are answered from these files
     // (404 when empty), then the connection is closed.
     HttpFiles httpFiles;
 };
+
+// The largest frame a connection writes: a longer message goes out as several frames (RFC 6455
+// fragmentation), each a unit of progress for ConnectionConfig::writeStallTimeoutMs.
+inline constexpr size_t kWriteChunkBytes = 64 * 1024;
+Status checkWriteStallTimeout(double ms);  // 100 ms .. 1 hour
+
+// Whether a connection closed because its peer stopped reading (writeStallTimeoutMs).
+bool isWriteStall(const Status& why);
 
 // What one connection reports, on the transport's I/O thread.
 struct ConnectionEvents {

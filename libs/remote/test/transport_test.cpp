@@ -1,0 +1,199 @@
+// The transport's write timeout against a raw TCP peer on loopback (127.0.0.1, a free port) that
+// reads at the pace the test sets: a reader that keeps taking bytes, however slowly, keeps its
+// connection; one that stops is dropped. Every wait is bounded; nothing here measures speed.
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <plx/remote/transport.h>
+
+namespace plx::remote {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+// Several times what the sender's socket buffer (tcp_wmem's 4 MiB at most) and the reader's
+// small one hold, so the write waits on the reader. Linux wakes a writer blocked on a full
+// buffer only when a third or more of it is free again: a reader that takes 64 KiB every 10 ms
+// frees that within a fraction of the timeout.
+constexpr size_t kMessageBytes = 24u << 20;
+constexpr double kStallTimeoutMs = 1000.0;
+
+// A listener whose one accepted connection is sent a message; records how the send and the
+// connection ended.
+class Listener {
+public:
+    Listener() {
+        mTransport = std::move(Transport::create()).value();
+        ConnectionConfig config;
+        config.writeStallTimeoutMs = kStallTimeoutMs;
+        auto port = mTransport->listen("127.0.0.1", 0, config, [this](auto conn) {
+            std::lock_guard lock(mMutex);
+            mConn = conn;
+            mChanged.notify_all();
+            ConnectionEvents events;
+            events.onClosed = [this](const Status& why) {
+                std::lock_guard closedLock(mMutex);
+                mClosed = why;
+                mChanged.notify_all();
+            };
+            return events;
+        });
+        EXPECT_TRUE(port.isOk()) << port.status().message();
+        mPort = port ? *port : 0;
+    }
+    ~Listener() { mTransport->stop(); }
+
+    int port() const { return mPort; }
+
+    // Sends kMessageBytes once the connection is accepted; false if none came.
+    bool sendMessage() {
+        std::unique_lock lock(mMutex);
+        if (!mChanged.wait_for(lock, 10s, [&] { return mConn != nullptr; })) return false;
+        mSentAt = Clock::now();
+        mConn->send(std::vector<uint8_t>(kMessageBytes, 7), [this](const Status& s) {
+            std::lock_guard sentLock(mMutex);
+            mSent = s;
+            mSendMs = std::chrono::duration<double, std::milli>(Clock::now() - mSentAt).count();
+            mChanged.notify_all();
+        });
+        return true;
+    }
+    // How the send ended (waits, bounded); nullopt if it has not.
+    std::optional<Status> sent(std::chrono::milliseconds limit) {
+        std::unique_lock lock(mMutex);
+        mChanged.wait_for(lock, limit, [&] { return mSent.has_value(); });
+        return mSent;
+    }
+    double sendMs() {
+        std::lock_guard lock(mMutex);
+        return mSendMs;
+    }
+    std::optional<Status> closed(std::chrono::milliseconds limit) {
+        std::unique_lock lock(mMutex);
+        mChanged.wait_for(lock, limit, [&] { return mClosed.has_value(); });
+        return mClosed;
+    }
+
+private:
+    std::unique_ptr<Transport> mTransport;
+    int mPort = 0;
+    std::mutex mMutex;
+    std::condition_variable mChanged;
+    std::shared_ptr<Connection> mConn;
+    Clock::time_point mSentAt;
+    std::optional<Status> mSent, mClosed;
+    double mSendMs = 0.0;
+};
+
+// A WebSocket client on a plain socket with a 64 KiB receive buffer (no autotuning): it completes
+// the handshake, then reads only when told to.
+class RawReader {
+public:
+    explicit RawReader(int port) {
+        mFd = socket(AF_INET, SOCK_STREAM, 0);
+        int buffer = 64 * 1024;
+        setsockopt(mFd, SOL_SOCKET, SO_RCVBUF, &buffer, sizeof buffer);
+        timeval timeout{2, 0};
+        setsockopt(mFd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+        sockaddr_in addr{};
+        addr.sin_family = AF_INET;
+        addr.sin_port = htons(uint16_t(port));
+        addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        mOk = connect(mFd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 && handshake();
+    }
+    ~RawReader() { close(mFd); }
+
+    bool ok() const { return mOk; }
+    // Reads what is there (at most 64 KiB); the bytes read, 0 at the end or after 2 s of nothing.
+    size_t readSome() {
+        static thread_local std::vector<char> sink(64 * 1024);
+        ssize_t n = recv(mFd, sink.data(), sink.size(), 0);
+        return n > 0 ? size_t(n) : 0;
+    }
+
+private:
+    bool handshake() {
+        const std::string request =
+            "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
+        if (send(mFd, request.data(), request.size(), 0) != ssize_t(request.size())) return false;
+        std::string response;
+        char c;
+        while (response.size() < 4096 && !response.ends_with("\r\n\r\n")) {
+            if (recv(mFd, &c, 1, 0) != 1) return false;
+            response += c;
+        }
+        return response.starts_with("HTTP/1.1 101");
+    }
+
+    int mFd = -1;
+    bool mOk = false;
+};
+
+TEST(TransportWriteTimeout, ASlowReaderThatKeepsReadingIsNotCut) {
+    Listener listener;
+    RawReader reader(listener.port());
+    ASSERT_TRUE(reader.ok());
+    ASSERT_TRUE(listener.sendMessage());
+    // At most 64 KiB every 10 ms: the socket takes each frame within a part of the timeout,
+    // the whole message in several times it.
+    size_t received = 0;
+    const auto end = Clock::now() + 60s;
+    while (received < kMessageBytes && Clock::now() < end) {
+        const size_t n = reader.readSome();
+        if (n == 0) break;
+        received += n;
+        std::this_thread::sleep_for(10ms);
+    }
+    EXPECT_GE(received, kMessageBytes);
+    auto sent = listener.sent(10s);
+    ASSERT_TRUE(sent);
+    EXPECT_TRUE(sent->isOk()) << sent->message();
+    EXPECT_GT(listener.sendMs(), 2.0 * kStallTimeoutMs) << "the message never waited on the reader";
+    EXPECT_FALSE(listener.closed(0ms));
+}
+
+TEST(TransportWriteTimeout, AReaderThatStopsIsDropped) {
+    Listener listener;
+    RawReader reader(listener.port());
+    ASSERT_TRUE(reader.ok());
+    ASSERT_TRUE(listener.sendMessage());
+    auto closed = listener.closed(20s);
+    ASSERT_TRUE(closed) << "still connected";
+    EXPECT_TRUE(isWriteStall(*closed)) << closed->message();
+    EXPECT_NE(closed->message().find("no 64 KiB written in 1000 ms"), std::string::npos)
+        << closed->message();
+    auto sent = listener.sent(1s);
+    ASSERT_TRUE(sent);
+    EXPECT_FALSE(sent->isOk());
+}
+
+TEST(TransportWriteTimeout, OutOfRangeTimeoutsAreRefused) {
+    EXPECT_TRUE(checkWriteStallTimeout(100.0).isOk());
+    EXPECT_TRUE(checkWriteStallTimeout(3600e3).isOk());
+    for (double bad : {0.0, 99.0, 3600e3 + 1.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
+        Status s = checkWriteStallTimeout(bad);
+        EXPECT_FALSE(s.isOk()) << bad;
+        EXPECT_NE(s.message().find("write timeout"), std::string::npos) << s.message();
+    }
+}
+
+}  // namespace
+}  // namespace plx::remote

@@ -27,6 +27,7 @@ struct ServeArgs {
     int faceSize = 512;
     int maxSessions = 16;
     double writeTimeoutS = 30.0;
+    double maxQueuedMiB = 256.0;
     double latencyMs = 0.0, jitterMs = 0.0, bandwidthMbit = 0.0;
     std::string prediction = "velocity";
     int threads = 0;
@@ -61,6 +62,10 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     if (!(a.seconds >= 0.0 && a.seconds <= 1e6))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--seconds {} outside 0 .. 1e6", a.seconds));
+    if (!(a.maxQueuedMiB >= 1.0 && a.maxQueuedMiB <= 1048576.0))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("--max-queued {} MiB outside 1 .. 1048576", a.maxQueuedMiB));
+    c.maxQueuedSetBytes = size_t(mebibytes(a.maxQueuedMiB));
     PLX_RETURN_IF_ERROR(remote::checkServerConfig(c));
     return c;
 }
@@ -90,17 +95,29 @@ void waitForStop(const sigset_t& set, double seconds) {
 // Peak bytes per pixel of the largest reference set a session can ask for, beyond the scene
 // (checkImageMemory): the one render worker's targets and set, and the set's encoding. The growth
 // of the peak with one client from faces of 1024 to 2048 (office:1) is 8.3 (cube4) and 8.2
-// (cube6); rounded up, RemoteCli.ServeMemoryEstimateHoldsItsPeak holds it to the peak. Each
-// session queues at most one encoded set beside it (1/133 of the raw bytes on office:2 at 2048).
+// (cube6); rounded up, RemoteCli.ServeMemoryEstimateHoldsItsPeak holds it to the peak.
 constexpr double kServeBytesPerSetPixel = 9.0;
+// An encoded set's bytes per pixel at most: its raw colour and disparity (on office:2 at 2048 it
+// is 1/133 of that).
+constexpr double kEncodedSetBytesPerPixel = 8.0;
 
+// Refuses a server whose sets and queue would not fit: the queue at its bound (each session's
+// one encoded set, or --max-queued plus one set if less). Returns the peak with one client, whose
+// queue holds one set of a small fraction of the raw bytes, for --json.
 Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig& config) {
     warp::ReferenceSetOptions largest = config.reference;
     largest.faceSize = remote::maxServedFaceSize(largest);
     auto pixels = referencePixels(largest);
     if (!pixels) return pixels.status();
-    return checkImageMemory(fmt::format("serve --refs {} --face-size {}", a.refs, a.faceSize),
-                            kServeBytesPerSetPixel * double(*pixels));
+    const double setBytes = kEncodedSetBytesPerPixel * double(*pixels);
+    const double queueBytes = std::min(double(config.maxSessions) * setBytes,
+                                       double(config.maxQueuedSetBytes) + setBytes);
+    auto withQueue = checkImageMemory(
+        fmt::format("serve --refs {} --face-size {} --max-sessions {} --max-queued {}", a.refs,
+                    a.faceSize, a.maxSessions, a.maxQueuedMiB),
+        kServeBytesPerSetPixel * double(*pixels) + queueBytes);
+    if (!withQueue) return withQueue.status();
+    return *withQueue - uint64_t(queueBytes);
 }
 
 int runServe(const ServeArgs& a) {
@@ -144,6 +161,7 @@ int runServe(const ServeArgs& a) {
                                {"refused", s.refused},
                                {"protocol_errors", s.protocolErrors},
                                {"write_stalls", s.writeStalls},
+                               {"queue_waits", s.queueWaits},
                                {"sets_sent", s.setsSent},
                                {"bytes_sent", s.bytesSent},
                                {"raw_bytes_sent", s.rawBytesSent},
@@ -192,6 +210,10 @@ Command registerServe(CLI::App& app) {
     sub->add_option("--write-timeout", a->writeTimeoutS,
                     "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "
                     "stopped reading)")
+        ->capture_default_str();
+    sub->add_option("--max-queued", a->maxQueuedMiB,
+                    "MiB of encoded sets all sessions may queue on their sockets; past it, "
+                    "renders wait")
         ->capture_default_str();
     sub->add_option("--latency", a->latencyMs, "Emulated one-way latency, ms (both directions)");
     sub->add_option("--jitter", a->jitterMs, "Emulated extra delay, uniform in 0..MS per message");

@@ -95,7 +95,15 @@ TEST(RemoteCli, ServeMemoryEstimateHoldsItsPeak) {
     expectOneLineError(
         runParallax("serve office:1 --refs cube6 --face-size 4096 --port 0 --seconds 1",
                     "ulimit -v 524288; "),
-        "serve --refs cube6 --face-size 4096 needs about");
+        "serve --refs cube6 --face-size 4096 --max-sessions 16 --max-queued 256 needs about");
+    // Sets of 48 MiB raw (cube6, faces of 1024): 64 sessions may queue 1 GiB, more than 1 GiB of
+    // address space leaves; with --max-queued 64, 64 MiB and one set.
+    const std::string limit = "ulimit -v 1048576; ";
+    const std::string many = "serve office:1 --refs cube6 --face-size 1024 --max-sessions 64 ";
+    expectOneLineError(runParallax(many + "--max-queued 1024 --port 0 --seconds 0.5", limit),
+                       "--max-sessions 64 --max-queued 1024 needs about");
+    RunResult bounded = runParallax(many + "--max-queued 64 --port 0 --seconds 0.5", limit);
+    EXPECT_EQ(bounded.exitCode, 0) << bounded.err;
 }
 
 TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
@@ -127,6 +135,8 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
                        "write timeout 0 s outside 0.1..3600", 2);
     expectOneLineError(runParallax("serve office:1 --write-timeout nan --port 0"), "write timeout",
                        2);
+    expectOneLineError(runParallax("serve office:1 --max-queued 0 --port 0"),
+                       "--max-queued 0 MiB outside", 2);
     expectOneLineError(runParallax("serve office:1 --prediction magic --port 0"), "magic", 2);
     expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1", 2);
     expectOneLineError(runParallax("serve no-such-scene.glb --port 0"), "no-such-scene.glb");

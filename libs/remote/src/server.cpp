@@ -72,6 +72,7 @@ Status checkServerConfig(const ServerConfig& c) {
         return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
     PLX_RETURN_IF_ERROR(checkWriteStallTimeout(c.writeStallTimeoutMs));
+    if (c.maxQueuedSetBytes < 1) return bad("max queued set bytes must be at least 1");
     // The sets it renders: at most maxServedFaceSize, whatever a session asks for.
     warp::ReferenceSetOptions served = c.reference;
     served.faceSize = maxServedFaceSize(c.reference);
@@ -164,6 +165,8 @@ struct Server::Impl {
     bool stopping = false, stopped = false;
     std::thread worker;
     ServerStats stats;
+    size_t setBytesQueued = 0;              // encoded sets handed to sockets, not yet written
+    bool waitingForQueue = false;           // renders wait for setBytesQueued to fall
     double renderEncodeMsEstimate = 0.0;    // smoothed, for the prediction lead
     std::optional<warp::Pose> initialPose;  // the scene's default viewpoint, when valid
 
@@ -368,10 +371,10 @@ struct Server::Impl {
         std::unique_lock lock(mutex);
         while (!stopping) {
             wake.wait_for(lock, std::chrono::milliseconds(50),
-                          [&] { return stopping || !ready.empty(); });
+                          [&] { return stopping || (!ready.empty() && queueHasRoomLocked()); });
             if (stopping) break;
             housekeepLocked();
-            if (ready.empty()) continue;
+            if (ready.empty() || !queueHasRoomLocked()) continue;
             SessionPtr s = ready.front();
             ready.pop_front();
             s->ready = false;
@@ -390,6 +393,15 @@ struct Server::Impl {
             serve(s, pose, velocity, leadMs, faceSize, sequence, &set);
             lock.lock();
         }
+    }
+
+    // Whether all sessions' queued sets leave room for another render (maxQueuedSetBytes);
+    // counts each time renders start to wait.
+    bool queueHasRoomLocked() {
+        const bool room = setBytesQueued < config.maxQueuedSetBytes;
+        if (!room && !ready.empty() && !waitingForQueue) ++stats.queueWaits;
+        waitingForQueue = !room && !ready.empty();
+        return room;
     }
 
     void serve(const SessionPtr& s, const PoseMessage& pose, Vec3 velocity, double leadMs,
@@ -428,13 +440,16 @@ struct Server::Impl {
                     ? renderMs + encodeMs
                     : 0.75 * renderEncodeMsEstimate + 0.25 * (renderMs + encodeMs);
             stats.maxSetBytes = std::max(stats.maxSetBytes, size);
+            setBytesQueued += size;
         }
         s->conn->send(std::move(bytes).value(), [this, s, size, raw](const Status& written) {
             std::lock_guard lock(mutex);
             if (written)
                 ++stats.setsSent, stats.bytesSent += int64_t(size), stats.rawBytesSent += raw;
             s->inFlight = false;
+            setBytesQueued -= size;
             scheduleLocked(s);  // backpressure: the next render only after this write
+            wake.notify_one();  // renders waiting for the queue may go on
         });
         std::lock_guard lock(mutex);
         size_t queued = 0;

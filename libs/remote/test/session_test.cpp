@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -92,6 +93,23 @@ bool receivesMore(Client& client, const scene::Scene& scene) {
         client.setPose(poseNow(scene));
         return client.stats().referencesReceived > before + 2;
     });
+}
+
+// Calls sendSome() every 10 ms, at most for 30 s, until the server has written no set for
+// `quiet` and holds bytes on its sockets: peers that stopped reading have backed them up.
+void sendUntilBackedUp(const Server& server, const std::function<void()>& sendSome,
+                       std::chrono::milliseconds quiet) {
+    int64_t lastSent = -1;
+    auto steadySince = std::chrono::steady_clock::now();
+    const auto end = steadySince + 30s;
+    while (std::chrono::steady_clock::now() < end) {
+        sendSome();
+        std::this_thread::sleep_for(10ms);
+        ServerStats s = server.stats();
+        if (s.setsSent != lastSent)
+            lastSent = s.setsSent, steadySince = std::chrono::steady_clock::now();
+        if (std::chrono::steady_clock::now() - steadySince > quiet && s.queuedBytes > 0) return;
+    }
 }
 
 // A raw WebSocket peer: sends whatever bytes it is given and records what comes back.
@@ -474,20 +492,10 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     auto poseAndPing = [&] {
         peer.send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
         peer.send(Ping{clientNowUs(), nonce++});
-        std::this_thread::sleep_for(10ms);
     };
     // Poses keep coming while nothing is read: the socket's buffers fill, then the session
     // stops rendering (no completed send) and the newest pose waits in its one slot.
-    int64_t lastSent = -1;
-    auto steadySince = std::chrono::steady_clock::now();
-    auto end = steadySince + 8s;
-    while (std::chrono::steady_clock::now() < end) {
-        poseAndPing();
-        ServerStats s = server->stats();
-        if (s.setsSent != lastSent)
-            lastSent = s.setsSent, steadySince = std::chrono::steady_clock::now();
-        if (std::chrono::steady_clock::now() - steadySince > 600ms && s.queuedBytes > 0) break;
-    }
+    sendUntilBackedUp(*server, poseAndPing, 600ms);
     ServerStats s = server->stats();
     EXPECT_GT(s.queuedBytes, 0u) << "the socket never backed up";
     // One set plus the small messages (a Ping, a Pong) queued behind it.
@@ -495,7 +503,7 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     EXPECT_LE(s.maxQueuedBytes, s.maxSetBytes + 4096);
     // Two more seconds of 100 server Pings and 100 client Pings a second: nothing more queued
     // but the one unwritten Ping and Pong (OneUnwritten).
-    for (int i = 0; i < 200; ++i) poseAndPing();
+    for (int i = 0; i < 200; ++i) poseAndPing(), std::this_thread::sleep_for(10ms);
     EXPECT_LE(server->stats().queuedBytes, s.queuedBytes + 64);
 }
 
@@ -522,6 +530,34 @@ TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
     EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 0; }));
     EXPECT_EQ(server->stats().queuedBytes, 0u);
     EXPECT_TRUE(servedClient(*server, scene));
+}
+
+// Peers that stop reading each hold a set on their sockets; together they stay within the
+// server's queue budget, here one set: renders for the others wait until a write completes.
+TEST(RemoteSession, StalledReadersQueueNoMoreThanTheBudget) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    ServerConfig config = smallServer(256);
+    config.maxQueuedSetBytes = 1;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    std::vector<std::unique_ptr<RawPeer>> peers;
+    for (int i = 0; i < 3; ++i) {
+        peers.push_back(std::make_unique<RawPeer>(server->port()));
+        ASSERT_TRUE(peers.back()->helloThenStopReading(256));
+    }
+    // Poses from all three until no set has been written for a second: a socket backed up, and
+    // renders for the others wait for the budget.
+    sendUntilBackedUp(
+        *server,
+        [&] {
+            for (auto& peer : peers) peer->send(poseNow(scene, {0.1f, 0.0f, 0.0f}));
+        },
+        1s);
+    ServerStats s = server->stats();
+    EXPECT_GT(s.queuedBytes, 0u) << "the sockets never backed up";
+    EXPECT_GT(s.queueWaits, 0);
+    // One set (the budget of 1 byte plus one set) and the small messages beside it.
+    EXPECT_LE(s.maxQueuedBytes, s.maxSetBytes + 3 * 4096);
 }
 
 TEST(RemoteSession, ThirtyTwoConcurrentClients) {

@@ -6,7 +6,8 @@
 //
 // Bounded by construction: a session keeps one pose (a newer one replaces an unserved one) and
 // at most one encoded set queued on its socket; the next render for it starts only after the
-// previous set was written (backpressure). A slow client gets fewer, fresher sets.
+// previous set was written (backpressure). A slow client gets fewer, fresher sets. All sessions'
+// queued sets together stay within ServerConfig::maxQueuedSetBytes (plus one set).
 
 #include <cstdint>
 #include <memory>
@@ -48,6 +49,10 @@ struct ServerConfig {
     // A session whose socket takes no frame of kWriteChunkBytes in this long is dropped: its peer
     // stopped reading and would hold one of maxSessions for as long as it stays connected.
     double writeStallTimeoutMs = 30000.0;
+    // All sessions' encoded sets handed to their sockets and not yet written, at most this many
+    // bytes plus one set: past it, renders wait for writes. Bounds the server's memory whatever
+    // maxSessions and the clients' links (each session queues one set at most); >= 1.
+    size_t maxQueuedSetBytes = size_t(256) << 20;
     // Plain HTTP GET on the same port: the browser client's page (`parallax serve` passes the
     // assets embedded in the binary); empty: every such request gets 404.
     HttpFiles pages;
@@ -65,6 +70,7 @@ struct ServerStats {
     int64_t refused = 0;         // refused at the handshake (version, token, overloaded)
     int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
     int64_t writeStalls = 0;     // sessions dropped because their peer stopped reading
+    int64_t queueWaits = 0;      // times renders waited for maxQueuedSetBytes
     int64_t setsSent = 0;        // reference sets written to sockets
     int64_t bytesSent = 0;       // their bytes
     int64_t rawBytesSent = 0;    // 8 bytes (RGBA8 + f32) per pixel of those sets

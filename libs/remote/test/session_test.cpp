@@ -819,6 +819,12 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     EXPECT_FALSE(checkServerConfig(c).isOk());
     c = smallServer(8);
     EXPECT_FALSE(checkServerConfig(c).isOk());
+    c = smallServer();
+    c.writeStallTimeoutMs = 0.0;
+    EXPECT_FALSE(checkServerConfig(c).isOk());
+    c = smallServer();
+    c.maxQueuedSetBytes = 0;
+    EXPECT_FALSE(checkServerConfig(c).isOk());
     EXPECT_FALSE(parseWsUrl("http://x:1").isOk());
     EXPECT_FALSE(parseWsUrl("ws://x:99999").isOk());
     EXPECT_FALSE(parseWsUrl("ws://:80").isOk());

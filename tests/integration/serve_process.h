@@ -5,9 +5,12 @@
 
 #include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -18,10 +21,13 @@ namespace plx::testing {
 // A `parallax serve` in the background: its pid and the port from its first JSON line.
 class ServeProcess {
 public:
-    explicit ServeProcess(const std::string& args) {
-        // The shell prints its pid, then becomes the server (exec keeps the pid).
-        std::string cmd = "sh -c 'echo $$; exec timeout 60 " + std::string(PARALLAX_EXE) +
-                          " serve " + args + " --port 0 --json --seconds 30' 2>/dev/null";
+    // shellPrefix runs in the shell before the server starts ("ulimit -n 64; ").
+    explicit ServeProcess(const std::string& args, const std::string& shellPrefix = "") {
+        // The shell prints its pid, then becomes `timeout`, the server's parent (exec keeps the
+        // pid).
+        std::string cmd = "sh -c 'echo $$; " + shellPrefix + "exec timeout 60 " +
+                          std::string(PARALLAX_EXE) + " serve " + args +
+                          " --port 0 --json --seconds 30' 2>/dev/null";
         mPipe = popen(cmd.c_str(), "r");
         if (!mPipe) return;
         char line[4096];
@@ -45,6 +51,24 @@ public:
         mPipe = nullptr;
         return {nlohmann::json::parse(rest, nullptr, false),
                 WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+    }
+    // CPU seconds the server has used so far (user and system); < 0 if it cannot be read.
+    double cpuSeconds() const {
+        const std::string task =
+            "/proc/" + std::to_string(mPid) + "/task/" + std::to_string(mPid) + "/children";
+        int server = 0;
+        if (!(std::ifstream(task) >> server)) return -1.0;
+        std::ifstream statFile("/proc/" + std::to_string(server) + "/stat");
+        std::string stat((std::istreambuf_iterator<char>(statFile)), {});
+        const size_t afterName = stat.rfind(')');
+        if (afterName == std::string::npos) return -1.0;
+        // Fields after the name: state (3) ... utime (14) and stime (15), in clock ticks.
+        std::istringstream fields(stat.substr(afterName + 2));
+        std::string skip;
+        for (int i = 3; i < 14; ++i) fields >> skip;
+        double utime = 0.0, stime = 0.0;
+        if (!(fields >> utime >> stime)) return -1.0;
+        return (utime + stime) / double(sysconf(_SC_CLK_TCK));
     }
     nlohmann::json listening;
 

@@ -2,6 +2,14 @@
 // the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
 // arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
 
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+#include <vector>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
@@ -104,6 +112,39 @@ TEST(RemoteCli, ServeMemoryEstimateHoldsItsPeak) {
                        "--max-sessions 64 --max-queued 1024 needs about");
     RunResult bounded = runParallax(many + "--max-queued 64 --port 0 --seconds 0.5", limit);
     EXPECT_EQ(bounded.exitCode, 0) << bounded.err;
+}
+
+// A plain TCP connection to 127.0.0.1:port that sends nothing; -1 if it failed.
+int silentConnection(int port) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(uint16_t(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd >= 0 && connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) return fd;
+    if (fd >= 0) close(fd);
+    return -1;
+}
+
+// More connections than the server has file descriptors: its accepts fail until some close. It
+// waits between tries (it spun a core on them before) and serves again once they close.
+TEST(RemoteCli, FailedAcceptsDoNotSpin) {
+    ServeProcess server("office:1 --face-size 32", "ulimit -n 64; ");
+    ASSERT_GT(server.port(), 0);
+    ASSERT_GE(server.cpuSeconds(), 0.0) << "no /proc/PID/task/PID/children to find the server";
+    std::vector<int> flood;
+    for (int i = 0; i < 100; ++i)
+        if (int fd = silentConnection(server.port()); fd >= 0) flood.push_back(fd);
+    EXPECT_EQ(flood.size(), 100u);  // the kernel's backlog takes them all
+    const double before = server.cpuSeconds();
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    EXPECT_LT(server.cpuSeconds() - before, 0.5) << "the server spun on failed accepts";
+    for (int fd : flood) close(fd);
+    fs::path path = scratchDir("remote_cli") / "after_flood.json";
+    writeFile(path, R"([{"eye": [1,1.6,1], "target": [4,1.2,5]}])");
+    RunResult r = runParallax("client " + server.url() + " --path " + path.string() +
+                              " --size 64x48 --frames 3");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
 }
 
 TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {

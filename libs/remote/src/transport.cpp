@@ -439,6 +439,8 @@ struct Transport::Impl {
     asio::executor_work_guard<asio::io_context::executor_type> work{io->get_executor()};
     std::thread thread;
     std::unique_ptr<tcp::acceptor> acceptor;
+    asio::steady_timer acceptRetry{*io};
+    std::chrono::milliseconds acceptBackoff{0};  // the wait before the next accept; 0 after success
     std::mutex mutex;  // guards stopped
     bool stopped = false;
     std::vector<std::weak_ptr<WsConnection>> connections;  // I/O thread only
@@ -451,12 +453,25 @@ struct Transport::Impl {
     void acceptNext(ConnectionConfig config, AcceptHandler onAccept) {
         acceptor->async_accept([this, config, onAccept](ErrorCodeB ec, tcp::socket socket) {
             if (ec == asio::error::operation_aborted || !acceptor || !acceptor->is_open()) return;
-            if (!ec) {
-                auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
-                track(c);
-                c->setTimeouts(true);
-                c->acceptRequest(onAccept);
-            }
+            if (ec) return acceptLater(config, onAccept);
+            acceptBackoff = {};
+            auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
+            track(c);
+            c->setTimeouts(true);
+            c->acceptRequest(onAccept);
+            acceptNext(config, onAccept);
+        });
+    }
+
+    // After a failed accept (out of file descriptors or memory): the connection stays in the
+    // backlog, so accepting again at once fails again at once and spins the I/O thread. Waits
+    // 5 ms, doubled while accepts keep failing, up to 1 s.
+    void acceptLater(ConnectionConfig config, AcceptHandler onAccept) {
+        using std::chrono::milliseconds;
+        acceptBackoff = std::clamp(acceptBackoff * 2, milliseconds(5), milliseconds(1000));
+        acceptRetry.expires_after(acceptBackoff);
+        acceptRetry.async_wait([this, config, onAccept](ErrorCodeB ec) {
+            if (ec || !acceptor || !acceptor->is_open()) return;
             acceptNext(config, onAccept);
         });
     }
@@ -512,6 +527,7 @@ void Transport::stopListening() {
             ErrorCodeB ignored;
             mImpl->acceptor->close(ignored);
         }
+        mImpl->acceptRetry.cancel();
         done.set_value();
     });
     done.get_future().wait();
@@ -573,6 +589,7 @@ void Transport::stop() {
             ErrorCodeB ignored;
             mImpl->acceptor->close(ignored);
         }
+        mImpl->acceptRetry.cancel();
         for (auto& w : mImpl->connections)
             if (auto c = w.lock()) c->drop();
         mImpl->connections.clear();

@@ -89,15 +89,18 @@ Status checkStereoRigNumbers(const StereoRigDesc& rig) {
     return probe ? Status::ok() : probe.status();
 }
 
-Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes) {
+Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
+                                  size_t renderedTriangles) {
+    if (renderedTriangles > 0)
+        imageBytes += kRenderFixedBytes + kRenderBytesPerTriangle * double(renderedTriangles);
     const double estimate = double(residentBytes()) + imageBytes;
     const std::optional<uint64_t> available = availableMemoryBytes();
     constexpr double kGiB = double(1 << 30);
     if (available && imageBytes > double(*available))
         return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("{} needs about {:.1f} GiB of memory for its images, "
-                                       "{:.1f} GiB is available (memory and swap, cgroup and "
-                                       "ulimit limits)",
+                           fmt::format("{} needs about {:.1f} GiB of memory beyond what it "
+                                       "holds, {:.1f} GiB is available (memory and swap, cgroup "
+                                       "and ulimit limits)",
                                        what, imageBytes / kGiB, double(*available) / kGiB));
     return uint64_t(estimate);
 }

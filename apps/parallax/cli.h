@@ -63,11 +63,22 @@ inline uint64_t mebibytes(double mb) { return uint64_t(std::llround(mb * double(
 
 // Work whose memory grows with the image (render, stereo, warp, client, stream walk), checked
 // before it starts: its peak is estimated as what the process holds now (the scene loaded) plus
-// `imageBytes`, the command's measured bytes per pixel times its pixels. Refuses, naming `what`,
-// the image's share and what is available, when that share exceeds what availableMemoryBytes()
-// says the process can still take, where the kernel would otherwise end it without a message.
-// Returns the estimated peak in bytes.
-Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes);
+// `imageBytes`, the command's measured bytes per pixel times its pixels (and what else it will
+// allocate: a server's queue, the reprojection's search structures), plus
+// kRenderFixedBytes and kRenderBytesPerTriangle for each of the `renderedTriangles` of the scene
+// it renders (none when 0). Refuses,
+// naming `what`, that share and what is available, when the share exceeds what
+// availableMemoryBytes() says the process can still take, where the kernel would otherwise end
+// it without a message. Returns the estimated peak in bytes.
+Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
+                                  size_t renderedTriangles = 0);
+
+// What the renderer allocates at its first frame of a scene, beside the images: the growth of the
+// peak beyond what the process held at the check, at 64x64 on office:16, 64 and 280 (58k to 1M
+// triangles), fits 1.0 MB + 29.3 bytes a triangle for render and stereo, 1.6 MB + 31.9 for warp.
+// Rounded up.
+inline constexpr double kRenderFixedBytes = 2 << 20;
+inline constexpr double kRenderBytesPerTriangle = 34.0;
 
 // The estimate checkImageMemory gave and the peak the process reached, in MiB, for --json:
 // {"memory_estimate_mb": ..., "peak_memory_mb": ...}.

@@ -226,7 +226,8 @@ int runClient(const ClientArgs& a) {
     if (!cameras) return fail(cameras.status());
     auto memory = checkImageMemory(
         fmt::format("client{} at {}x{}", a.stereo ? " --stereo" : "", p->size.x, p->size.y),
-        clientBytesPerPixel(a) * double(p->size.x) * double(p->size.y));
+        clientBytesPerPixel(a) * double(p->size.x) * double(p->size.y),
+        scene ? scene->triangleCount() : 0);
     if (!memory) return fail(memory.status());
     if (!a.out.empty())
         if (Status s = createOutputFolder(a.out); !s) return fail(s);

@@ -45,7 +45,7 @@ int runRender(const RenderArgs& a) {
     const double pixels = double(camera->width()) * double(camera->height());
     auto memory =
         checkImageMemory(fmt::format("render at {}x{}", camera->width(), camera->height()),
-                         kRenderBytesPerPixel * pixels);
+                         kRenderBytesPerPixel * pixels, scene->triangleCount());
     if (!memory) return fail(memory.status());
 
     raster::RenderOptions options;

@@ -104,7 +104,8 @@ constexpr double kEncodedSetBytesPerPixel = 8.0;
 // Refuses a server whose sets and queue would not fit: the queue at its bound (each session's
 // one encoded set, or --max-queued plus one set if less). Returns the peak with one client, whose
 // queue holds one set of a small fraction of the raw bytes, for --json.
-Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig& config) {
+Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig& config,
+                                  size_t triangles) {
     warp::ReferenceSetOptions largest = config.reference;
     largest.faceSize = remote::maxServedFaceSize(largest);
     auto pixels = referencePixels(largest);
@@ -115,7 +116,7 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
     auto withQueue = checkImageMemory(
         fmt::format("serve --refs {} --face-size {} --max-sessions {} --max-queued {}", a.refs,
                     a.faceSize, a.maxSessions, a.maxQueuedMiB),
-        kServeBytesPerSetPixel * double(*pixels) + queueBytes);
+        kServeBytesPerSetPixel * double(*pixels) + queueBytes, triangles);
     if (!withQueue) return withQueue.status();
     return *withQueue - uint64_t(queueBytes);
 }
@@ -125,7 +126,7 @@ int runServe(const ServeArgs& a) {
     if (!config) return fail(config.status().message(), kExitUsage);
     auto scene = loadSceneChecked(a.scene);
     if (!scene) return fail(scene.status());
-    auto memory = checkServeMemory(a, *config);
+    auto memory = checkServeMemory(a, *config, scene->triangleCount());
     if (!memory) return fail(memory.status());
     const size_t triangles = scene->triangleCount();
     const sigset_t stopSignals = blockStopSignals();

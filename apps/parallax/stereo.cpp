@@ -49,6 +49,16 @@ struct StereoPlan {
     stereo::Layout layout = stereo::Layout::kPair;
 };
 
+// Peak bytes per scene triangle of the reproject method's search structures (prepareReprojection),
+// beyond the scene: the growth of the peak over the full method's at 64x64, on office:64 and
+// office:280 alike, is 96-97 for the box hierarchy and 270-271 with the BSP tree (--fill-search
+// bsp: its fragments per triangle vary by scene, BspConfig::maxFragmentsPerTriangle bounds them).
+// Rounded up; 0 for the other methods.
+double stereoBytesPerTriangle(const StereoPlan& p) {
+    if (p.options.method != stereo::Method::kReproject) return 0.0;
+    return p.options.fillSearch == stereo::FillSearch::kBspOrder ? 288.0 : 104.0;
+}
+
 // Peak bytes per image pixel beyond the scene (checkImageMemory). The growth of the peak from
 // 1024x1024 to 2048x2048 (office:2): full 36.3, pbuffer 52.2 (--conservative 69.5), reproject
 // 69.0; a side-by-side or top-bottom image 12-16 more, an anaglyph 4. Rounded up;
@@ -344,6 +354,18 @@ int runStereo(const StereoArgs& a) {
     int errorExit = kExitFailure;
     auto cameras = camerasFor(*scene, a, size, &errorExit);
     if (!cameras) return fail(cameras.status().message(), errorExit);
+    // Before the reproject method's search structures are built: their memory grows with the
+    // scene (about 0.1 GB at 1M triangles, 0.3 GB with the BSP tree).
+    const double searchBytes = stereoBytesPerTriangle(*p) * double(scene->triangleCount());
+    std::string what = fmt::format("stereo --method {}", stereo::methodName(p->options.method));
+    if (searchBytes > 0.0)
+        what += fmt::format(" --fill-search {}", stereo::fillSearchName(p->options.fillSearch));
+    what += fmt::format(" at {}x{}", size.x, size.y);
+    if (searchBytes > 0.0) what += fmt::format(" on {} triangles", scene->triangleCount());
+    auto memory = checkImageMemory(
+        what, stereoBytesPerPixel(*p) * double(size.x) * double(size.y) + searchBytes,
+        scene->triangleCount());
+    if (!memory) return fail(memory.status());
     // What the reproject method's search walks (box hierarchy; BSP tree for --fill-search bsp),
     // built once before any timing.
     double prepareMs = 0.0;
@@ -352,13 +374,6 @@ int runStereo(const StereoArgs& a) {
             return fail(s);
         prepareMs = (*renderer)->lastPrepareMs();
     }
-    // After the preparation, whose memory grows with the scene (0.12 GB at 1M triangles), so
-    // that the estimate holds it.
-    auto memory =
-        checkImageMemory(fmt::format("stereo --method {} at {}x{}",
-                                     stereo::methodName(p->options.method), size.x, size.y),
-                         stereoBytesPerPixel(*p) * double(size.x) * double(size.y));
-    if (!memory) return fail(memory.status());
 
     StereoSession session{**renderer, *scene, *p, a.frames, {}, {}, {}};
     const bool single = cameras->size() == 1;

@@ -122,7 +122,7 @@ int runWarp(const WarpArgs& a) {
     auto memory = checkImageMemory(
         fmt::format("warp --refs {} at {}x{}", warp::referenceLayoutName(p->layout), to->width(),
                     to->height()),
-        warpImageBytes(*p, *setPixels, *to));
+        warpImageBytes(*p, *setPixels, *to), scene->triangleCount());
     if (!memory) return fail(memory.status());
     warp::ReferenceSet set;
     if (Status s = warp::renderReferenceSet(**renderer, *scene, poseOf(*from), refOptions, &set);

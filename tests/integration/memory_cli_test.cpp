@@ -16,8 +16,10 @@ fs::path memoryDir() {
 }
 
 // The commands of every estimate (render, each stereo method and layout kind, warp's reference
-// sets and splats), each at 1536x1152 with office:2, and the experiments, each at a size where
-// its images outweigh the scenes it loads after the check.
+// sets and splats), each at 1536x1152 with office:2 and at 64x64 with office:64 (232k
+// triangles: the renderer's and the reprojection's memory for the scene outweigh the images),
+// and the experiments, each at a size where its images outweigh the scenes it loads after the
+// check.
 const char* const kEstimatedCommands[] = {
     "render office:2 --size 1536x1152",
     "stereo office:2 --method full --frames 1 --size 1536x1152",
@@ -28,6 +30,11 @@ const char* const kEstimatedCommands[] = {
     "warp office:2 --to-eye 1.3,1.6,1.1 --frames 1 --size 1536x1152",
     "warp office:2 --to-eye 1.3,1.6,1.1 --refs cube6 --splat mesh --frames 1 --size 1536x1152",
     "warp office:2 --to-eye 1.3,1.6,1.1 --refs wide --frames 1 --size 1536x1152",
+    "render office:64 --size 64x64",
+    "stereo office:64 --method pbuffer --frames 1 --size 64x64",
+    "stereo office:64 --method reproject --frames 1 --size 64x64",
+    "stereo office:64 --method reproject --fill-search bsp --frames 1 --size 64x64",
+    "warp office:64 --to-eye 1.3,1.6,1.1 --frames 1 --size 64x64",
     "bench stereo --rooms 1 --frames 1 --size 1536x1152",
     "bench stereo --rooms 1 --frames 1 --no-conservative --size 1536x1152",
     // 24 reference sets held once the walk has run for the longest RTT (300 ms).
@@ -81,7 +88,7 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
         {"warp office:1 --to-eye 1.3,1.6,1.1 --frames 1 --size 4096x4096",
          "warp --refs cube4 at 4096x4096"},
         {"stereo office:1 --method reproject --frames 1 --size 8192x8192",
-         "stereo --method reproject at 8192x8192"},
+         "stereo --method reproject --fill-search boxes at 8192x8192 on 3632 triangles"},
         {"render office:1 --frames 1 --size 16384x16384", "render at 16384x16384"},
         // Before it connects: nothing listens on port 1.
         {"client ws://127.0.0.1:1 --walk 3 --scene office:1 --stereo --frames 1 --size 8192x8192",

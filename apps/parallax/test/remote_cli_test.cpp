@@ -129,6 +129,9 @@ int silentConnection(int port) {
 // More connections than the server has file descriptors: its accepts fail until some close. It
 // waits between tries (it spun a core on them before) and serves again once they close.
 TEST(RemoteCli, FailedAcceptsDoNotSpin) {
+    // UBSan's dynamic type check tests memory through a pipe it opens on the spot; with no file
+    // descriptor left it reports every object it has not checked before as having a bad vptr.
+    if (kUnderAddressSanitizer) GTEST_SKIP() << "the sanitizers need file descriptors it takes";
     ServeProcess server("office:1 --face-size 32", "ulimit -n 64; ");
     ASSERT_GT(server.port(), 0);
     ASSERT_GE(server.cpuSeconds(), 0.0) << "no /proc/PID/task/PID/children to find the server";

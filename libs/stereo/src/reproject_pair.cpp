@@ -32,6 +32,7 @@ Status ReprojectPair::prepare(const scene::Scene& scene, FillSearch search) {
     if (preparedFor(scene, search)) return Status();
     Stopwatch clock;
     mKey.reset();
+    mFill = FillScene{};  // the previous scene's structures go before the new ones are built
     auto fill = buildFillScene(scene, search, {}, {}, &mPool);
     if (!fill) return fill.status();
     mFill = std::move(fill).value();

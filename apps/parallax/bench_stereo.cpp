@@ -58,8 +58,9 @@ int runStereoBench(const StereoBenchArgs& a) {
     config.conservative = !a.noConservative;
     config.reproject = !a.noReproject;
     if (Status s = checkStereoRigNumbers(config.rig); !s) return fail(s.message(), kExitUsage);
-    auto memory = startExperiment("bench stereo", size->x, size->y,
-                                  stereoExperimentImageBytes(config), a.out);
+    auto memory = startExperiment(
+        "bench stereo", size->x, size->y,
+        stereoExperimentImageBytes(config) + stereoExperimentSceneBytes(config), a.out);
     if (!memory) return fail(memory.status());
     Progress progress("bench stereo", a.rooms.size());
     auto rows = runStereoExperiment(config, [&](size_t, size_t) { progress.step(); });

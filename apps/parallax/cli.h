@@ -63,13 +63,12 @@ inline uint64_t mebibytes(double mb) { return uint64_t(std::llround(mb * double(
 
 // Work whose memory grows with the image (render, stereo, warp, client, stream walk), checked
 // before it starts: its peak is estimated as what the process holds now (the scene loaded) plus
-// `imageBytes`, the command's measured bytes per pixel times its pixels (and what else it will
-// allocate: a server's queue, the reprojection's search structures), plus
-// kRenderFixedBytes and kRenderBytesPerTriangle for each of the `renderedTriangles` of the scene
-// it renders (none when 0). Refuses,
-// naming `what`, that share and what is available, when the share exceeds what
-// availableMemoryBytes() says the process can still take, where the kernel would otherwise end
-// it without a message. Returns the estimated peak in bytes.
+// `imageBytes`, the command's measured bytes per pixel times its pixels and what else it will
+// allocate (a server's queue, the reprojection's search structures), plus the renderer's memory
+// for the `renderedTriangles` of the scene it renders (kRenderFixedBytes and
+// kRenderBytesPerTriangle; none when 0). Refuses, naming `what`, that share and what is
+// available, when the share exceeds what availableMemoryBytes() says the process can still take,
+// where the kernel would otherwise end it without a message. Returns the estimated peak in bytes.
 Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
                                   size_t renderedTriangles = 0);
 
@@ -79,6 +78,12 @@ Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
 // Rounded up.
 inline constexpr double kRenderFixedBytes = 2 << 20;
 inline constexpr double kRenderBytesPerTriangle = 34.0;
+// What the reproject stereo method's search structures (prepareReprojection) hold per scene
+// triangle: the growth of the peak over the full method's at 64x64, on office:64 and office:280
+// alike, is 96-97 for the box hierarchy and 270-271 with the BSP tree (its fragments per triangle
+// vary by scene; BspConfig::maxFragmentsPerTriangle bounds them). Rounded up.
+inline constexpr double kReprojectBoxesBytesPerTriangle = 104.0;
+inline constexpr double kReprojectBspBytesPerTriangle = 288.0;
 
 // The estimate checkImageMemory gave and the peak the process reached, in MiB, for --json:
 // {"memory_estimate_mb": ..., "peak_memory_mb": ...}.

@@ -3,12 +3,15 @@
 
 #include "experiment_stereo.h"
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <fmt/format.h>
 
 #include <plx/scene/generators.h>
 
+#include "cli.h"
 #include "hole_classes.h"
 #include "report.h"
 
@@ -179,6 +182,23 @@ double stereoExperimentImageBytes(const StereoExperimentConfig& config) {
     const double perPixel =
         55.0 + (config.conservative ? 53.0 : 0.0) + (config.reproject ? 43.0 : 0.0);
     return perPixel * double(config.width) * double(config.height);
+}
+
+// A generated office holds 81.7 bytes a triangle (the growth of the resident size from office:16
+// to office:280); rounded up.
+constexpr double kOfficeBytesPerTriangle = 88.0;
+
+double stereoExperimentSceneBytes(const StereoExperimentConfig& config) {
+    std::vector<int> rooms = config.rooms;
+    std::sort(rooms.begin(), rooms.end(), std::greater<>());
+    if (rooms.empty()) return 0.0;
+    auto office = scene::generateOffice(1);
+    const double perRoom = office ? double(office->triangleCount()) : 0.0;
+    const double working =
+        kRenderBytesPerTriangle + (config.reproject ? kReprojectBoxesBytesPerTriangle : 0.0);
+    const double largest = perRoom * double(rooms[0]);
+    const double before = rooms.size() > 1 ? perRoom * double(rooms[1]) : 0.0;
+    return kRenderFixedBytes + largest * (kOfficeBytesPerTriangle + working) + before * working;
 }
 
 Result<std::vector<StereoExperimentRow>> runStereoExperiment(

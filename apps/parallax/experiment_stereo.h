@@ -54,6 +54,11 @@ struct StereoExperimentRow {
 // The experiment's peak bytes beyond its scenes, for checkImageMemory: each method's pair (both
 // eyes' colour, depth and IDs) and the renderer's targets, by the pixel.
 double stereoExperimentImageBytes(const StereoExperimentConfig& config);
+// And its scenes' (generated after the check): the largest row's office, the renderer's memory
+// for it and the reprojection's search structures, and the same but the office for the next
+// largest row, which the allocator may still hold when the largest comes (office:280 after
+// office:128 peaks 48 MB above office:280 alone).
+double stereoExperimentSceneBytes(const StereoExperimentConfig& config);
 
 // Runs the experiment; progress(i, n) is called after each row. Errors: bad config or scenes.
 Result<std::vector<StereoExperimentRow>> runStereoExperiment(

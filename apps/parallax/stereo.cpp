@@ -49,14 +49,11 @@ struct StereoPlan {
     stereo::Layout layout = stereo::Layout::kPair;
 };
 
-// Peak bytes per scene triangle of the reproject method's search structures (prepareReprojection),
-// beyond the scene: the growth of the peak over the full method's at 64x64, on office:64 and
-// office:280 alike, is 96-97 for the box hierarchy and 270-271 with the BSP tree (--fill-search
-// bsp: its fragments per triangle vary by scene, BspConfig::maxFragmentsPerTriangle bounds them).
-// Rounded up; 0 for the other methods.
+// Bytes per scene triangle of the method's search structures: the reproject method's, else 0.
 double stereoBytesPerTriangle(const StereoPlan& p) {
     if (p.options.method != stereo::Method::kReproject) return 0.0;
-    return p.options.fillSearch == stereo::FillSearch::kBspOrder ? 288.0 : 104.0;
+    return p.options.fillSearch == stereo::FillSearch::kBspOrder ? kReprojectBspBytesPerTriangle
+                                                                 : kReprojectBoxesBytesPerTriangle;
 }
 
 // Peak bytes per image pixel beyond the scene (checkImageMemory). The growth of the peak from

@@ -19,7 +19,7 @@ fs::path memoryDir() {
 // sets and splats), each at 1536x1152 with office:2 and at 64x64 with office:64 (232k
 // triangles: the renderer's and the reprojection's memory for the scene outweigh the images),
 // and the experiments, each at a size where its images outweigh the scenes it loads after the
-// check.
+// check (bench stereo also where its scenes outweigh its images).
 const char* const kEstimatedCommands[] = {
     "render office:2 --size 1536x1152",
     "stereo office:2 --method full --frames 1 --size 1536x1152",
@@ -37,6 +37,8 @@ const char* const kEstimatedCommands[] = {
     "warp office:64 --to-eye 1.3,1.6,1.1 --frames 1 --size 64x64",
     "bench stereo --rooms 1 --frames 1 --size 1536x1152",
     "bench stereo --rooms 1 --frames 1 --no-conservative --size 1536x1152",
+    // Where its scenes outweigh its images: 1M triangles after 465k.
+    "bench stereo --rooms 128,280 --frames 1 --size 64x64",
     // 24 reference sets held once the walk has run for the longest RTT (300 ms).
     "bench warp --quick --duration 0.5 --size 640x480",
     "bench warp --quick --duration 0.5 --refs wide --splat mesh --size 640x360",

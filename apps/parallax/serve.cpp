@@ -26,6 +26,7 @@ struct ServeArgs {
     std::string refs = "cube4";
     int faceSize = 512;
     int maxSessions = 16;
+    int maxPending = 64;
     double writeTimeoutS = 30.0;
     double maxQueuedMiB = 256.0;
     double latencyMs = 0.0, jitterMs = 0.0, bandwidthMbit = 0.0;
@@ -45,6 +46,7 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     c.reference.layout = *layout;
     c.reference.faceSize = a.faceSize;
     c.maxSessions = a.maxSessions;
+    c.maxPendingConnections = a.maxPending;
     c.writeStallTimeoutMs = a.writeTimeoutS * 1000.0;
     c.link.latencyMs = a.latencyMs;
     c.link.jitterMs = a.jitterMs;
@@ -163,6 +165,8 @@ int runServe(const ServeArgs& a) {
                                {"protocol_errors", s.protocolErrors},
                                {"write_stalls", s.writeStalls},
                                {"queue_waits", s.queueWaits},
+                               {"pending_dropped", s.pendingDropped},
+                               {"accept_failures", s.acceptFailures},
                                {"sets_sent", s.setsSent},
                                {"bytes_sent", s.bytesSent},
                                {"raw_bytes_sent", s.rawBytesSent},
@@ -207,6 +211,9 @@ Command registerServe(CLI::App& app) {
                     "Largest face side rendered (a client asking less gets less)")
         ->capture_default_str();
     sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
+        ->capture_default_str();
+    sub->add_option("--max-pending", a->maxPending,
+                    "Connections that have not said hello yet; one more drops the oldest")
         ->capture_default_str();
     sub->add_option("--write-timeout", a->writeTimeoutS,
                     "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "

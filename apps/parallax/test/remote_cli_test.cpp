@@ -2,8 +2,6 @@
 // the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
 // arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
 
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -11,6 +9,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include <plx_test/loopback.h>
 
 #include "cli_runner.h"
 #include "serve_process.h"
@@ -114,16 +114,11 @@ TEST(RemoteCli, ServeMemoryEstimateHoldsItsPeak) {
     EXPECT_EQ(bounded.exitCode, 0) << bounded.err;
 }
 
-// A plain TCP connection to 127.0.0.1:port that sends nothing; -1 if it failed.
-int silentConnection(int port) {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(uint16_t(port));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd >= 0 && connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) return fd;
-    if (fd >= 0) close(fd);
-    return -1;
+// A client that plays one pose at 64x48 against `url`.
+RunResult runOnePoseClient(const std::string& url) {
+    fs::path path = scratchDir("remote_cli") / "one_pose.json";
+    writeFile(path, R"([{"eye": [1,1.6,1], "target": [4,1.2,5]}])");
+    return runParallax("client " + url + " --path " + path.string() + " --size 64x48 --frames 3");
 }
 
 // More connections than the server has file descriptors: its accepts fail until some close. It
@@ -143,11 +138,29 @@ TEST(RemoteCli, FailedAcceptsDoNotSpin) {
     std::this_thread::sleep_for(std::chrono::seconds(2));
     EXPECT_LT(server.cpuSeconds() - before, 0.5) << "the server spun on failed accepts";
     for (int fd : flood) close(fd);
-    fs::path path = scratchDir("remote_cli") / "after_flood.json";
-    writeFile(path, R"([{"eye": [1,1.6,1], "target": [4,1.2,5]}])");
-    RunResult r = runParallax("client " + server.url() + " --path " + path.string() +
-                              " --size 64x48 --frames 3");
+    EXPECT_EQ(runOnePoseClient(server.url()).exitCode, 0);
+    auto [stopped, code] = server.stop();
+    EXPECT_EQ(code, 0);
+    EXPECT_GT(stopped.value("accept_failures", 0), 0);
+}
+
+// The same flood against --max-pending 16: the server drops the oldest silent connections as new
+// ones come, never runs out of file descriptors, and serves a client while the flood still holds
+// its sockets (without the limit, the client waits for the flood's handshake timeout, 5 s).
+TEST(RemoteCli, ASilentFloodLeavesRoomForClients) {
+    ServeProcess server("office:1 --face-size 32 --max-pending 16", "ulimit -n 64; ");
+    ASSERT_GT(server.port(), 0);
+    std::vector<int> flood;
+    for (int i = 0; i < 100; ++i)
+        if (int fd = silentConnection(server.port()); fd >= 0) flood.push_back(fd);
+    EXPECT_EQ(flood.size(), 100u);
+    RunResult r = runOnePoseClient(server.url());
     EXPECT_EQ(r.exitCode, 0) << r.err;
+    auto [stopped, code] = server.stop();
+    EXPECT_EQ(code, 0);
+    EXPECT_EQ(stopped.value("accept_failures", -1), 0);
+    EXPECT_GE(stopped.value("pending_dropped", 0), 84);  // all but the newest 16 silent ones
+    for (int fd : flood) close(fd);
 }
 
 TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
@@ -181,6 +194,9 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
                        2);
     expectOneLineError(runParallax("serve office:1 --max-queued 0 --port 0"),
                        "--max-queued 0 MiB outside", 2);
+    for (const char* bad : {"0", "65537", "-3"})
+        expectOneLineError(runParallax(std::string("serve office:1 --port 0 --max-pending ") + bad),
+                           "max pending connections", 2);
     expectOneLineError(runParallax("serve office:1 --prediction magic --port 0"), "magic", 2);
     expectOneLineError(runParallax("serve office:1 --bind 300.1.1.1 --port 0"), "300.1.1.1", 2);
     expectOneLineError(runParallax("serve no-such-scene.glb --port 0"), "no-such-scene.glb");

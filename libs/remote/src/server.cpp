@@ -72,6 +72,7 @@ Status checkServerConfig(const ServerConfig& c) {
         return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
     PLX_RETURN_IF_ERROR(checkWriteStallTimeout(c.writeStallTimeoutMs));
+    PLX_RETURN_IF_ERROR(checkMaxPending(c.maxPendingConnections));
     if (c.maxQueuedSetBytes < 1) return bad("max queued set bytes must be at least 1");
     // The sets it renders: at most maxServedFaceSize, whatever a session asks for.
     warp::ReferenceSetOptions served = c.reference;
@@ -507,6 +508,7 @@ Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerC
     cc.maxMessageBytes = kMaxClientMessageBytes;
     cc.link = config.link;
     cc.writeStallTimeoutMs = config.writeStallTimeoutMs;
+    cc.maxPendingConnections = config.maxPendingConnections;
     cc.httpFiles = config.pages;
     Impl* p = impl.get();
     auto port = impl->transport->listen(
@@ -526,6 +528,9 @@ ServerStats Server::stats() const {
     ServerStats s = mImpl->stats;
     s.queuedBytes = 0;
     for (const SessionPtr& session : mImpl->sessions) s.queuedBytes += session->conn->queuedBytes();
+    const Transport::ListenerStats listener = mImpl->transport->listenerStats();
+    s.acceptFailures = listener.acceptFailures;
+    s.pendingDropped = listener.pendingDropped;
     return s;
 }
 

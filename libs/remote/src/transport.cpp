@@ -3,6 +3,7 @@
 
 #include <plx/remote/transport.h>
 
+#include <atomic>
 #include <chrono>
 #include <deque>
 #include <future>
@@ -40,21 +41,8 @@ Status checkLinkEmulation(const LinkEmulation& link) {
 }
 
 namespace {
+
 constexpr std::string_view kWriteStallText = "peer stopped reading";
-}
-
-Status checkWriteStallTimeout(double ms) {
-    if (!(ms >= 100.0 && ms <= 3600e3))
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("write timeout {} s outside 0.1..3600", ms / 1000.0));
-    return Status::ok();
-}
-
-bool isWriteStall(const Status& why) {
-    return !why.isOk() && why.message().starts_with(kWriteStallText);
-}
-
-namespace {
 
 // One direction of an emulated link: a message of B bytes enters the wire when the previous one
 // has left it (token bucket at the bandwidth: B * 8 / bandwidth seconds of serialisation), then
@@ -124,6 +112,7 @@ public:
     // WebSocket upgrade becomes a session (onUpgrade gives its events); anything else is answered
     // from config.httpFiles and closed.
     void acceptRequest(std::function<ConnectionEvents(std::shared_ptr<Connection>)> onUpgrade) {
+        mAwaitingFirst = true;
         mRequest.emplace();
         mRequest->header_limit(kMaxRequestHeaderBytes);
         mRequest->body_limit(0);
@@ -189,12 +178,16 @@ public:
         });
     }
 
-    // On the I/O thread: drops the socket when the transport stops.
-    void drop() {
+    // On the I/O thread: drops the socket (the transport stops, or too many are pending).
+    void drop(std::string_view why) {
         ErrorCodeB ignored;
         beast::get_lowest_layer(mWs).socket().close(ignored);
-        finish(errorStatus(ErrorCode::kIoError, "transport stopped"));
+        finish(errorStatus(ErrorCode::kIoError, std::string(why)));
     }
+
+    // On the I/O thread: accepted by a listener, and nothing delivered yet (HTTP request,
+    // WebSocket handshake, first message) nor dropped.
+    bool awaitingFirstMessage() const { return mAwaitingFirst && !mFinished; }
 
 private:
     static constexpr uint32_t kMaxRequestHeaderBytes = 8192;
@@ -352,6 +345,7 @@ private:
                     fmt::format("message larger than {} bytes", mConfig.maxMessageBytes)));
             return finish(fromBoost(ec, "read"));
         }
+        mAwaitingFirst = false;
         auto data = mReadBuffer.cdata();
         const auto* p = static_cast<const uint8_t*>(data.data());
         std::vector<uint8_t> m(p, p + data.size());
@@ -426,12 +420,31 @@ private:
     std::atomic<size_t> mQueued{0};
     bool mStarted = false, mWriting = false, mReading = false, mWantRead = true;
     bool mCloseWhenDrained = false, mClosing = false, mFinished = false;
+    bool mAwaitingFirst = false;  // awaitingFirstMessage
 };
 
 }  // namespace
 
 Status checkBindAddress(const std::string& bind) {
     return parseBindAddress(bind).status();
+}
+
+Status checkWriteStallTimeout(double ms) {
+    if (!(ms >= 100.0 && ms <= 3600e3))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("write timeout {} s outside 0.1..3600", ms / 1000.0));
+    return Status::ok();
+}
+
+bool isWriteStall(const Status& why) {
+    return !why.isOk() && why.message().starts_with(kWriteStallText);
+}
+
+Status checkMaxPending(int connections) {
+    if (connections < 1 || connections > 65536)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("max pending connections {} outside 1..65536", connections));
+    return Status::ok();
 }
 
 struct Transport::Impl {
@@ -444,10 +457,31 @@ struct Transport::Impl {
     std::mutex mutex;  // guards stopped
     bool stopped = false;
     std::vector<std::weak_ptr<WsConnection>> connections;  // I/O thread only
+    // Accepted connections that may still await their first message, oldest first (I/O thread).
+    std::deque<std::weak_ptr<WsConnection>> pending;
+    std::atomic<int64_t> acceptFailures{0}, pendingDropped{0};
 
     void track(const std::shared_ptr<WsConnection>& c) {
         std::erase_if(connections, [](const auto& w) { return w.expired(); });
         connections.push_back(c);
+    }
+
+    // Makes room for one more pending connection within maxPendingConnections by dropping the
+    // oldest: a client that is not flooding completes its handshake and first message within
+    // a round trip or two, so the oldest pending connections are the silent ones.
+    void admitPending(const std::shared_ptr<WsConnection>& c, int maxPending) {
+        std::erase_if(pending, [](const auto& w) {
+            auto p = w.lock();
+            return !p || !p->awaitingFirstMessage();
+        });
+        while (pending.size() >= size_t(maxPending)) {
+            if (auto oldest = pending.front().lock()) {
+                oldest->drop("dropped: too many connections awaiting their first message");
+                ++pendingDropped;
+            }
+            pending.pop_front();
+        }
+        pending.push_back(c);
     }
 
     void acceptNext(ConnectionConfig config, AcceptHandler onAccept) {
@@ -457,6 +491,7 @@ struct Transport::Impl {
             acceptBackoff = {};
             auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
             track(c);
+            admitPending(c, config.maxPendingConnections);
             c->setTimeouts(true);
             c->acceptRequest(onAccept);
             acceptNext(config, onAccept);
@@ -468,6 +503,7 @@ struct Transport::Impl {
     // 5 ms, doubled while accepts keep failing, up to 1 s.
     void acceptLater(ConnectionConfig config, AcceptHandler onAccept) {
         using std::chrono::milliseconds;
+        ++acceptFailures;
         acceptBackoff = std::clamp(acceptBackoff * 2, milliseconds(5), milliseconds(1000));
         acceptRetry.expires_after(acceptBackoff);
         acceptRetry.async_wait([this, config, onAccept](ErrorCodeB ec) {
@@ -495,6 +531,7 @@ Result<int> Transport::listen(const std::string& bind, int port, const Connectio
         return errorStatus(ErrorCode::kInvalidArgument, fmt::format("port {} out of range", port));
     auto parsed = parseBindAddress(bind);
     if (!parsed) return parsed.status();
+    if (Status s = checkMaxPending(config.maxPendingConnections); !s.isOk()) return s;
     const asio::ip::address address = *parsed;
     std::promise<Result<int>> bound;
     asio::post(*mImpl->io, [&] {
@@ -531,6 +568,10 @@ void Transport::stopListening() {
         done.set_value();
     });
     done.get_future().wait();
+}
+
+Transport::ListenerStats Transport::listenerStats() const {
+    return {mImpl->acceptFailures.load(), mImpl->pendingDropped.load()};
 }
 
 Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, int port,
@@ -591,7 +632,7 @@ void Transport::stop() {
         }
         mImpl->acceptRetry.cancel();
         for (auto& w : mImpl->connections)
-            if (auto c = w.lock()) c->drop();
+            if (auto c = w.lock()) c->drop("transport stopped");
         mImpl->connections.clear();
         dropped.set_value();
     });

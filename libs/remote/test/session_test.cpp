@@ -825,6 +825,9 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     c = smallServer();
     c.maxQueuedSetBytes = 0;
     EXPECT_FALSE(checkServerConfig(c).isOk());
+    c = smallServer();
+    c.maxPendingConnections = 0;
+    EXPECT_FALSE(checkServerConfig(c).isOk());
     EXPECT_FALSE(parseWsUrl("http://x:1").isOk());
     EXPECT_FALSE(parseWsUrl("ws://x:99999").isOk());
     EXPECT_FALSE(parseWsUrl("ws://:80").isOk());

@@ -1,6 +1,7 @@
-// The transport's write timeout against a raw TCP peer on loopback (127.0.0.1, a free port) that
-// reads at the pace the test sets: a reader that keeps taking bytes, however slowly, keeps its
-// connection; one that stops is dropped. Every wait is bounded; nothing here measures speed.
+// The listener against raw TCP peers on loopback (127.0.0.1, a free port). The write timeout: a
+// reader that keeps taking bytes, however slowly, keeps its connection; one that stops is
+// dropped. The pending limit: past it, the oldest connections that sent nothing are dropped, not
+// the ones that did. Every wait is bounded; nothing here measures speed.
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -8,6 +9,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <limits>
@@ -21,12 +23,15 @@
 #include <gtest/gtest.h>
 
 #include <plx/remote/transport.h>
+#include <plx_test/loopback.h>
 
 namespace plx::remote {
 namespace {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
+using plx::testing::closedByPeer;
+using plx::testing::silentConnection;
 
 // Several times what the sender's socket buffer (tcp_wmem's 4 MiB at most) and the reader's
 // small one hold, so the write waits on the reader. Linux wakes a writer blocked on a full
@@ -193,6 +198,101 @@ TEST(TransportWriteTimeout, OutOfRangeTimeoutsAreRefused) {
         EXPECT_FALSE(s.isOk()) << bad;
         EXPECT_NE(s.message().find("write timeout"), std::string::npos) << s.message();
     }
+}
+
+// A listener that lets `maxPending` connections wait for their first message, and counts the
+// messages and closes of those that got past their WebSocket handshake.
+class PendingListener {
+public:
+    explicit PendingListener(int maxPending) {
+        mTransport = std::move(Transport::create()).value();
+        ConnectionConfig config;
+        config.maxPendingConnections = maxPending;
+        auto port = mTransport->listen("127.0.0.1", 0, config, [this](auto) {
+            ConnectionEvents events;
+            events.onMessage = [this](std::vector<uint8_t>&&, bool) { bump(mMessages); };
+            events.onClosed = [this](const Status&) { bump(mClosed); };
+            return events;
+        });
+        EXPECT_TRUE(port.isOk()) << port.status().message();
+        mPort = port ? *port : 0;
+    }
+    ~PendingListener() { mTransport->stop(); }
+
+    int port() const { return mPort; }
+    Transport& transport() { return *mTransport; }
+    // Waits (bounded) until `n` messages arrived; false if they did not.
+    bool messages(int n) {
+        std::unique_lock lock(mMutex);
+        return mChanged.wait_for(lock, 5s, [&] { return mMessages >= n; });
+    }
+    int closed() {
+        std::lock_guard lock(mMutex);
+        return mClosed;
+    }
+    // Waits (bounded) until the listener dropped `n` pending connections; the count it reached.
+    int64_t pendingDropped(int64_t n) {
+        const auto end = Clock::now() + 5s;
+        while (mTransport->listenerStats().pendingDropped < n && Clock::now() < end)
+            std::this_thread::sleep_for(5ms);
+        return mTransport->listenerStats().pendingDropped;
+    }
+
+private:
+    void bump(int& counter) {
+        std::lock_guard lock(mMutex);
+        ++counter;
+        mChanged.notify_all();
+    }
+
+    std::unique_ptr<Transport> mTransport;
+    int mPort = 0;
+    std::mutex mMutex;
+    std::condition_variable mChanged;
+    int mMessages = 0, mClosed = 0;
+};
+
+TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {
+    PendingListener listener(4);
+    std::vector<int> silent;
+    for (int i = 0; i < 10; ++i) silent.push_back(silentConnection(listener.port()));
+    ASSERT_EQ(std::count(silent.begin(), silent.end(), -1), 0);
+    EXPECT_EQ(listener.pendingDropped(6), 6);
+    for (int i = 0; i < 6; ++i) EXPECT_TRUE(closedByPeer(silent[i], 2s)) << i;
+    for (int i = 6; i < 10; ++i) EXPECT_FALSE(closedByPeer(silent[i], 100ms)) << i;
+
+    // A client that completes its handshake and says something is no longer pending: ten more
+    // silent connections drop the older silent ones, and then each other, never it.
+    auto client = listener.transport().connect("127.0.0.1", listener.port(), "/",
+                                               ConnectionConfig{}, ConnectionEvents{});
+    ASSERT_TRUE(client.isOk()) << client.status().message();
+    (*client)->send({1, 2, 3});
+    ASSERT_TRUE(listener.messages(1));
+    EXPECT_EQ(listener.pendingDropped(7), 7);  // its arrival dropped the oldest silent one
+    for (int i = 0; i < 10; ++i) silent.push_back(silentConnection(listener.port()));
+    EXPECT_EQ(listener.pendingDropped(16), 16);
+    EXPECT_FALSE(closedByPeer(silent.back(), 100ms));
+    (*client)->send({4});
+    EXPECT_TRUE(listener.messages(2));
+    EXPECT_EQ(listener.closed(), 0);
+    EXPECT_EQ(listener.transport().listenerStats().acceptFailures, 0);
+    (*client)->abort();
+    for (int fd : silent) close(fd);
+}
+
+TEST(TransportPending, OutOfRangeLimitsAreRefused) {
+    auto transport = std::move(Transport::create()).value();
+    for (int bad : {0, -1, 65537}) {
+        ConnectionConfig config;
+        config.maxPendingConnections = bad;
+        auto port =
+            transport->listen("127.0.0.1", 0, config, [](auto) { return ConnectionEvents{}; });
+        ASSERT_FALSE(port.isOk()) << bad;
+        EXPECT_NE(port.status().message().find("max pending connections"), std::string::npos)
+            << port.status().message();
+    }
+    EXPECT_TRUE(checkMaxPending(1).isOk());
+    EXPECT_TRUE(checkMaxPending(65536).isOk());
 }
 
 }  // namespace

@@ -49,6 +49,9 @@ struct ServerConfig {
     // A session whose socket takes no frame of kWriteChunkBytes in this long is dropped: its peer
     // stopped reading and would hold one of maxSessions for as long as it stays connected.
     double writeStallTimeoutMs = 30000.0;
+    // Connections that have not said ClientHello yet (nor finished their WebSocket handshake or
+    // HTTP request), at most this many: one more drops the oldest (ConnectionConfig's).
+    int maxPendingConnections = 64;
     // All sessions' encoded sets handed to their sockets and not yet written, at most this many
     // bytes plus one set: past it, renders wait for writes. Bounds the server's memory whatever
     // maxSessions and the clients' links (each session queues one set at most); >= 1.
@@ -71,6 +74,8 @@ struct ServerStats {
     int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
     int64_t writeStalls = 0;     // sessions dropped because their peer stopped reading
     int64_t queueWaits = 0;      // times renders waited for maxQueuedSetBytes
+    int64_t pendingDropped = 0;  // connections dropped by maxPendingConnections
+    int64_t acceptFailures = 0;  // accepts that failed (out of file descriptors)
     int64_t setsSent = 0;        // reference sets written to sockets
     int64_t bytesSent = 0;       // their bytes
     int64_t rawBytesSent = 0;    // 8 bytes (RGBA8 + f32) per pixel of those sets

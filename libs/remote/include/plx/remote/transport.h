@@ -59,6 +59,11 @@ struct ConnectionConfig {
     // time; the socket takes bytes again once the peer has read a part of its buffer (Linux: a
     // third, up to about 1.4 MB), so only a peer reading less than that per timeout is cut.
     double writeStallTimeoutMs = 30000.0;
+    // Listeners only: connections accepted that have delivered nothing yet (their HTTP request,
+    // WebSocket handshake or first message still to come), at most this many; one more drops
+    // the oldest of them. A flood of silent connections then holds neither the file descriptors
+    // nor the handshake timeout's worth of time that new clients need (checkMaxPending).
+    int maxPendingConnections = 64;
     // Listeners only: requests that are not a WebSocket upgrade are answered from these files
     // (404 when empty), then the connection is closed.
     HttpFiles httpFiles;
@@ -68,6 +73,8 @@ struct ConnectionConfig {
 // fragmentation), each a unit of progress for ConnectionConfig::writeStallTimeoutMs.
 inline constexpr size_t kWriteChunkBytes = 64 * 1024;
 Status checkWriteStallTimeout(double ms);  // 100 ms .. 1 hour
+
+Status checkMaxPending(int connections);  // 1..65536
 
 // Whether a connection closed because its peer stopped reading (writeStallTimeoutMs).
 bool isWriteStall(const Status& why);
@@ -114,6 +121,14 @@ public:
                        AcceptHandler onAccept);
     // Stops accepting (connections already made go on).
     void stopListening();
+
+    // What the listener met since it started: accepts that failed (out of file descriptors or
+    // memory) and connections dropped by ConnectionConfig::maxPendingConnections.
+    struct ListenerStats {
+        int64_t acceptFailures = 0;
+        int64_t pendingDropped = 0;
+    };
+    ListenerStats listenerStats() const;
 
     // Connects to ws://host:port/path and completes the WebSocket handshake, waiting at most
     // config.handshakeTimeoutMs. Errors: unreachable, refused, timed out.

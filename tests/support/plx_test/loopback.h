@@ -1,0 +1,36 @@
+#pragma once
+// Plain TCP peers on loopback for the servers' hardening tests: a connection that sends nothing,
+// and whether its server closed it. Shared by the transport tests (libs/remote) and the CLI tests
+// of `parallax serve` (apps/parallax).
+
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+
+namespace plx::testing {
+
+// A plain TCP connection to 127.0.0.1:port that sends nothing; -1 if it failed.
+inline int silentConnection(int port) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(uint16_t(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd >= 0 && connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) return fd;
+    if (fd >= 0) close(fd);
+    return -1;
+}
+
+// Whether the server closed a silent connection within `limit` (it sends such a peer nothing).
+inline bool closedByPeer(int fd, std::chrono::milliseconds limit) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, int(limit.count())) != 1) return false;
+    char c;
+    return recv(fd, &c, 1, MSG_DONTWAIT) <= 0;
+}
+
+}  // namespace plx::testing

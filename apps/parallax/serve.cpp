@@ -2,6 +2,9 @@
 // (libs/remote, server.h). Streams reference sets over WebSocket to `parallax client` until
 // Ctrl-C or SIGTERM (or --seconds), then says Bye(GoingAway) to every session.
 
+#include <sys/resource.h>
+
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
@@ -123,6 +126,31 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
     return *withQueue - uint64_t(queueBytes);
 }
 
+// File descriptors a server holds beyond its connections' sockets: 9 at start (standard streams,
+// the I/O thread's epoll, eventfd and timerfd), with room for connections being closed.
+constexpr uint64_t kServeBaseFiles = 32;
+
+// Each session and each connection not yet heard from holds a socket. Raises the soft limit on
+// open files to what they need, as far as the hard limit allows (a soft limit of 1024 is common),
+// and warns when even that falls short: accepts past it fail and are retried 5 ms to 1 s apart
+// until connections close. Returns the limit now.
+Result<uint64_t> raiseOpenFilesLimit(const ServeArgs& a) {
+    const uint64_t needed = uint64_t(a.maxSessions) + uint64_t(a.maxPending) + kServeBaseFiles;
+    rlimit limit{};
+    if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return uint64_t(0);
+    if (limit.rlim_cur < needed) {
+        rlimit raised = limit;
+        raised.rlim_cur = std::min<rlim_t>(needed, limit.rlim_max);
+        if (setrlimit(RLIMIT_NOFILE, &raised) == 0) limit = raised;
+    }
+    if (limit.rlim_cur < needed)
+        PLX_RETURN_IF_ERROR(warn(fmt::format(
+            "{} open files allowed (ulimit -n); --max-sessions {} and --max-pending {} need about "
+            "{}: connections past it wait",
+            limit.rlim_cur, a.maxSessions, a.maxPending, needed)));
+    return uint64_t(limit.rlim_cur);
+}
+
 int runServe(const ServeArgs& a) {
     auto config = plan(a);
     if (!config) return fail(config.status().message(), kExitUsage);
@@ -130,6 +158,8 @@ int runServe(const ServeArgs& a) {
     if (!scene) return fail(scene.status());
     auto memory = checkServeMemory(a, *config, scene->triangleCount());
     if (!memory) return fail(memory.status());
+    auto openFiles = raiseOpenFilesLimit(a);
+    if (!openFiles) return fail(openFiles.status());
     const size_t triangles = scene->triangleCount();
     const sigset_t stopSignals = blockStopSignals();
     auto server = remote::Server::create(std::move(scene).value(), *config);
@@ -146,6 +176,7 @@ int runServe(const ServeArgs& a) {
                                           {"triangles", triangles},
                                           {"refs", a.refs},
                                           {"face_size", servedFaceSize},
+                                          {"open_files", *openFiles},
                                           {"prediction", a.prediction}}
                                .dump());
     } else {

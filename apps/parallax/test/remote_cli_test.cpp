@@ -2,9 +2,12 @@
 // the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
 // arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
 
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <thread>
 #include <vector>
 
@@ -129,6 +132,7 @@ TEST(RemoteCli, FailedAcceptsDoNotSpin) {
     if (kUnderAddressSanitizer) GTEST_SKIP() << "the sanitizers need file descriptors it takes";
     ServeProcess server("office:1 --face-size 32", "ulimit -n 64; ");
     ASSERT_GT(server.port(), 0);
+    EXPECT_EQ(server.listening.value("open_files", 0), 64);  // the hard limit: it cannot raise it
     ASSERT_GE(server.cpuSeconds(), 0.0) << "no /proc/PID/task/PID/children to find the server";
     std::vector<int> flood;
     for (int i = 0; i < 100; ++i)
@@ -161,6 +165,26 @@ TEST(RemoteCli, ASilentFloodLeavesRoomForClients) {
     EXPECT_EQ(stopped.value("accept_failures", -1), 0);
     EXPECT_GE(stopped.value("pending_dropped", 0), 84);  // all but the newest 16 silent ones
     for (int fd : flood) close(fd);
+}
+
+// A soft limit on open files below what its sessions and pending connections need is raised (as
+// far as the hard limit allows); one the hard limit keeps too low is a warning, an error with
+// --strict.
+TEST(RemoteCli, ServeRaisesItsOpenFilesLimit) {
+    rlimit inherited{};
+    ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &inherited), 0);
+    for (auto [sessions, needed] : {std::pair{16, 112}, std::pair{1024, 1120}}) {
+        ServeProcess server("office:1 --face-size 32 --max-sessions " + std::to_string(sessions),
+                            "ulimit -Sn 64; ");
+        ASSERT_GT(server.port(), 0);
+        EXPECT_EQ(server.listening.value("open_files", 0),
+                  std::min<uint64_t>(needed, inherited.rlim_max))
+            << sessions << " sessions";
+    }
+    expectOneLineError(
+        runParallax("--strict serve office:1 --port 0 --seconds 0.5", "ulimit -n 64; "),
+        "64 open files allowed (ulimit -n); --max-sessions 16 and --max-pending 64 "
+        "need about 112");
 }
 
 TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {

@@ -491,9 +491,9 @@ struct Transport::Impl {
             acceptBackoff = {};
             auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
             track(c);
-            admitPending(c, config.maxPendingConnections);
             c->setTimeouts(true);
             c->acceptRequest(onAccept);
+            admitPending(c, config.maxPendingConnections);
             acceptNext(config, onAccept);
         });
     }

@@ -127,13 +127,13 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
 }
 
 // File descriptors a server holds beyond its connections' sockets: 9 at start (standard streams,
-// the I/O thread's epoll, eventfd and timerfd), with room for connections being closed.
+// the I/O thread's epoll, eventfd and timerfd), with room to spare.
 constexpr uint64_t kServeBaseFiles = 32;
 
-// Each session and each connection not yet heard from holds a socket. Raises the soft limit on
-// open files to what they need, as far as the hard limit allows (a soft limit of 1024 is common),
-// and warns when even that falls short: accepts past it fail and are retried 5 ms to 1 s apart
-// until connections close. Returns the limit now.
+// Each session and each pending connection (not yet a session, or closing) holds a socket. Raises
+// the soft limit on open files to what they need, as far as the hard limit allows (a soft limit of
+// 1024 is common), and warns when even that falls short: accepts past it fail and are retried 5 ms
+// to 1 s apart until connections close. Returns the limit now.
 Result<uint64_t> raiseOpenFilesLimit(const ServeArgs& a) {
     const uint64_t needed = uint64_t(a.maxSessions) + uint64_t(a.maxPending) + kServeBaseFiles;
     rlimit limit{};
@@ -244,7 +244,8 @@ Command registerServe(CLI::App& app) {
     sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
         ->capture_default_str();
     sub->add_option("--max-pending", a->maxPending,
-                    "Connections that have not said hello yet; one more drops the oldest")
+                    "Connections without a session (not said hello yet, or closing); one more "
+                    "drops the oldest")
         ->capture_default_str();
     sub->add_option("--write-timeout", a->writeTimeoutS,
                     "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "

@@ -112,7 +112,7 @@ public:
     // WebSocket upgrade becomes a session (onUpgrade gives its events); anything else is answered
     // from config.httpFiles and closed.
     void acceptRequest(std::function<ConnectionEvents(std::shared_ptr<Connection>)> onUpgrade) {
-        mAwaitingFirst = true;
+        mOnListener = mAwaitingFirst = true;
         mRequest.emplace();
         mRequest->header_limit(kMaxRequestHeaderBytes);
         mRequest->body_limit(0);
@@ -185,9 +185,12 @@ public:
         finish(errorStatus(ErrorCode::kIoError, std::string(why)));
     }
 
-    // On the I/O thread: accepted by a listener, and nothing delivered yet (HTTP request,
-    // WebSocket handshake, first message) nor dropped.
-    bool awaitingFirstMessage() const { return mAwaitingFirst && !mFinished; }
+    // On the I/O thread: accepted by a listener and open, but no session's work: nothing
+    // delivered yet (HTTP request, WebSocket handshake, first message), or being closed (a
+    // refusal or a goodbye written, the peer's close awaited).
+    bool pending() const {
+        return mOnListener && !mFinished && (mAwaitingFirst || mCloseWhenDrained);
+    }
 
 private:
     static constexpr uint32_t kMaxRequestHeaderBytes = 8192;
@@ -420,7 +423,7 @@ private:
     std::atomic<size_t> mQueued{0};
     bool mStarted = false, mWriting = false, mReading = false, mWantRead = true;
     bool mCloseWhenDrained = false, mClosing = false, mFinished = false;
-    bool mAwaitingFirst = false;  // awaitingFirstMessage
+    bool mOnListener = false, mAwaitingFirst = false;  // pending
 };
 
 }  // namespace
@@ -456,9 +459,7 @@ struct Transport::Impl {
     std::chrono::milliseconds acceptBackoff{0};  // the wait before the next accept; 0 after success
     std::mutex mutex;  // guards stopped
     bool stopped = false;
-    std::vector<std::weak_ptr<WsConnection>> connections;  // I/O thread only
-    // Accepted connections that may still await their first message, oldest first (I/O thread).
-    std::deque<std::weak_ptr<WsConnection>> pending;
+    std::vector<std::weak_ptr<WsConnection>> connections;  // I/O thread only, oldest first
     std::atomic<int64_t> acceptFailures{0}, pendingDropped{0};
 
     void track(const std::shared_ptr<WsConnection>& c) {
@@ -466,22 +467,23 @@ struct Transport::Impl {
         connections.push_back(c);
     }
 
-    // Makes room for one more pending connection within maxPendingConnections by dropping the
-    // oldest: a client that is not flooding completes its handshake and first message within
-    // a round trip or two, so the oldest pending connections are the silent ones.
-    void admitPending(const std::shared_ptr<WsConnection>& c, int maxPending) {
-        std::erase_if(pending, [](const auto& w) {
-            auto p = w.lock();
-            return !p || !p->awaitingFirstMessage();
-        });
-        while (pending.size() >= size_t(maxPending)) {
-            if (auto oldest = pending.front().lock()) {
-                oldest->drop("dropped: too many connections awaiting their first message");
-                ++pendingDropped;
-            }
-            pending.pop_front();
+    // Drops the oldest pending connections (WsConnection::pending) while more than maxPending are
+    // open (ConnectionConfig::maxPendingConnections). A client that is not flooding completes its
+    // handshake and first message within a round trip or two, and a close within one, so the
+    // oldest pending connections are a flood's: peers that say nothing, or that are refused and
+    // never read the refusal.
+    void limitPending(int maxPending) {
+        auto isPending = [](const auto& w) {
+            auto c = w.lock();
+            return c && c->pending();
+        };
+        auto open = std::count_if(connections.begin(), connections.end(), isPending);
+        for (size_t i = 0; i < connections.size() && open > maxPending; ++i) {
+            if (!isPending(connections[i])) continue;
+            connections[i].lock()->drop("dropped: too many pending connections");
+            ++pendingDropped;
+            --open;
         }
-        pending.push_back(c);
     }
 
     void acceptNext(ConnectionConfig config, AcceptHandler onAccept) {
@@ -493,7 +495,7 @@ struct Transport::Impl {
             track(c);
             c->setTimeouts(true);
             c->acceptRequest(onAccept);
-            admitPending(c, config.maxPendingConnections);
+            limitPending(config.maxPendingConnections);
             acceptNext(config, onAccept);
         });
     }

@@ -532,6 +532,32 @@ TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
     EXPECT_TRUE(servedClient(*server, scene));
 }
 
+// Peers refused for a missing token that never read the refusal each hold a connection until
+// their close times out; past --max-pending the oldest are dropped at once, and a client with
+// the token is served beside the newest.
+TEST(RemoteSession, RefusedPeersThatNeverReadArePending) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    ServerConfig config = smallServer();
+    config.token = "abc";
+    config.maxPendingConnections = 4;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    std::vector<std::unique_ptr<RawPeer>> peers;
+    for (int i = 0; i < 10; ++i) {
+        peers.push_back(std::make_unique<RawPeer>(server->port()));
+        peers.back()->conn().setReading(false);
+        peers.back()->hello();
+    }
+    EXPECT_TRUE(eventually([&] { return server->stats().refused == 10; }));
+    EXPECT_TRUE(eventually([&] { return server->stats().pendingDropped == 6; }));
+    EXPECT_EQ(server->stats().acceptFailures, 0);
+    RawPeer client(server->port());
+    client.hello("abc");
+    auto hello = client.first<ServerHello>();
+    ASSERT_TRUE(hello);
+    EXPECT_TRUE(hello->accepted);
+}
+
 // Peers that stop reading each hold a set on their sockets; together they stay within the
 // server's queue budget, here one set: renders for the others wait until a write completes.
 TEST(RemoteSession, StalledReadersQueueNoMoreThanTheBudget) {

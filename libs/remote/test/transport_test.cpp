@@ -126,6 +126,13 @@ public:
     ~RawReader() { close(mFd); }
 
     bool ok() const { return mOk; }
+    // Sends one binary message of at most 125 bytes (one frame, masked with a zero key).
+    bool sendBinary(const std::vector<uint8_t>& payload) {
+        std::vector<uint8_t> frame = {0x82, uint8_t(0x80 | payload.size()), 0, 0, 0, 0};
+        frame.insert(frame.end(), payload.begin(), payload.end());
+        return payload.size() <= 125 &&
+               send(mFd, frame.data(), frame.size(), 0) == ssize_t(frame.size());
+    }
     // Reads what is there (at most 64 KiB); the bytes read, 0 at the end or after 2 s of nothing.
     size_t readSome() {
         static thread_local std::vector<char> sink(64 * 1024);
@@ -200,17 +207,22 @@ TEST(TransportWriteTimeout, OutOfRangeTimeoutsAreRefused) {
     }
 }
 
-// A listener that lets `maxPending` connections wait for their first message, and counts the
-// messages and closes of those that got past their WebSocket handshake.
+// A listener that lets `maxPending` connections wait for their first message or their close,
+// and counts the messages and closes of those that got past their WebSocket handshake. With
+// `refuse`, it answers each first message by closing, as a server refuses a hello.
 class PendingListener {
 public:
-    explicit PendingListener(int maxPending) {
+    explicit PendingListener(int maxPending, bool refuse = false) {
         mTransport = std::move(Transport::create()).value();
         ConnectionConfig config;
         config.maxPendingConnections = maxPending;
-        auto port = mTransport->listen("127.0.0.1", 0, config, [this](auto) {
+        config.handshakeTimeoutMs = 60000.0;  // no pending connection times out during a test
+        auto port = mTransport->listen("127.0.0.1", 0, config, [this, refuse](auto conn) {
             ConnectionEvents events;
-            events.onMessage = [this](std::vector<uint8_t>&&, bool) { bump(mMessages); };
+            events.onMessage = [this, refuse, weak = std::weak_ptr(conn)](auto&&, bool) {
+                if (auto c = weak.lock(); c && refuse) c->close();
+                bump(mMessages);
+            };
             events.onClosed = [this](const Status&) { bump(mClosed); };
             return events;
         });
@@ -278,6 +290,21 @@ TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {
     EXPECT_EQ(listener.transport().listenerStats().acceptFailures, 0);
     (*client)->abort();
     for (int fd : silent) close(fd);
+}
+
+// Peers refused at their first message that never read the refusal: each waits for its close
+// (until the handshake timeout) as pending, and past the limit the oldest are dropped at once.
+TEST(TransportPending, RefusedPeersThatNeverReadAreDroppedPastTheLimit) {
+    PendingListener listener(4, /*refuse=*/true);
+    std::vector<std::unique_ptr<RawReader>> peers;
+    for (int i = 0; i < 10; ++i) {
+        peers.push_back(std::make_unique<RawReader>(listener.port()));
+        ASSERT_TRUE(peers.back()->ok()) << i;
+        ASSERT_TRUE(peers.back()->sendBinary({1, 2, 3})) << i;
+        ASSERT_TRUE(listener.messages(i + 1)) << i;
+    }
+    EXPECT_EQ(listener.pendingDropped(6), 6);
+    EXPECT_EQ(listener.closed(), 6);  // the four newest still wait for their peers' close
 }
 
 TEST(TransportPending, OutOfRangeLimitsAreRefused) {

@@ -49,8 +49,9 @@ struct ServerConfig {
     // A session whose socket takes no frame of kWriteChunkBytes in this long is dropped: its peer
     // stopped reading and would hold one of maxSessions for as long as it stays connected.
     double writeStallTimeoutMs = 30000.0;
-    // Connections that have not said ClientHello yet (nor finished their WebSocket handshake or
-    // HTTP request), at most this many: one more drops the oldest (ConnectionConfig's).
+    // Connections without a session, that have not said ClientHello yet (nor finished their
+    // WebSocket handshake or HTTP request) or are being closed (refused, failed, said goodbye),
+    // at most this many: one more drops the oldest (ConnectionConfig's).
     int maxPendingConnections = 64;
     // All sessions' encoded sets handed to their sockets and not yet written, at most this many
     // bytes plus one set: past it, renders wait for writes. Bounds the server's memory whatever

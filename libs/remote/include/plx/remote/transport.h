@@ -59,10 +59,12 @@ struct ConnectionConfig {
     // time; the socket takes bytes again once the peer has read a part of its buffer (Linux: a
     // third, up to about 1.4 MB), so only a peer reading less than that per timeout is cut.
     double writeStallTimeoutMs = 30000.0;
-    // Listeners only: connections accepted that have delivered nothing yet (their HTTP request,
-    // WebSocket handshake or first message still to come), at most this many; one more drops
-    // the oldest of them. A flood of silent connections then holds neither the file descriptors
-    // nor the handshake timeout's worth of time that new clients need (checkMaxPending).
+    // Listeners only: connections accepted that are pending, awaiting their first message (the
+    // HTTP request, WebSocket handshake or first message still to come) or their close (a
+    // refusal or goodbye written, the peer's close awaited), at most this many; one more drops
+    // the oldest of them. A flood of peers that say nothing, or are refused and never read it,
+    // then holds neither the file descriptors nor the timeouts' worth of time that new clients
+    // need (checkMaxPending).
     int maxPendingConnections = 64;
     // Listeners only: requests that are not a WebSocket upgrade are answered from these files
     // (404 when empty), then the connection is closed.

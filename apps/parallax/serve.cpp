@@ -62,7 +62,10 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     c.pages = [](std::string_view path) -> std::optional<remote::HttpFile> {
         std::optional<WebAsset> asset = webAsset(path);
         if (!asset) return std::nullopt;
-        return remote::HttpFile{asset->bytes, std::string(asset->contentType)};
+        return remote::HttpFile{asset->bytes,
+                                std::string(asset->contentType),
+                                {{"Content-Security-Policy", std::string(kPageSecurityPolicy)},
+                                 {"Referrer-Policy", "no-referrer"}}};
     };
     if (!(a.seconds >= 0.0 && a.seconds <= 1e6))
         return errorStatus(ErrorCode::kInvalidArgument,

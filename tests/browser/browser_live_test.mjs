@@ -78,10 +78,14 @@ try {
 
     const page = await browser.newPage({viewport: {width: pose.width + 40, height: pose.height + 40}});
     page.on('pageerror', (e) => console.log(`page error: ${e.message}`));
+    const violations = [];
     page.on('console', (m) => {
         if (m.type() === 'error') console.log(`page console: ${m.text()}`);
+        if (m.text().includes('Content Security Policy')) violations.push(m.text());
     });
-    await page.goto(`http://127.0.0.1:${port}/?script&face=${FACE_SIZE}`);
+    const response = await page.goto(`http://127.0.0.1:${port}/?script&face=${FACE_SIZE}`);
+    check((response.headers()['content-security-policy'] ?? '').includes("connect-src 'self'"),
+          `the page comes with its Content-Security-Policy`);
     await waitForSession(page);
 
     // The pose path: the reference pose until a set rendered there has arrived, then hold (no
@@ -106,6 +110,7 @@ try {
     console.log(`browser: ${stats.references} sets (${stats.skipped} skipped), last ${stats.bytes} bytes, ` +
                 `decoded in ${stats.decodeMs.toFixed(1)} ms; native set ${pose.setBytes} bytes`);
     check(stats.error === '' && stats.state === 'session', `the session is open and error-free (${stats.error})`);
+    check(violations.length === 0, `no Content-Security-Policy violation (${violations.join('; ')})`);
 
     checkAgainstNative(check, Buffer.from(frame.rgba, 'base64'), fs.readFileSync(path.join(outDir, 'native.rgba')),
                        pose.width, pose.height, outDir);

@@ -220,6 +220,7 @@ private:
         } else {
             res->result(http::status::ok);
             res->set(http::field::content_type, file->contentType);
+            for (const auto& [name, value] : file->headers) res->set(name, value);
             res->body().assign(reinterpret_cast<const char*>(file->bytes.data()),
                                file->bytes.size());
         }

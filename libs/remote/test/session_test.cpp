@@ -354,7 +354,8 @@ TEST(RemoteSession, PagesAreServedBesideTheWebSocket) {
     config.pages = [](std::string_view path) -> std::optional<HttpFile> {
         if (path != "/") return std::nullopt;
         return HttpFile{{reinterpret_cast<const uint8_t*>(page.data()), page.size()},
-                        "text/html; charset=utf-8"};
+                        "text/html; charset=utf-8",
+                        {{"Content-Security-Policy", "default-src 'none'"}}};
     };
     const scene::Scene scene = *scene::generateFromSpec("office:1");
     auto server = startServer(config);
@@ -364,6 +365,7 @@ TEST(RemoteSession, PagesAreServedBesideTheWebSocket) {
     std::string ok = rawHttp(port, "GET /?ws=/ws HTTP/1.1\r\nHost: x\r\n\r\n");
     EXPECT_EQ(ok.rfind("HTTP/1.1 200", 0), 0u) << ok;
     EXPECT_NE(ok.find("Content-Type: text/html; charset=utf-8"), std::string::npos);
+    EXPECT_NE(ok.find("Content-Security-Policy: default-src 'none'\r\n"), std::string::npos) << ok;
     EXPECT_EQ(ok.substr(ok.size() - page.size()), page);
     std::string missing = rawHttp(port, "GET /../../etc/passwd HTTP/1.1\r\nHost: x\r\n\r\n");
     EXPECT_EQ(missing.rfind("HTTP/1.1 404", 0), 0u) << missing;

@@ -42,6 +42,9 @@ Status checkBindAddress(const std::string& bind);
 struct HttpFile {
     std::span<const uint8_t> bytes;  // must outlive the listener (embedded assets do)
     std::string contentType;
+    // Sent with it besides the transport's own (Content-Type, X-Content-Type-Options: nosniff,
+    // Cache-Control: no-cache), e.g. a Content-Security-Policy.
+    std::vector<std::pair<std::string, std::string>> headers;
 };
 // Looks up the file of a request's path ("/", "/main.js"; query and fragment already stripped);
 // nullopt answers 404. It never touches the file system unless its author makes it.

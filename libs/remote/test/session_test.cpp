@@ -538,7 +538,6 @@ TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
 // their close times out; past --max-pending the oldest are dropped at once, and a client with
 // the token is served beside the newest.
 TEST(RemoteSession, RefusedPeersThatNeverReadArePending) {
-    const scene::Scene scene = *scene::generateFromSpec("office:1");
     ServerConfig config = smallServer();
     config.token = "abc";
     config.maxPendingConnections = 4;

@@ -217,31 +217,29 @@ struct Server::Impl {
         if (!config.token.empty() && !tokensEqual(hello.token, config.token))
             return refuse(s, hello.token.empty() ? "a token is required" : "wrong token", hello);
         const DisparityCodec disparity = disparityCodecFor(hello.disparityCodecs);
-        ServerHello h;
         {
             std::lock_guard lock(mutex);
-            if (stats.sessionsActive >= config.maxSessions) {
-                ++stats.refused;
-                s->state = SessionState::kClosed;
-                h.accepted = false;
-            } else {
+            if (stats.sessionsActive < config.maxSessions) {
                 ++stats.sessionsActive;
                 ++stats.sessionsTotal;
                 s->state = SessionState::kAccepted;
                 s->faceSize = std::min(hello.faceSize, maxServedFaceSize(config.reference));
                 s->disparityCodec = disparity;
+                ServerHello h;
+                h.layout = config.reference.layout;
+                h.faceSize = s->faceSize;
+                h.poseRateHz = config.poseRateHz;
+                // Queued before the lock is released: the worker pings accepted sessions
+                // (housekeepLocked), and no Ping may reach the client before its ServerHello.
+                send(s, h);
+                return;
             }
+            ++stats.refused;
+            s->state = SessionState::kClosed;
         }
-        if (!h.accepted) {
-            send(s, ErrorMessage{ErrorKind::kOverloaded,
-                                 fmt::format("server full ({} sessions)", config.maxSessions)});
-            s->conn->close();
-            return;
-        }
-        h.layout = config.reference.layout;
-        h.faceSize = s->faceSize;
-        h.poseRateHz = config.poseRateHz;
-        send(s, h);
+        send(s, ErrorMessage{ErrorKind::kOverloaded,
+                             fmt::format("server full ({} sessions)", config.maxSessions)});
+        s->conn->close();
     }
 
     // The server's configured disparity codec when the client decodes it, else the client's

@@ -30,9 +30,10 @@ std::optional<WebAsset> webAsset(std::string_view path);
 
 // The Content-Security-Policy served with them: the page runs only its own modules, talks only
 // to its own origin (the WebSocket on the same host and port, `?ws=` a path there), loads
-// nothing else (its inline style and data: icon excepted) and is never framed.
+// nothing else (its stylesheet and data: icon excepted; no inline script or style) and is never
+// framed.
 inline constexpr std::string_view kPageSecurityPolicy =
-    "default-src 'none'; script-src 'self'; connect-src 'self'; style-src 'unsafe-inline'; "
+    "default-src 'none'; script-src 'self'; connect-src 'self'; style-src 'self'; "
     "img-src data:; base-uri 'none'; form-action 'none'; frame-ancestors 'none'";
 
 }  // namespace plx::cli

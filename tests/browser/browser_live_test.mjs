@@ -86,6 +86,9 @@ try {
     const response = await page.goto(`http://127.0.0.1:${port}/?script&face=${FACE_SIZE}`);
     check((response.headers()['content-security-policy'] ?? '').includes("connect-src 'self'"),
           `the page comes with its Content-Security-Policy`);
+    // Its stylesheet applies (a page without it would still run, its overlay in the flow).
+    check(await page.evaluate(() => getComputedStyle(document.getElementById('overlay')).position) === 'fixed',
+          'the page\'s stylesheet applies');
     await waitForSession(page);
 
     // The pose path: the reference pose until a set rendered there has arrived, then hold (no

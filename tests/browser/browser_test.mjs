@@ -37,7 +37,8 @@ execFileSync(fixtureExe, [outDir], {stdio: 'inherit'});
 const pose = JSON.parse(fs.readFileSync(path.join(outDir, 'pose.json'), 'utf8'));
 
 // Serves only the fixture's files: the embedded page under /, the messages under /data/.
-const TYPES = {'.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8'};
+const TYPES = {'.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8',
+               '.css': 'text/css; charset=utf-8'};
 const files = new Map();
 for (const name of fs.readdirSync(path.join(outDir, 'web'))) {
     files.set(`/${name}`, path.join(outDir, 'web', name));

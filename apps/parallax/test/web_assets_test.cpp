@@ -44,6 +44,8 @@ TEST(WebAssets, RootIsThePageAndTypesFollowTheName) {
     EXPECT_EQ(assetBytes(*webAsset("")), assetBytes(*root));
     ASSERT_TRUE(webAsset("/main.js"));
     EXPECT_EQ(webAsset("/main.js")->contentType, "text/javascript; charset=utf-8");
+    ASSERT_TRUE(webAsset("/page.css"));
+    EXPECT_EQ(webAsset("/page.css")->contentType, "text/css; charset=utf-8");
 }
 
 TEST(WebAssets, RefusesEverythingElse) {

@@ -2,8 +2,8 @@
 // scalar unit steps four pixels at a time with SSE2 (one at a time in a PLX_NO_SIMD build, the
 // reference), the avx2 unit eight with AVX2. Every path writes the same landings and pixels.
 
+#include <plx/stereo/reproject.h>
 #include <cstring>
-
 #include "row_pass.h"
 
 #if defined(__AVX2__)
@@ -39,12 +39,7 @@ struct DirectOffset {
 // scalar form's test does.
 struct TableOffset {
     OffsetTable t;
-    float operator()(float v) const {
-        float q = v * t.scale + 0.5f;
-        if (!(q >= 0.0f)) q = 0.0f;
-        if (q > t.last) q = t.last;
-        return t.table[int(q)];
-    }
+    float operator()(float v) const { return t.table[OffsetLut::entryIndex(v, t.scale, t.last)]; }
 #if PLX_ROW_AVX2
     __m256 operator()(__m256 v) const {
         __m256 q = _mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(t.scale)), _mm256_set1_ps(0.5f));

@@ -73,17 +73,20 @@ public:
     static Result<OffsetLut> create(const DisparityLine& line, float maxInvW, int entries = 4096);
 
     // Offset in pixels of a pixel with the given 1/w, plus the pixel centre's 0.5.
-    float centredOffset(float invW) const {
-        float q = invW * mScale + 0.5f;
+    float centredOffset(float invW) const { return mTable[entryIndex(invW, mScale, mLast)]; }
+    // The entry of 1/w for a table of last + 1 entries and the given scale(): rounded to the
+    // nearest, clamped to the table. The row kernels' scalar steps.
+    static size_t entryIndex(float invW, float scale, float last) {
+        float q = invW * scale + 0.5f;
         if (!(q >= 0.0f)) q = 0.0f;  // negative or NaN 1/w: not produced by a renderer
-        if (q > mLast) q = mLast;
-        return mTable[size_t(q)];
+        if (q > last) q = last;
+        return size_t(q);
     }
     float maxErrorPx() const { return mMaxErrorPx; }
     const DisparityLine& line() const { return mLine; }
     int entries() const { return int(mTable.size()); }
     // The entries (entry i: a i / scale() + b + 0.5) and the scale from 1/w to their index, for
-    // the row kernels, which repeat centredOffset's steps.
+    // the row kernels, whose vector forms repeat entryIndex's steps.
     const float* table() const { return mTable.data(); }
     float scale() const { return mScale; }
 

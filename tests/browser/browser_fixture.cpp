@@ -1,9 +1,10 @@
 // The browser test's fixture (tests/browser/browser_test.mjs): writes, for a known scene and
 // pose, what a server would send a browser (the encoded ServerHello and one ReferenceSet message,
-// coded as the server codes them for a client that decodes only q16-deflate), the embedded page
-// (through webAsset, as the server serves it), and the native client's frame for a destination
-// pose: the same message decoded by libs/remote and warped by warp::Warper. The browser warps the
-// same bytes to the same pose, so the two frames differ only by the two warps.
+// coded as the server codes them for a client that decodes only q16-deflate; a Ping and the Pong
+// that answers it), the embedded page (through webAsset, as the server serves it), and the native
+// client's frame for a destination pose: the same message decoded by libs/remote and warped by
+// warp::Warper. The browser warps the same bytes to the same pose, so the two frames differ only
+// by the two warps.
 //
 // With a server's address it writes the native client's frame from a live session instead
 // (tests/browser/browser_live_test.mjs): a libs/remote Client receives the server's set for the
@@ -135,6 +136,16 @@ Status runOffline(const fs::path& out, const scene::Scene& scene) {
     if (!setBytes) return setBytes.status();
     PLX_RETURN_IF_ERROR(writeBytes(out / "server_hello.bin", *helloBytes));
     PLX_RETURN_IF_ERROR(writeBytes(out / "reference_set.bin", *setBytes));
+    // A server's Ping and the Pong that answers it, every byte of both fields set.
+    constexpr uint64_t kPingTime = 0x0123456789abcdefull;
+    constexpr uint32_t kPingNonce = 0xa1b2c3d4u;
+    for (auto [name, control] :
+         {std::pair<const char*, remote::Message>{"ping.bin", remote::Ping{kPingTime, kPingNonce}},
+          {"pong.bin", remote::Pong{kPingTime, kPingNonce}}}) {
+        Result<std::vector<uint8_t>> bytes = remote::encodeMessage(control);
+        if (!bytes) return bytes.status();
+        PLX_RETURN_IF_ERROR(writeBytes(out / name, *bytes));
+    }
 
     // The native client: the same bytes decoded and warped.
     Result<remote::Message> decoded = remote::decodeMessage(*setBytes);

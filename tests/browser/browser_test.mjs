@@ -5,7 +5,8 @@
 // pose, and the read-back frame is compared with the native client's frame (libs/remote decode +
 // warp::Warper) of the same bytes and pose: PSNR and the fraction of pixels within a tolerance.
 // Every truncated prefix and random bit flips of both messages are refused with one line (or, for
-// a flip, decode), never another exception; a truncated message stops the page visibly.
+// a flip, decode), never another exception; a truncated message stops the page visibly; Pings
+// are answered with the native client's Pong bytes, at most 10 a second, none while backed up.
 //
 // Usage: node browser_test.mjs FIXTURE_EXE OUTDIR. Exit 0 pass, 1 fail, 77 skipped (no chromium
 // or no node_modules: `npm ci` in this folder, which scripts/install-deps.sh runs).
@@ -44,7 +45,7 @@ for (const name of fs.readdirSync(path.join(outDir, 'web'))) {
     files.set(`/${name}`, path.join(outDir, 'web', name));
 }
 files.set('/', path.join(outDir, 'web', 'index.html'));
-for (const name of ['server_hello.bin', 'reference_set.bin']) files.set(`/data/${name}`, path.join(outDir, name));
+for (const name of ['server_hello.bin', 'reference_set.bin', 'ping.bin']) files.set(`/data/${name}`, path.join(outDir, name));
 const server = http.createServer((req, res) => {
     const file = files.get(new URL(req.url, 'http://x').pathname);
     if (!file) {
@@ -107,6 +108,35 @@ try {
     const shown = await page.locator('#error').innerText();
     console.log(`truncated set: "${error}"`);
     check(error !== '' && !error.includes('\n') && shown === error, 'a truncated set is refused with one visible line');
+
+    // Pings (docs/remote-protocol.md): refused before the server hello; after it, answered by
+    // the native client's Pong bytes, at most 10 times a second, and not while the socket is
+    // backed up (a server that stops reading gets no queue of them).
+    await page.goto(`${origin}/?test`);
+    await page.waitForFunction(() => window.plxTest?.ready === true);
+    const early = await page.evaluate(() => plxTest.feed('/data/ping.bin'));
+    check(early === 'ping before the server hello', `a ping before the server hello is refused ("${early}")`);
+    const pong = fs.readFileSync(path.join(outDir, 'pong.bin')).toString('base64');
+    const answers = async (backedUpFirst, pings) => {
+        await page.goto(`${origin}/?test`);
+        await page.waitForFunction(() => window.plxTest?.ready === true);
+        return page.evaluate(async ([first, n]) => {
+            await plxTest.feed('/data/server_hello.bin');
+            plxTest.backedUp(first);
+            await plxTest.feed('/data/ping.bin');
+            const whileBackedUp = plxTest.sent().length;
+            plxTest.backedUp(false);
+            for (let i = 1; i < n; ++i) await plxTest.feed('/data/ping.bin');
+            return {whileBackedUp, sent: plxTest.sent(), error: plxTest.stats().error};
+        }, [backedUpFirst, pings]);
+    };
+    const flood = await answers(false, 25);
+    console.log(`pings: 25 answered by ${flood.sent.length} pongs`);
+    check(flood.error === '' && flood.sent.length === 10 && flood.sent.every((b) => b === pong),
+          'ten pongs to 25 pings within a second, each the native Pong of its ping');
+    const backedUp = await answers(true, 2);
+    check(backedUp.error === '' && backedUp.whileBackedUp === 0 && backedUp.sent.length === 1 &&
+          backedUp.sent[0] === pong, 'no pong while the socket is backed up; the next ping answered');
 } finally {
     await browser.close();
     server.close();

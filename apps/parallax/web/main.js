@@ -7,8 +7,9 @@
 // rendered for), the round-trip time of the last ping, and the sets received.
 //
 // URL parameters: ws=PATH (the WebSocket path on this origin, default /ws), token=T, face=N
-// (requested face size, default 512), test (no socket: window.plxTest feeds messages through
-// the same parsing, decoding and warping code and reads back the frame), script (a live
+// (requested face size, default 512), test (no network: window.plxTest feeds messages through
+// the same parsing, decoding and warping code, reads back the frame and what the page would have
+// sent), script (a live
 // session whose pose comes from window.plxScript instead of the keyboard and mouse).
 
 import {encodeClientHello, encodeError, encodePing, encodePose, Layout, MessageType, parseMessage,
@@ -93,7 +94,7 @@ class Client {
             case 'pong':
                 if (m.nonce === this.ping.nonce && !this.ping.answered) {
                     this.ping.answered = true;
-                    this.stats.rttMs = (nowUs() - m.timestampUs) / 1000;
+                    this.stats.rttMs = (nowUs() - Number(m.timestampUs)) / 1000;
                 }
                 return;
             case 'error':
@@ -301,9 +302,14 @@ function scriptHook(client) {
     };
 }
 
-// The test hook: messages from files through the socket path's code, an exact pose, the frame.
+// The test hook: messages from files through the socket path's code, an exact pose, the frame,
+// and what the page sends, recorded in place of a socket.
 function testHook(client) {
     overlay.textContent = 'test mode';
+    const sent = [];
+    const socket = {readyState: WebSocket.OPEN, bufferedAmount: 0, send: (bytes) => sent.push(bytes),
+                    close() {}};
+    client.socket = socket;
     window.plxTest = {
         async feed(url) {
             const response = await fetch(url);
@@ -319,6 +325,10 @@ function testHook(client) {
         setPose(pose) { client.setPose(pose); },
         render: (w, h, maxSplat) => readFrame(client, w, h, maxSplat),
         stats: () => ({...client.stats, error: client.error, state: client.state}),
+        // The messages sent so far (base64 each); backedUp(true) plays a server that stopped
+        // reading (more unsent than the page lets queue).
+        sent: () => sent.map(base64),
+        backedUp(on) { socket.bufferedAmount = on ? 2 * MAX_BUFFERED_BYTES : 0; },
         // The message at `url` damaged: every truncated prefix must be refused by the parser, and
         // `flips` single-bit flips (a fixed pseudo-random sequence) must parse and decode or be
         // refused with a one-line ProtocolError; anything else is listed in `unexpected`.

@@ -50,6 +50,13 @@ class Reader {
         this.pos += 8;
         return hi * 4294967296 + lo;
     }
+    // All 64 bits, for a field echoed back (a Ping's timestamp: the peer's clock, any value).
+    u64Exact(field) {
+        this.need(8, field);
+        const v = this.view.getBigUint64(this.pos, true);
+        this.pos += 8;
+        return v;
+    }
     f32(field) {
         this.need(4, field);
         const v = this.view.getFloat32(this.pos, true);
@@ -84,7 +91,12 @@ class Writer {
     u8(v) { this.bytes.push(v & 0xff); }
     u16(v) { this.u8(v); this.u8(v >>> 8); }
     u32(v) { for (let i = 0; i < 4; ++i) this.u8(v >>> (8 * i)); }
-    u64(v) { this.u32(v % 4294967296); this.u32(Math.floor(v / 4294967296)); }
+    // v: a BigInt or an integer Number.
+    u64(v) {
+        const b = BigInt(v);
+        this.u32(Number(b & 0xffffffffn));
+        this.u32(Number(b >> 32n));
+    }
     f32(v) {
         const b = new Uint8Array(new Float32Array([v]).buffer);
         for (const x of b) this.u8(x);
@@ -281,7 +293,7 @@ export function parseMessage(data, limits = LIMITS) {
         }
         case MessageType.ping:
         case MessageType.pong:
-            m = {type: type === MessageType.ping ? 'ping' : 'pong', timestampUs: r.u64('timestampUs'),
+            m = {type: type === MessageType.ping ? 'ping' : 'pong', timestampUs: r.u64Exact('timestampUs'),
                  nonce: r.u32('nonce')};
             break;
         case MessageType.error: {

@@ -96,7 +96,7 @@ void printTable(const RemoteExperiment& e, const std::string& dir) {
 int runRemoteBench(const RemoteBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
-    auto bytes = remoteExperimentImageBytes(*config);
+    auto bytes = remoteExperimentBytes(*config);
     if (!bytes) return fail(bytes.status().message(), kExitUsage);
     auto memory = startExperiment("bench remote", config->width, config->height, *bytes, a.out);
     if (!memory) return fail(memory.status());

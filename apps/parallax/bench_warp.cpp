@@ -103,7 +103,7 @@ void printTables(const WarpExperiment& e, const std::string& dir) {
 int runWarpBench(const WarpBenchArgs& a) {
     auto config = configFrom(a);
     if (!config) return fail(config.status().message(), kExitUsage);
-    auto bytes = warpExperimentImageBytes(*config);
+    auto bytes = warpExperimentBytes(*config);
     if (!bytes) return fail(bytes.status().message(), kExitUsage);
     auto memory = startExperiment("bench warp", config->width, config->height, *bytes, a.out);
     if (!memory) return fail(memory.status());

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
@@ -6,6 +7,8 @@
 #include <fmt/format.h>
 
 #include <plx/core/memory.h>
+#include <plx/scene/generators.h>
+#include <plx/scene/import.h>
 
 #include "cli.h"
 
@@ -103,6 +106,17 @@ Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
                                        "and ulimit limits)",
                                        what, imageBytes / kGiB, double(*available) / kGiB));
     return uint64_t(estimate);
+}
+
+Result<double> largestGeneratedTriangles(const std::vector<std::string>& specs) {
+    double largest = 0.0;
+    for (const std::string& spec : specs) {
+        if (!scene::isGeneratorSpec(spec)) continue;
+        auto triangles = scene::generatedTriangleBound(spec);
+        if (!triangles) return triangles.status();
+        largest = std::max(largest, double(*triangles));
+    }
+    return largest;
 }
 
 nlohmann::json memoryJson(uint64_t estimateBytes) {

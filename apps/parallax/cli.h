@@ -78,6 +78,14 @@ Result<uint64_t> checkImageMemory(const std::string& what, double imageBytes,
 // Rounded up.
 inline constexpr double kRenderFixedBytes = 2 << 20;
 inline constexpr double kRenderBytesPerTriangle = 34.0;
+// What a generated scene holds a triangle: 81.7 bytes (the growth of the resident size from
+// office:16 to office:280). Rounded up.
+inline constexpr double kGeneratedSceneBytesPerTriangle = 88.0;
+
+// The triangles of the largest generated scene among `specs` (scene::generatedTriangleBound),
+// for experiments that load their scenes after their memory check. Model files count none:
+// their import runs in a child process that --import-memory bounds. Errors: a bad generator spec.
+Result<double> largestGeneratedTriangles(const std::vector<std::string>& specs);
 // What the reproject stereo method's search structures (prepareReprojection) hold per scene
 // triangle: the growth of the peak over the full method's at 64x64, on office:64 and office:280
 // alike, is 96-97 for the box hierarchy and 270-271 with the BSP tree (its fragments per triangle

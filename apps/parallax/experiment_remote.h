@@ -99,10 +99,11 @@ struct RemoteExperiment {
 // Mbit/s, a size, duration or PSNR step out of range.
 Status checkRemoteExperimentConfig(const RemoteExperimentConfig& config);
 
-// The experiment's peak bytes beyond its scenes, for checkImageMemory: one session's reference
-// sets on both sides of the socket, and its display frames, those kept for the PSNR pass
-// included. Errors: a size no camera takes.
-Result<double> remoteExperimentImageBytes(const RemoteExperimentConfig& config);
+// The experiment's peak bytes, for checkImageMemory: one session's reference sets on both sides
+// of the socket, and its display frames, those kept for the PSNR pass included, with the largest
+// generated scene twice (the truth frames' and the server's copy), each with its renderer.
+// Errors: a size no camera takes, a bad scene spec.
+Result<double> remoteExperimentBytes(const RemoteExperimentConfig& config);
 
 // Runs one session per scene and link; progress(done, total) after each. Errors: those of
 // checkRemoteExperimentConfig, a scene that does not load, a server or client that fails.

@@ -184,10 +184,6 @@ double stereoExperimentImageBytes(const StereoExperimentConfig& config) {
     return perPixel * double(config.width) * double(config.height);
 }
 
-// A generated office holds 81.7 bytes a triangle (the growth of the resident size from office:16
-// to office:280); rounded up.
-constexpr double kOfficeBytesPerTriangle = 88.0;
-
 double stereoExperimentSceneBytes(const StereoExperimentConfig& config) {
     std::vector<int> rooms = config.rooms;
     std::sort(rooms.begin(), rooms.end(), std::greater<>());
@@ -198,7 +194,8 @@ double stereoExperimentSceneBytes(const StereoExperimentConfig& config) {
         kRenderBytesPerTriangle + (config.reproject ? kReprojectBoxesBytesPerTriangle : 0.0);
     const double largest = perRoom * double(rooms[0]);
     const double before = rooms.size() > 1 ? perRoom * double(rooms[1]) : 0.0;
-    return kRenderFixedBytes + largest * (kOfficeBytesPerTriangle + working) + before * working;
+    return kRenderFixedBytes + largest * (kGeneratedSceneBytesPerTriangle + working) +
+           before * working;
 }
 
 Result<std::vector<StereoExperimentRow>> runStereoExperiment(

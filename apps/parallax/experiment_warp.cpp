@@ -376,7 +376,7 @@ double workPerSetPixel(warp::Splat splat) {
     return splat == warp::Splat::kMesh ? 32.0 : 6.0;
 }
 
-Result<double> warpExperimentImageBytes(const WarpExperimentConfig& c) {
+Result<double> warpExperimentBytes(const WarpExperimentConfig& c) {
     auto [minRtt, maxRtt] = std::minmax_element(c.rttsMs.begin(), c.rttsMs.end());
     // Plain answers from the longest RTT's second newest to the shortest RTT's newest, and the
     // one rendered before the frame's drop, but no more than the walk requests: per RTT, from the
@@ -391,17 +391,37 @@ Result<double> warpExperimentImageBytes(const WarpExperimentConfig& c) {
     auto latencyPixels = referencePixels(referenceDensityFor(*display, c.layout));
     if (!latencyPixels) return latencyPixels.status();
     const double work = workPerSetPixel(c.splat);
-    double bytes = (kSetBytesPerPixel * sets + work) * double(*latencyPixels) +
-                   (4.0 * answers + kWorkPerDisplayPixel) * double(c.width) * double(c.height);
-    for (auto [w, h] : c.throughputSizes) {
+    // The scenes, one at a time, in the experiment's order: the walks', the throughput rows', the
+    // size rows' (at the first size). The one renderer keeps what it grew to for the largest so
+    // far.
+    auto walkTriangles = largestGeneratedTriangles(c.scenes);
+    auto throughputTriangles = largestGeneratedTriangles({c.throughputScene});
+    auto sizeTriangles = largestGeneratedTriangles(c.sizeScenes);
+    for (const auto* t : {&walkTriangles, &throughputTriangles, &sizeTriangles})
+        if (!*t) return t->status();
+    const double grownByThroughput = std::max(*walkTriangles, *throughputTriangles);
+    const auto phase = [](double images, double sceneTriangles, double rendererTriangles) {
+        return images + kGeneratedSceneBytesPerTriangle * sceneTriangles +
+               kRenderBytesPerTriangle * rendererTriangles;
+    };
+    double bytes =
+        phase((kSetBytesPerPixel * sets + work) * double(*latencyPixels) +
+                  (4.0 * answers + kWorkPerDisplayPixel) * double(c.width) * double(c.height),
+              *walkTriangles, *walkTriangles);
+    for (size_t i = 0; i < c.throughputSizes.size(); ++i) {
+        auto [w, h] = c.throughputSizes[i];
         auto throughputDisplay = displayOfSize(w, h);
         if (!throughputDisplay) return throughputDisplay.status();
         auto pixels = referencePixels(referenceDensityFor(*throughputDisplay, c.layout));
         if (!pixels) return pixels.status();
-        bytes = std::max(bytes, (kSetBytesPerPixel + work) * double(*pixels) +
-                                    kWorkPerDisplayPixel * double(w) * double(h));
+        const double images = (kSetBytesPerPixel + work) * double(*pixels) +
+                              kWorkPerDisplayPixel * double(w) * double(h);
+        bytes = std::max(bytes, phase(images, *throughputTriangles, grownByThroughput));
+        if (i == 0)
+            bytes = std::max(
+                bytes, phase(images, *sizeTriangles, std::max(grownByThroughput, *sizeTriangles)));
     }
-    return bytes;
+    return kRenderFixedBytes + bytes;
 }
 
 Status checkWarpExperimentConfig(const WarpExperimentConfig& c) {

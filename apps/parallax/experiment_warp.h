@@ -126,10 +126,12 @@ Result<LatencyExample> latencyExample(const std::string& scene, const WarpExperi
 // out of range, no throughput frames.
 Status checkWarpExperimentConfig(const WarpExperimentConfig& config);
 
-// The experiment's peak bytes beyond its scenes, for checkImageMemory: the most reference sets
-// and answer frames the latency simulation holds, once it has run for the longest RTT, or the
-// largest throughput row's set, whichever is more. Errors: a size no camera takes.
-Result<double> warpExperimentImageBytes(const WarpExperimentConfig& config);
+// The experiment's peak bytes, for checkImageMemory: the most reference sets and answer frames
+// the latency simulation holds, once it has run for the longest RTT, with its largest generated
+// scene, or a throughput row's set with its scene (the throughput scene; at the first size also
+// each size row's), whichever is more, and the renderer grown for the largest scene so far (the
+// scenes are loaded one at a time). Errors: a size no camera takes, a bad scene spec.
+Result<double> warpExperimentBytes(const WarpExperimentConfig& config);
 
 // Runs the latency experiment and the throughput table; progress(done, total) after each step.
 // Errors: those of checkWarpExperimentConfig, a scene that does not load.

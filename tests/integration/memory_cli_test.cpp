@@ -19,7 +19,7 @@ fs::path memoryDir() {
 // sets and splats), each at 1536x1152 with office:2 and at 64x64 with office:64 (232k
 // triangles: the renderer's and the reprojection's memory for the scene outweigh the images),
 // and the experiments, each at a size where its images outweigh the scenes it loads after the
-// check (bench stereo also where its scenes outweigh its images).
+// check, and bench stereo, warp and remote also where those scenes outweigh its images.
 const char* const kEstimatedCommands[] = {
     "render office:2 --size 1536x1152",
     "stereo office:2 --method full --frames 1 --size 1536x1152",
@@ -42,6 +42,8 @@ const char* const kEstimatedCommands[] = {
     // 24 reference sets held once the walk has run for the longest RTT (300 ms).
     "bench warp --quick --duration 0.5 --size 640x480",
     "bench warp --quick --duration 0.5 --refs wide --splat mesh --size 640x360",
+    // Where its walk's scene outweighs its images: 465k triangles.
+    "bench warp --quick --duration 0.2 --scenes office:128",
 };
 
 TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
@@ -55,11 +57,14 @@ TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
     // bench remote's peak depends on how much of a set the server's and the client's buffers
     // hold at once, which timing decides: the estimate is 1.02-1.04 of it on a quiet machine,
     // and was 1.27 beside other work.
-    const std::string remote = "bench remote --quick --size 1024x1024";
-    RunResult remoteRun =
-        runParallax(remote + " --out " + (memoryDir() / "peak").string() + " --json");
-    ASSERT_EQ(remoteRun.exitCode, 0) << remote << ": " << remoteRun.err;
-    expectEstimateHoldsPeak(remoteRun.out, remote, 1.5);
+    // With office:128 (465k triangles) its two copies of the scene outweigh its images.
+    for (const std::string remote :
+         {"bench remote --quick --size 1024x1024", "bench remote --quick --scenes office:128"}) {
+        RunResult remoteRun =
+            runParallax(remote + " --out " + (memoryDir() / "peak").string() + " --json");
+        ASSERT_EQ(remoteRun.exitCode, 0) << remote << ": " << remoteRun.err;
+        expectEstimateHoldsPeak(remoteRun.out, remote, 1.5);
+    }
     // Walks whose downloads, which the budgets bound, stay small beside the frame: 20 frames,
     // and 160 at 15 frames/s with small budgets, which reach the screenshot at 10 s.
     const fs::path db = memoryDir() / ("db-" + std::to_string(getpid()));
@@ -98,6 +103,9 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
         {"bench stereo --rooms 1 --size 4096x4096", "bench stereo at 4096x4096"},
         {"bench warp --quick --size 2048x2048", "bench warp at 2048x2048"},
         {"bench remote --quick --size 2048x2048", "bench remote at 2048x2048"},
+        // Scenes the experiments generate after the check: 14.9M and 7.4M triangles.
+        {"bench warp --quick --scenes office:4096", "bench warp at 96x72"},
+        {"bench remote --quick --scenes office:2048", "bench remote at 96x72"},
     };
     for (const auto& [command, what] : refused)
         expectOneLineError(runParallax(command + out, limit), what + " needs about");

@@ -4,6 +4,7 @@
 
 #include <plx/scene/generators.h>
 
+#include <algorithm>
 #include <charconv>
 #include <set>
 
@@ -669,14 +670,22 @@ Result<Scene> generateShowcase() {
 
 bool isCountFreeGenerator(const std::string& name) { return name == "showcase"; }
 
-Result<Scene> generateFromSpec(const std::string& spec) {
+namespace {
+
+// A parsed generator spec: its name, and its room count (0 for a count-free generator).
+struct GeneratorSpec {
+    std::string name;
+    int rooms = 0;
+};
+
+Result<GeneratorSpec> parseGeneratorSpec(const std::string& spec) {
     size_t colon = spec.find(':');
     std::string name = spec.substr(0, colon);
     if (isCountFreeGenerator(name)) {
         if (colon != std::string::npos)
             return errorStatus(ErrorCode::kInvalidArgument,
                                fmt::format("scene generator '{}' takes no count", name));
-        return generateShowcase();
+        return GeneratorSpec{name, 0};
     }
     if (name != "office" && name != "museum")
         return errorStatus(ErrorCode::kInvalidArgument,
@@ -692,7 +701,29 @@ Result<Scene> generateFromSpec(const std::string& spec) {
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("bad room count in '{}': expected an integer in 1..{}",
                                        spec, maxRooms));
-    return name == "office" ? generateOffice(int(n)) : generateMuseum(int(n));
+    return GeneratorSpec{name, int(n)};
+}
+
+// The parsed spec's scene with `rooms` rooms (ignored by a count-free generator).
+Result<Scene> generate(const GeneratorSpec& g, int rooms) {
+    if (g.rooms == 0) return generateShowcase();
+    return g.name == "office" ? generateOffice(rooms) : generateMuseum(rooms);
+}
+
+}  // namespace
+
+Result<Scene> generateFromSpec(const std::string& spec) {
+    auto g = parseGeneratorSpec(spec);
+    if (!g) return g.status();
+    return generate(*g, g->rooms);
+}
+
+Result<size_t> generatedTriangleBound(const std::string& spec) {
+    auto g = parseGeneratorSpec(spec);
+    if (!g) return g.status();
+    auto one = generate(*g, 1);
+    if (!one) return one.status();
+    return one->triangleCount() * size_t(std::max(g->rooms, 1));
 }
 
 }  // namespace plx::scene

@@ -210,5 +210,23 @@ TEST(GeneratorSpec, ParsesCountsAndRejectsBadOnes) {
     EXPECT_FALSE(isGeneratorSpec("C:\\models\\a.obj"));
 }
 
+TEST(GeneratorSpec, TriangleBoundsHoldWithoutGenerating) {
+    for (const char* spec : {"office:1", "office:7", "office:30", "museum:1", "museum:5",
+                             "museum:16", "museum:40", "showcase"}) {
+        auto scene = generateFromSpec(spec);
+        auto bound = generatedTriangleBound(spec);
+        ASSERT_TRUE(scene.isOk() && bound.isOk()) << spec;
+        EXPECT_GE(*bound, scene->triangleCount()) << spec;
+        // Close: a memory check from it refuses no more than it must.
+        EXPECT_LE(double(*bound), 1.1 * double(scene->triangleCount())) << spec;
+    }
+    EXPECT_EQ(*generatedTriangleBound("office:30"), generateOffice(30)->triangleCount());
+    // The largest specs, counted at once.
+    EXPECT_EQ(*generatedTriangleBound("office:4096"), 4096 * generateOffice(1)->triangleCount());
+    EXPECT_EQ(*generatedTriangleBound("museum:1024"), 1024 * generateMuseum(1)->triangleCount());
+    for (const char* bad : {"office:0", "museum:100000", "foo:3", "showcase:2"})
+        EXPECT_FALSE(generatedTriangleBound(bad).isOk()) << bad;
+}
+
 }  // namespace
 }  // namespace plx::scene

@@ -42,4 +42,10 @@ bool isCountFreeGenerator(const std::string& name);
 // generator give kInvalidArgument.
 Result<Scene> generateFromSpec(const std::string& spec);
 
+// An upper bound on the triangles generateFromSpec(spec) makes, found without making them (for
+// memory checks before a large scene is generated): N times the one-room scene's for office:N
+// (exact: its rooms are copies) and museum:N (its rooms share walls: fewer), the count itself for
+// a count-free generator. Errors as generateFromSpec's.
+Result<size_t> generatedTriangleBound(const std::string& spec);
+
 }  // namespace plx::scene

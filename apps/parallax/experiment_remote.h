@@ -101,7 +101,7 @@ Status checkRemoteExperimentConfig(const RemoteExperimentConfig& config);
 
 // The experiment's peak bytes, for checkImageMemory: one session's reference sets on both sides
 // of the socket, and its display frames, those kept for the PSNR pass included, with the largest
-// generated scene twice (the truth frames' and the server's copy), each with its renderer.
+// generated scene and two renderers for it (the truth frames' and the server's).
 // Errors: a size no camera takes, a bad scene spec.
 Result<double> remoteExperimentBytes(const RemoteExperimentConfig& config);
 

@@ -153,7 +153,7 @@ std::optional<warp::Pose> poseAt(const scene::Viewpoint& v) {
 }  // namespace
 
 struct Server::Impl {
-    scene::Scene scene;
+    std::shared_ptr<const scene::Scene> scene;  // never null
     ServerConfig config;
     std::unique_ptr<Transport> transport;
     std::unique_ptr<raster::Renderer> renderer;
@@ -411,9 +411,9 @@ struct Server::Impl {
         warp::ReferenceSetOptions options = config.reference;
         options.faceSize = faceSize;
         if (config.fitClipPlanes)
-            scene::clipPlanesFor(scene.bounds(), at.eye, &options.nearPlane, &options.farPlane);
+            scene::clipPlanesFor(scene->bounds(), at.eye, &options.nearPlane, &options.farPlane);
         Clock::time_point start = Clock::now();
-        Status rendered = warp::renderReferenceSet(*renderer, scene, at, options, set);
+        Status rendered = warp::renderReferenceSet(*renderer, *scene, at, options, set);
         const double renderMs = msSince(start);
         if (!rendered) return fail(s, ErrorKind::kInternal, rendered.message());
         Clock::time_point encodeStart = Clock::now();
@@ -491,11 +491,17 @@ Server::~Server() {
 }
 
 Result<std::unique_ptr<Server>> Server::create(scene::Scene scene, const ServerConfig& config) {
+    return create(std::make_shared<const scene::Scene>(std::move(scene)), config);
+}
+
+Result<std::unique_ptr<Server>> Server::create(std::shared_ptr<const scene::Scene> scene,
+                                               const ServerConfig& config) {
+    if (!scene) return errorStatus(ErrorCode::kInvalidArgument, "server: no scene");
     PLX_RETURN_IF_ERROR(checkServerConfig(config));
     auto impl = std::make_unique<Impl>();
     impl->scene = std::move(scene);
     impl->config = config;
-    impl->initialPose = poseAt(scene::defaultViewpoint(impl->scene));
+    impl->initialPose = poseAt(scene::defaultViewpoint(*impl->scene));
     auto renderer = raster::Renderer::create({config.renderThreads});
     if (!renderer) return renderer.status();
     impl->renderer = std::move(renderer).value();

@@ -834,6 +834,19 @@ TEST(RemoteSession, LinkEmulationDelaysBothDirections) {
     EXPECT_LE(client->stats().rttMs, 400.0);
 }
 
+TEST(RemoteSession, ServersShareTheCallersScene) {
+    const auto scene = std::make_shared<const scene::Scene>(*scene::generateFromSpec("office:1"));
+    for (int i = 0; i < 2; ++i) {  // one server after another, as bench remote's sessions
+        auto server = Server::create(scene, smallServer());
+        ASSERT_TRUE(server.isOk()) << server.status().toString();
+        EXPECT_EQ(scene.use_count(), 2);  // held, not copied
+    }
+    EXPECT_EQ(scene.use_count(), 1);
+    auto none = Server::create(std::shared_ptr<const scene::Scene>(), smallServer());
+    ASSERT_FALSE(none.isOk());
+    EXPECT_NE(none.status().message().find("no scene"), std::string::npos);
+}
+
 TEST(RemoteSession, BadConfigurationsAreRefused) {
     ServerConfig c = smallServer();
     c.bind = "not-an-address";

@@ -90,6 +90,10 @@ class Server {
 public:
     // Listens and starts serving `scene` (moved in). Errors: checkServerConfig's, the address.
     static Result<std::unique_ptr<Server>> create(scene::Scene scene, const ServerConfig& config);
+    // The same for a scene the caller shares (unchanged while the server runs), so that servers
+    // one after another serve one scene without a copy each. Errors: also a null scene.
+    static Result<std::unique_ptr<Server>> create(std::shared_ptr<const scene::Scene> scene,
+                                                  const ServerConfig& config);
     ~Server();  // stop()
 
     int port() const;

@@ -67,8 +67,12 @@ try {
     page.on('console', (m) => {
         if (m.type() === 'error') console.log(`page console: ${m.text()}`);
     });
-    await page.goto(`${origin}/?test`);
-    await page.waitForFunction(() => window.plxTest?.ready === true);
+    // A fresh page in test mode (a stopped one takes no more messages).
+    const openTestPage = async () => {
+        await page.goto(`${origin}/?test`);
+        await page.waitForFunction(() => window.plxTest?.ready === true);
+    };
+    await openTestPage();
 
     const t0 = Date.now();
     check(await page.evaluate(() => plxTest.feed('/data/server_hello.bin')) === '', 'server hello accepted');
@@ -99,8 +103,7 @@ try {
     }
 
     // A damaged message stops the page with one line, shown to the viewer.
-    await page.goto(`${origin}/?test`);
-    await page.waitForFunction(() => window.plxTest?.ready === true);
+    await openTestPage();
     await page.evaluate(() => plxTest.feed('/data/server_hello.bin'));
     const set = fs.readFileSync(path.join(outDir, 'reference_set.bin'));
     const truncated = set.subarray(0, Math.floor(set.length / 2)).toString('base64');
@@ -112,14 +115,12 @@ try {
     // Pings (docs/remote-protocol.md): refused before the server hello; after it, answered by
     // the native client's Pong bytes, at most 10 times a second, and not while the socket is
     // backed up (a server that stops reading gets no queue of them).
-    await page.goto(`${origin}/?test`);
-    await page.waitForFunction(() => window.plxTest?.ready === true);
+    await openTestPage();
     const early = await page.evaluate(() => plxTest.feed('/data/ping.bin'));
     check(early === 'ping before the server hello', `a ping before the server hello is refused ("${early}")`);
     const pong = fs.readFileSync(path.join(outDir, 'pong.bin')).toString('base64');
     const answers = async (backedUpFirst, pings) => {
-        await page.goto(`${origin}/?test`);
-        await page.waitForFunction(() => window.plxTest?.ready === true);
+        await openTestPage();
         return page.evaluate(async ([first, n]) => {
             await plxTest.feed('/data/server_hello.bin');
             plxTest.backedUp(first);

@@ -9,8 +9,8 @@
 // URL parameters: ws=PATH (the WebSocket path on this origin, default /ws), token=T, face=N
 // (requested face size, default 512), test (no network: window.plxTest feeds messages through
 // the same parsing, decoding and warping code, reads back the frame and what the page would have
-// sent), script (a live
-// session whose pose comes from window.plxScript instead of the keyboard and mouse).
+// sent), script (a live session whose pose comes from window.plxScript instead of the keyboard
+// and mouse).
 
 import {encodeClientHello, encodeError, encodePing, encodePose, Layout, MessageType, parseMessage,
         ProtocolError} from './protocol.js';

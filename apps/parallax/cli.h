@@ -86,6 +86,7 @@ inline constexpr double kGeneratedSceneBytesPerTriangle = 88.0;
 // for experiments that load their scenes after their memory check. Model files count none:
 // their import runs in a child process that --import-memory bounds. Errors: a bad generator spec.
 Result<double> largestGeneratedTriangles(const std::vector<std::string>& specs);
+
 // What the reproject stereo method's search structures (prepareReprojection) hold per scene
 // triangle: the growth of the peak over the full method's at 64x64, on office:64 and office:280
 // alike, is 96-97 for the box hierarchy and 270-271 with the BSP tree (its fragments per triangle

@@ -2,8 +2,10 @@
 // scalar unit steps four pixels at a time with SSE2 (one at a time in a PLX_NO_SIMD build, the
 // reference), the avx2 unit eight with AVX2. Every path writes the same landings and pixels.
 
-#include <plx/stereo/reproject.h>
 #include <cstring>
+
+#include <plx/stereo/reproject.h>
+
 #include "row_pass.h"
 
 #if defined(__AVX2__)

@@ -188,12 +188,14 @@ double stereoExperimentSceneBytes(const StereoExperimentConfig& config) {
     std::vector<int> rooms = config.rooms;
     std::sort(rooms.begin(), rooms.end(), std::greater<>());
     if (rooms.empty()) return 0.0;
-    auto office = scene::generateOffice(1);
-    const double perRoom = office ? double(office->triangleCount()) : 0.0;
+    auto officeTriangles = [](int n) {
+        auto triangles = scene::generatedTriangleBound(fmt::format("office:{}", n));
+        return triangles ? double(*triangles) : 0.0;
+    };
     const double working =
         kRenderBytesPerTriangle + (config.reproject ? kReprojectBoxesBytesPerTriangle : 0.0);
-    const double largest = perRoom * double(rooms[0]);
-    const double before = rooms.size() > 1 ? perRoom * double(rooms[1]) : 0.0;
+    const double largest = officeTriangles(rooms[0]);
+    const double before = rooms.size() > 1 ? officeTriangles(rooms[1]) : 0.0;
     return kRenderFixedBytes + largest * (kGeneratedSceneBytesPerTriangle + working) +
            before * working;
 }

@@ -29,6 +29,7 @@ struct ServeArgs {
     std::string refs = "cube4";
     int faceSize = 512;
     int maxSessions = 16;
+    int maxSessionsPerAddress = 0;
     int maxPending = 64;
     double writeTimeoutS = 30.0;
     double maxQueuedMiB = 256.0;
@@ -49,6 +50,7 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     c.reference.layout = *layout;
     c.reference.faceSize = a.faceSize;
     c.maxSessions = a.maxSessions;
+    c.maxSessionsPerAddress = a.maxSessionsPerAddress;
     c.maxPendingConnections = a.maxPending;
     c.writeStallTimeoutMs = a.writeTimeoutS * 1000.0;
     c.link.latencyMs = a.latencyMs;
@@ -245,6 +247,10 @@ Command registerServe(CLI::App& app) {
                     "Largest face side rendered (a client asking less gets less)")
         ->capture_default_str();
     sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
+        ->capture_default_str();
+    sub->add_option("--max-sessions-per-address", a->maxSessionsPerAddress,
+                    "Sessions at once from one client address; more are refused (0: no limit; "
+                    "behind a proxy every client has its address)")
         ->capture_default_str();
     sub->add_option("--max-pending", a->maxPending,
                     "Connections without a session (not said hello yet, or closing); one more "

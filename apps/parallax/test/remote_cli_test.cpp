@@ -212,6 +212,8 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("serve office:1 --face-size 8 --port 0"), "face size", 2);
     expectOneLineError(runParallax("serve office:1 --latency -5 --port 0"), "latency", 2);
     expectOneLineError(runParallax("serve office:1 --max-sessions 0 --port 0"), "max sessions", 2);
+    expectOneLineError(runParallax("serve office:1 --max-sessions-per-address 1025 --port 0"),
+                       "max sessions per address 1025 outside 0..1024", 2);
     expectOneLineError(runParallax("serve office:1 --write-timeout 0 --port 0"),
                        "write timeout 0 s outside 0.1..3600", 2);
     expectOneLineError(runParallax("serve office:1 --write-timeout nan --port 0"), "write timeout",

@@ -64,6 +64,9 @@ Status checkServerConfig(const ServerConfig& c) {
                                kMaxFaceSize));
     if (c.maxSessions < 1 || c.maxSessions > 1024)
         return bad(fmt::format("max sessions {} outside 1..1024", c.maxSessions));
+    if (c.maxSessionsPerAddress < 0 || c.maxSessionsPerAddress > 1024)
+        return bad(
+            fmt::format("max sessions per address {} outside 0..1024", c.maxSessionsPerAddress));
     if (c.poseRateHz < 1 || c.poseRateHz > 1000)
         return bad(fmt::format("pose rate {} outside 1..1000", c.poseRateHz));
     if (!(c.pingIntervalMs >= 10.0 && c.pingIntervalMs <= 60000.0))
@@ -217,9 +220,11 @@ struct Server::Impl {
         if (!config.token.empty() && !tokensEqual(hello.token, config.token))
             return refuse(s, hello.token.empty() ? "a token is required" : "wrong token", hello);
         const DisparityCodec disparity = disparityCodecFor(hello.disparityCodecs);
+        std::string full;
         {
             std::lock_guard lock(mutex);
-            if (stats.sessionsActive < config.maxSessions) {
+            full = whyFullLocked(*s);
+            if (full.empty()) {
                 ++stats.sessionsActive;
                 ++stats.sessionsTotal;
                 s->state = SessionState::kAccepted;
@@ -237,9 +242,24 @@ struct Server::Impl {
             ++stats.refused;
             s->state = SessionState::kClosed;
         }
-        send(s, ErrorMessage{ErrorKind::kOverloaded,
-                             fmt::format("server full ({} sessions)", config.maxSessions)});
+        send(s, ErrorMessage{ErrorKind::kOverloaded, std::move(full)});
         s->conn->close();
+    }
+
+    // Why `s` cannot be accepted now (maxSessions, maxSessionsPerAddress); empty when it can.
+    std::string whyFullLocked(const Session& s) const {
+        if (stats.sessionsActive >= config.maxSessions)
+            return fmt::format("server full ({} sessions)", config.maxSessions);
+        if (config.maxSessionsPerAddress == 0) return {};
+        const std::string address = s.conn->peerAddress();
+        const auto fromAddress =
+            std::count_if(sessions.begin(), sessions.end(), [&](const SessionPtr& other) {
+                return other->state == SessionState::kAccepted &&
+                       other->conn->peerAddress() == address;
+            });
+        if (fromAddress < config.maxSessionsPerAddress) return {};
+        return fmt::format("too many sessions from {} ({} at most)", address,
+                           config.maxSessionsPerAddress);
     }
 
     // The server's configured disparity codec when the client decodes it, else the client's

@@ -81,6 +81,14 @@ Result<asio::ip::address> parseBindAddress(const std::string& bind) {
     return address;
 }
 
+// A peer's address as text; a dual-stack listener's IPv4 peers (::ffff:a.b.c.d) as IPv4, so that
+// one peer has one name whichever socket it reached.
+std::string addressText(const asio::ip::address& address) {
+    if (address.is_v6() && address.to_v6().is_v4_mapped())
+        return asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6()).to_string();
+    return address.to_string();
+}
+
 Status fromBoost(const ErrorCodeB& ec, const char* what) {
     if (!ec || ec == websocket::error::closed) return Status::ok();
     return errorStatus(ErrorCode::kIoError, fmt::format("{}: {}", what, ec.message()));
@@ -104,7 +112,13 @@ public:
         mWs.binary(true);
         mWs.read_message_max(config.maxMessageBytes);
         mWs.auto_fragment(false);
+        ErrorCodeB ec;
+        const tcp::endpoint peer = beast::get_lowest_layer(mWs).socket().remote_endpoint(ec);
+        if (!ec) setPeer(peer);  // accepted; a client's socket connects later (Transport::connect)
     }
+
+    // Before the connection is shared (or while only the I/O thread knows it).
+    void setPeer(const tcp::endpoint& peer) { mPeerAddress = addressText(peer.address()); }
 
     websocket::stream<beast::tcp_stream>& ws() { return mWs; }
 
@@ -177,6 +191,7 @@ public:
             self->finish(errorStatus(ErrorCode::kIoError, "connection aborted"));
         });
     }
+    std::string peerAddress() const override { return mPeerAddress; }
 
     // On the I/O thread: drops the socket (the transport stops, or too many are pending).
     void drop(std::string_view why) {
@@ -414,6 +429,7 @@ private:
     asio::io_context& mIo;
     websocket::stream<beast::tcp_stream> mWs;
     ConnectionConfig mConfig;
+    std::string mPeerAddress;  // setPeer
     ConnectionEvents mEvents;
     asio::steady_timer mSendTimer, mRecvTimer, mStallTimer;
     uint64_t mFramesStarted = 0;  // tells a stall timer whether its frame is still being written
@@ -599,8 +615,9 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
                 if (ec) return fail("cannot resolve", ec);
                 beast::get_lowest_layer(c->ws()).expires_after(timeout);
                 beast::get_lowest_layer(c->ws()).async_connect(
-                    r, [=, ev = std::move(ev)](ErrorCodeB cec, const tcp::endpoint&) mutable {
+                    r, [=, ev = std::move(ev)](ErrorCodeB cec, const tcp::endpoint& e) mutable {
                         if (cec) return fail("cannot connect to", cec);
+                        c->setPeer(e);
                         c->setTimeouts(false);
                         c->ws().async_handshake(
                             fmt::format("{}:{}", host, port), path,

@@ -509,6 +509,37 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
     EXPECT_LE(server->stats().queuedBytes, s.queuedBytes + 64);
 }
 
+// With maxSessionsPerAddress, one peer address holds at most that many sessions: one more is
+// refused with kOverloaded naming the address, and a session that ends frees its slot.
+TEST(RemoteSession, SessionsFromOneAddressAreLimited) {
+    ServerConfig config = smallServer();
+    config.maxSessionsPerAddress = 2;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    auto accepted = [](RawPeer& peer) {
+        peer.hello();
+        auto hello = peer.first<ServerHello>();
+        return hello && hello->accepted;
+    };
+    auto first = std::make_unique<RawPeer>(server->port());
+    EXPECT_EQ(first->conn().peerAddress(), "127.0.0.1");  // the server, as the client sees it
+    ASSERT_TRUE(accepted(*first));
+    RawPeer second(server->port());
+    ASSERT_TRUE(accepted(second));
+    RawPeer third(server->port());
+    third.hello();
+    auto error = third.first<ErrorMessage>();
+    ASSERT_TRUE(error);
+    EXPECT_EQ(error->kind, ErrorKind::kOverloaded);
+    EXPECT_EQ(error->text, "too many sessions from 127.0.0.1 (2 at most)");
+    EXPECT_TRUE(third.waitClosed());
+    first.reset();
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 1; }));
+    RawPeer fourth(server->port());
+    EXPECT_TRUE(accepted(fourth));
+    EXPECT_EQ(server->stats().refused, 1);
+}
+
 // A peer that stops reading is dropped once its socket has taken nothing for the write timeout,
 // and its session's slot goes to the next client.
 TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
@@ -868,6 +899,11 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     c = smallServer();
     c.maxPendingConnections = 0;
     EXPECT_FALSE(checkServerConfig(c).isOk());
+    for (int perAddress : {-1, 1025}) {
+        c = smallServer();
+        c.maxSessionsPerAddress = perAddress;
+        EXPECT_FALSE(checkServerConfig(c).isOk()) << perAddress;
+    }
     EXPECT_FALSE(parseWsUrl("http://x:1").isOk());
     EXPECT_FALSE(parseWsUrl("ws://x:99999").isOk());
     EXPECT_FALSE(parseWsUrl("ws://:80").isOk());

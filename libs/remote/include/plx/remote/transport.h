@@ -109,6 +109,9 @@ public:
     virtual void close() = 0;
     // Drops the TCP connection at once (no close handshake).
     virtual void abort() = 0;
+    // The peer's IP address as text ("127.0.0.1", "::1"; an IPv4-mapped IPv6 address as the
+    // IPv4 one), read when the TCP connection was made; empty when the socket could not say.
+    virtual std::string peerAddress() const = 0;
 };
 
 // One I/O thread with its listeners and connections. It must outlive every Connection it made

@@ -254,7 +254,7 @@ Command registerServe(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--max-pending", a->maxPending,
                     "Connections without a session (not said hello yet, or closing); one more "
-                    "drops the oldest")
+                    "drops the oldest of the client address with the most")
         ->capture_default_str();
     sub->add_option("--write-timeout", a->writeTimeoutS,
                     "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "

@@ -10,7 +10,10 @@
 #include <mutex>
 #include <random>
 #include <set>
+#include <string_view>
 #include <thread>
+#include <tuple>
+#include <unordered_map>
 
 #include <fmt/format.h>
 #include <boost/asio.hpp>
@@ -192,6 +195,7 @@ public:
         });
     }
     std::string peerAddress() const override { return mPeerAddress; }
+    const std::string& address() const { return mPeerAddress; }  // peerAddress, not copied
 
     // On the I/O thread: drops the socket (the transport stops, or too many are pending).
     void drop(std::string_view why) {
@@ -467,6 +471,20 @@ Status checkMaxPending(int connections) {
     return Status::ok();
 }
 
+// The index in `pending` (oldest first) of the oldest connection of the peer address that has
+// the most there; of addresses with as many, the one whose oldest is oldest.
+size_t oldestOfBusiestAddress(const std::vector<std::shared_ptr<WsConnection>>& pending) {
+    std::unordered_map<std::string_view, std::pair<size_t, size_t>> byAddress;  // count, oldest
+    byAddress.reserve(pending.size());
+    for (size_t i = 0; i < pending.size(); ++i)
+        ++byAddress.try_emplace(pending[i]->address(), 0, i).first->second.first;
+    size_t oldest = 0, most = 0;
+    for (const auto& [address, entry] : byAddress)
+        if (entry.first > most || (entry.first == most && entry.second < oldest))
+            std::tie(most, oldest) = entry;
+    return oldest;
+}
+
 struct Transport::Impl {
     std::unique_ptr<asio::io_context> io = std::make_unique<asio::io_context>(1);
     asio::executor_work_guard<asio::io_context::executor_type> work{io->get_executor()};
@@ -484,22 +502,22 @@ struct Transport::Impl {
         connections.push_back(c);
     }
 
-    // Drops the oldest pending connections (WsConnection::pending) while more than maxPending are
-    // open (ConnectionConfig::maxPendingConnections). A client that is not flooding completes its
-    // handshake and first message within a round trip or two, and a close within one, so the
-    // oldest pending connections are a flood's: peers that say nothing, or that are refused and
-    // never read the refusal.
+    // Drops pending connections (WsConnection::pending) while more than maxPending are open
+    // (ConnectionConfig::maxPendingConnections), each time the oldest of the peer address that
+    // holds the most. A client that is not flooding completes its handshake and first message
+    // within a round trip or two, and a close within one, so the oldest pending connections are
+    // a flood's: peers that say nothing, or that are refused and never read the refusal. Taken
+    // from the busiest address, a flood from one address drops its own connections, not other
+    // addresses' clients in their handshakes.
     void limitPending(int maxPending) {
-        auto isPending = [](const auto& w) {
-            auto c = w.lock();
-            return c && c->pending();
-        };
-        auto open = std::count_if(connections.begin(), connections.end(), isPending);
-        for (size_t i = 0; i < connections.size() && open > maxPending; ++i) {
-            if (!isPending(connections[i])) continue;
-            connections[i].lock()->drop("dropped: too many pending connections");
+        std::vector<std::shared_ptr<WsConnection>> pending;  // oldest first
+        for (const auto& w : connections)
+            if (auto c = w.lock(); c && c->pending()) pending.push_back(std::move(c));
+        while (pending.size() > size_t(maxPending)) {
+            auto victim = pending.begin() + std::ptrdiff_t(oldestOfBusiestAddress(pending));
+            (*victim)->drop("dropped: too many pending connections");
             ++pendingDropped;
-            --open;
+            pending.erase(victim);
         }
     }
 

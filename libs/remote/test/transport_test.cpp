@@ -292,6 +292,23 @@ TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {
     for (int fd : silent) close(fd);
 }
 
+// Past the limit the connections dropped are the oldest of the address with the most: a flood
+// from 127.0.0.2 drops its own, never an older silent connection from 127.0.0.1.
+TEST(TransportPending, AFloodFromOneAddressDropsItsOwnConnections) {
+    PendingListener listener(4);
+    const int other = silentConnection(listener.port(), 1);
+    ASSERT_GE(other, 0);
+    std::vector<int> flood;
+    for (int i = 0; i < 10; ++i) flood.push_back(silentConnection(listener.port(), 2));
+    ASSERT_EQ(std::count(flood.begin(), flood.end(), -1), 0);
+    EXPECT_EQ(listener.pendingDropped(7), 7);
+    EXPECT_FALSE(closedByPeer(other, 100ms));
+    for (int i = 0; i < 7; ++i) EXPECT_TRUE(closedByPeer(flood[i], 2s)) << i;
+    for (int i = 7; i < 10; ++i) EXPECT_FALSE(closedByPeer(flood[i], 100ms)) << i;
+    close(other);
+    for (int fd : flood) close(fd);
+}
+
 // Peers refused at their first message that never read the refusal: each waits for its close
 // (until the handshake timeout) as pending, and past the limit the oldest are dropped at once.
 TEST(TransportPending, RefusedPeersThatNeverReadAreDroppedPastTheLimit) {

@@ -55,7 +55,8 @@ struct ServerConfig {
     double writeStallTimeoutMs = 30000.0;
     // Connections without a session, that have not said ClientHello yet (nor finished their
     // WebSocket handshake or HTTP request) or are being closed (refused, failed, said goodbye),
-    // at most this many: one more drops the oldest (ConnectionConfig's).
+    // at most this many: one more drops the oldest of the address with the most
+    // (ConnectionConfig's).
     int maxPendingConnections = 64;
     // All sessions' encoded sets handed to their sockets and not yet written, at most this many
     // bytes plus one set: past it, renders wait for writes. Bounds the server's memory whatever

@@ -65,9 +65,10 @@ struct ConnectionConfig {
     // Listeners only: connections accepted that are pending, awaiting their first message (the
     // HTTP request, WebSocket handshake or first message still to come) or their close (a
     // refusal or goodbye written, the peer's close awaited), at most this many; one more drops
-    // the oldest of them. A flood of peers that say nothing, or are refused and never read it,
-    // then holds neither the file descriptors nor the timeouts' worth of time that new clients
-    // need (checkMaxPending).
+    // the oldest of them from the peer address that has the most. A flood of peers that say
+    // nothing, or are refused and never read it, then holds neither the file descriptors nor the
+    // timeouts' worth of time that new clients need, and a flood from one address drops only
+    // its own connections (checkMaxPending).
     int maxPendingConnections = 64;
     // Listeners only: requests that are not a WebSocket upgrade are answered from these files
     // (404 when empty), then the connection is closed.

@@ -249,8 +249,8 @@ Command registerServe(CLI::App& app) {
     sub->add_option("--max-sessions", a->maxSessions, "Sessions at once; more are refused")
         ->capture_default_str();
     sub->add_option("--max-sessions-per-address", a->maxSessionsPerAddress,
-                    "Sessions at once from one client address; more are refused (0: no limit; "
-                    "behind a proxy every client has its address)")
+                    "Sessions at once from one client address (IPv6: one /64); more are refused "
+                    "(0: no limit; behind a proxy every client has its address)")
         ->capture_default_str();
     sub->add_option("--max-pending", a->maxPending,
                     "Connections without a session (not said hello yet, or closing); one more "

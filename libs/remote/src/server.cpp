@@ -251,14 +251,13 @@ struct Server::Impl {
         if (stats.sessionsActive >= config.maxSessions)
             return fmt::format("server full ({} sessions)", config.maxSessions);
         if (config.maxSessionsPerAddress == 0) return {};
-        const std::string address = s.conn->peerAddress();
-        const auto fromAddress =
+        const std::string group = s.conn->peerGroup();
+        const auto fromGroup =
             std::count_if(sessions.begin(), sessions.end(), [&](const SessionPtr& other) {
-                return other->state == SessionState::kAccepted &&
-                       other->conn->peerAddress() == address;
+                return other->state == SessionState::kAccepted && other->conn->peerGroup() == group;
             });
-        if (fromAddress < config.maxSessionsPerAddress) return {};
-        return fmt::format("too many sessions from {} ({} at most)", address,
+        if (fromGroup < config.maxSessionsPerAddress) return {};
+        return fmt::format("too many sessions from {} ({} at most)", group,
                            config.maxSessionsPerAddress);
     }
 

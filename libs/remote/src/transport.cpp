@@ -3,6 +3,7 @@
 
 #include <plx/remote/transport.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <deque>
@@ -121,7 +122,10 @@ public:
     }
 
     // Before the connection is shared (or while only the I/O thread knows it).
-    void setPeer(const tcp::endpoint& peer) { mPeerAddress = addressText(peer.address()); }
+    void setPeer(const tcp::endpoint& peer) {
+        mPeerAddress = addressText(peer.address());
+        mPeerGroup = addressGroup(mPeerAddress);
+    }
 
     websocket::stream<beast::tcp_stream>& ws() { return mWs; }
 
@@ -195,7 +199,8 @@ public:
         });
     }
     std::string peerAddress() const override { return mPeerAddress; }
-    const std::string& address() const { return mPeerAddress; }  // peerAddress, not copied
+    std::string peerGroup() const override { return mPeerGroup; }
+    const std::string& group() const { return mPeerGroup; }  // peerGroup, not copied
 
     // On the I/O thread: drops the socket (the transport stops, or too many are pending).
     void drop(std::string_view why) {
@@ -433,7 +438,7 @@ private:
     asio::io_context& mIo;
     websocket::stream<beast::tcp_stream> mWs;
     ConnectionConfig mConfig;
-    std::string mPeerAddress;  // setPeer
+    std::string mPeerAddress, mPeerGroup;  // setPeer
     ConnectionEvents mEvents;
     asio::steady_timer mSendTimer, mRecvTimer, mStallTimer;
     uint64_t mFramesStarted = 0;  // tells a stall timer whether its frame is still being written
@@ -451,6 +456,15 @@ private:
 
 Status checkBindAddress(const std::string& bind) {
     return parseBindAddress(bind).status();
+}
+
+std::string addressGroup(std::string_view address) {
+    ErrorCodeB ec;
+    const asio::ip::address parsed = asio::ip::make_address(address, ec);
+    if (ec || !parsed.is_v6()) return std::string(address);
+    asio::ip::address_v6::bytes_type bytes = parsed.to_v6().to_bytes();
+    std::fill(bytes.begin() + 8, bytes.end(), uint8_t(0));
+    return asio::ip::make_address_v6(bytes).to_string() + "/64";
 }
 
 Status checkWriteStallTimeout(double ms) {
@@ -471,15 +485,15 @@ Status checkMaxPending(int connections) {
     return Status::ok();
 }
 
-// The index in `pending` (oldest first) of the oldest connection of the peer address that has
-// the most there; of addresses with as many, the one whose oldest is oldest.
-size_t oldestOfBusiestAddress(const std::vector<std::shared_ptr<WsConnection>>& pending) {
-    std::unordered_map<std::string_view, std::pair<size_t, size_t>> byAddress;  // count, oldest
-    byAddress.reserve(pending.size());
+// The index in `pending` (oldest first) of the oldest connection of the peer address group
+// (addressGroup) that has the most there; of groups with as many, the one whose oldest is oldest.
+size_t oldestOfBusiestGroup(const std::vector<std::shared_ptr<WsConnection>>& pending) {
+    std::unordered_map<std::string_view, std::pair<size_t, size_t>> byGroup;  // count, oldest
+    byGroup.reserve(pending.size());
     for (size_t i = 0; i < pending.size(); ++i)
-        ++byAddress.try_emplace(pending[i]->address(), 0, i).first->second.first;
+        ++byGroup.try_emplace(pending[i]->group(), 0, i).first->second.first;
     size_t oldest = 0, most = 0;
-    for (const auto& [address, entry] : byAddress)
+    for (const auto& [group, entry] : byGroup)
         if (entry.first > most || (entry.first == most && entry.second < oldest))
             std::tie(most, oldest) = entry;
     return oldest;
@@ -503,18 +517,18 @@ struct Transport::Impl {
     }
 
     // Drops pending connections (WsConnection::pending) while more than maxPending are open
-    // (ConnectionConfig::maxPendingConnections), each time the oldest of the peer address that
-    // holds the most. A client that is not flooding completes its handshake and first message
-    // within a round trip or two, and a close within one, so the oldest pending connections are
-    // a flood's: peers that say nothing, or that are refused and never read the refusal. Taken
-    // from the busiest address, a flood from one address drops its own connections, not other
-    // addresses' clients in their handshakes.
+    // (ConnectionConfig::maxPendingConnections), each time the oldest of the peer address group
+    // (addressGroup) that holds the most. A client that is not flooding completes its handshake
+    // and first message within a round trip or two, and a close within one, so the oldest
+    // pending connections are a flood's: peers that say nothing, or that are refused and never
+    // read the refusal. Taken from the busiest group, a flood from one address (or IPv6 /64)
+    // drops its own connections, not other clients in their handshakes.
     void limitPending(int maxPending) {
         std::vector<std::shared_ptr<WsConnection>> pending;  // oldest first
         for (const auto& w : connections)
             if (auto c = w.lock(); c && c->pending()) pending.push_back(std::move(c));
         while (pending.size() > size_t(maxPending)) {
-            auto victim = pending.begin() + std::ptrdiff_t(oldestOfBusiestAddress(pending));
+            auto victim = pending.begin() + std::ptrdiff_t(oldestOfBusiestGroup(pending));
             (*victim)->drop("dropped: too many pending connections");
             ++pendingDropped;
             pending.erase(victim);

@@ -523,6 +523,7 @@ TEST(RemoteSession, SessionsFromOneAddressAreLimited) {
     };
     auto first = std::make_unique<RawPeer>(server->port());
     EXPECT_EQ(first->conn().peerAddress(), "127.0.0.1");  // the server, as the client sees it
+    EXPECT_EQ(first->conn().peerGroup(), "127.0.0.1");
     ASSERT_TRUE(accepted(*first));
     RawPeer second(server->port());
     ASSERT_TRUE(accepted(second));

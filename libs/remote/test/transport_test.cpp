@@ -309,6 +309,17 @@ TEST(TransportPending, AFloodFromOneAddressDropsItsOwnConnections) {
     for (int fd : flood) close(fd);
 }
 
+// The per-address limits count an IPv4 address alone and an IPv6 address with its /64.
+TEST(TransportPending, AddressGroupsAreIPv4AddressesAndIPv6Slash64s) {
+    EXPECT_EQ(addressGroup("127.0.0.1"), "127.0.0.1");
+    EXPECT_EQ(addressGroup("2001:db8:1:2:aaaa:bbbb:cccc:dddd"), "2001:db8:1:2::/64");
+    EXPECT_EQ(addressGroup("2001:db8:1:2::1"), addressGroup("2001:db8:1:2:ffff::9"));
+    EXPECT_NE(addressGroup("2001:db8:1:2::1"), addressGroup("2001:db8:1:3::1"));
+    EXPECT_EQ(addressGroup("::1"), "::/64");
+    EXPECT_EQ(addressGroup(""), "");
+    EXPECT_EQ(addressGroup("no address"), "no address");
+}
+
 // Peers refused at their first message that never read the refusal: each waits for its close
 // (until the handshake timeout) as pending, and past the limit the oldest are dropped at once.
 TEST(TransportPending, RefusedPeersThatNeverReadAreDroppedPastTheLimit) {

@@ -41,9 +41,9 @@ struct ServerConfig {
     bool fitClipPlanes = true;
     CodecOptions codec;
     int maxSessions = 16;  // accepted sessions at once, 1..1024; more get Error kOverloaded
-    // Accepted sessions from one peer address (Connection::peerAddress) at once, 1..1024; more
-    // get Error kOverloaded. 0: no such limit (the default: behind a proxy or a NAT every client
-    // has the same address).
+    // Accepted sessions from one peer address (an IPv6 peer's /64: addressGroup) at once,
+    // 1..1024; more get Error kOverloaded. 0: no such limit (the default: behind a proxy or a NAT
+    // every client has the same address).
     int maxSessionsPerAddress = 0;
     int poseRateHz = 60;   // announced in ServerHello, 1..1000
     LinkEmulation link;    // applied to every connection, both directions

@@ -38,6 +38,13 @@ Status checkLinkEmulation(const LinkEmulation& link);
 // names it.
 Status checkBindAddress(const std::string& bind);
 
+// The group a peer address counts in for the per-address limits (ServerConfig::
+// maxSessionsPerAddress, ConnectionConfig::maxPendingConnections): an IPv4 address is its own,
+// an IPv6 address its /64 ("2001:db8:1:2::/64"), since one IPv6 client commonly holds a whole
+// /64 and could otherwise spread over as many addresses as it likes. Text that is no IP address
+// is its own group.
+std::string addressGroup(std::string_view address);
+
 // A file a listener serves to plain HTTP GET requests on its port: the browser page.
 struct HttpFile {
     std::span<const uint8_t> bytes;  // must outlive the listener (embedded assets do)
@@ -113,6 +120,8 @@ public:
     // The peer's IP address as text ("127.0.0.1", "::1"; an IPv4-mapped IPv6 address as the
     // IPv4 one), read when the TCP connection was made; empty when the socket could not say.
     virtual std::string peerAddress() const = 0;
+    // addressGroup(peerAddress()), computed once.
+    virtual std::string peerGroup() const = 0;
 };
 
 // One I/O thread with its listeners and connections. It must outlive every Connection it made

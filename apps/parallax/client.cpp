@@ -30,6 +30,7 @@ constexpr float kEyeSeparation = 0.065f;  // metres, as `parallax stereo`'s defa
 struct ClientArgs {
     std::string url;
     std::string token;
+    std::string sourceAddress;
     std::string path;
     std::optional<int> walk;
     std::string size = "1280x720";
@@ -241,6 +242,7 @@ int runClient(const ClientArgs& a) {
     cc.port = p->url.port;
     cc.path = p->url.path;
     cc.token = a.token;
+    cc.sourceAddress = a.sourceAddress;
     cc.layout = p->layout;
     cc.faceSize = remoteReferenceFor(cameras->front(), p->layout).faceSize;
     auto client = remote::Client::create(cc);
@@ -248,9 +250,11 @@ int runClient(const ClientArgs& a) {
     (*client)->setPose(displayPoseMessage(*cameras, 0, kDisplayHz));
     if (!(*client)->waitForFirst(a.waitS * 1000.0)) {
         Status fatal = (*client)->fatal();
+        const std::string lastError = (*client)->stats().lastError;
         (*client)->stop();
         if (!fatal.isOk()) return fail(fmt::format("{}: {}", a.url, fatal.message()));
-        return fail(fmt::format("no reference set from {} within {:g} s", a.url, a.waitS));
+        return fail(fmt::format("no reference set from {} within {:g} s{}", a.url, a.waitS,
+                                lastError.empty() ? "" : " (last: " + lastError + ")"));
     }
     auto loop = displayLoop(a, *cameras, **client, **warper, truthRenderer.get(),
                             scene ? &*scene : nullptr);
@@ -331,6 +335,8 @@ Command registerClient(CLI::App& app) {
         "age ms, bytes received).");
     sub->add_option("url", a->url, "Server address, ws://HOST:PORT")->required();
     sub->add_option("--token", a->token, "Token the server asks for");
+    sub->add_option("--source-address", a->sourceAddress,
+                    "Local IP address to connect from (default: the system's choice)");
     sub->add_option("--path", a->path, "Pose path: a JSON list of poses (as parallax stereo)");
     sub->add_option("--walk", a->walk, "Pose path: N poses of the built-in walk (needs --scene)");
     sub->add_option("--size", a->size, "Display size WxH")->capture_default_str();

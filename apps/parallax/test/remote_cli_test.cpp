@@ -58,8 +58,11 @@ TEST(RemoteCli, PathFileAndStereoWithoutScene) {
     fs::path path = scratchDir("remote_cli") / "path.json";
     writeFile(path, R"({"poses": [{"eye": [1,1.6,1], "target": [4,1.2,5]},
                                   {"eye": [1.05,1.6,1.05], "target": [4,1.2,5]}]})");
-    RunResult r = runParallax("client " + server.url() + " --path " + path.string() +
-                              " --frames 6 --stereo --size 64x48 --json");
+    // From another loopback address (RemoteSession.SessionsFromOneAddressAreLimited shows the
+    // server sees it).
+    RunResult r =
+        runParallax("client " + server.url() + " --path " + path.string() +
+                    " --frames 6 --stereo --size 64x48 --source-address 127.0.0.2 --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     EXPECT_EQ(doc["frames"], 6);
@@ -236,9 +239,13 @@ TEST(RemoteCli, BadArgumentsAreOneLineErrors) {
                        "--walk -1 outside", 2);
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --size 0x4"),
                        "0x4", 2);
-    // Nobody listening: the client retries with backoff, then gives up after --wait.
+    expectOneLineError(
+        runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --source-address nope"),
+        "source address 'nope' is not an IP address", 2);
+    // Nobody listening: the client retries with backoff, then gives up after --wait, saying why
+    // its last attempt failed.
     expectOneLineError(runParallax("client ws://127.0.0.1:1 --walk 3 --scene office:1 --wait 0.5"),
-                       "no reference set");
+                       "within 0.5 s (last: cannot connect to ws://127.0.0.1:1: ");
 }
 
 // bench remote's quick run: one real loopback session per RTT, every method's row with the

@@ -217,6 +217,7 @@ struct Client::Impl {
                 stats.connected = false;
                 conn.reset();
                 current.reset();
+                if (!ended.isOk()) stats.lastError = ended.message();
                 if (stopping || !fatal.isOk()) break;
                 if (stats.connects > 0 && ended.isOk()) backoffMs = config.backoffMinMs;
             }
@@ -243,6 +244,7 @@ struct Client::Impl {
         ConnectionConfig cc;
         cc.maxMessageBytes = kMaxReferenceSetMessageBytes;
         cc.handshakeTimeoutMs = config.connectTimeoutMs;
+        cc.sourceAddress = config.sourceAddress;
         auto c = transport->connect(config.host, config.port, config.path, cc, std::move(ev));
         if (!c) return c.status();
         ClientHello hello;
@@ -337,6 +339,7 @@ Result<std::unique_ptr<Client>> Client::create(const ClientConfig& config) {
           config.backoffMaxMs <= 60000.0 && config.pingIntervalMs >= 10.0 &&
           config.connectTimeoutMs > 0.0))
         return errorStatus(ErrorCode::kInvalidArgument, "client timing options out of range");
+    PLX_RETURN_IF_ERROR(checkSourceAddress(config.sourceAddress));
     auto impl = std::make_unique<Impl>();
     impl->config = config;
     auto transport = Transport::create();

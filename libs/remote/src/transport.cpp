@@ -76,12 +76,13 @@ private:
     Clock::time_point mWireFree{}, mLastRelease{};
 };
 
-Result<asio::ip::address> parseBindAddress(const std::string& bind) {
+// A listener's bind address or a client's source address (`what` names which).
+Result<asio::ip::address> parseIpAddress(const std::string& text, const char* what) {
     ErrorCodeB ec;
-    asio::ip::address address = asio::ip::make_address(bind, ec);
+    asio::ip::address address = asio::ip::make_address(text, ec);
     if (ec)
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("bind address '{}' is not an IP address", bind));
+                           fmt::format("{} '{}' is not an IP address", what, text));
     return address;
 }
 
@@ -455,7 +456,23 @@ private:
 }  // namespace
 
 Status checkBindAddress(const std::string& bind) {
-    return parseBindAddress(bind).status();
+    return parseIpAddress(bind, "bind address").status();
+}
+
+Status checkSourceAddress(const std::string& source) {
+    if (source.empty()) return Status::ok();
+    auto address = parseIpAddress(source, "source address");
+    if (!address) return address.status();
+    asio::io_context io;
+    tcp::socket probe(io);
+    ErrorCodeB ec;
+    probe.open(address->is_v4() ? tcp::v4() : tcp::v6(), ec);
+    if (!ec) probe.bind(tcp::endpoint(*address, 0), ec);
+    if (ec)
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("source address {} cannot be bound: {}", source, ec.message()));
+    return Status::ok();
 }
 
 std::string addressGroup(std::string_view address) {
@@ -580,7 +597,7 @@ Result<int> Transport::listen(const std::string& bind, int port, const Connectio
                               AcceptHandler onAccept) {
     if (port < 0 || port > 65535)
         return errorStatus(ErrorCode::kInvalidArgument, fmt::format("port {} out of range", port));
-    auto parsed = parseBindAddress(bind);
+    auto parsed = parseIpAddress(bind, "bind address");
     if (!parsed) return parsed.status();
     if (Status s = checkMaxPending(config.maxPendingConnections); !s.isOk()) return s;
     const asio::ip::address address = *parsed;
@@ -629,36 +646,55 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
                                                        const std::string& path,
                                                        const ConnectionConfig& config,
                                                        ConnectionEvents events) {
+    std::optional<asio::ip::address> source;
+    if (!config.sourceAddress.empty()) {
+        auto parsed = parseIpAddress(config.sourceAddress, "source address");
+        if (!parsed) return parsed.status();
+        source = *parsed;
+    }
     auto result = std::make_shared<std::promise<Result<std::shared_ptr<Connection>>>>();
     auto future = result->get_future();
     auto resolver = std::make_shared<tcp::resolver>(*mImpl->io);
     auto c = std::make_shared<WsConnection>(*mImpl->io, tcp::socket(*mImpl->io), config);
-    auto fail = [result, host, port](const char* step, ErrorCodeB ec) {
+    auto fail = [result, host, port](const std::string& step, ErrorCodeB ec) {
         result->set_value(errorStatus(
             ErrorCode::kIoError, fmt::format("{} ws://{}:{}: {}", step, host, port, ec.message())));
     };
     const auto timeout =
         std::chrono::milliseconds(int64_t(std::max(1.0, config.handshakeTimeoutMs)));
-    asio::post(*mImpl->io, [=, this, ev = std::move(events)]() mutable {
+    auto ev = std::make_shared<ConnectionEvents>(std::move(events));
+    auto handshake = [=](ErrorCodeB ec, const tcp::endpoint& peer) {
+        if (ec) return fail("cannot connect to", ec);
+        c->setPeer(peer);
+        c->setTimeouts(false);
+        c->ws().async_handshake(fmt::format("{}:{}", host, port), path, [=](ErrorCodeB hec) {
+            if (hec) return fail("WebSocket handshake with", hec);
+            c->start(std::move(*ev));
+            result->set_value(std::shared_ptr<Connection>(c));
+        });
+    };
+    asio::post(*mImpl->io, [=, this] {
         mImpl->track(c);
         resolver->async_resolve(
-            host, std::to_string(port),
-            [=, ev = std::move(ev)](ErrorCodeB ec, tcp::resolver::results_type r) mutable {
+            host, std::to_string(port), [=](ErrorCodeB ec, tcp::resolver::results_type r) {
                 if (ec) return fail("cannot resolve", ec);
-                beast::get_lowest_layer(c->ws()).expires_after(timeout);
-                beast::get_lowest_layer(c->ws()).async_connect(
-                    r, [=, ev = std::move(ev)](ErrorCodeB cec, const tcp::endpoint& e) mutable {
-                        if (cec) return fail("cannot connect to", cec);
-                        c->setPeer(e);
-                        c->setTimeouts(false);
-                        c->ws().async_handshake(
-                            fmt::format("{}:{}", host, port), path,
-                            [=, ev = std::move(ev)](ErrorCodeB hec) mutable {
-                                if (hec) return fail("WebSocket handshake with", hec);
-                                c->start(std::move(ev));
-                                result->set_value(std::shared_ptr<Connection>(c));
-                            });
-                    });
+                auto& stream = beast::get_lowest_layer(c->ws());
+                stream.expires_after(timeout);
+                if (!source) return stream.async_connect(r, handshake);
+                // Bound first, then connected to one endpoint: the range's connect reopens the
+                // socket for each endpoint it tries, which would drop the bind.
+                const auto family = source->is_v4() ? tcp::v4() : tcp::v6();
+                auto to = std::find_if(r.begin(), r.end(), [&](const auto& entry) {
+                    return entry.endpoint().protocol() == family;
+                });
+                ErrorCodeB bec =
+                    to == r.end() ? asio::error::address_family_not_supported : ErrorCodeB{};
+                if (!bec) stream.socket().open(family, bec);
+                if (!bec) stream.socket().bind(tcp::endpoint(*source, 0), bec);
+                if (bec)
+                    return fail(fmt::format("cannot connect from {} to", source->to_string()), bec);
+                const tcp::endpoint peer = to->endpoint();
+                stream.async_connect(peer, [=](ErrorCodeB cec) { handshake(cec, peer); });
             });
     });
     // The handshake timeout bounds each step; the extra second covers name resolution.

@@ -115,7 +115,8 @@ void sendUntilBackedUp(const Server& server, const std::function<void()>& sendSo
 // A raw WebSocket peer: sends whatever bytes it is given and records what comes back.
 class RawPeer {
 public:
-    explicit RawPeer(int port) {
+    // From `source` (ConnectionConfig::sourceAddress) when given.
+    explicit RawPeer(int port, const std::string& source = {}) {
         mTransport = std::move(Transport::create()).value();
         ConnectionEvents ev;
         ev.onMessage = [this](std::vector<uint8_t>&& m, bool) {
@@ -134,6 +135,7 @@ public:
         };
         ConnectionConfig cc;
         cc.maxMessageBytes = kMaxReferenceSetMessageBytes;
+        cc.sourceAddress = source;
         auto c = mTransport->connect("127.0.0.1", port, "/", cc, std::move(ev));
         EXPECT_TRUE(c.isOk()) << c.status().message();
         if (c) mConn = std::move(c).value();
@@ -510,7 +512,8 @@ TEST(RemoteSession, StalledReaderKeepsAtMostOneSetQueued) {
 }
 
 // With maxSessionsPerAddress, one peer address holds at most that many sessions: one more is
-// refused with kOverloaded naming the address, and a session that ends frees its slot.
+// refused with kOverloaded naming the address, another address (loopback's 127.0.0.2) is served
+// beside it, and a session that ends frees its slot.
 TEST(RemoteSession, SessionsFromOneAddressAreLimited) {
     ServerConfig config = smallServer();
     config.maxSessionsPerAddress = 2;
@@ -534,8 +537,10 @@ TEST(RemoteSession, SessionsFromOneAddressAreLimited) {
     EXPECT_EQ(error->kind, ErrorKind::kOverloaded);
     EXPECT_EQ(error->text, "too many sessions from 127.0.0.1 (2 at most)");
     EXPECT_TRUE(third.waitClosed());
+    RawPeer elsewhere(server->port(), "127.0.0.2");  // another address has slots of its own
+    ASSERT_TRUE(accepted(elsewhere));
     first.reset();
-    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 1; }));
+    EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 2; }));
     RawPeer fourth(server->port());
     EXPECT_TRUE(accepted(fourth));
     EXPECT_EQ(server->stats().refused, 1);

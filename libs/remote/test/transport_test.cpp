@@ -1,7 +1,8 @@
 // The listener against raw TCP peers on loopback (127.0.0.1, a free port). The write timeout: a
 // reader that keeps taking bytes, however slowly, keeps its connection; one that stops is
 // dropped. The pending limit: past it, the oldest connections that sent nothing are dropped, not
-// the ones that did. Every wait is bounded; nothing here measures speed.
+// the ones that did. A client's source address. Every wait is bounded; nothing here measures
+// speed.
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -12,14 +13,17 @@
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <plx/remote/transport.h>
@@ -89,6 +93,12 @@ public:
     double sendMs() {
         std::lock_guard lock(mMutex);
         return mSendMs;
+    }
+    // The accepted connection's peer address (waits, bounded); empty if none came.
+    std::string peerAddress() {
+        std::unique_lock lock(mMutex);
+        if (!mChanged.wait_for(lock, 10s, [&] { return mConn != nullptr; })) return {};
+        return mConn->peerAddress();
     }
     std::optional<Status> closed(std::chrono::milliseconds limit) {
         std::unique_lock lock(mMutex);
@@ -263,6 +273,35 @@ private:
     std::condition_variable mChanged;
     int mMessages = 0, mClosed = 0;
 };
+
+// A client bound to a source address reaches the server from it (Linux's loopback holds
+// 127.0.0.0/8; nothing leaves the machine); a source that is not an IP address, has no address of
+// its family at the host, or is not local is one error naming it.
+TEST(TransportConnect, AClientConnectsFromItsSourceAddress) {
+    Listener listener;
+    auto transport = std::move(Transport::create()).value();
+    ConnectionConfig config;
+    config.sourceAddress = "127.0.0.2";
+    auto connected = transport->connect("127.0.0.1", listener.port(), "/", config, {});
+    ASSERT_TRUE(connected.isOk()) << connected.status().message();
+    const std::shared_ptr<Connection> conn = *connected;
+    EXPECT_EQ(listener.peerAddress(), "127.0.0.2");
+    EXPECT_EQ(conn->peerAddress(), "127.0.0.1");
+
+    const std::string to = fmt::format(" to ws://127.0.0.1:{}: ", listener.port());
+    std::vector<std::pair<std::string, std::string>> refused = {
+        {"loopback", "source address 'loopback' is not an IP address"},
+        {"::1", "cannot connect from ::1" + to}};
+    std::ifstream nonlocal("/proc/sys/net/ipv4/ip_nonlocal_bind");
+    if (int allowed = 1; nonlocal >> allowed && allowed == 0)  // else binding it succeeds
+        refused.emplace_back("192.0.2.1", "cannot connect from 192.0.2.1" + to);
+    for (const auto& [source, error] : refused) {
+        config.sourceAddress = source;
+        auto bad = transport->connect("127.0.0.1", listener.port(), "/", config, {});
+        ASSERT_FALSE(bad.isOk()) << source;
+        EXPECT_TRUE(bad.status().message().starts_with(error)) << bad.status().message();
+    }
+}
 
 TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {
     PendingListener listener(4);

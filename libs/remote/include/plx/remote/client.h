@@ -30,6 +30,8 @@ struct ClientConfig {
     // Reconnection backoff: first wait, doubled per failed attempt up to the cap.
     double backoffMinMs = 100.0, backoffMaxMs = 2000.0;
     double connectTimeoutMs = 3000.0;
+    // The local address to connect from (ConnectionConfig::sourceAddress); empty: the system's.
+    std::string sourceAddress;
 };
 
 // A decoded set with what the client knows about it.
@@ -52,6 +54,9 @@ struct ClientStats {
     size_t queuedBytes = 0;  // now: bytes this side has queued on the socket, not yet written
     bool connected = false;
     int faceSize = 0, poseRateHz = 0;  // from the last ServerHello
+    // Why the latest connection that failed did (not connected, or closed by an error); empty
+    // while none has.
+    std::string lastError;
 };
 
 // The client's clock, microseconds (the clock of Pose timestamps).

@@ -37,6 +37,10 @@ Status checkLinkEmulation(const LinkEmulation& link);
 // Whether `bind` is an IPv4 or IPv6 address a listener can bind (Transport::listen); the error
 // names it.
 Status checkBindAddress(const std::string& bind);
+// Whether `source` is empty or an IP address of this host a client can connect from
+// (ConnectionConfig::sourceAddress): it is bound once, to a free port, and let go; the error
+// names it.
+Status checkSourceAddress(const std::string& source);
 
 // The group a peer address counts in for the per-address limits (ServerConfig::
 // maxSessionsPerAddress, ConnectionConfig::maxPendingConnections): an IPv4 address is its own,
@@ -80,6 +84,11 @@ struct ConnectionConfig {
     // Listeners only: requests that are not a WebSocket upgrade are answered from these files
     // (404 when empty), then the connection is closed.
     HttpFiles httpFiles;
+    // Connections made by connect only: the local IP address the socket is bound to before it
+    // connects (a multi-homed host's interface, or one of loopback's 127.0.0.0/8), so that the
+    // server sees the client from it; the host's first address of that family is used. Empty:
+    // the system's choice.
+    std::string sourceAddress;
 };
 
 // The largest frame a connection writes: a longer message goes out as several frames (RFC 6455
@@ -148,8 +157,10 @@ public:
     };
     ListenerStats listenerStats() const;
 
-    // Connects to ws://host:port/path and completes the WebSocket handshake, waiting at most
-    // config.handshakeTimeoutMs. Errors: unreachable, refused, timed out.
+    // Connects to ws://host:port/path (from config.sourceAddress when set) and completes the
+    // WebSocket handshake, waiting at most config.handshakeTimeoutMs. Errors: unreachable,
+    // refused, timed out; a source address that is not an IP address, not local, or of a family
+    // the host has no address of.
     Result<std::shared_ptr<Connection>> connect(const std::string& host, int port,
                                                 const std::string& path,
                                                 const ConnectionConfig& config,

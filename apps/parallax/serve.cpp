@@ -8,6 +8,7 @@
 #include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <mutex>
 
 #include <fmt/format.h>
 
@@ -131,6 +132,43 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
     return *withQueue - uint64_t(queueBytes);
 }
 
+// The session log on stdout, a line per remote::SessionEvent: text, or with --json a JSON line
+// ("session_accepted", "session_refused", "session_ended"). Lines from the transport's thread are
+// held while `mutex` is, which runServe holds until its "listening" line is out, so that line
+// stays the first.
+struct SessionLog {
+    bool json = false;
+    std::mutex mutex;
+
+    void print(const remote::SessionEvent& e) {
+        using Kind = remote::SessionEvent::Kind;
+        std::string line;
+        if (json) {
+            nlohmann::json j{{"event", fmt::format("session_{}", remote::sessionEventName(e.kind))},
+                             {"session", e.session},
+                             {"address", e.address}};
+            if (e.kind == Kind::kAccepted) j["face_size"] = e.faceSize;
+            if (e.kind != Kind::kAccepted) j["reason"] = e.reason;
+            if (e.kind == Kind::kEnded)
+                j.update({{"duration_s", e.durationS},
+                          {"sets_sent", e.setsSent},
+                          {"bytes_sent", e.bytesSent}});
+            line = j.dump();
+        } else {
+            line = fmt::format("session {} from {}: {}", e.session, e.address,
+                               remote::sessionEventName(e.kind));
+            if (e.kind == Kind::kAccepted) line += fmt::format(" ({} px faces)", e.faceSize);
+            if (e.kind == Kind::kEnded)
+                line += fmt::format(" after {:.1f} s, {} sets ({:.1f} KiB)", e.durationS,
+                                    e.setsSent, double(e.bytesSent) / 1024.0);
+            if (e.kind != Kind::kAccepted) line += ": " + e.reason;
+        }
+        std::lock_guard lock(mutex);
+        fmt::print("{}\n", line);
+        std::fflush(stdout);
+    }
+};
+
 // File descriptors a server holds beyond its connections' sockets: 9 at start (standard streams,
 // the I/O thread's epoll, eventfd and timerfd), with room to spare.
 constexpr uint64_t kServeBaseFiles = 32;
@@ -167,6 +205,10 @@ int runServe(const ServeArgs& a) {
     if (!openFiles) return fail(openFiles.status());
     const size_t triangles = scene->triangleCount();
     const sigset_t stopSignals = blockStopSignals();
+    SessionLog log;
+    log.json = a.json;
+    config->onSessionEvent = [&log](const remote::SessionEvent& e) { log.print(e); };
+    std::unique_lock holdLog(log.mutex);  // until the listening line is out
     auto server = remote::Server::create(std::move(scene).value(), *config);
     if (!server) return fail(server.status());
     const std::string url = fmt::format("ws://{}:{}/", a.bind, (*server)->port());
@@ -191,8 +233,9 @@ int runServe(const ServeArgs& a) {
             a.scene, triangles, url, a.refs, servedFaceSize, a.prediction);
     }
     std::fflush(stdout);
+    holdLog.unlock();
     waitForStop(stopSignals, a.seconds);
-    (*server)->stop();
+    (*server)->stop();  // the last session lines are out when it returns
     remote::ServerStats s = (*server)->stats();
     if (a.json) {
         nlohmann::json stopped{{"event", "stopped"},
@@ -234,8 +277,10 @@ Command registerServe(CLI::App& app) {
         "Example: parallax serve office:8 --port 8080 --face-size 512 --token secret\n"
         "         parallax client ws://127.0.0.1:8080 --token secret --walk 300 --scene office:8\n"
         "Listens on 127.0.0.1 unless --bind says otherwise; --port 0 picks a free port. With "
-        "--json, stdout has one JSON line when listening ({\"event\":\"listening\",\"port\":...}) "
-        "and one when stopped (totals). The wire protocol: docs/remote-protocol.md.");
+        "--json, stdout has one JSON line when listening ({\"event\":\"listening\",\"port\":...}), "
+        "one per client accepted, refused or ended (session_accepted, session_refused, "
+        "session_ended: session number, address, reason, sets sent) and one when stopped "
+        "(totals); without it, the same as text. The wire protocol: docs/remote-protocol.md.");
     sub->add_option("scene", a->scene, "Model file or generator spec (office:N, museum:N)")
         ->required();
     sub->add_option("--port", a->port, "TCP port (0: a free one, printed)")->capture_default_str();
@@ -272,7 +317,7 @@ Command registerServe(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--threads", a->threads, "Render threads (0: all cores)");
     sub->add_option("--seconds", a->seconds, "Stop after this long (0: at Ctrl-C or SIGTERM)");
-    sub->add_flag("--json", a->json, "JSON lines on stdout (listening, stopped)");
+    sub->add_flag("--json", a->json, "JSON lines on stdout (listening, sessions, stopped)");
     return {sub, [a] { return runServe(*a); }};
 }
 

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -40,17 +41,21 @@ public:
     ~ServeProcess() { stop(); }
     int port() const { return listening.is_object() ? listening.value("port", 0) : 0; }
     std::string url() const { return "ws://127.0.0.1:" + std::to_string(port()); }
-    // SIGTERM; returns the "stopped" JSON line and the exit code.
+    // SIGTERM; returns the "stopped" JSON line (the last) and the exit code, and keeps the
+    // session lines before it in `sessionLines`.
     std::pair<nlohmann::json, int> stop() {
         if (!mPipe) return {{}, -1};
         if (mPid > 0) kill(mPid, SIGTERM);
-        std::string rest;
+        std::vector<nlohmann::json> lines;
         char buf[4096];
-        while (fgets(buf, sizeof buf, mPipe)) rest += buf;
+        while (fgets(buf, sizeof buf, mPipe))
+            lines.push_back(nlohmann::json::parse(buf, nullptr, false));
         int status = pclose(mPipe);
         mPipe = nullptr;
-        return {nlohmann::json::parse(rest, nullptr, false),
-                WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+        nlohmann::json stopped = lines.empty() ? nlohmann::json() : lines.back();
+        if (!lines.empty()) lines.pop_back();
+        sessionLines = std::move(lines);
+        return {stopped, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
     }
     // CPU seconds the server has used so far (user and system); < 0 if it cannot be read.
     double cpuSeconds() const {
@@ -71,6 +76,7 @@ public:
         return (utime + stime) / double(sysconf(_SC_CLK_TCK));
     }
     nlohmann::json listening;
+    std::vector<nlohmann::json> sessionLines;  // after stop()
 
 private:
     FILE* mPipe = nullptr;

@@ -50,6 +50,19 @@ TEST(RemoteCli, ServeAndClientEndToEnd) {
     ASSERT_TRUE(stopped.is_object());
     EXPECT_EQ(stopped["event"], "stopped");
     EXPECT_GE(stopped["sets_sent"].get<int>(), 1);
+    // The session log: the client came, and left saying goodbye with every set sent.
+    ASSERT_EQ(server.sessionLines.size(), 2u);
+    const nlohmann::json &came = server.sessionLines[0], &left = server.sessionLines[1];
+    EXPECT_EQ(came["event"], "session_accepted");
+    EXPECT_EQ(came["session"], 1);
+    EXPECT_EQ(came["address"], "127.0.0.1");
+    EXPECT_GT(came["face_size"].get<int>(), 0);
+    EXPECT_EQ(left["event"], "session_ended");
+    EXPECT_EQ(left["session"], 1);
+    EXPECT_EQ(left["reason"], "client said goodbye");
+    EXPECT_EQ(left["sets_sent"], stopped["sets_sent"]);
+    EXPECT_EQ(left["bytes_sent"], stopped["bytes_sent"]);
+    EXPECT_GT(left["duration_s"].get<double>(), 0.0);
 }
 
 TEST(RemoteCli, PathFileAndStereoWithoutScene) {
@@ -208,6 +221,12 @@ TEST(RemoteCli, TokenRefusedAtTheHandshake) {
     expectOneLineError(
         runParallax("client " + server.url() + " --path " + path.string() + " --size 64x48"),
         "token is required");
+    server.stop();
+    ASSERT_EQ(server.sessionLines.size(), 2u);
+    for (const nlohmann::json& line : server.sessionLines)
+        EXPECT_EQ(line["event"], "session_refused") << line;
+    EXPECT_EQ(server.sessionLines[0]["reason"], "wrong token");
+    EXPECT_EQ(server.sessionLines[1]["reason"], "a token is required");
 }
 
 TEST(RemoteCli, BadArgumentsAreOneLineErrors) {

@@ -37,6 +37,18 @@ const char* predictionName(Prediction prediction) {
     return prediction == Prediction::kNone ? "none" : "velocity";
 }
 
+const char* sessionEventName(SessionEvent::Kind kind) {
+    switch (kind) {
+        case SessionEvent::Kind::kAccepted:
+            return "accepted";
+        case SessionEvent::Kind::kRefused:
+            return "refused";
+        case SessionEvent::Kind::kEnded:
+            return "ended";
+    }
+    return "?";
+}
+
 Vec3 predictEye(const Vec3& eye, const Vec3& velocity, double leadMs) {
     const double lead = std::clamp(leadMs, 0.0, 1000.0) * 1e-3;
     return eye + velocity * float(lead);
@@ -115,8 +127,12 @@ enum class SessionState { kAwaitingHello, kAccepted, kClosed };
 struct Session {
     std::shared_ptr<Connection> conn;
     Clock::time_point connectedAt = Clock::now();
+    uint64_t number = 0;  // SessionEvent::session
     // Guarded by Server::Impl::mutex.
     SessionState state = SessionState::kAwaitingHello;
+    bool accepted = false;  // its hello was: its end is logged (SessionEvent::kEnded)
+    std::string endReason;  // why the server ended it; empty when the connection ended it
+    int64_t setsSent = 0, bytesSent = 0;
     int faceSize = 0;
     // The disparity codec of this client's sets: the server's unless the client cannot decode it
     // (ClientHello::disparityCodecs; a browser has no zstd).
@@ -173,6 +189,22 @@ struct Server::Impl {
     bool waitingForQueue = false;           // renders wait for setBytesQueued to fall
     double renderEncodeMsEstimate = 0.0;    // smoothed, for the prediction lead
     std::optional<warp::Pose> initialPose;  // the scene's default viewpoint, when valid
+    uint64_t connections = 0;               // accepted connections so far (Session::number)
+
+    // An entry of the session log (ServerConfig::onSessionEvent), and its report, which is
+    // made without the lock.
+    static SessionEvent eventOf(SessionEvent::Kind kind, const Session& s, std::string reason) {
+        SessionEvent e;
+        e.kind = kind;
+        e.session = s.number;
+        e.address = s.conn->peerAddress();
+        e.faceSize = s.faceSize;
+        e.reason = std::move(reason);
+        return e;
+    }
+    void report(const SessionEvent& e) const {
+        if (config.onSessionEvent) config.onSessionEvent(e);
+    }
 
     void send(const SessionPtr& s, const Message& m, std::function<void(const Status&)> done = {}) {
         auto bytes = encodeMessage(m, config.codec);
@@ -180,19 +212,24 @@ struct Server::Impl {
         s->conn->send(std::move(bytes).value(), std::move(done));
     }
 
-    // Ends a session with an Error message (sent before the close).
+    // Ends a session with an Error message (sent before the close). One that had not said
+    // hello is logged as refused; an accepted one's end is logged when its connection ends.
     void fail(const SessionPtr& s, ErrorKind kind, std::string text) {
+        if (text.size() > size_t(kMaxTextBytes)) text.resize(size_t(kMaxTextBytes));
+        bool beforeHello = false;
         {
             std::lock_guard lock(mutex);
             if (s->state == SessionState::kClosed) return;
             if (kind == ErrorKind::kProtocol || kind == ErrorKind::kTooLarge)
                 ++stats.protocolErrors;
             if (s->state == SessionState::kAccepted) --stats.sessionsActive;
+            beforeHello = s->state == SessionState::kAwaitingHello;
             s->state = SessionState::kClosed;
+            s->endReason = "error: " + text;
         }
-        if (text.size() > size_t(kMaxTextBytes)) text.resize(size_t(kMaxTextBytes));
-        send(s, ErrorMessage{kind, std::move(text)});
+        send(s, ErrorMessage{kind, text});
         s->conn->close();
+        if (beforeHello) report(eventOf(SessionEvent::Kind::kRefused, *s, "error: " + text));
     }
 
     void refuse(const SessionPtr& s, std::string reason, const ClientHello& hello) {
@@ -206,9 +243,10 @@ struct Server::Impl {
         h.layout = config.reference.layout;
         h.faceSize = std::clamp(hello.faceSize, kMinFaceSize, kMaxFaceSize);
         h.poseRateHz = config.poseRateHz;
-        h.reason = std::move(reason);
+        h.reason = reason;
         send(s, h);
         s->conn->close();
+        report(eventOf(SessionEvent::Kind::kRefused, *s, std::move(reason)));
     }
 
     void onHello(const SessionPtr& s, const ClientHello& hello) {
@@ -228,6 +266,7 @@ struct Server::Impl {
                 ++stats.sessionsActive;
                 ++stats.sessionsTotal;
                 s->state = SessionState::kAccepted;
+                s->accepted = true;
                 s->faceSize = std::min(hello.faceSize, maxServedFaceSize(config.reference));
                 s->disparityCodec = disparity;
                 ServerHello h;
@@ -237,13 +276,15 @@ struct Server::Impl {
                 // Queued before the lock is released: the worker pings accepted sessions
                 // (housekeepLocked), and no Ping may reach the client before its ServerHello.
                 send(s, h);
-                return;
+            } else {
+                ++stats.refused;
+                s->state = SessionState::kClosed;
             }
-            ++stats.refused;
-            s->state = SessionState::kClosed;
         }
-        send(s, ErrorMessage{ErrorKind::kOverloaded, std::move(full)});
+        if (full.empty()) return report(eventOf(SessionEvent::Kind::kAccepted, *s, {}));
+        send(s, ErrorMessage{ErrorKind::kOverloaded, full});
         s->conn->close();
+        report(eventOf(SessionEvent::Kind::kRefused, *s, std::move(full)));
     }
 
     // Why `s` cannot be accepted now (maxSessions, maxSessionsPerAddress); empty when it can.
@@ -345,23 +386,38 @@ struct Server::Impl {
              fmt::format("unexpected {} from a client", messageTypeName(messageType(*m))));
     }
 
+    // The client said Bye (or sent an Error): closed without a word.
     void closeQuietly(const SessionPtr& s) {
         {
             std::lock_guard lock(mutex);
             if (s->state == SessionState::kAccepted) --stats.sessionsActive;
             s->state = SessionState::kClosed;
+            if (s->endReason.empty()) s->endReason = "client said goodbye";
         }
         s->conn->close();
     }
 
     void onClosed(const SessionPtr& s, const Status& why) {
-        std::lock_guard lock(mutex);
-        if (isWriteStall(why)) ++stats.writeStalls;
-        if (s->state == SessionState::kAccepted) --stats.sessionsActive;
-        s->state = SessionState::kClosed;
-        s->pending.reset();
-        sessions.erase(s);
-        wake.notify_all();
+        SessionEvent ended;
+        {
+            std::lock_guard lock(mutex);
+            if (isWriteStall(why)) ++stats.writeStalls;
+            if (s->state == SessionState::kAccepted) --stats.sessionsActive;
+            s->state = SessionState::kClosed;
+            s->pending.reset();
+            sessions.erase(s);
+            wake.notify_all();
+            if (!s->accepted || !config.onSessionEvent) return;
+            ended = eventOf(SessionEvent::Kind::kEnded, *s,
+                            !s->endReason.empty() ? s->endReason
+                            : isWriteStall(why)   ? "stopped reading"
+                            : why.isOk()          ? "closed by the client"
+                                                  : why.message());
+            ended.durationS = msSince(s->connectedAt) * 1e-3;
+            ended.setsSent = s->setsSent;
+            ended.bytesSent = s->bytesSent;
+        }
+        report(ended);
     }
 
     ConnectionEvents accept(std::shared_ptr<Connection> conn) {
@@ -374,6 +430,7 @@ struct Server::Impl {
                 return {};
             }
             sessions.insert(s);
+            s->number = ++connections;
         }
         ConnectionEvents ev;
         ev.onMessage = [this, s](std::vector<uint8_t>&& m, bool binary) {
@@ -462,8 +519,10 @@ struct Server::Impl {
         }
         s->conn->send(std::move(bytes).value(), [this, s, size, raw](const Status& written) {
             std::lock_guard lock(mutex);
-            if (written)
+            if (written) {
                 ++stats.setsSent, stats.bytesSent += int64_t(size), stats.rawBytesSent += raw;
+                ++s->setsSent, s->bytesSent += int64_t(size);
+            }
             s->inFlight = false;
             setBytesQueued -= size;
             scheduleLocked(s);  // backpressure: the next render only after this write
@@ -573,6 +632,7 @@ void Server::stop() {
         {
             std::lock_guard lock(m.mutex);
             if (s->state != SessionState::kAccepted) continue;
+            s->endReason = "server stopping";
         }
         m.send(s, Bye{ByeReason::kGoingAway, "server shutting down"});
         s->conn->close();

@@ -546,6 +546,77 @@ TEST(RemoteSession, SessionsFromOneAddressAreLimited) {
     EXPECT_EQ(server->stats().refused, 1);
 }
 
+// The session log: each hello accepted or refused, and each accepted session's end with what
+// it was sent and why it ended, numbered by connection and naming the peer's address.
+TEST(RemoteSession, TheSessionLogSaysWhoCameAndHowTheyLeft) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    std::mutex mutex;
+    std::vector<SessionEvent> log;
+    ServerConfig config = smallServer();
+    config.maxSessionsPerAddress = 1;
+    config.onSessionEvent = [&](const SessionEvent& e) {
+        std::lock_guard lock(mutex);
+        log.push_back(e);
+    };
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    auto logged = [&](size_t n) {
+        return eventually([&] {
+            std::lock_guard lock(mutex);
+            return log.size() >= n;
+        });
+    };
+    {
+        RawPeer first(server->port());
+        first.hello();
+        ASSERT_TRUE(first.first<ServerHello>());
+        first.send(poseNow(scene));
+        ASSERT_TRUE(first.first<ReferenceSetMessage>());
+        RawPeer second(server->port());  // one session per address: refused
+        second.hello();
+        ASSERT_TRUE(second.first<ErrorMessage>());
+        RawPeer early(server->port(), "127.0.0.2");  // a pose before its hello
+        early.send(poseNow(scene));
+        ASSERT_TRUE(early.waitClosed());
+        first.send(Bye{ByeReason::kNormal, "done"});
+        ASSERT_TRUE(first.waitClosed());
+    }
+    ASSERT_TRUE(logged(4));
+    RawPeer last(server->port());
+    last.hello();
+    ASSERT_TRUE(last.first<ServerHello>());
+    ASSERT_TRUE(logged(5));
+    server->stop();
+    ASSERT_TRUE(logged(6));
+
+    std::lock_guard lock(mutex);
+    ASSERT_EQ(log.size(), 6u);
+    using Kind = SessionEvent::Kind;
+    EXPECT_EQ(log[0].kind, Kind::kAccepted);
+    EXPECT_EQ(log[0].session, 1u);
+    EXPECT_EQ(log[0].address, "127.0.0.1");
+    EXPECT_EQ(log[0].faceSize, 32);
+    EXPECT_EQ(log[1].kind, Kind::kRefused);
+    EXPECT_EQ(log[1].session, 2u);
+    EXPECT_EQ(log[1].reason, "too many sessions from 127.0.0.1 (1 at most)");
+    EXPECT_EQ(log[2].kind, Kind::kRefused);
+    EXPECT_EQ(log[2].session, 3u);
+    EXPECT_EQ(log[2].address, "127.0.0.2");
+    EXPECT_EQ(log[2].reason, "error: pose before ClientHello");
+    EXPECT_EQ(log[3].kind, Kind::kEnded);
+    EXPECT_EQ(log[3].session, 1u);
+    EXPECT_EQ(log[3].reason, "client said goodbye");
+    EXPECT_GE(log[3].setsSent, 1);
+    EXPECT_GT(log[3].bytesSent, 0);
+    EXPECT_GT(log[3].durationS, 0.0);
+    EXPECT_EQ(log[4].kind, Kind::kAccepted);
+    EXPECT_EQ(log[4].session, 4u);
+    EXPECT_EQ(log[5].kind, Kind::kEnded);
+    EXPECT_EQ(log[5].session, 4u);
+    EXPECT_EQ(log[5].reason, "server stopping");
+    EXPECT_EQ(server->stats().setsSent, log[3].setsSent + log[5].setsSent);
+}
+
 // A peer that stops reading is dropped once its socket has taken nothing for the write timeout,
 // and its session's slot goes to the next client.
 TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {

@@ -10,6 +10,7 @@
 // queued sets together stay within ServerConfig::maxQueuedSetBytes (plus one set).
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -28,6 +29,23 @@ enum class Prediction {
 };
 Result<Prediction> parsePrediction(const std::string& name);  // none, velocity
 const char* predictionName(Prediction prediction);
+
+// One entry of the server's session log (ServerConfig::onSessionEvent): a client's hello
+// accepted or refused, and an accepted session's end.
+struct SessionEvent {
+    enum class Kind { kAccepted, kRefused, kEnded };
+    Kind kind = Kind::kAccepted;
+    uint64_t session = 0;  // the connection's number since the server started: 1, 2, ...
+    std::string address;   // the peer's (Connection::peerAddress)
+    int faceSize = 0;      // kAccepted: the face size it is served
+    // kRefused: why (the reason its ServerHello or Error carried). kEnded: how it ended: "client
+    // said goodbye", "closed by the client", "stopped reading" (writeStallTimeoutMs), "server
+    // stopping", or the error the server sent or the connection met.
+    std::string reason;
+    double durationS = 0.0;               // kEnded: since its connection was accepted
+    int64_t setsSent = 0, bytesSent = 0;  // kEnded: the reference sets written to it
+};
+const char* sessionEventName(SessionEvent::Kind kind);  // accepted, refused, ended
 
 struct ServerConfig {
     std::string bind = "127.0.0.1";  // listen on loopback unless told otherwise
@@ -65,6 +83,9 @@ struct ServerConfig {
     // Plain HTTP GET on the same port: the browser client's page (`parallax serve` passes the
     // assets embedded in the binary); empty: every such request gets 404.
     HttpFiles pages;
+    // The session log: called for each SessionEvent on the transport's I/O thread (one at a
+    // time, a session's in order), without the server's lock; it must return quickly. Empty: none.
+    std::function<void(const SessionEvent&)> onSessionEvent;
 };
 Status checkServerConfig(const ServerConfig& config);
 

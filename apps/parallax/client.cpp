@@ -295,6 +295,7 @@ int runClient(const ClientArgs& a) {
         {"reconnects", std::max<int64_t>(0, cs.connects - 1)},
         {"frames_written", loop->written}};
     if (scene) doc["psnr_db_median"] = medianOf(loop->frames, &FrameStat::psnrDb);
+    if (!cs.lastError.empty()) doc["last_error"] = cs.lastError;  // of a failed reconnection
     doc.update(memoryJson(*memory));
     if (a.json) {
         printJson(doc);

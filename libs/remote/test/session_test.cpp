@@ -15,6 +15,7 @@
 #include <mutex>
 #include <thread>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <plx/raster/raster.h>
@@ -752,6 +753,11 @@ TEST(RemoteSession, ClientReconnectsAfterServerRestart) {
     server.reset();
     EXPECT_TRUE(eventually([&] { return !client->stats().connected; }));
     EXPECT_NE(client->newest(), nullptr);  // the last set stays for the display loop
+    // Its attempts meanwhile fail, and it says why.
+    EXPECT_TRUE(eventually([&] { return !client->stats().lastError.empty(); }));
+    EXPECT_TRUE(client->stats().lastError.starts_with(
+        fmt::format("cannot connect to ws://127.0.0.1:{}: ", port)))
+        << client->stats().lastError;
     ServerConfig again = smallServer();
     again.port = port;
     server = startServer(again);

@@ -132,15 +132,23 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
     return *withQueue - uint64_t(queueBytes);
 }
 
-// The session log on stdout, a line per remote::SessionEvent: text, or with --json a JSON line
-// ("session_accepted", "session_refused", "session_ended"). Lines from the transport's thread are
-// held while `mutex` is, which runServe holds until its "listening" line is out, so that line
-// stays the first.
-struct SessionLog {
+// serve's stdout: the listening line, the session log (a line per remote::SessionEvent: text, or
+// with --json a JSON line, "session_accepted", "session_refused", "session_ended") and the stopped
+// line. Whole lines under `mutex`, which runServe holds until the listening line is out, so that
+// the session lines from the transport's thread come after it. Write errors are ignored, and
+// SIGPIPE with them (runServe): a server whose reader went away (`serve --json | head -1`) keeps
+// serving.
+struct ServeOutput {
     bool json = false;
     std::mutex mutex;
 
-    void print(const remote::SessionEvent& e) {
+    // The caller holds `mutex`.
+    static void writeLocked(const std::string& line) {
+        std::fputs((line + "\n").c_str(), stdout);
+        std::fflush(stdout);
+    }
+
+    void session(const remote::SessionEvent& e) {
         using Kind = remote::SessionEvent::Kind;
         std::string line;
         if (json) {
@@ -164,8 +172,7 @@ struct SessionLog {
             if (e.kind != Kind::kAccepted) line += ": " + e.reason;
         }
         std::lock_guard lock(mutex);
-        fmt::print("{}\n", line);
-        std::fflush(stdout);
+        writeLocked(line);
     }
 };
 
@@ -205,35 +212,35 @@ int runServe(const ServeArgs& a) {
     if (!openFiles) return fail(openFiles.status());
     const size_t triangles = scene->triangleCount();
     const sigset_t stopSignals = blockStopSignals();
-    SessionLog log;
-    log.json = a.json;
-    config->onSessionEvent = [&log](const remote::SessionEvent& e) { log.print(e); };
-    std::unique_lock holdLog(log.mutex);  // until the listening line is out
+    std::signal(SIGPIPE, SIG_IGN);
+    ServeOutput out;
+    out.json = a.json;
+    config->onSessionEvent = [&out](const remote::SessionEvent& e) { out.session(e); };
+    std::unique_lock holdOutput(out.mutex);  // until the listening line is out
     auto server = remote::Server::create(std::move(scene).value(), *config);
     if (!server) return fail(server.status());
     const std::string url = fmt::format("ws://{}:{}/", a.bind, (*server)->port());
     // The largest a session gets: --face-size, lowered for wide views no client could decode.
     const int servedFaceSize = remote::maxServedFaceSize(config->reference);
     if (a.json) {
-        fmt::print("{}\n", nlohmann::json{{"event", "listening"},
-                                          {"url", url},
-                                          {"bind", a.bind},
-                                          {"port", (*server)->port()},
-                                          {"scene", a.scene},
-                                          {"triangles", triangles},
-                                          {"refs", a.refs},
-                                          {"face_size", servedFaceSize},
-                                          {"open_files", *openFiles},
-                                          {"prediction", a.prediction}}
-                               .dump());
+        out.writeLocked(nlohmann::json{
+            {"event", "listening"},
+            {"url", url},
+            {"bind", a.bind},
+            {"port", (*server)->port()},
+            {"scene", a.scene},
+            {"triangles", triangles},
+            {"refs", a.refs},
+            {"face_size", servedFaceSize},
+            {"open_files", *openFiles},
+            {"prediction",
+             a.prediction}}.dump());
     } else {
-        fmt::print(
-            "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C "
-            "stops\n",
-            a.scene, triangles, url, a.refs, servedFaceSize, a.prediction);
+        out.writeLocked(fmt::format(
+            "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C stops",
+            a.scene, triangles, url, a.refs, servedFaceSize, a.prediction));
     }
-    std::fflush(stdout);
-    holdLog.unlock();
+    holdOutput.unlock();
     waitForStop(stopSignals, a.seconds);
     (*server)->stop();  // the last session lines are out when it returns
     remote::ServerStats s = (*server)->stats();
@@ -254,15 +261,17 @@ int runServe(const ServeArgs& a) {
                                {"render_ms_mean", s.renderMsMean},
                                {"encode_ms_mean", s.encodeMsMean}};
         stopped.update(memoryJson(*memory));
-        fmt::print("{}\n", stopped.dump());
+        holdOutput.lock();
+        out.writeLocked(stopped.dump());
     } else {
-        fmt::print(
+        holdOutput.lock();
+        out.writeLocked(fmt::format(
             "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "
-            "{:.1f} ms + encode {:.1f} ms per set\n",
+            "{:.1f} ms + encode {:.1f} ms per set",
             s.sessionsTotal, s.setsSent,
             s.setsSent ? double(s.bytesSent) / double(s.setsSent) / 1024.0 : 0.0,
             s.bytesSent ? double(s.rawBytesSent) / double(s.bytesSent) : 0.0, s.renderMsMean,
-            s.encodeMsMean);
+            s.encodeMsMean));
     }
     return kExitOk;
 }

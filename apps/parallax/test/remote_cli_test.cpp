@@ -1,8 +1,11 @@
 // parallax serve and parallax client run as a user would, as separate processes over loopback:
-// the JSON fields, a token refused, SIGTERM stopping the server, one-line errors for bad
-// arguments. Servers bind 127.0.0.1 on free ports (--port 0) and stop by themselves.
+// the JSON fields and session lines, a token refused, SIGTERM stopping the server, a server
+// outliving its stdout's reader, one-line errors for bad arguments. Servers bind 127.0.0.1 on free
+// ports (--port 0) and stop by themselves.
 
+#include <signal.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <plx_test/loopback.h>
@@ -208,6 +212,39 @@ TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
     ServeProcess server("office:1 --refs wide --face-size 4096");
     ASSERT_GT(server.port(), 0);
     EXPECT_EQ(server.listening.value("face_size", 0), 2304);
+}
+
+// A server whose stdout reader went away (`serve --json | head -1`) keeps serving: its session
+// lines are dropped, not the process (SIGPIPE), and SIGTERM still stops it cleanly.
+TEST(RemoteCli, ServeOutlivesItsStdoutReader) {
+    int out[2];
+    ASSERT_EQ(pipe(out), 0);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        dup2(out[1], STDOUT_FILENO);
+        close(out[0]);
+        close(out[1]);
+        execl(PARALLAX_EXE, PARALLAX_EXE, "serve", "office:1", "--port", "0", "--json",
+              "--face-size", "32", "--seconds", "30", static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    close(out[1]);
+    std::string first;
+    for (char c; first.size() < 4096 && read(out[0], &c, 1) == 1 && c != '\n';) first += c;
+    close(out[0]);  // the reader goes away after the listening line
+    const int port = nlohmann::json::parse(first, nullptr, false).value("port", 0);
+    EXPECT_GT(port, 0) << first;
+    for (int i = 0; i < 2 && port > 0; ++i) {
+        RunResult r = runParallax(fmt::format(
+            "client ws://127.0.0.1:{} --walk 10 --scene office:1 --size 64x48 --json", port));
+        EXPECT_EQ(r.exitCode, 0) << i << ": " << r.err;
+    }
+    kill(pid, SIGTERM);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
 TEST(RemoteCli, TokenRefusedAtTheHandshake) {

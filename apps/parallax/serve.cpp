@@ -2,9 +2,12 @@
 // (libs/remote, server.h). Streams reference sets over WebSocket to `parallax client` until
 // Ctrl-C or SIGTERM (or --seconds), then says Bye(GoingAway) to every session.
 
+#include <poll.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
@@ -135,17 +138,34 @@ Result<uint64_t> checkServeMemory(const ServeArgs& a, const remote::ServerConfig
 // serve's stdout: the listening line, the session log (a line per remote::SessionEvent: text, or
 // with --json a JSON line, "session_accepted", "session_refused", "session_ended") and the stopped
 // line. Whole lines under `mutex`, which runServe holds until the listening line is out, so that
-// the session lines from the transport's thread come after it. Write errors are ignored, and
-// SIGPIPE with them (runServe): a server whose reader went away (`serve --json | head -1`) keeps
-// serving.
+// the session lines from the transport's thread come after it.
+//
+// A reader that is gone or stops reading must not stop the server: SIGPIPE is ignored (runServe)
+// and write errors with it (`serve --json | head -1`), and a line waits at most `waitMs` for room
+// in a full pipe, then is dropped and counted. Session lines wait not at all: they are written
+// on the transport's I/O thread, which a blocked write would stop for every session (a script
+// that reads only the listening line, then nothing until it stops the server).
 struct ServeOutput {
     bool json = false;
     std::mutex mutex;
+    int64_t dropped = 0;  // lines, or their ends, not written
 
-    // The caller holds `mutex`.
-    static void writeLocked(const std::string& line) {
-        std::fputs((line + "\n").c_str(), stdout);
-        std::fflush(stdout);
+    // The caller holds `mutex`. Raw writes of at most PIPE_BUF bytes, each after poll said there
+    // is room: such a write to a pipe goes in whole without blocking.
+    void writeLocked(const std::string& text, int waitMs) {
+        const std::string line = text + "\n";
+        for (size_t at = 0; at < line.size();) {
+            pollfd out{STDOUT_FILENO, POLLOUT, 0};
+            const ssize_t n = poll(&out, 1, waitMs) == 1 && (out.revents & POLLOUT)
+                                  ? write(STDOUT_FILENO, line.data() + at,
+                                          std::min<size_t>(line.size() - at, PIPE_BUF))
+                                  : -1;
+            if (n <= 0) {
+                ++dropped;
+                return;
+            }
+            at += size_t(n);
+        }
     }
 
     void session(const remote::SessionEvent& e) {
@@ -172,9 +192,12 @@ struct ServeOutput {
             if (e.kind != Kind::kAccepted) line += ": " + e.reason;
         }
         std::lock_guard lock(mutex);
-        writeLocked(line);
+        writeLocked(line, 0);
     }
 };
+
+// How long serve's listening and stopped lines wait for a reader to make room (ServeOutput).
+constexpr int kServeLineWaitMs = 1000;
 
 // File descriptors a server holds beyond its connections' sockets: 9 at start (standard streams,
 // the I/O thread's epoll, eventfd and timerfd), with room to spare.
@@ -223,27 +246,30 @@ int runServe(const ServeArgs& a) {
     // The largest a session gets: --face-size, lowered for wide views no client could decode.
     const int servedFaceSize = remote::maxServedFaceSize(config->reference);
     if (a.json) {
-        out.writeLocked(nlohmann::json{
-            {"event", "listening"},
-            {"url", url},
-            {"bind", a.bind},
-            {"port", (*server)->port()},
-            {"scene", a.scene},
-            {"triangles", triangles},
-            {"refs", a.refs},
-            {"face_size", servedFaceSize},
-            {"open_files", *openFiles},
-            {"prediction",
-             a.prediction}}.dump());
+        out.writeLocked(nlohmann::json{{"event", "listening"},
+                                       {"url", url},
+                                       {"bind", a.bind},
+                                       {"port", (*server)->port()},
+                                       {"scene", a.scene},
+                                       {"triangles", triangles},
+                                       {"refs", a.refs},
+                                       {"face_size", servedFaceSize},
+                                       {"open_files", *openFiles},
+                                       {"prediction", a.prediction}}
+                            .dump(),
+                        kServeLineWaitMs);
     } else {
-        out.writeLocked(fmt::format(
-            "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C stops",
-            a.scene, triangles, url, a.refs, servedFaceSize, a.prediction));
+        out.writeLocked(
+            fmt::format(
+                "serving {} ({} triangles) on {} ({} faces of {} px, prediction {}); Ctrl-C stops",
+                a.scene, triangles, url, a.refs, servedFaceSize, a.prediction),
+            kServeLineWaitMs);
     }
     holdOutput.unlock();
     waitForStop(stopSignals, a.seconds);
     (*server)->stop();  // the last session lines are out when it returns
     remote::ServerStats s = (*server)->stats();
+    holdOutput.lock();
     if (a.json) {
         nlohmann::json stopped{{"event", "stopped"},
                                {"sessions_total", s.sessionsTotal},
@@ -259,19 +285,21 @@ int runServe(const ServeArgs& a) {
                                {"max_queued_bytes", s.maxQueuedBytes},
                                {"max_set_bytes", s.maxSetBytes},
                                {"render_ms_mean", s.renderMsMean},
-                               {"encode_ms_mean", s.encodeMsMean}};
+                               {"encode_ms_mean", s.encodeMsMean},
+                               {"lines_dropped", out.dropped}};
         stopped.update(memoryJson(*memory));
-        holdOutput.lock();
-        out.writeLocked(stopped.dump());
+        out.writeLocked(stopped.dump(), kServeLineWaitMs);
     } else {
-        holdOutput.lock();
-        out.writeLocked(fmt::format(
-            "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "
-            "{:.1f} ms + encode {:.1f} ms per set",
-            s.sessionsTotal, s.setsSent,
-            s.setsSent ? double(s.bytesSent) / double(s.setsSent) / 1024.0 : 0.0,
-            s.bytesSent ? double(s.rawBytesSent) / double(s.bytesSent) : 0.0, s.renderMsMean,
-            s.encodeMsMean));
+        out.writeLocked(
+            fmt::format(
+                "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "
+                "{:.1f} ms + encode {:.1f} ms per set{}",
+                s.sessionsTotal, s.setsSent,
+                s.setsSent ? double(s.bytesSent) / double(s.setsSent) / 1024.0 : 0.0,
+                s.bytesSent ? double(s.rawBytesSent) / double(s.bytesSent) : 0.0, s.renderMsMean,
+                s.encodeMsMean,
+                out.dropped ? fmt::format("; {} output lines dropped", out.dropped) : ""),
+            kServeLineWaitMs);
     }
     return kExitOk;
 }

@@ -3,6 +3,7 @@
 // outliving its stdout's reader, one-line errors for bad arguments. Servers bind 127.0.0.1 on free
 // ports (--port 0) and stop by themselves.
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -11,12 +12,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <future>
+#include <memory>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <plx/remote/protocol.h>
+#include <plx/remote/transport.h>
 #include <plx_test/loopback.h>
 
 #include "cli_runner.h"
@@ -214,37 +221,120 @@ TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
     EXPECT_EQ(server.listening.value("face_size", 0), 2304);
 }
 
+// `parallax serve office:1 ARGS --port 0 --json --seconds 30` with its stdout on a pipe of
+// `pipeBytes` (0: the system's) that the test reads, stops reading or closes; the listening line
+// read.
+class PipedServe {
+public:
+    explicit PipedServe(const std::vector<std::string>& args, int pipeBytes = 0) {
+        int out[2];
+        if (pipe(out) != 0) return;
+        if (pipeBytes > 0) fcntl(out[0], F_SETPIPE_SZ, pipeBytes);
+        std::vector<std::string> argv = {PARALLAX_EXE, "serve",  "office:1",  "--port",
+                                         "0",          "--json", "--seconds", "30"};
+        argv.insert(argv.end(), args.begin(), args.end());
+        mPid = fork();
+        if (mPid == 0) {
+            dup2(out[1], STDOUT_FILENO);
+            close(out[0]);
+            close(out[1]);
+            std::vector<char*> raw;
+            for (std::string& a : argv) raw.push_back(a.data());
+            raw.push_back(nullptr);
+            execv(PARALLAX_EXE, raw.data());
+            _exit(127);
+        }
+        close(out[1]);
+        mFd = out[0];
+        const std::string first = readLine();
+        port = nlohmann::json::parse(first, nullptr, false).value("port", 0);
+        EXPECT_GT(port, 0) << first;
+    }
+    ~PipedServe() {
+        if (mPid > 0) stop();
+        closeReader();
+    }
+    // One line (without its newline), at most 64 KiB; empty at the end.
+    std::string readLine() {
+        std::string line;
+        for (char c; line.size() < (64u << 10) && read(mFd, &c, 1) == 1 && c != '\n';) line += c;
+        return line;
+    }
+    void closeReader() {
+        if (mFd >= 0) close(mFd);
+        mFd = -1;
+    }
+    // SIGTERM, then the lines written until the server exited (none once the reader is closed)
+    // and how it ended: its exit code, or -1 for a signal.
+    std::pair<std::vector<std::string>, int> stop() {
+        kill(mPid, SIGTERM);
+        std::vector<std::string> lines;
+        for (std::string l; mFd >= 0 && !(l = readLine()).empty();) lines.push_back(l);
+        int status = 0;
+        waitpid(mPid, &status, 0);
+        mPid = 0;
+        return {lines, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+    }
+
+    int port = 0;
+
+private:
+    pid_t mPid = 0;
+    int mFd = -1;
+};
+
 // A server whose stdout reader went away (`serve --json | head -1`) keeps serving: its session
 // lines are dropped, not the process (SIGPIPE), and SIGTERM still stops it cleanly.
 TEST(RemoteCli, ServeOutlivesItsStdoutReader) {
-    int out[2];
-    ASSERT_EQ(pipe(out), 0);
-    const pid_t pid = fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-        dup2(out[1], STDOUT_FILENO);
-        close(out[0]);
-        close(out[1]);
-        execl(PARALLAX_EXE, PARALLAX_EXE, "serve", "office:1", "--port", "0", "--json",
-              "--face-size", "32", "--seconds", "30", static_cast<char*>(nullptr));
-        _exit(127);
-    }
-    close(out[1]);
-    std::string first;
-    for (char c; first.size() < 4096 && read(out[0], &c, 1) == 1 && c != '\n';) first += c;
-    close(out[0]);  // the reader goes away after the listening line
-    const int port = nlohmann::json::parse(first, nullptr, false).value("port", 0);
-    EXPECT_GT(port, 0) << first;
-    for (int i = 0; i < 2 && port > 0; ++i) {
-        RunResult r = runParallax(fmt::format(
-            "client ws://127.0.0.1:{} --walk 10 --scene office:1 --size 64x48 --json", port));
+    PipedServe server({"--face-size", "32"});
+    ASSERT_GT(server.port, 0);
+    server.closeReader();
+    for (int i = 0; i < 2; ++i) {
+        RunResult r = runParallax(
+            fmt::format("client ws://127.0.0.1:{} --walk 10 --scene office:1 --size 64x48 --json",
+                        server.port));
         EXPECT_EQ(r.exitCode, 0) << i << ": " << r.err;
     }
-    kill(pid, SIGTERM);
-    int status = 0;
-    ASSERT_EQ(waitpid(pid, &status, 0), pid);
-    EXPECT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_EQ(server.stop().second, 0);
+}
+
+// A reader that stops reading after the listening line: once its pipe is full the session
+// lines are dropped, not waited for (they are written on the I/O thread every session shares),
+// so clients are still served; the stopped line, read again, counts the lines dropped.
+TEST(RemoteCli, ServeOutlivesAReaderThatStopsReading) {
+    PipedServe server({"--face-size", "32", "--token", "abc"}, 4096);
+    ASSERT_GT(server.port, 0);
+    // 100 refused hellos: about 8 KiB of session lines, twice the pipe's size.
+    auto transport = std::move(plx::remote::Transport::create()).value();
+    plx::remote::ClientHello hello;
+    hello.token = "wrong";
+    const std::vector<uint8_t> bytes = plx::remote::encodeMessage(hello).value();
+    std::vector<std::future<void>> closed;
+    for (int i = 0; i < 100; ++i) {
+        auto close = std::make_shared<std::promise<void>>();
+        closed.push_back(close->get_future());
+        plx::remote::ConnectionEvents events;
+        events.onClosed = [close](const plx::Status&) { close->set_value(); };
+        auto c = transport->connect("127.0.0.1", server.port, "/", {}, std::move(events));
+        ASSERT_TRUE(c.isOk()) << c.status().message();
+        (*c)->send(bytes);
+    }
+    for (auto& f : closed)  // each refused and closed, none waiting on the log
+        ASSERT_EQ(f.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+    RunResult r = runParallax(
+        fmt::format("client ws://127.0.0.1:{} --token abc --walk 10 --scene office:1 --size 64x48 "
+                    "--json --wait 10",
+                    server.port));
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    auto [lines, code] = server.stop();
+    EXPECT_EQ(code, 0);
+    ASSERT_FALSE(lines.empty());
+    auto stopped = nlohmann::json::parse(lines.back(), nullptr, false);
+    EXPECT_EQ(stopped.value("event", ""), "stopped") << lines.back();
+    EXPECT_EQ(stopped.value("refused", 0), 100);
+    EXPECT_EQ(stopped.value("sessions_total", 0), 1);
+    EXPECT_GT(stopped.value("lines_dropped", 0), 0);
+    transport->stop();
 }
 
 TEST(RemoteCli, TokenRefusedAtTheHandshake) {

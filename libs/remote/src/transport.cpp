@@ -119,13 +119,18 @@ public:
         mWs.auto_fragment(false);
         ErrorCodeB ec;
         const tcp::endpoint peer = beast::get_lowest_layer(mWs).socket().remote_endpoint(ec);
-        if (!ec) setPeer(peer);  // accepted; a client's socket connects later (Transport::connect)
+        if (!ec) tcpConnected(peer);  // accepted; a client's connects later (Transport::connect)
     }
 
-    // Before the connection is shared (or while only the I/O thread knows it).
-    void setPeer(const tcp::endpoint& peer) {
+    // Once the TCP connection is made, before the connection is shared (or while only the I/O
+    // thread knows it): the peer's address, and no Nagle delay. Messages here are small and
+    // timed (poses, pings, a refusal and its close): Nagle would hold one written while another
+    // is unacknowledged until the peer's delayed ACK, up to 40 ms on Linux.
+    void tcpConnected(const tcp::endpoint& peer) {
         mPeerAddress = addressText(peer.address());
         mPeerGroup = addressGroup(mPeerAddress);
+        ErrorCodeB ignored;  // a socket that refuses the option still works, only later
+        beast::get_lowest_layer(mWs).socket().set_option(tcp::no_delay(true), ignored);
     }
 
     websocket::stream<beast::tcp_stream>& ws() { return mWs; }
@@ -439,7 +444,7 @@ private:
     asio::io_context& mIo;
     websocket::stream<beast::tcp_stream> mWs;
     ConnectionConfig mConfig;
-    std::string mPeerAddress, mPeerGroup;  // setPeer
+    std::string mPeerAddress, mPeerGroup;  // tcpConnected
     ConnectionEvents mEvents;
     asio::steady_timer mSendTimer, mRecvTimer, mStallTimer;
     uint64_t mFramesStarted = 0;  // tells a stall timer whether its frame is still being written
@@ -665,7 +670,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
     auto ev = std::make_shared<ConnectionEvents>(std::move(events));
     auto handshake = [=](ErrorCodeB ec, const tcp::endpoint& peer) {
         if (ec) return fail("cannot connect to", ec);
-        c->setPeer(peer);
+        c->tcpConnected(peer);
         c->setTimeouts(false);
         c->ws().async_handshake(fmt::format("{}:{}", host, port), path, [=](ErrorCodeB hec) {
             if (hec) return fail("WebSocket handshake with", hec);

@@ -3,10 +3,7 @@
 // outliving its stdout's reader, one-line errors for bad arguments. Servers bind 127.0.0.1 on free
 // ports (--port 0) and stop by themselves.
 
-#include <fcntl.h>
-#include <signal.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,7 +16,6 @@
 #include <utility>
 #include <vector>
 
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <plx/remote/protocol.h>
@@ -157,10 +153,10 @@ TEST(RemoteCli, FailedAcceptsDoNotSpin) {
     // UBSan's dynamic type check tests memory through a pipe it opens on the spot; with no file
     // descriptor left it reports every object it has not checked before as having a bad vptr.
     if (kUnderAddressSanitizer) GTEST_SKIP() << "the sanitizers need file descriptors it takes";
-    ServeProcess server("office:1 --face-size 32", "ulimit -n 64; ");
+    ServeProcess server("office:1 --face-size 32", {.openFilesSoft = 64, .openFilesHard = 64});
     ASSERT_GT(server.port(), 0);
     EXPECT_EQ(server.listening.value("open_files", 0), 64);  // the hard limit: it cannot raise it
-    ASSERT_GE(server.cpuSeconds(), 0.0) << "no /proc/PID/task/PID/children to find the server";
+    ASSERT_GE(server.cpuSeconds(), 0.0) << "no /proc/PID/stat to read the server's CPU time";
     std::vector<int> flood;
     for (int i = 0; i < 100; ++i)
         if (int fd = silentConnection(server.port()); fd >= 0) flood.push_back(fd);
@@ -179,7 +175,8 @@ TEST(RemoteCli, FailedAcceptsDoNotSpin) {
 // ones come, never runs out of file descriptors, and serves a client while the flood still holds
 // its sockets (without the limit, the client waits for the flood's handshake timeout, 5 s).
 TEST(RemoteCli, ASilentFloodLeavesRoomForClients) {
-    ServeProcess server("office:1 --face-size 32 --max-pending 16", "ulimit -n 64; ");
+    ServeProcess server("office:1 --face-size 32 --max-pending 16",
+                        {.openFilesSoft = 64, .openFilesHard = 64});
     ASSERT_GT(server.port(), 0);
     std::vector<int> flood;
     for (int i = 0; i < 100; ++i)
@@ -202,7 +199,7 @@ TEST(RemoteCli, ServeRaisesItsOpenFilesLimit) {
     ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &inherited), 0);
     for (auto [sessions, needed] : {std::pair{16, 112}, std::pair{1024, 1120}}) {
         ServeProcess server("office:1 --face-size 32 --max-sessions " + std::to_string(sessions),
-                            "ulimit -Sn 64; ");
+                            {.openFilesSoft = 64});
         ASSERT_GT(server.port(), 0);
         EXPECT_EQ(server.listening.value("open_files", 0),
                   std::min<uint64_t>(needed, inherited.rlim_max))
@@ -221,78 +218,15 @@ TEST(RemoteCli, WideServerAnnouncesTheFaceItServes) {
     EXPECT_EQ(server.listening.value("face_size", 0), 2304);
 }
 
-// `parallax serve office:1 ARGS --port 0 --json --seconds 30` with its stdout on a pipe of
-// `pipeBytes` (0: the system's) that the test reads, stops reading or closes; the listening line
-// read.
-class PipedServe {
-public:
-    explicit PipedServe(const std::vector<std::string>& args, int pipeBytes = 0) {
-        int out[2];
-        if (pipe(out) != 0) return;
-        if (pipeBytes > 0) fcntl(out[0], F_SETPIPE_SZ, pipeBytes);
-        std::vector<std::string> argv = {PARALLAX_EXE, "serve",  "office:1",  "--port",
-                                         "0",          "--json", "--seconds", "30"};
-        argv.insert(argv.end(), args.begin(), args.end());
-        mPid = fork();
-        if (mPid == 0) {
-            dup2(out[1], STDOUT_FILENO);
-            close(out[0]);
-            close(out[1]);
-            std::vector<char*> raw;
-            for (std::string& a : argv) raw.push_back(a.data());
-            raw.push_back(nullptr);
-            execv(PARALLAX_EXE, raw.data());
-            _exit(127);
-        }
-        close(out[1]);
-        mFd = out[0];
-        const std::string first = readLine();
-        port = nlohmann::json::parse(first, nullptr, false).value("port", 0);
-        EXPECT_GT(port, 0) << first;
-    }
-    ~PipedServe() {
-        if (mPid > 0) stop();
-        closeReader();
-    }
-    // One line (without its newline), at most 64 KiB; empty at the end.
-    std::string readLine() {
-        std::string line;
-        for (char c; line.size() < (64u << 10) && read(mFd, &c, 1) == 1 && c != '\n';) line += c;
-        return line;
-    }
-    void closeReader() {
-        if (mFd >= 0) close(mFd);
-        mFd = -1;
-    }
-    // SIGTERM, then the lines written until the server exited (none once the reader is closed)
-    // and how it ended: its exit code, or -1 for a signal.
-    std::pair<std::vector<std::string>, int> stop() {
-        kill(mPid, SIGTERM);
-        std::vector<std::string> lines;
-        for (std::string l; mFd >= 0 && !(l = readLine()).empty();) lines.push_back(l);
-        int status = 0;
-        waitpid(mPid, &status, 0);
-        mPid = 0;
-        return {lines, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
-    }
-
-    int port = 0;
-
-private:
-    pid_t mPid = 0;
-    int mFd = -1;
-};
-
 // A server whose stdout reader went away (`serve --json | head -1`) keeps serving: its session
 // lines are dropped, not the process (SIGPIPE), and SIGTERM still stops it cleanly.
 TEST(RemoteCli, ServeOutlivesItsStdoutReader) {
-    PipedServe server({"--face-size", "32"});
-    ASSERT_GT(server.port, 0);
+    ServeProcess server("office:1 --face-size 32");
+    ASSERT_GT(server.port(), 0);
     server.closeReader();
     for (int i = 0; i < 2; ++i) {
-        RunResult r = runParallax(
-            fmt::format("client ws://127.0.0.1:{} --walk 10 --scene office:1 --size 64x48 --json",
-                        server.port));
+        RunResult r = runParallax("client " + server.url() +
+                                  " --walk 10 --scene office:1 --size 64x48 --json");
         EXPECT_EQ(r.exitCode, 0) << i << ": " << r.err;
     }
     EXPECT_EQ(server.stop().second, 0);
@@ -302,8 +236,8 @@ TEST(RemoteCli, ServeOutlivesItsStdoutReader) {
 // lines are dropped, not waited for (they are written on the I/O thread every session shares),
 // so clients are still served; the stopped line, read again, counts the lines dropped.
 TEST(RemoteCli, ServeOutlivesAReaderThatStopsReading) {
-    PipedServe server({"--face-size", "32", "--token", "abc"}, 4096);
-    ASSERT_GT(server.port, 0);
+    ServeProcess server("office:1 --face-size 32 --token abc", {.pipeBytes = 4096});
+    ASSERT_GT(server.port(), 0);
     // 100 refused hellos: about 8 KiB of session lines, twice the pipe's size.
     auto transport = std::move(plx::remote::Transport::create()).value();
     plx::remote::ClientHello hello;
@@ -315,22 +249,20 @@ TEST(RemoteCli, ServeOutlivesAReaderThatStopsReading) {
         closed.push_back(close->get_future());
         plx::remote::ConnectionEvents events;
         events.onClosed = [close](const plx::Status&) { close->set_value(); };
-        auto c = transport->connect("127.0.0.1", server.port, "/", {}, std::move(events));
+        auto c = transport->connect("127.0.0.1", server.port(), "/", {}, std::move(events));
         ASSERT_TRUE(c.isOk()) << c.status().message();
         (*c)->send(bytes);
     }
     for (auto& f : closed)  // each refused and closed, none waiting on the log
         ASSERT_EQ(f.wait_for(std::chrono::seconds(10)), std::future_status::ready);
-    RunResult r = runParallax(
-        fmt::format("client ws://127.0.0.1:{} --token abc --walk 10 --scene office:1 --size 64x48 "
-                    "--json --wait 10",
-                    server.port));
+    RunResult r =
+        runParallax("client " + server.url() +
+                    " --token abc --walk 10 --scene office:1 --size 64x48 --json --wait 10");
     EXPECT_EQ(r.exitCode, 0) << r.err;
-    auto [lines, code] = server.stop();
+    auto [stopped, code] = server.stop();
     EXPECT_EQ(code, 0);
-    ASSERT_FALSE(lines.empty());
-    auto stopped = nlohmann::json::parse(lines.back(), nullptr, false);
-    EXPECT_EQ(stopped.value("event", ""), "stopped") << lines.back();
+    ASSERT_TRUE(stopped.is_object());
+    EXPECT_EQ(stopped.value("event", ""), "stopped") << stopped.dump();
     EXPECT_EQ(stopped.value("refused", 0), 100);
     EXPECT_EQ(stopped.value("sessions_total", 0), 1);
     EXPECT_GT(stopped.value("lines_dropped", 0), 0);

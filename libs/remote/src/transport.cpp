@@ -86,12 +86,25 @@ Result<asio::ip::address> parseIpAddress(const std::string& text, const char* wh
     return address;
 }
 
+// An IPv4-mapped IPv6 address (::ffff:a.b.c.d) as the IPv4 address it names; others as they are.
+asio::ip::address unmapped(const asio::ip::address& address) {
+    if (address.is_v6() && address.to_v6().is_v4_mapped())
+        return asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6());
+    return address;
+}
+
 // A peer's address as text; a dual-stack listener's IPv4 peers (::ffff:a.b.c.d) as IPv4, so that
 // one peer has one name whichever socket it reached.
 std::string addressText(const asio::ip::address& address) {
-    if (address.is_v6() && address.to_v6().is_v4_mapped())
-        return asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6()).to_string();
-    return address.to_string();
+    return unmapped(address).to_string();
+}
+
+// A source address to bind (ConnectionConfig::sourceAddress): an IPv4-mapped one as IPv4, the
+// family of the sockets that reach IPv4 hosts.
+Result<asio::ip::address> parseSourceAddress(const std::string& text) {
+    auto address = parseIpAddress(text, "source address");
+    if (!address) return address.status();
+    return unmapped(*address);
 }
 
 Status fromBoost(const ErrorCodeB& ec, const char* what) {
@@ -466,7 +479,7 @@ Status checkBindAddress(const std::string& bind) {
 
 Status checkSourceAddress(const std::string& source) {
     if (source.empty()) return Status::ok();
-    auto address = parseIpAddress(source, "source address");
+    auto address = parseSourceAddress(source);
     if (!address) return address.status();
     asio::io_context io;
     tcp::socket probe(io);
@@ -653,7 +666,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
                                                        ConnectionEvents events) {
     std::optional<asio::ip::address> source;
     if (!config.sourceAddress.empty()) {
-        auto parsed = parseIpAddress(config.sourceAddress, "source address");
+        auto parsed = parseSourceAddress(config.sourceAddress);
         if (!parsed) return parsed.status();
         source = *parsed;
     }

@@ -287,6 +287,12 @@ TEST(TransportConnect, AClientConnectsFromItsSourceAddress) {
     const std::shared_ptr<Connection> conn = *connected;
     EXPECT_EQ(listener.peerAddress(), "127.0.0.2");
     EXPECT_EQ(conn->peerAddress(), "127.0.0.1");
+    // The same address written IPv4-mapped, as a dual-stack host may list it.
+    Listener another;
+    config.sourceAddress = "::ffff:127.0.0.3";
+    ASSERT_TRUE(transport->connect("127.0.0.1", another.port(), "/", config, {}).isOk());
+    EXPECT_EQ(another.peerAddress(), "127.0.0.3");
+    EXPECT_TRUE(checkSourceAddress("::ffff:127.0.0.3").isOk());
 
     const std::string to = fmt::format(" to ws://127.0.0.1:{}: ", listener.port());
     std::vector<std::pair<std::string, std::string>> refused = {

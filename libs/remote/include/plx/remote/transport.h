@@ -86,8 +86,8 @@ struct ConnectionConfig {
     HttpFiles httpFiles;
     // Connections made by connect only: the local IP address the socket is bound to before it
     // connects (a multi-homed host's interface, or one of loopback's 127.0.0.0/8), so that the
-    // server sees the client from it; the host's first address of that family is used. Empty:
-    // the system's choice.
+    // server sees the client from it; the host's first address of that family is used (an
+    // IPv4-mapped ::ffff:a.b.c.d counts as IPv4). Empty: the system's choice.
     std::string sourceAddress;
 };
 

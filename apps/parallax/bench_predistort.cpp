@@ -28,7 +28,6 @@ int runPredistortBench(const PredistortBenchArgs& a) {
         return fail("--thresholds: " + s.message(), kExitUsage);
     auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
-    if (Status s = createOutputFolder(a.out); !s) return fail(s);
     auto containerKind = display::parseContainerKind(a.container);
     if (!containerKind) return fail(containerKind.status());
     PredistortExperimentConfig config;
@@ -40,13 +39,18 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     auto showcase = scene::generateShowcase();
     if (!showcase) return fail(showcase.status());
     auto content = display::fitSceneToContent(*showcase, *d);
+    auto memory = startExperiment("bench predistort", d->framebufferWidth, d->framebufferHeight,
+                                  predistortExperimentBytes(*d, config), a.out);
+    if (!memory) return fail(memory.status());
     auto result = runPredistortExperiment(*d, d->defaultViewerMm, content, config);
     if (!result) return fail(result.status());
     auto files = predistortPlots(*result);
     const std::string csv = predistortExperimentCsv(*result);
     files.emplace_back("table1.csv", csv);
-    return finishExperiment(a.out, a.json, predistortExperimentJson(*result), "table1.json",
-                            std::move(files), [&](const std::string& dir) {
+    nlohmann::json doc = predistortExperimentJson(*result);
+    doc.update(memoryJson(*memory));
+    return finishExperiment(a.out, a.json, doc, "table1.json", std::move(files),
+                            [&](const std::string& dir) {
                                 fmt::print("{}", csv);
                                 fmt::print("wrote {}table1.{{csv,json}} and fig8-10 SVG plots\n",
                                            dir);

@@ -72,6 +72,11 @@ Result<PredistortExperiment> runPredistortExperiment(const display::Display& dis
                                                      const scene::Scene& sceneMm,
                                                      const PredistortExperimentConfig& config);
 
+// The experiment's bytes for its images, for checkImageMemory: pass 2's targets and frame per
+// framebuffer pixel, pass 1's per viewer-image pixel; its grids come on top.
+double predistortExperimentBytes(const display::Display& display,
+                                 const PredistortExperimentConfig& config);
+
 // {"display", "optics", "viewer_mm", ..., "rows": [{"error_mm", "uniform", "adaptive_full",
 // "adaptive_container"}]}: the document `parallax bench predistort --json` prints.
 nlohmann::json predistortExperimentJson(const PredistortExperiment& experiment);

@@ -67,6 +67,19 @@ Result<display::DVec3> viewerPosition(const PredistortArgs& a, const display::Di
     return display::DVec3(*v);
 }
 
+// Peak bytes beyond the scene (checkImageMemory): per framebuffer pixel, pass 2's targets, the
+// frame, its overlay and their PNGs (the growth of the peak from 2048x2048 to 4096x4096
+// framebuffers, cone_showcase: 20.2; with --format pfm 36.1, the map's floats and its bytes);
+// per pass-1 pixel, the viewer image and its targets (12.1, --pass1-size 2048 to 4096). Rounded
+// up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the measured peak. The warp mesh comes
+// on top: about 170 bytes a vertex, at most (2^m + 1)^2 vertices at --grid-level m (the examples
+// at level 11 and 0.0001 mm: 0.18M to 0.58M vertices, 30 to 100 MB).
+double predistortImageBytes(const PredistortArgs& a, const display::Display& d) {
+    const double framebufferPixels = double(d.framebufferWidth) * double(d.framebufferHeight);
+    const double pass1Pixels = double(a.pass1Size) * double(a.pass1Size);
+    return (a.format == "pfm" ? 37.0 : 21.0) * framebufferPixels + 13.0 * pass1Pixels;
+}
+
 Status writeMesh(const PredistortArgs& a, const display::Display& d,
                  const display::WarpMesh& mesh, std::string* path) {
     if (a.format == "obj") {
@@ -102,6 +115,12 @@ int run(const PredistortArgs& a) {
     if (Status s = display::validateDisplay(viewed); !s) return fail(s);
     auto content = loadContent(a.scene, *d);
     if (!content) return fail(content.status());
+    auto memory =
+        checkImageMemory(fmt::format("predistort{} at {}x{} (pass 1 {}x{})",
+                                     a.format == "pfm" ? " --format pfm" : "", d->framebufferWidth,
+                                     d->framebufferHeight, a.pass1Size, a.pass1Size),
+                         predistortImageBytes(a, *d), content->triangleCount());
+    if (!memory) return fail(memory.status());
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
     display::ImagePlane plane =
@@ -188,6 +207,7 @@ int run(const PredistortArgs& a) {
                           {"frame", framePath},
                           {"overlay", overlayPath}};
     if (uniformLevel >= 0) doc["uniform_level"] = uniformLevel;
+    doc.update(memoryJson(*memory));
     if (a.json) {
         printJson(doc);
     } else {

@@ -15,6 +15,18 @@ fs::path memoryDir() {
     return scratchDir("memory_cli");
 }
 
+// The cone-shaped showcase of examples/displays with a framebuffer of side x side pixels.
+std::string showcaseDisplay(int side) {
+    const fs::path path = memoryDir() / ("cone_" + std::to_string(side) + ".json");
+    writeFile(path, R"({"units": "mm",
+        "optics": {"type": "cone_mirror", "bottom_radius": 150, "top_radius": 250, "height": 400,
+                   "sheet": {"thickness": 0, "refractive_index": 1.49}},
+        "display": {"min": [-600, -600], "max": [600, 600], "framebuffer": [)" +
+                        std::to_string(side) + ", " + std::to_string(side) + R"(]},
+        "viewer": [0, 450, 800], "content": {"center": [0, 200, 0], "radius": 150}})");
+    return path.string();
+}
+
 // The commands of every estimate (render, each stereo method and layout kind, warp's reference
 // sets and splats), each at 1536x1152 with office:2 and at 64x64 with office:64 (232k
 // triangles: the renderer's and the reprojection's memory for the scene outweigh the images),
@@ -65,6 +77,15 @@ TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
         ASSERT_EQ(remoteRun.exitCode, 0) << remote << ": " << remoteRun.err;
         expectEstimateHoldsPeak(remoteRun.out, remote, 1.5);
     }
+    // Predistortion for a display of 2048x2048 pixels, the mesh written as text or as a map.
+    for (const std::string format : {"bourke", "pfm"}) {
+        const std::string predistort = "predistort " + showcaseDisplay(2048) +
+                                       " --error 1 --format " + format + " --out " +
+                                       (memoryDir() / "peak" / "cone").string();
+        RunResult r = runParallax(predistort + " --json");
+        ASSERT_EQ(r.exitCode, 0) << predistort << ": " << r.err;
+        expectEstimateHoldsPeak(r.out, predistort);
+    }
     // Walks whose downloads, which the budgets bound, stay small beside the frame: 20 frames,
     // and 160 at 15 frames/s with small budgets, which reach the screenshot at 10 s.
     const fs::path db = memoryDir() / ("db-" + std::to_string(getpid()));
@@ -106,6 +127,9 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
         // Scenes the experiments generate after the check: 14.9M and 7.4M triangles.
         {"bench warp --quick --scenes office:4096", "bench warp at 96x72"},
         {"bench remote --quick --scenes office:2048", "bench remote at 96x72"},
+        {"predistort " + showcaseDisplay(16384) + " --error 1",
+         "predistort at 16384x16384 (pass 1 512x512)"},
+        {"bench predistort --display " + showcaseDisplay(16384), "bench predistort at 16384x16384"},
     };
     for (const auto& [command, what] : refused)
         expectOneLineError(runParallax(command + out, limit), what + " needs about");

@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <fstream>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
@@ -15,15 +17,13 @@ fs::path memoryDir() {
     return scratchDir("memory_cli");
 }
 
-// The cone-shaped showcase of examples/displays with a framebuffer of side x side pixels.
+// examples/displays/cone_showcase.json with a framebuffer of side x side pixels.
 std::string showcaseDisplay(int side) {
+    std::ifstream example(std::string(PLX_SOURCE_DIR) + "/examples/displays/cone_showcase.json");
+    nlohmann::json display = nlohmann::json::parse(example);
+    display["display"]["framebuffer"] = {side, side};
     const fs::path path = memoryDir() / ("cone_" + std::to_string(side) + ".json");
-    writeFile(path, R"({"units": "mm",
-        "optics": {"type": "cone_mirror", "bottom_radius": 150, "top_radius": 250, "height": 400,
-                   "sheet": {"thickness": 0, "refractive_index": 1.49}},
-        "display": {"min": [-600, -600], "max": [600, 600], "framebuffer": [)" +
-                        std::to_string(side) + ", " + std::to_string(side) + R"(]},
-        "viewer": [0, 450, 800], "content": {"center": [0, 200, 0], "radius": 150}})");
+    writeFile(path, display.dump());
     return path.string();
 }
 

@@ -39,8 +39,9 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     auto showcase = scene::generateShowcase();
     if (!showcase) return fail(showcase.status());
     auto content = display::fitSceneToContent(*showcase, *d);
-    auto memory = startExperiment("bench predistort", d->framebufferWidth, d->framebufferHeight,
-                                  predistortExperimentBytes(*d, config), a.out);
+    auto memory = startExperiment(
+        "bench predistort", d->framebufferWidth, d->framebufferHeight,
+        predistortImageBytes(*d, config.pass1Size, kPredistortExperimentBytesPerPixel), a.out);
     if (!memory) return fail(memory.status());
     auto result = runPredistortExperiment(*d, d->defaultViewerMm, content, config);
     if (!result) return fail(result.status());

@@ -55,17 +55,11 @@ Status checkPredistortThresholds(const std::vector<double>& thresholdsMm) {
     return Status::ok();
 }
 
-// Per framebuffer pixel 12.5, the growth of the peak from 2048x2048 to 4096x4096 (cone_showcase),
-// and per pass-1 pixel 12.1 (`parallax predistort`'s), rounded up. The grids come on top, as the
-// experiment finds them: the uniform grid of the finest threshold dominates, about 150 bytes a
-// triangle (cone_showcase at 0.1 mm: level 8, 131k triangles, 20 MB; the other examples stop
-// at level 6 or below, 1-4 MB); kMaxUniformLevel bounds it at 2.1M triangles.
-double predistortExperimentBytes(const display::Display& display,
-                                 const PredistortExperimentConfig& config) {
+double predistortImageBytes(const display::Display& display, int pass1Size,
+                            double framebufferBytesPerPixel) {
     const double framebufferPixels =
         double(display.framebufferWidth) * double(display.framebufferHeight);
-    const double pass1Pixels = double(config.pass1Size) * double(config.pass1Size);
-    return 13.0 * framebufferPixels + 13.0 * pass1Pixels;
+    return framebufferBytesPerPixel * framebufferPixels + 13.0 * double(pass1Size) * pass1Size;
 }
 
 Result<PredistortExperiment> runPredistortExperiment(const display::Display& display,

@@ -72,10 +72,19 @@ Result<PredistortExperiment> runPredistortExperiment(const display::Display& dis
                                                      const scene::Scene& sceneMm,
                                                      const PredistortExperimentConfig& config);
 
-// The experiment's bytes for its images, for checkImageMemory: pass 2's targets and frame per
-// framebuffer pixel, pass 1's per viewer-image pixel; its grids come on top.
-double predistortExperimentBytes(const display::Display& display,
-                                 const PredistortExperimentConfig& config);
+// Bytes of a predistorted frame's images beyond its scene, for checkImageMemory (`parallax
+// predistort` and this experiment): pass 1's viewer image and its targets, 13 per pass-1 pixel
+// (12.1, the growth of predistort's peak from --pass1-size 2048 to 4096, rounded up), and
+// `framebufferBytesPerPixel` per pixel of the display's framebuffer (pass 2's targets, frame and
+// what the command writes). The warp meshes come on top.
+double predistortImageBytes(const display::Display& display, int pass1Size,
+                            double framebufferBytesPerPixel);
+
+// The experiment's bytes per framebuffer pixel: 12.5, the growth of its peak from 2048x2048 to
+// 4096x4096 (cone_showcase), rounded up. Its grids come on top, as it finds them: the uniform
+// grid of the finest threshold dominates, about 150 bytes a triangle (cone_showcase at 0.1 mm:
+// level 8, 131k triangles, 20 MB; the other examples stop at level 6 or below, 1-4 MB).
+inline constexpr double kPredistortExperimentBytesPerPixel = 13.0;
 
 // {"display", "optics", "viewer_mm", ..., "rows": [{"error_mm", "uniform", "adaptive_full",
 // "adaptive_container"}]}: the document `parallax bench predistort --json` prints.

@@ -67,17 +67,14 @@ Result<display::DVec3> viewerPosition(const PredistortArgs& a, const display::Di
     return display::DVec3(*v);
 }
 
-// Peak bytes beyond the scene (checkImageMemory): per framebuffer pixel, pass 2's targets, the
-// frame, its overlay and their PNGs (the growth of the peak from 2048x2048 to 4096x4096
-// framebuffers, cone_showcase: 20.2; with --format pfm 36.1, the map's floats and its bytes);
-// per pass-1 pixel, the viewer image and its targets (12.1, --pass1-size 2048 to 4096). Rounded
-// up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the measured peak. The warp mesh comes
-// on top: about 170 bytes a vertex, at most (2^m + 1)^2 vertices at --grid-level m (the examples
-// at level 11 and 0.0001 mm: 0.18M to 0.58M vertices, 30 to 100 MB).
-double predistortImageBytes(const PredistortArgs& a, const display::Display& d) {
-    const double framebufferPixels = double(d.framebufferWidth) * double(d.framebufferHeight);
-    const double pass1Pixels = double(a.pass1Size) * double(a.pass1Size);
-    return (a.format == "pfm" ? 37.0 : 21.0) * framebufferPixels + 13.0 * pass1Pixels;
+// Peak bytes per framebuffer pixel beyond the scene and pass 1 (predistortImageBytes): pass 2's
+// targets, the frame, its overlay and their PNGs; the growth of the peak from 2048x2048 to
+// 4096x4096 framebuffers (cone_showcase) is 20.2, with --format pfm 36.1 (the map's floats and
+// its bytes). Rounded up; MemoryCli.EstimatesHoldTheMeasuredPeak holds them to the measured peak.
+// The warp mesh comes on top: about 170 bytes a vertex, at most (2^m + 1)^2 vertices at
+// --grid-level m (the examples at level 11 and 0.0001 mm: 0.18M to 0.58M vertices, 30-100 MB).
+double framebufferBytesPerPixel(const PredistortArgs& a) {
+    return a.format == "pfm" ? 37.0 : 21.0;
 }
 
 Status writeMesh(const PredistortArgs& a, const display::Display& d,
@@ -119,7 +116,8 @@ int run(const PredistortArgs& a) {
         checkImageMemory(fmt::format("predistort{} at {}x{} (pass 1 {}x{})",
                                      a.format == "pfm" ? " --format pfm" : "", d->framebufferWidth,
                                      d->framebufferHeight, a.pass1Size, a.pass1Size),
-                         predistortImageBytes(a, *d), content->triangleCount());
+                         predistortImageBytes(*d, a.pass1Size, framebufferBytesPerPixel(a)),
+                         content->triangleCount());
     if (!memory) return fail(memory.status());
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 

@@ -20,6 +20,11 @@ Status fieldError(const std::string& path, const std::string& problem) {
     return errorStatus(ErrorCode::kCorruptData, path + ": " + problem);
 }
 
+// The largest length a description may give, in mm (10 km): the display becomes float scene and
+// camera coordinates, which still step by a millimetre there, and far larger values (1e39 mm)
+// are no float at all.
+constexpr double kMaxLengthMm = 1e7;
+
 // Small typed accessors that name the field on failure.
 class Reader {
 public:
@@ -38,10 +43,7 @@ public:
         auto it = parent.find(key);
         if (it == parent.end()) return fieldError(path, "missing");
         if (!it->is_number()) return fieldError(path, "must be a number");
-        double v = it->get<double>();
-        if (!std::isfinite(v)) return fieldError(path, "must be finite");
-        *out = length ? v * mScale : v;
-        return Status::ok();
+        return store(it->get<double>(), length, path, out);
     }
     Status positive(const json& parent, const std::string& key, const std::string& path,
                     double* out) const {
@@ -56,9 +58,7 @@ public:
         if (!it->is_array() || it->size() != 3) return fieldError(path, "must be [x, y, z]");
         for (int i = 0; i < 3; ++i) {
             if (!(*it)[i].is_number()) return fieldError(path, "must hold three numbers");
-            double v = (*it)[i].get<double>();
-            if (!std::isfinite(v)) return fieldError(path, "must be finite");
-            (*out)[i] = length ? v * mScale : v;
+            PLX_RETURN_IF_ERROR(store((*it)[i].get<double>(), length, path, &(*out)[i]));
         }
         return Status::ok();
     }
@@ -69,9 +69,7 @@ public:
         if (!it->is_array() || it->size() != 2) return fieldError(path, "must be [a, b]");
         for (int i = 0; i < 2; ++i) {
             if (!(*it)[i].is_number()) return fieldError(path, "must hold two numbers");
-            double v = (*it)[i].get<double>();
-            if (!std::isfinite(v)) return fieldError(path, "must be finite");
-            (*out)[i] = v * mScale;
+            PLX_RETURN_IF_ERROR(store((*it)[i].get<double>(), true, path, &(*out)[i]));
         }
         return Status::ok();
     }
@@ -90,6 +88,15 @@ public:
     }
 
 private:
+    // A finite number as the display holds it: a length in mm, within kMaxLengthMm.
+    Status store(double v, bool length, const std::string& path, double* out) const {
+        if (!std::isfinite(v)) return fieldError(path, "must be finite");
+        *out = length ? v * mScale : v;
+        if (length && !(std::fabs(*out) <= kMaxLengthMm))
+            return fieldError(path, fmt::format("must lie within +-{:g} mm", kMaxLengthMm));
+        return Status::ok();
+    }
+
     double mScale;
 };
 

@@ -101,6 +101,13 @@ TEST(DisplayJson, MalformedFilesGiveOneLineErrors) {
         {"\"framebuffer\": [512, 512]", "\"framebuffer\": [0, 512]", "display.framebuffer"},
         {"\"radius\": 150}", "\"radius\": 0}", "content.radius"},
         {"\"top_radius\": 250", "\"top_radius\": 100", "optics.top_radius"},
+        // Lengths beyond float coordinates (1e39 mm stopped predistort on a failed check), or
+        // beyond 10 km.
+        {"\"center\": [0, 200, 0]", "\"center\": [0, 1e39, 0]",
+         "content.center: must lie within +-1e+07 mm"},
+        {"\"viewer\": [0, 450, 800]", "\"viewer\": [0, 450, -1e300]", "viewer: must lie within"},
+        {"\"min\": [-600, -600]", "\"min\": [-600, -2e7]", "display.min: must lie within"},
+        {"\"height\": 400", "\"height\": 2e7", "optics.height: must lie within"},
     };
     for (const Case& c : cases) {
         std::string text = good;

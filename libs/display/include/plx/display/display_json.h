@@ -1,6 +1,6 @@
 #pragma once
 // Display description files (JSON). Lengths are in the file's "units" ("mm", "cm" or "m"; mm
-// when absent) and converted to millimetres. Layout:
+// when absent) and converted to millimetres; every length lies within +-1e7 mm (10 km). Layout:
 //
 // {
 //   "name": "cone showcase",                 optional string

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/parallel.h>
 #include <plx/raster/raster.h>
 #include <plx/remote/client.h>
 #include <plx/remote/transport.h>
@@ -71,7 +72,7 @@ Result<ClientPlan> plan(const ClientArgs& a) {
         return bad(fmt::format("--frames {} outside 1 .. 1000000", a.frames));
     if (a.every < 1 || a.every > 1000000)
         return bad(fmt::format("--every {} outside 1 .. 1000000", a.every));
-    if (a.threads < 0 || a.threads > 1024) return bad(fmt::format("--threads {}", a.threads));
+    PLX_RETURN_IF_ERROR(checkThreadCount(a.threads, "--threads"));
     if (!(a.waitS > 0.0 && a.waitS <= 3600.0))
         return bad(fmt::format("--wait {} outside (0, 3600] seconds", a.waitS));
     return p;

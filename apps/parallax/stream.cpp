@@ -52,9 +52,7 @@ Status checkArgs(const StreamArgs& a) {
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--face-size {} outside {}..{}", a.faceSize,
                                        stream::kMinFaceSize, stream::kMaxFaceSize));
-    if (a.threads < 0 || a.threads > 1024)
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--threads {} outside 0..1024", a.threads));
+    PLX_RETURN_IF_ERROR(checkThreadCount(a.threads, "--threads"));
     std::error_code ec;
     if (std::filesystem::exists(a.out, ec) && !std::filesystem::is_directory(a.out, ec))
         return errorStatus(ErrorCode::kInvalidArgument,

@@ -133,6 +133,14 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
     };
     for (const auto& [command, what] : refused)
         expectOneLineError(runParallax(command + out, limit), what + " needs about");
+    // Threads whose stacks and malloc arenas the address space cannot hold: refused before any
+    // starts (a worker that cannot start ends the process), by the renderer and the PVS build;
+    // a usage error, as --threads out of range is.
+    expectOneLineError(
+        runParallax("render office:1 --frames 1 --size 64x48 --threads 256" + out, limit),
+        "thread count 256: the threads reserve about", 2);
+    expectOneLineError(runParallax("stream build museum:1 --threads 256" + out, limit),
+                       "--threads 256: the threads reserve about", 2);
 }
 
 }  // namespace

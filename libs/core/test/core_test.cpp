@@ -4,9 +4,12 @@
 #include <random>
 #include <thread>
 
+#include <sys/resource.h>
+
 #include <gtest/gtest.h>
 
 #include <plx/core/core.h>
+#include <plx/core/memory.h>
 
 namespace plx {
 namespace {
@@ -202,6 +205,35 @@ TEST(Parallel, ParallelForVisitsEveryIndexOnce) {
         for (size_t i = b; i < e; ++i) hits[i]++;
     });
     for (int h : hits) ASSERT_EQ(h, 1);
+}
+
+TEST(Parallel, ThreadCountsTheAddressSpaceCannotHoldAreRefused) {
+    EXPECT_TRUE(checkThreadCount(0, "threads").isOk());
+    if (!addressSpaceRemaining()) EXPECT_TRUE(checkThreadCount(kMaxThreads, "threads").isOk());
+    for (int bad : {-1, kMaxThreads + 1})
+        EXPECT_NE(checkThreadCount(bad, "--threads").message().find("outside 0 .. 1024"),
+                  std::string::npos);
+#if defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "no address space limit leaves AddressSanitizer its shadow";
+#endif
+    // 256 MiB beyond what the process maps (ulimit -v): room for a few threads, not for 64,
+    // whose stacks alone take 252 MiB. A worker that could not start would end the process.
+    rlimit saved{};
+    ASSERT_EQ(getrlimit(RLIMIT_AS, &saved), 0);
+    const uint64_t limit = mappedBytes() + (uint64_t(256) << 20);
+    if (saved.rlim_cur != RLIM_INFINITY && saved.rlim_cur < limit)
+        GTEST_SKIP() << "the address space limit is already below " << limit << " bytes";
+    rlimit lowered = saved;
+    lowered.rlim_cur = limit;
+    ASSERT_EQ(setrlimit(RLIMIT_AS, &lowered), 0);
+    const Status two = checkThreadCount(2, "threads");
+    const Status many = checkThreadCount(64, "--threads");
+    ASSERT_EQ(setrlimit(RLIMIT_AS, &saved), 0);
+    EXPECT_TRUE(two.isOk()) << two.toString();
+    EXPECT_NE(many.message().find("--threads 64: the threads reserve about"), std::string::npos)
+        << many.message();
+    EXPECT_NE(many.message().find("(ulimit -v)"), std::string::npos);
+    EXPECT_EQ(many.message().find('\n'), std::string::npos);
 }
 
 TEST(Parallel, PoolRunsAsManyThreadsAsAskedEvenBeyondTheCores) {

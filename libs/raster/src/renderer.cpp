@@ -21,6 +21,8 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/parallel.h>
+
 #include "bins.h"
 
 namespace plx::raster {
@@ -258,9 +260,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(const RendererConfig& config)
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("tile size {} must be a power of two in [8, 256]",
                                        config.tileSize));
-    if (config.threads < 0 || config.threads > 1024)
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("thread count {} outside 0 .. 1024", config.threads));
+    PLX_RETURN_IF_ERROR(checkThreadCount(config.threads, "thread count"));
     return std::unique_ptr<Renderer>(new Renderer(std::make_unique<Impl>(config)));
 }
 

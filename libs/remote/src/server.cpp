@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include <plx/core/parallel.h>
 #include <plx/raster/raster.h>
 #include <plx/remote/codec.h>
 #include <plx/remote/protocol.h>
@@ -83,8 +84,7 @@ Status checkServerConfig(const ServerConfig& c) {
         return bad(fmt::format("pose rate {} outside 1..1000", c.poseRateHz));
     if (!(c.pingIntervalMs >= 10.0 && c.pingIntervalMs <= 60000.0))
         return bad(fmt::format("ping interval {} ms outside 10..60000", c.pingIntervalMs));
-    if (c.renderThreads < 0 || c.renderThreads > 1024)
-        return bad(fmt::format("render threads {} outside 0..1024", c.renderThreads));
+    PLX_RETURN_IF_ERROR(checkThreadCount(c.renderThreads, "render threads"));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
     PLX_RETURN_IF_ERROR(checkWriteStallTimeout(c.writeStallTimeoutMs));
     PLX_RETURN_IF_ERROR(checkMaxPending(c.maxPendingConnections));

@@ -155,10 +155,10 @@ Status checkRequest(const Cells& cells, const VisibilityConfig& config, uint32_t
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("face size {} outside {}..{}", config.faceSize, kMinFaceSize,
                                        kMaxFaceSize));
-    if (!(config.margin >= 0.0f && config.margin < 0.5f) || config.threads < 0)
+    if (!(config.margin >= 0.0f && config.margin < 0.5f))
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("margin {} outside [0, 0.5) or threads {} < 0",
-                                       config.margin, config.threads));
+                           fmt::format("margin {} outside [0, 0.5)", config.margin));
+    PLX_RETURN_IF_ERROR(checkThreadCount(config.threads, "threads"));
     if (first > last || last >= cells.boxes.size())
         return errorStatus(
             ErrorCode::kInvalidArgument,

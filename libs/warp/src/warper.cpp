@@ -19,6 +19,7 @@
 #include <cstring>
 #include <string>
 
+#include <plx/core/parallel.h>
 #include <plx/core/timing.h>
 #include <plx/warp/clip.h>
 #include <plx/warp/equation.h>
@@ -77,9 +78,7 @@ Warper::Warper(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
 Warper::~Warper() = default;
 
 Result<std::unique_ptr<Warper>> Warper::create(int threads) {
-    if (threads < 0 || threads > 1024)
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           "warper threads " + std::to_string(threads) + " outside 0..1024");
+    PLX_RETURN_IF_ERROR(checkThreadCount(threads, "warper threads"));
     return std::unique_ptr<Warper>(new Warper(std::make_unique<Impl>(threads)));
 }
 

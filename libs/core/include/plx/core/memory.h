@@ -17,6 +17,9 @@ namespace plx {
 // nullopt where the system does not say (no /proc/meminfo).
 std::optional<uint64_t> availableMemoryBytes();
 
+// RLIMIT_AS (ulimit -v) less the address space this process maps now; nullopt without a limit.
+std::optional<uint64_t> addressSpaceRemaining();
+
 // What the memory cgroup of the process (as `cgroupFile` lists it, under the hierarchy mounted at
 // `root`) still allows: its limit less its usage, the inactive file cache (which the kernel
 // reclaims before it ends anything) not counted as used. cgroup v2 (memory.max, memory.current,

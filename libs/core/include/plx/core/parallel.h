@@ -5,8 +5,21 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <string_view>
+
+#include <plx/core/status.h>
 
 namespace plx {
+
+// The most threads a pool, renderer or warper may be asked for.
+constexpr int kMaxThreads = 1024;
+
+// Whether `threads` (0: all cores) may be asked for: within [0, kMaxThreads] and, where the
+// address space is limited (ulimit -v), with room left for what the threads reserve as they
+// start (stacks and malloc arenas). A TBB worker that cannot start ends the process, so a count
+// too large for the limit is refused here, before any starts. `what` names the count in the
+// error ("--threads", "render threads").
+Status checkThreadCount(int threads, std::string_view what);
 
 class ThreadPool {
 public:

@@ -335,7 +335,8 @@ Command registerClient(CLI::App& app) {
         "for psnr_db_median; --walk needs it for the walk's start. --out writes "
         "frame-NNNNN.png every --every frames and stats.csv (per frame: warp ms, reference "
         "age ms, bytes received).");
-    sub->add_option("url", a->url, "Server address, ws://HOST:PORT")->required();
+    sub->add_option("url", a->url, "Server address, ws://HOST:PORT (IPv6: ws://[::1]:PORT)")
+        ->required();
     sub->add_option("--token", a->token, "Token the server asks for");
     sub->add_option("--source-address", a->sourceAddress,
                     "Local IP address to connect from (default: the system's choice)");

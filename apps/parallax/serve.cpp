@@ -242,7 +242,7 @@ int runServe(const ServeArgs& a) {
     std::unique_lock holdOutput(out.mutex);  // until the listening line is out
     auto server = remote::Server::create(std::move(scene).value(), *config);
     if (!server) return fail(server.status());
-    const std::string url = fmt::format("ws://{}:{}/", a.bind, (*server)->port());
+    const std::string url = fmt::format("ws://{}/", remote::authority(a.bind, (*server)->port()));
     // The largest a session gets: --face-size, lowered for wide views no client could decode.
     const int servedFaceSize = remote::maxServedFaceSize(config->reference);
     if (a.json) {

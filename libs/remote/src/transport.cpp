@@ -675,8 +675,9 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
     auto resolver = std::make_shared<tcp::resolver>(*mImpl->io);
     auto c = std::make_shared<WsConnection>(*mImpl->io, tcp::socket(*mImpl->io), config);
     auto fail = [result, host, port](const std::string& step, ErrorCodeB ec) {
-        result->set_value(errorStatus(
-            ErrorCode::kIoError, fmt::format("{} ws://{}:{}: {}", step, host, port, ec.message())));
+        result->set_value(
+            errorStatus(ErrorCode::kIoError,
+                        fmt::format("{} ws://{}: {}", step, authority(host, port), ec.message())));
     };
     const auto timeout =
         std::chrono::milliseconds(int64_t(std::max(1.0, config.handshakeTimeoutMs)));
@@ -685,7 +686,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
         if (ec) return fail("cannot connect to", ec);
         c->tcpConnected(peer);
         c->setTimeouts(false);
-        c->ws().async_handshake(fmt::format("{}:{}", host, port), path, [=](ErrorCodeB hec) {
+        c->ws().async_handshake(authority(host, port), path, [=](ErrorCodeB hec) {
             if (hec) return fail("WebSocket handshake with", hec);
             c->start(std::move(*ev));
             result->set_value(std::shared_ptr<Connection>(c));
@@ -719,7 +720,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
     if (future.wait_for(timeout * 3 + std::chrono::seconds(1)) != std::future_status::ready) {
         c->abort();
         return errorStatus(ErrorCode::kIoError,
-                           fmt::format("connecting to ws://{}:{} timed out", host, port));
+                           fmt::format("connecting to ws://{} timed out", authority(host, port)));
     }
     return future.get();
 }
@@ -750,28 +751,44 @@ void Transport::stop() {
 }
 
 Result<WsUrl> parseWsUrl(const std::string& url) {
+    auto bad = [&](const std::string& problem) {
+        return errorStatus(ErrorCode::kInvalidArgument, fmt::format("'{}' {}", url, problem));
+    };
     const std::string scheme = "ws://";
-    if (url.rfind(scheme, 0) != 0)
-        return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("'{}' is not a ws://HOST:PORT address", url));
+    if (url.rfind(scheme, 0) != 0) return bad("is not a ws://HOST:PORT address");
     std::string rest = url.substr(scheme.size());
     WsUrl out;
     size_t slash = rest.find('/');
     if (slash != std::string::npos) out.path = rest.substr(slash), rest = rest.substr(0, slash);
-    size_t colon = rest.rfind(':');
-    out.host = rest.substr(0, colon);
-    if (colon != std::string::npos) {
-        std::string port = rest.substr(colon + 1);
+    // The authority (RFC 3986 section 3.2.2): HOST[:PORT], or [IPV6][:PORT].
+    size_t hostEnd = rest.find(':');
+    if (rest.rfind('[', 0) == 0) {
+        const size_t close = rest.find(']');
+        if (close == std::string::npos) return bad("opens an IPv6 address with '[' but no ']'");
+        out.host = rest.substr(1, close - 1);
+        hostEnd = close + 1;
+        if (hostEnd < rest.size() && rest[hostEnd] != ':')
+            return bad("has more after ']' than ':PORT'");
+    } else {
+        if (hostEnd != std::string::npos && rest.find(':', hostEnd + 1) != std::string::npos)
+            return bad("names an IPv6 address without brackets (write ws://[::1]:8080/)");
+        out.host = rest.substr(0, hostEnd);
+    }
+    if (hostEnd < rest.size()) {
+        const std::string port = rest.substr(hostEnd + 1);
         if (port.empty() || port.size() > 5 ||
             port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) < 1 ||
             std::stoi(port) > 65535)
-            return errorStatus(ErrorCode::kInvalidArgument,
-                               fmt::format("'{}': port '{}' is not 1..65535", url, port));
+            return bad(fmt::format("has port '{}', not 1..65535", port));
         out.port = std::stoi(port);
     }
-    if (out.host.empty())
-        return errorStatus(ErrorCode::kInvalidArgument, fmt::format("'{}' has no host", url));
+    if (out.host.empty()) return bad("has no host");
     return out;
+}
+
+std::string authority(const std::string& host, int port) {
+    if (host.find(':') != std::string::npos) return fmt::format("[{}]:{}", host, port);
+    return fmt::format("{}:{}", host, port);
 }
 
 }  // namespace plx::remote

@@ -995,6 +995,31 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     EXPECT_EQ(u->host, "127.0.0.1");
     EXPECT_EQ(u->port, 8080);
     EXPECT_EQ(u->path, "/a");
+    // IPv6 in brackets (RFC 3986), with and without a port; without them, one line saying so.
+    u = parseWsUrl("ws://[::1]:8080/a");
+    ASSERT_TRUE(u.isOk()) << u.status().message();
+    EXPECT_EQ(u->host, "::1");
+    EXPECT_EQ(u->port, 8080);
+    EXPECT_EQ(u->path, "/a");
+    EXPECT_EQ(authority(u->host, u->port), "[::1]:8080");
+    EXPECT_EQ(authority("127.0.0.1", 80), "127.0.0.1:80");
+    u = parseWsUrl("ws://[fe80::1]");
+    ASSERT_TRUE(u.isOk()) << u.status().message();
+    EXPECT_EQ(u->host, "fe80::1");
+    EXPECT_EQ(u->port, 80);
+    const std::pair<std::string, std::string> badUrls[] = {
+        {"ws://::1:8080/", "without brackets"},
+        {"ws://[::1:8080/", "no ']'"},
+        {"ws://[::1]8080/", "more after ']'"},
+        {"ws://[]:8080/", "no host"},
+        {"ws://[::1]:/", "port ''"},
+        {"ws://[::1]:65536/", "port '65536'"},
+    };
+    for (const auto& [url, problem] : badUrls) {
+        auto r = parseWsUrl(url);
+        ASSERT_FALSE(r.isOk()) << url;
+        EXPECT_NE(r.status().message().find(problem), std::string::npos) << r.status().message();
+    }
     // A client that cannot connect keeps trying (bounded backoff) and never fails for good.
     ClientConfig cc;
     cc.port = 1;

@@ -48,11 +48,11 @@ constexpr double kStallTimeoutMs = 1000.0;
 // connection ended.
 class Listener {
 public:
-    Listener() {
+    explicit Listener(const std::string& host = "127.0.0.1") {
         mTransport = std::move(Transport::create()).value();
         ConnectionConfig config;
         config.writeStallTimeoutMs = kStallTimeoutMs;
-        auto port = mTransport->listen("127.0.0.1", 0, config, [this](auto conn) {
+        auto port = mTransport->listen(host, 0, config, [this](auto conn) {
             std::lock_guard lock(mMutex);
             mConn = conn;
             mChanged.notify_all();
@@ -307,6 +307,32 @@ TEST(TransportConnect, AClientConnectsFromItsSourceAddress) {
         ASSERT_FALSE(bad.isOk()) << source;
         EXPECT_TRUE(bad.status().message().starts_with(error)) << bad.status().message();
     }
+}
+
+// Whether this host has IPv6 loopback (a container may not).
+bool hasIpv6Loopback() {
+    const int fd = socket(AF_INET6, SOCK_STREAM, 0);
+    if (fd < 0) return false;
+    sockaddr_in6 address{};
+    address.sin6_family = AF_INET6;
+    address.sin6_addr = in6addr_loopback;
+    const bool bound = bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0;
+    close(fd);
+    return bound;
+}
+
+// The URL form RFC 3986 gives an IPv6 host, as `parallax serve --bind ::1` prints it, reaches it.
+TEST(TransportConnect, AnIPv6HostInBracketsIsReached) {
+    if (!hasIpv6Loopback()) GTEST_SKIP() << "no IPv6 loopback on this host";
+    Listener listener("::1");
+    auto url = parseWsUrl(fmt::format("ws://{}/session", authority("::1", listener.port())));
+    ASSERT_TRUE(url.isOk()) << url.status().message();
+    EXPECT_EQ(url->host, "::1");
+    auto transport = std::move(Transport::create()).value();
+    auto connected = transport->connect(url->host, url->port, url->path, {}, {});
+    ASSERT_TRUE(connected.isOk()) << connected.status().message();
+    EXPECT_EQ(listener.peerAddress(), "::1");
+    EXPECT_EQ((*connected)->peerAddress(), "::1");
 }
 
 TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {

@@ -175,12 +175,16 @@ private:
     std::unique_ptr<Impl> mImpl;
 };
 
-// "ws://host:port/path" split; errors name the problem (only ws:// is supported).
+// "ws://host:port/path" split; errors name the problem (only ws:// is supported). An IPv6
+// address goes in brackets, as RFC 3986 writes it ("ws://[::1]:8080/"; the host is then "::1").
 struct WsUrl {
     std::string host;
     int port = 80;
     std::string path = "/";
 };
 Result<WsUrl> parseWsUrl(const std::string& url);
+
+// HOST:PORT as a URL and the Host header write it: an IPv6 address in brackets ("[::1]:8080").
+std::string authority(const std::string& host, int port);
 
 }  // namespace plx::remote

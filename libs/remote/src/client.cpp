@@ -41,7 +41,7 @@ constexpr size_t kMaxQueuedPoseBytes = 4096;
 struct Link {
     bool closed = false;
     std::optional<ServerHello> hello;
-    Status error;  // an Error message from the server
+    Status error;  // an Error message from the server, or a message the client refused
     uint32_t pingNonce = 0;
     OneUnwritten pings, pongs;  // a server that stops reading gets no queue of them
 };
@@ -118,10 +118,15 @@ struct Client::Impl {
 
     // A server that breaks the protocol is told so; the session ends and is retried. Only the
     // connection the bad message came on is closed (a set decoded late may be from an old one).
+    // The caller learns why: the session's error before a ServerHello, lastError after one.
     void refuse(const std::shared_ptr<Link>& link, const Status& why) {
         auto e = encodeMessage(
             ErrorMessage{ErrorKind::kProtocol, why.message().substr(0, kMaxTextBytes)});
         std::lock_guard lock(mutex);
+        if (link->error.isOk())
+            link->error = errorStatus(why.code(), "bad message from the server: " + why.message());
+        stats.lastError = link->error.message();
+        changed.notify_all();
         if (!conn || link != current) return;
         if (e) conn->send(std::move(e).value());
         conn->close();

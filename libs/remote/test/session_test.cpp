@@ -843,6 +843,10 @@ TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
     const ErrorMessage e = server.errors().front();
     EXPECT_EQ(e.kind, ErrorKind::kProtocol);
     EXPECT_NE(e.text.find("reference set"), std::string::npos) << e.text;
+    // And tells its caller, whose "no reference set" would otherwise give no reason.
+    EXPECT_TRUE(eventually([&] {
+        return client->stats().lastError == "bad message from the server: " + e.text;
+    })) << client->stats().lastError;
     EXPECT_TRUE(eventually([&] { return client->stats().connects >= 2; }));
     // (The good set of the first connection may have been replaced, undecoded, by the bad one.)
     ASSERT_TRUE(eventually([&] { return client->stats().referencesReceived >= 1; }));

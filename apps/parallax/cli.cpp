@@ -62,6 +62,9 @@ namespace {
 Result<float> parseFloat(std::string_view text, const std::string& whole) {
     float v = 0.0f;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec == std::errc::result_out_of_range)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("'{}' is beyond a float's range (in '{}')", text, whole));
     if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("'{}' is not a finite number (in '{}')", text, whole));

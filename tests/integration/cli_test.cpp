@@ -105,6 +105,10 @@ TEST(Cli, ShowcaseIsABareSceneSpec) {
 
 TEST(Cli, BadCameraAndOptions) {
     expectOneLineError(runParallax("render office:1 --eye 1,2 --target 0,0,0 --out x"), "--eye", 2);
+    expectOneLineError(runParallax("render office:1 --eye 1e-300,0,0 --out x"),
+                       "'1e-300' is beyond a float's range (in '1e-300,0,0')", 2);
+    expectOneLineError(runParallax("render office:1 --eye 1,nan,0 --out x"),
+                       "'nan' is not a finite number", 2);
     expectOneLineError(runParallax("render office:1 --eye 1,1,1 --target 1,1,1 --size 8x8 --out x"),
                        "coincide", 2);
     expectOneLineError(runParallax("render office:1 --shading phong --out x"), "phong", 2);

@@ -141,10 +141,12 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
     raster::FrameBuffers truth;
     Progress progress("display", size_t(frames));
     const auto start = std::chrono::steady_clock::now();
+    auto due = [&](int frame) {  // when `frame` is shown
+        return start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                           std::chrono::duration<double>(frame / kDisplayHz));
+    };
     for (int f = 0; f < frames; ++f) {
-        std::this_thread::sleep_until(
-            start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                        std::chrono::duration<double>(f / kDisplayHz)));
+        std::this_thread::sleep_until(due(f));
         const Camera& cam = cameras[size_t(f % int(cameras.size()))];
         client.setPose(displayPoseMessage(cameras, f, kDisplayHz));
         std::shared_ptr<const remote::ReceivedSet> ref = client.newest();
@@ -191,6 +193,9 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
         r.frames.push_back(s);
         progress.step();
     }
+    // The last frame is shown for its interval too, as on a display: N frames that keep up take
+    // N / 60 s (to the end of the last warp, 1 frame read as 1,300 frames/s, 3 as 90).
+    std::this_thread::sleep_until(due(frames));
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
 }

@@ -290,15 +290,19 @@ int runServe(const ServeArgs& a) {
         stopped.update(memoryJson(*memory));
         out.writeLocked(stopped.dump(), kServeLineWaitMs);
     } else {
+        // Per-set figures only where a set was sent ("1/0 of raw" said nothing).
+        const std::string perSet =
+            s.setsSent == 0
+                ? std::string()
+                : fmt::format(
+                      " ({:.1f} KiB each, 1/{:.0f} of raw), render {:.1f} ms + encode "
+                      "{:.1f} ms per set",
+                      double(s.bytesSent) / double(s.setsSent) / 1024.0,
+                      double(s.rawBytesSent) / double(s.bytesSent), s.renderMsMean, s.encodeMsMean);
         out.writeLocked(
-            fmt::format(
-                "stopped: {} sessions, {} sets sent ({:.1f} KiB each, 1/{:.0f} of raw), render "
-                "{:.1f} ms + encode {:.1f} ms per set{}",
-                s.sessionsTotal, s.setsSent,
-                s.setsSent ? double(s.bytesSent) / double(s.setsSent) / 1024.0 : 0.0,
-                s.bytesSent ? double(s.rawBytesSent) / double(s.bytesSent) : 0.0, s.renderMsMean,
-                s.encodeMsMean,
-                out.dropped ? fmt::format("; {} output lines dropped", out.dropped) : ""),
+            fmt::format("stopped: {} sessions, {} sets sent{}{}", s.sessionsTotal, s.setsSent,
+                        perSet,
+                        out.dropped ? fmt::format("; {} output lines dropped", out.dropped) : ""),
             kServeLineWaitMs);
     }
     return kExitOk;

@@ -88,6 +88,11 @@ TEST(RemoteCli, PathFileAndStereoWithoutScene) {
     EXPECT_EQ(doc["frames"], 6);
     EXPECT_TRUE(doc["stereo"].get<bool>());
     EXPECT_FALSE(doc.contains("psnr_db_median"));
+    // The loop shows 60 frames a second at most, however few it plays: its time runs to the end
+    // of the last frame's interval (to the end of the last warp, 6 frames read as about 70 a
+    // second).
+    EXPECT_LE(doc["client_fps"].get<double>(), 60.0 * 1.001);
+    EXPECT_GE(doc["seconds"].get<double>(), 6.0 / 60.0);
 }
 
 TEST(RemoteCli, ClientMemoryEstimateHoldsItsPeak) {

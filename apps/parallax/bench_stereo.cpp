@@ -27,18 +27,23 @@ double finiteDb(double db) {
     return std::isfinite(db) ? db : kIdenticalPsnrDb;
 }
 
-void printTable(const std::vector<StereoExperimentRow>& rows) {
-    fmt::print("{:>6} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>6} {:>9} {:>9} {:>8} {:>6}\n",
-               "rooms", "polygons", "visible", "full 1st", "full 2nd", "pbuf 1st", "pbuf 2nd",
-               "speedup", "PSNR", "repr 1st", "repr 2nd", "speedup", "PSNR");
-    for (const auto& r : rows)
-        fmt::print(
-            "{:>6} {:>9} {:>8} {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f} "
-            "{:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f}\n",
-            r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs, r.pbufferFirstMs,
-            r.pbufferSecondMs + r.collectMs, r.pairSpeedup, finiteDb(r.secondEyePsnrDb),
-            r.reprojectFirstMs, r.reprojectSecondMs, r.reprojectPairSpeedup,
-            finiteDb(r.reprojectPsnrDb));
+// The table; the reproject columns only where the run measured them.
+void printTable(bool reproject, const std::vector<StereoExperimentRow>& rows) {
+    fmt::print("{:>6} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>6}", "rooms", "polygons",
+               "visible", "full 1st", "full 2nd", "pbuf 1st", "pbuf 2nd", "speedup", "PSNR");
+    if (reproject)
+        fmt::print(" {:>9} {:>9} {:>8} {:>6}", "repr 1st", "repr 2nd", "speedup", "PSNR");
+    fmt::print("\n");
+    for (const auto& r : rows) {
+        fmt::print("{:>6} {:>9} {:>8} {:>9.2f} {:>9.2f} {:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f}",
+                   r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs,
+                   r.pbufferFirstMs, r.pbufferSecondMs + r.collectMs, r.pairSpeedup,
+                   finiteDb(r.secondEyePsnrDb));
+        if (reproject)
+            fmt::print(" {:>9.2f} {:>9.2f} {:>7.2f}x {:>6.1f}", r.reprojectFirstMs,
+                       r.reprojectSecondMs, r.reprojectPairSpeedup, finiteDb(r.reprojectPsnrDb));
+        fmt::print("\n");
+    }
 }
 
 int runStereoBench(const StereoBenchArgs& a) {
@@ -68,14 +73,14 @@ int runStereoBench(const StereoBenchArgs& a) {
     nlohmann::json doc = stereoExperimentJson(config, *rows);
     doc.update(memoryJson(*memory));
     auto files = stereoPlots(*rows);
-    files.emplace_back("table1.csv", stereoExperimentCsv(*rows));
+    files.emplace_back("table1.csv", stereoExperimentCsv(config, *rows));
     if (config.reproject) {
         files.emplace_back("methods.md", stereoMethodsMarkdown(*rows));
         files.emplace_back("reproject_paper_table.md", reprojectPaperTableMarkdown(*rows));
     }
     return finishExperiment(
         a.out, a.json, doc, "table1.json", std::move(files), [&](const std::string& dir) {
-            printTable(*rows);
+            printTable(config.reproject, *rows);
             fmt::print(
                 "times in ms per eye (median of {} frames); wrote "
                 "{}table1.{{csv,json}}{} and Fig. 17 SVG plots\n",

@@ -270,11 +270,19 @@ nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
                                {"reproject_disocclusion_holes", r.reprojectDisocclusionHoles},
                                {"reproject_fill_polygons_drawn", r.reprojectFillPolygonsDrawn},
                                {"reproject_missed_pixels", r.reprojectMissedPixels}});
+        // The columns of a measurement the run skipped are null, not a 0 that reads as data.
+        for (auto [key, value] : out["rows"].back().items()) {
+            const bool conservative = key.starts_with("conservative_");
+            const bool reproject = key.starts_with("reproject_") || key == "fill_ms";
+            if ((conservative && !config.conservative) || (reproject && !config.reproject))
+                value = nullptr;
+        }
     }
     return out;
 }
 
-std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows) {
+std::string stereoExperimentCsv(const StereoExperimentConfig& config,
+                                const std::vector<StereoExperimentRow>& rows) {
     std::string csv =
         "rooms,polygons,visible_polygons,full_first_ms,full_second_ms,pbuffer_first_ms,"
         "pbuffer_collect_ms,pbuffer_second_ms,pair_speedup,second_eye_psnr_db,differing_fraction,"
@@ -285,20 +293,32 @@ std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows) {
         "fraction,"
         "reproject_hole_fraction,reproject_expansion_holes,reproject_disocclusion_holes,"
         "reproject_fill_polygons_drawn,reproject_missed_pixels\n";
-    for (const auto& r : rows)
+    // A skipped measurement's columns are left empty (its six and thirteen columns).
+    const std::string noConservative(5, ','), noReproject(12, ',');
+    for (const auto& r : rows) {
         csv += fmt::format(
-            "{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{},{},"
-            "{},{:.3f},{:.3f},{:.2f},{},{},"
-            "{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{:.6f},{},{},{},{}\n",
-            r.rooms, r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs, r.pbufferFirstMs,
+            "{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{},{},", r.rooms,
+            r.polygons, r.visiblePolygons, r.fullFirstMs, r.fullSecondMs, r.pbufferFirstMs,
             r.collectMs, r.pbufferSecondMs, r.pairSpeedup, finiteOr(r.secondEyePsnrDb, 99.0),
-            r.differingFraction, r.missedPolygons, r.missedPixels, r.conservativeExtra,
-            r.conservativeFirstMs, r.conservativeSecondMs, finiteOr(r.conservativePsnrDb, 99.0),
-            r.conservativeMissedPolygons, r.conservativeMissedPixels, r.reprojectPrepareMs,
-            r.reprojectFirstMs, r.reprojectSecondMs, r.reprojectMs, r.fillMs,
-            r.reprojectPairSpeedup, finiteOr(r.reprojectPsnrDb, 99.0), r.reprojectIdenticalFraction,
-            r.reprojectHoleFraction, r.reprojectExpansionHoles, r.reprojectDisocclusionHoles,
-            r.reprojectFillPolygonsDrawn, r.reprojectMissedPixels);
+            r.differingFraction, r.missedPolygons, r.missedPixels);
+        csv += config.conservative
+                   ? fmt::format("{},{:.3f},{:.3f},{:.2f},{},{},", r.conservativeExtra,
+                                 r.conservativeFirstMs, r.conservativeSecondMs,
+                                 finiteOr(r.conservativePsnrDb, 99.0), r.conservativeMissedPolygons,
+                                 r.conservativeMissedPixels)
+                   : noConservative + ",";
+        csv +=
+            config.reproject
+                ? fmt::format(
+                      "{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.2f},{:.6f},{:.6f},{},"
+                      "{},{},{}\n",
+                      r.reprojectPrepareMs, r.reprojectFirstMs, r.reprojectSecondMs, r.reprojectMs,
+                      r.fillMs, r.reprojectPairSpeedup, finiteOr(r.reprojectPsnrDb, 99.0),
+                      r.reprojectIdenticalFraction, r.reprojectHoleFraction,
+                      r.reprojectExpansionHoles, r.reprojectDisocclusionHoles,
+                      r.reprojectFillPolygonsDrawn, r.reprojectMissedPixels)
+                : noReproject + "\n";
+    }
     return csv;
 }
 

@@ -66,11 +66,14 @@ Result<std::vector<StereoExperimentRow>> runStereoExperiment(
     const std::function<void(size_t, size_t)>& progress = nullptr);
 
 // {"width", "height", "frames", "separation", "convergence", "rows": [...]}: the document
-// `parallax bench stereo --json` prints. JSON has no infinity: an infinite PSNR reads 99 dB.
+// `parallax bench stereo --json` prints. JSON has no infinity: an infinite PSNR reads 99 dB. The
+// columns of a measurement the config skips (conservative_*, reproject_* and fill_ms) are null.
 nlohmann::json stereoExperimentJson(const StereoExperimentConfig& config,
                                     const std::vector<StereoExperimentRow>& rows);
-// The rows as CSV (one header line), infinite PSNR as 99 dB.
-std::string stereoExperimentCsv(const std::vector<StereoExperimentRow>& rows);
+// The rows as CSV (one header line), infinite PSNR as 99 dB; the columns of a measurement the
+// config skips (conservative, reproject) empty.
+std::string stereoExperimentCsv(const StereoExperimentConfig& config,
+                                const std::vector<StereoExperimentRow>& rows);
 
 // Fig. 17 of Heo, Jung, Wohn from an experiment: (a) first-eye time, (b) second-eye time,
 // (c) pair time, each for both methods against the polygon count; plus the pair speedup, the

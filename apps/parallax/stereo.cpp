@@ -401,8 +401,8 @@ int runStereo(const StereoArgs& a) {
         perPose.push_back(poseJson(i, last, pixels));
         progress.step();
     }
-    // Times are medians over a pose's timed pairs; walkthroughs report the median over poses,
-    // and the counts of the last pose.
+    // Times are medians over a pose's timed pairs; walkthroughs report the median over poses of
+    // the times and the quality (the two fractions add up to 1), and the last pose's counts.
     nlohmann::json doc = {
         {"scene", a.scene},
         {"method", stereo::methodName(p->options.method)},
@@ -428,7 +428,7 @@ int runStereo(const StereoArgs& a) {
         {"reproject_ms", median(m.reproject)},
         {"fill_ms", median(m.fill)},
         {"second_eye_psnr_db", median(m.psnr)},
-        {"second_eye_differing_fraction", last.quality.differingFraction},
+        {"second_eye_differing_fraction", 1.0 - median(m.identical)},
         {"identical_fraction", median(m.identical)},
         {"missed_polygons", last.quality.missedPolygons},
         {"format", stereo::layoutName(p->layout)},

@@ -117,9 +117,27 @@ TEST(StereoExperiment, RowsHaveSpeedupAndQualityAndSerialise) {
     std::vector<StereoExperimentRow> identical = {(*rows)[0]};
     identical[0].secondEyePsnrDb = std::numeric_limits<double>::infinity();
     EXPECT_EQ(stereoExperimentJson(config, identical)["rows"][0]["second_eye_psnr_db"], 99.0);
-    std::string csv = stereoExperimentCsv(*rows);
+    std::string csv = stereoExperimentCsv(config, *rows);
     EXPECT_EQ(lineCount(csv), 3u);
     EXPECT_EQ(csv.rfind("rooms,polygons,visible_polygons,", 0), 0u);
+    // Skipped measurements: null in JSON and empty in CSV, not 0 (0 dB, a 0x speedup), with
+    // every line as many columns as the header.
+    StereoExperimentConfig skipped = config;
+    skipped.conservative = skipped.reproject = false;
+    const nlohmann::json nulls = stereoExperimentJson(skipped, *rows)["rows"][0];
+    for (const char* key : {"conservative_psnr_db", "reproject_pair_speedup", "fill_ms"})
+        EXPECT_TRUE(nulls[key].is_null()) << key;
+    EXPECT_EQ(nulls["pair_speedup"].get<double>(), (*rows)[0].pairSpeedup);
+    const std::string blanks = stereoExperimentCsv(skipped, *rows);
+    EXPECT_EQ(lineCount(blanks), 3u);
+    const auto columns = [](std::string_view line) {
+        return std::count(line.begin(), line.end(), ',');
+    };
+    const std::string_view header(blanks.data(), blanks.find('\n'));
+    const std::string_view first(blanks.data() + header.size() + 1,
+                                 blanks.find('\n', header.size() + 1) - header.size() - 1);
+    EXPECT_EQ(columns(first), columns(header));
+    EXPECT_NE(first.find(",,,,,,,,,,,,"), std::string_view::npos) << first;
     EXPECT_EQ(j["rows"][0]["reproject_second_ms"].get<double>(), (*rows)[0].reprojectSecondMs);
     EXPECT_EQ(stereoPlots(*rows).size(), 6u);
     // Markdown: header, rule, one line a row; the paper's four columns.

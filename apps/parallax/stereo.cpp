@@ -432,7 +432,7 @@ int runStereo(const StereoArgs& a) {
         {"identical_fraction", median(m.identical)},
         {"missed_polygons", last.quality.missedPolygons},
         {"format", stereo::layoutName(p->layout)},
-        {"outputs", single ? nlohmann::json(written) : nlohmann::json(written.size())},
+        {"outputs", written},
     };
     doc.update(holeJson(last.stats, pixels));
     doc.update(memoryJson(*memory));

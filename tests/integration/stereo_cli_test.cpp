@@ -97,6 +97,10 @@ TEST(StereoCli, ReprojectWithLayoutsRigsAndWalkthroughs) {
     ASSERT_EQ(doc["per_pose"].size(), 2u);
     EXPECT_TRUE(doc["per_pose"][1].contains("hole_pixels"));
     EXPECT_TRUE(fs::exists(prefix.string() + "_0001.left.png"));
+    // The files written, as for a single pose: a list, each pose's two eyes.
+    ASSERT_TRUE(doc["outputs"].is_array());
+    EXPECT_EQ(doc["outputs"].size(), 4u);
+    EXPECT_EQ(doc["outputs"][2], prefix.string() + "_0001.left.png");
 }
 
 // The two disocclusion searches give the same pixels (fill.h); the default builds no BSP tree.

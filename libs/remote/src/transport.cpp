@@ -151,8 +151,13 @@ public:
     // Server side: reads one HTTP request (headers at most kMaxRequestHeaderBytes, no body). A
     // WebSocket upgrade becomes a session (onUpgrade gives its events); anything else is answered
     // from config.httpFiles and closed.
-    void acceptRequest(std::function<ConnectionEvents(std::shared_ptr<Connection>)> onUpgrade) {
+    // `becamePending` runs when the connection turns pending again after its first message (a
+    // refusal or goodbye written, the peer's close awaited): the listener's limit applies then
+    // too, not only at its next accept.
+    void acceptRequest(std::function<ConnectionEvents(std::shared_ptr<Connection>)> onUpgrade,
+                       std::function<void()> becamePending) {
         mOnListener = mAwaitingFirst = true;
+        mBecamePending = std::move(becamePending);
         mRequest.emplace();
         mRequest->header_limit(kMaxRequestHeaderBytes);
         mRequest->body_limit(0);
@@ -206,8 +211,10 @@ public:
     }
     void close() override {
         asio::post(mIo, [self = shared_from_this()] {
+            const bool wasPending = self->pending();
             self->mCloseWhenDrained = true;
             self->pump();
+            if (!wasPending && self->pending() && self->mBecamePending) self->mBecamePending();
         });
     }
     void abort() override {
@@ -469,6 +476,7 @@ private:
     bool mStarted = false, mWriting = false, mReading = false, mWantRead = true;
     bool mCloseWhenDrained = false, mClosing = false, mFinished = false;
     bool mOnListener = false, mAwaitingFirst = false;  // pending
+    std::function<void()> mBecamePending;
 };
 
 }  // namespace
@@ -578,8 +586,9 @@ struct Transport::Impl {
             auto c = std::make_shared<WsConnection>(*io, std::move(socket), config);
             track(c);
             c->setTimeouts(true);
-            c->acceptRequest(onAccept);
-            limitPending(config.maxPendingConnections);
+            const int maxPending = config.maxPendingConnections;
+            c->acceptRequest(onAccept, [this, maxPending] { limitPending(maxPending); });
+            limitPending(maxPending);
             acceptNext(config, onAccept);
         });
     }

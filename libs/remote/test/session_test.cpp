@@ -658,8 +658,10 @@ TEST(RemoteSession, RefusedPeersThatNeverReadArePending) {
         peers.back()->conn().setReading(false);
         peers.back()->hello();
     }
-    EXPECT_TRUE(eventually([&] { return server->stats().refused == 10; }));
-    EXPECT_TRUE(eventually([&] { return server->stats().pendingDropped == 6; }));
+    EXPECT_TRUE(eventually([&] { return server->stats().refused == 10; }))
+        << server->stats().refused;
+    EXPECT_TRUE(eventually([&] { return server->stats().pendingDropped == 6; }))
+        << server->stats().pendingDropped;
     EXPECT_EQ(server->stats().acceptFailures, 0);
     RawPeer client(server->port());
     client.hello("abc");

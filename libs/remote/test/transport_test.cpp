@@ -228,6 +228,10 @@ public:
         config.maxPendingConnections = maxPending;
         config.handshakeTimeoutMs = 60000.0;  // no pending connection times out during a test
         auto port = mTransport->listen("127.0.0.1", 0, config, [this, refuse](auto conn) {
+            {
+                std::lock_guard lock(mMutex);
+                mAccepted.push_back(conn);
+            }
             ConnectionEvents events;
             events.onMessage = [this, refuse, weak = std::weak_ptr(conn)](auto&&, bool) {
                 if (auto c = weak.lock(); c && refuse) c->close();
@@ -252,6 +256,11 @@ public:
         std::lock_guard lock(mMutex);
         return mClosed;
     }
+    // Closes the `i`th connection accepted (a session ending it: a refusal or goodbye written).
+    void closeAccepted(size_t i) {
+        std::lock_guard lock(mMutex);
+        if (auto c = mAccepted.at(i).lock()) c->close();
+    }
     // Waits (bounded) until the listener dropped `n` pending connections; the count it reached.
     int64_t pendingDropped(int64_t n) {
         const auto end = Clock::now() + 5s;
@@ -272,6 +281,7 @@ private:
     std::mutex mMutex;
     std::condition_variable mChanged;
     int mMessages = 0, mClosed = 0;
+    std::vector<std::weak_ptr<Connection>> mAccepted;
 };
 
 // A client bound to a source address reaches the server from it (Linux's loopback holds
@@ -360,6 +370,24 @@ TEST(TransportPending, TheOldestSilentConnectionsAreDroppedPastTheLimit) {
     EXPECT_EQ(listener.closed(), 0);
     EXPECT_EQ(listener.transport().listenerStats().acceptFailures, 0);
     (*client)->abort();
+    for (int fd : silent) close(fd);
+}
+
+// A connection that said something is not pending, until a session closes it (a refusal or a
+// goodbye written, the peer's close awaited): the limit applies then, not at the next accept.
+TEST(TransportPending, AConnectionClosedAfterItsFirstMessageCountsAgain) {
+    PendingListener listener(2);
+    auto client = listener.transport().connect("127.0.0.1", listener.port(), "/",
+                                               ConnectionConfig{}, ConnectionEvents{});
+    ASSERT_TRUE(client.isOk()) << client.status().message();
+    (*client)->send({1});
+    ASSERT_TRUE(listener.messages(1));
+    const int silent[] = {silentConnection(listener.port()), silentConnection(listener.port())};
+    ASSERT_GE(std::min(silent[0], silent[1]), 0);
+    std::this_thread::sleep_for(100ms);  // both accepted: two pending, the limit
+    EXPECT_EQ(listener.transport().listenerStats().pendingDropped, 0);
+    listener.closeAccepted(0);  // three pending: the oldest is dropped at once
+    EXPECT_EQ(listener.pendingDropped(1), 1);
     for (int fd : silent) close(fd);
 }
 

@@ -57,9 +57,11 @@ Status checkPredistortThresholds(const std::vector<double>& thresholdsMm) {
 
 double predistortImageBytes(const display::Display& display, int pass1Size,
                             double framebufferBytesPerPixel) {
+    constexpr double kPass1BytesPerPixel = 13.0;  // see the header
     const double framebufferPixels =
         double(display.framebufferWidth) * double(display.framebufferHeight);
-    return framebufferBytesPerPixel * framebufferPixels + 13.0 * double(pass1Size) * pass1Size;
+    return framebufferBytesPerPixel * framebufferPixels +
+           kPass1BytesPerPixel * double(pass1Size) * double(pass1Size);
 }
 
 Result<PredistortExperiment> runPredistortExperiment(const display::Display& display,

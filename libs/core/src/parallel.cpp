@@ -53,11 +53,13 @@ Status checkThreadCount(int threads, std::string_view what) {
         double(count - 1) * stack + double(std::min<long>(count, 8 * cores) - 1) * kArenaBytes;
     constexpr double kGiB = double(1 << 30);
     if (reserved > double(*room))
-        return errorStatus(ErrorCode::kOutOfRange,
-                           fmt::format("{} {}: the threads reserve about {:.2f} GiB of address "
-                                       "space (stacks and malloc arenas), {:.2f} GiB is left "
-                                       "under its limit (ulimit -v)",
-                                       what, threads, reserved / kGiB, double(*room) / kGiB));
+        return errorStatus(
+            ErrorCode::kOutOfRange,
+            fmt::format("{} {}{}: the threads reserve about {:.2f} GiB of address space (stacks "
+                        "and malloc arenas), {:.2f} GiB is left under its limit (ulimit -v)",
+                        what, threads,
+                        threads == 0 ? fmt::format(" ({} threads, all cores)", count) : "",
+                        reserved / kGiB, double(*room) / kGiB));
     return Status::ok();
 }
 

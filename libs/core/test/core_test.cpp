@@ -7,6 +7,7 @@
 #include <sys/resource.h>
 
 #include <gtest/gtest.h>
+#include <oneapi/tbb/info.h>
 
 #include <plx/core/core.h>
 #include <plx/core/memory.h>
@@ -228,7 +229,14 @@ TEST(Parallel, ThreadCountsTheAddressSpaceCannotHoldAreRefused) {
     ASSERT_EQ(setrlimit(RLIMIT_AS, &lowered), 0);
     const Status two = checkThreadCount(2, "threads");
     const Status many = checkThreadCount(64, "--threads");
+    // 1 MiB beyond: not even a second thread's stack; 0 (all cores) says how many it means.
+    lowered.rlim_cur = mappedBytes() + (uint64_t(1) << 20);
+    ASSERT_EQ(setrlimit(RLIMIT_AS, &lowered), 0);
+    const Status allCores = checkThreadCount(0, "--threads");
     ASSERT_EQ(setrlimit(RLIMIT_AS, &saved), 0);
+    if (tbb::info::default_concurrency() >= 2)
+        EXPECT_NE(allCores.message().find("--threads 0 ("), std::string::npos)
+            << allCores.message();
     EXPECT_TRUE(two.isOk()) << two.toString();
     EXPECT_NE(many.message().find("--threads 64: the threads reserve about"), std::string::npos)
         << many.message();

@@ -107,9 +107,12 @@ Command addBenchStereo(CLI::App* bench) {
         ->capture_default_str();
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")
         ->check(CLI::Range(0, 1024));
-    sub->add_option("--separation", a->separation, "Eye separation e (m)")->capture_default_str();
+    sub->add_option("--separation", a->separation, "Eye separation e (m)")
+        ->capture_default_str()
+        ->check(floatNumber());
     sub->add_option("--convergence", a->convergence, "Convergence distance c (m)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(floatNumber());
     sub->add_flag("--no-conservative", a->noConservative, "Skip the conservative-set columns");
     sub->add_flag("--no-reproject", a->noReproject, "Skip the reproject-method columns");
     sub->add_option("--out", a->out, "Output folder")->capture_default_str();

@@ -135,7 +135,8 @@ Command addBenchWarp(CLI::App* bench) {
     sub->add_option("--size", a->size, "Display size WxH (default 320x240)");
     sub->add_option("--composite-tolerance", a->compositeTolerance,
                     "Relative 1/w margin by which a set other than the nearest must be nearer to "
-                    "win a pixel (0: plain z-buffer)");
+                    "win a pixel (0: plain z-buffer)")
+        ->check(floatNumber());
     sub->add_option("--refresh", a->refreshMs, "Reference request interval in ms")
         ->capture_default_str();
     sub->add_option("--duration", a->durationS,

@@ -62,12 +62,13 @@ namespace {
 Result<float> parseFloat(std::string_view text, const std::string& whole) {
     float v = 0.0f;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    const std::string in = text == whole ? "" : fmt::format(" (in '{}')", whole);
     if (ec == std::errc::result_out_of_range)
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("'{}' is beyond a float's range (in '{}')", text, whole));
+                           fmt::format("'{}' is beyond a float's range{}", text, in));
     if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("'{}' is not a finite number (in '{}')", text, whole));
+                           fmt::format("'{}' is not a finite number{}", text, in));
     return v;
 }
 }  // namespace
@@ -88,6 +89,23 @@ Result<Vec3> parseVec3(const std::string& text) {
         start = comma + 1;
     }
     return out;
+}
+
+CLI::Validator floatNumber() {
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            auto v = parseFloat(text, text);
+            return v ? std::string() : v.status().message();
+        },
+        "");  // the option's type (FLOAT) already names it in --help
+}
+
+double shortestDecimal(float v) {
+    char text[32];
+    const auto written = std::to_chars(text, text + sizeof text, v);
+    double d = double(v);
+    std::from_chars(text, written.ptr, d);
+    return d;
 }
 
 Status checkStereoRigNumbers(const StereoRigDesc& rig) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,15 @@ int fail(const Status& status);
 
 // "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
 Result<Vec3> parseVec3(const std::string& text);
+
+// A validator for options read into a float (->check(floatNumber())): refuses what is no finite
+// number or lies beyond a float's range ("'1e300' is beyond a float's range"), which CLI11 would
+// otherwise read as infinity and the later range check report as "inf".
+CLI::Validator floatNumber();
+
+// A float as the double of its shortest decimal form, for --json: 0.065f is 0.06499999761581421
+// as a double, and nlohmann::json prints that.
+double shortestDecimal(float v);
 inline Result<IVec2> parseSize(const std::string& text) { return parseImageSize(text); }
 
 // A stereo rig's numbers (separation, convergence) checked as usage, before any scene is loaded:
@@ -97,6 +107,17 @@ inline constexpr double kReprojectBspBytesPerTriangle = 288.0;
 // The estimate checkImageMemory gave and the peak the process reached, in MiB, for --json:
 // {"memory_estimate_mb": ..., "peak_memory_mb": ...}.
 nlohmann::json memoryJson(uint64_t estimateBytes);
+
+// A figure that may not exist (no set sent, quality never reached, no ping answered yet), for
+// --json: null where there is none, not a placeholder a script could take for a measurement.
+template <class T>
+nlohmann::json valueOrNull(bool exists, T value) {
+    return exists ? nlohmann::json(value) : nlohmann::json();
+}
+template <class T>
+nlohmann::json valueOrNull(const std::optional<T>& value) {
+    return value ? nlohmann::json(*value) : nlohmann::json();
+}
 
 // JSON has no infinity: identical images (infinite PSNR) are reported as this many dB.
 inline constexpr double kIdenticalPsnrDb = 99.0;

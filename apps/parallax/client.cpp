@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include <fmt/format.h>
@@ -200,11 +201,13 @@ Result<LoopResult> displayLoop(const ClientArgs& a, const std::vector<Camera>& c
     return r;
 }
 
-double medianOf(const std::vector<FrameStat>& frames, double FrameStat::*field) {
+// The median of a field over the frames that have it (>= 0); none where no frame has.
+std::optional<double> medianOf(const std::vector<FrameStat>& frames, double FrameStat::*field) {
     std::vector<double> v;
     for (const FrameStat& f : frames)
         if (f.*field >= 0.0) v.push_back(f.*field);
-    return v.empty() ? 0.0 : median(v);
+    if (v.empty()) return std::nullopt;
+    return median(v);
 }
 
 // Peak bytes per display pixel beyond the scene and the reference sets (whose faces the server
@@ -288,36 +291,43 @@ int runClient(const ClientArgs& a) {
         {"frames", frames},
         {"seconds", loop->seconds},
         {"client_fps", fps},
-        {"warp_ms_median", medianOf(loop->frames, &FrameStat::warpMs)},
-        {"reference_age_ms_median", medianOf(loop->frames, &FrameStat::referenceAgeMs)},
+        {"warp_ms_median", valueOrNull(medianOf(loop->frames, &FrameStat::warpMs))},
+        {"reference_age_ms_median",
+         valueOrNull(medianOf(loop->frames, &FrameStat::referenceAgeMs))},
         {"references_received", cs.referencesReceived},
         {"references_per_s", double(cs.referencesReceived) / loop->seconds},
         {"references_dropped", cs.referencesDropped},
         {"bytes_per_reference", bytesPerRef},
         {"raw_bytes_per_reference", rawBytes},
         {"face_size", cs.faceSize},
-        {"rtt_ms", cs.rttMs},
+        {"rtt_ms", valueOrNull(cs.rttMs >= 0.0, cs.rttMs)},
         {"decode_ms_mean", cs.decodeMsMean},
         {"reconnects", std::max<int64_t>(0, cs.connects - 1)},
         {"frames_written", loop->written}};
-    if (scene) doc["psnr_db_median"] = medianOf(loop->frames, &FrameStat::psnrDb);
+    if (scene) doc["psnr_db_median"] = valueOrNull(medianOf(loop->frames, &FrameStat::psnrDb));
     if (!cs.lastError.empty()) doc["last_error"] = cs.lastError;  // of a failed reconnection
     doc.update(memoryJson(*memory));
     if (a.json) {
         printJson(doc);
     } else {
+        // A figure JSON gives as null (none measured) reads "unknown".
+        auto figure = [](const nlohmann::json& v, const char* format) {
+            return v.is_null() ? std::string("unknown")
+                               : fmt::format(fmt::runtime(format), v.get<double>());
+        };
         fmt::print(
-            "{} frames in {:.2f} s ({:.1f} frames/s) at {}; warp {:.2f} ms, reference age "
-            "{:.0f} ms (medians)\n",
+            "{} frames in {:.2f} s ({:.1f} frames/s) at {}; warp {}, reference age {} "
+            "(medians)\n",
             frames, loop->seconds, fps, doc["size"].get<std::string>(),
-            doc["warp_ms_median"].get<double>(), doc["reference_age_ms_median"].get<double>());
-        fmt::print(
-            "{} reference sets ({:.1f}/s), {:.1f} KiB each (1/{:.0f} of raw), RTT {:.0f} ms\n",
-            cs.referencesReceived, doc["references_per_s"].get<double>(), bytesPerRef / 1024.0,
-            bytesPerRef > 0.0 ? rawBytes / bytesPerRef : 0.0, cs.rttMs);
+            figure(doc["warp_ms_median"], "{:.2f} ms"),
+            figure(doc["reference_age_ms_median"], "{:.0f} ms"));
+        fmt::print("{} reference sets ({:.1f}/s), {:.1f} KiB each (1/{:.0f} of raw), RTT {}\n",
+                   cs.referencesReceived, doc["references_per_s"].get<double>(),
+                   bytesPerRef / 1024.0, bytesPerRef > 0.0 ? rawBytes / bytesPerRef : 0.0,
+                   figure(doc["rtt_ms"], "{:.0f} ms"));
         if (scene)
-            fmt::print("PSNR {:.1f} dB against the local render (median)\n",
-                       doc["psnr_db_median"].get<double>());
+            fmt::print("PSNR {} against the local render (median)\n",
+                       figure(doc["psnr_db_median"], "{:.1f} dB"));
         if (!a.out.empty())
             fmt::print("wrote {} frames and stats.csv to {}\n", loop->written, a.out);
     }

@@ -376,7 +376,7 @@ nlohmann::json streamExperimentJson(const StreamExperiment& e) {
              {"quality_final", run.qualityFinal},
              {"quality_mean", qualitySum / double(std::max<size_t>(1, run.frames.size()))},
              {"quality_at_s", at},
-             {"time_to_quality_90_s", run.firstAt90S},
+             {"time_to_quality_90_s", valueOrNull(run.firstAt90S >= 0.0, run.firstAt90S)},
              {"max_resident_bytes", run.maxResidentBytes},
              {"budget_bytes", run.maxBudgetBytes},
              {"moving_budget_bytes", c.budgetBytes},

@@ -609,7 +609,7 @@ nlohmann::json warpExperimentJson(const WarpExperiment& e) {
                           {"duration_s", c.durationS},
                           {"refs", warp::referenceLayoutName(c.layout)},
                           {"splat", warp::splatName(c.splat)},
-                          {"composite_tolerance", c.compositeTolerance},
+                          {"composite_tolerance", shortestDecimal(c.compositeTolerance)},
                           {"rtts_ms", c.rttsMs},
                           {"rows", nlohmann::json::array()},
                           {"throughput", nlohmann::json::array()},

@@ -284,8 +284,8 @@ int runServe(const ServeArgs& a) {
                                {"raw_bytes_sent", s.rawBytesSent},
                                {"max_queued_bytes", s.maxQueuedBytes},
                                {"max_set_bytes", s.maxSetBytes},
-                               {"render_ms_mean", s.renderMsMean},
-                               {"encode_ms_mean", s.encodeMsMean},
+                               {"render_ms_mean", valueOrNull(s.setsSent > 0, s.renderMsMean)},
+                               {"encode_ms_mean", valueOrNull(s.setsSent > 0, s.encodeMsMean)},
                                {"lines_dropped", out.dropped}};
         stopped.update(memoryJson(*memory));
         out.writeLocked(stopped.dump(), kServeLineWaitMs);

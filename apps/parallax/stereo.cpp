@@ -411,8 +411,8 @@ int runStereo(const StereoArgs& a) {
         {"surrounding_first", p->options.reprojectSurroundingFirst},
         {"fill_search", stereo::fillSearchName(p->options.fillSearch)},
         {"rig", p->rig.type == StereoRigType::kConverged ? "toe-in" : "parallel"},
-        {"separation", p->rig.separation},
-        {"convergence", p->rig.convergence},
+        {"separation", shortestDecimal(p->rig.separation)},
+        {"convergence", shortestDecimal(p->rig.convergence)},
         {"width", size.x},
         {"height", size.y},
         {"frames", a.frames},
@@ -480,9 +480,11 @@ Command registerStereo(CLI::App& app) {
                     "reproject: boxes (box hierarchy, nearest box first; default) | bsp (the "
                     "paper's front-to-back BSP walk; builds the BSP tree first)");
     sub->add_option("--separation", a->separation, "Eye separation e (scene units)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(floatNumber());
     sub->add_option("--convergence", a->convergence, "Convergence distance c (scene units)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(floatNumber());
     sub->add_option("--rig", a->rig, "toe-in (converged by the image shift of eq. 1) | parallel")
         ->capture_default_str();
     sub->add_option("--first-eye", a->firstEye, "left | right: the eye rendered first")

@@ -232,7 +232,7 @@ int runWalk(const WalkArgs& a) {
                           {"downloaded_bytes", last.downloadedBytes},
                           {"quality", last.quality},
                           {"static", last.isStatic},
-                          {"cell", last.currentCell},
+                          {"cell", valueOrNull(last.currentCell >= 0, last.currentCell)},
                           {"frame_ms", ms}});
         csv += fmt::format("{},{:.4f},{},{},{},{:.4f},{:.3f}\n", i, last.timeS, last.budgetBytes,
                            last.residentBytes, last.downloadedBytes, last.quality, ms);

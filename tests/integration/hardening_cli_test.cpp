@@ -195,7 +195,10 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax(stereo + " --walk -1"), "--walk -1 outside 1 .. 100000", 2);
     // The experiments' numbers are usage too (exit status 2), named in the message.
     const std::pair<std::string, std::string> benchErrors[] = {
-        {"stereo --separation nan", "eye separation nan must be a finite number >= 0"},
+        {"stereo --separation nan", "--separation: 'nan' is not a finite number"},
+        {"stereo --convergence 1e300", "--convergence: '1e300' is beyond a float's range"},
+        {"warp --composite-tolerance 1e300",
+         "--composite-tolerance: '1e300' is beyond a float's range"},
         {"stereo --convergence 0", "convergence distance 0 must be a finite number > 0"},
         {"predistort --thresholds 4,nan",
          "--thresholds: error threshold nan mm must be a finite number > 0"},
@@ -203,6 +206,9 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     for (const auto& [args, message] : benchErrors)
         expectOneLineError(runParallax("bench " + args + " --out " + (hardDir() / "b").string()),
                            message, 2);
+    // Once read as infinity by the option and reported as "eye separation inf".
+    expectOneLineError(runParallax(stereo + " --separation 1e300"),
+                       "--separation: '1e300' is beyond a float's range", 2);
     // Once "PSNR 99 dB" and blank images: the eyes, 5e29 to each side, are refused up front.
     expectOneLineError(runParallax(stereo + " --separation 1e30"),
                        "eye separation 1e+30 puts the left eye out of range: camera eye "

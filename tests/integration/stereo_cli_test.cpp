@@ -24,6 +24,9 @@ TEST(StereoCli, PBufferPairJsonAndLayouts) {
                             "second_eye_ms", "pair_ms", "second_eye_psnr_db"})
         EXPECT_TRUE(doc.contains(key)) << key;
     EXPECT_EQ(doc["method"], "pbuffer");
+    // The float options as written (0.065, not the float's 0.06499999761581421).
+    EXPECT_EQ(doc["separation"].get<double>(), 0.065);
+    EXPECT_EQ(doc["convergence"].get<double>(), 3.0);
     EXPECT_GT(doc["second_eye_psnr_db"].get<double>(), 20.0);
     EXPECT_EQ(doc["frames"], 2);
     EXPECT_GT(doc["identical_fraction"].get<double>(), 0.9);
@@ -179,6 +182,7 @@ TEST(StereoCli, BenchStereoWritesTableAndPlots) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     ASSERT_EQ(doc["rows"].size(), 2u);
+    EXPECT_EQ(doc["separation"].get<double>(), 0.065);
     for (const auto& row : doc["rows"]) {
         for (const char* key : {"reproject_first_ms", "reproject_second_ms", "reproject_psnr_db"})
             EXPECT_GT(row[key].get<double>(), 0.0) << key;

@@ -57,6 +57,7 @@ TEST(RemoteCli, ServeAndClientEndToEnd) {
     ASSERT_TRUE(stopped.is_object());
     EXPECT_EQ(stopped["event"], "stopped");
     EXPECT_GE(stopped["sets_sent"].get<int>(), 1);
+    EXPECT_GT(stopped["render_ms_mean"].get<double>(), 0.0);
     // The session log: the client came, and left saying goodbye with every set sent.
     ASSERT_EQ(server.sessionLines.size(), 2u);
     const nlohmann::json &came = server.sessionLines[0], &left = server.sessionLines[1];
@@ -285,7 +286,12 @@ TEST(RemoteCli, TokenRefusedAtTheHandshake) {
     expectOneLineError(
         runParallax("client " + server.url() + " --path " + path.string() + " --size 64x48"),
         "token is required");
-    server.stop();
+    auto [stopped, code] = server.stop();
+    EXPECT_EQ(code, 0);
+    ASSERT_TRUE(stopped.is_object());
+    EXPECT_EQ(stopped["sets_sent"], 0);
+    EXPECT_TRUE(stopped["render_ms_mean"].is_null()) << stopped;  // no set, no time per set
+    EXPECT_TRUE(stopped["encode_ms_mean"].is_null()) << stopped;
     ASSERT_EQ(server.sessionLines.size(), 2u);
     for (const nlohmann::json& line : server.sessionLines)
         EXPECT_EQ(line["event"], "session_refused") << line;

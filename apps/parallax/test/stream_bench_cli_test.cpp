@@ -25,6 +25,8 @@ TEST(StreamBenchCli, QuickJsonRowsAndOrderByBandwidth) {
         for (const char* key : {"bandwidth_kbit", "quality_final", "time_to_quality_90_s",
                                 "max_resident_bytes", "budget_bytes", "frames_over_budget"})
             EXPECT_TRUE(walks[i].contains(key)) << key;
+        const auto& at90 = walks[i]["time_to_quality_90_s"];  // null: never reached
+        EXPECT_TRUE(at90.is_null() || at90.get<double>() >= 0.0) << at90;
         EXPECT_LE(walks[i]["max_resident_bytes"], walks[i]["budget_bytes"]);
         EXPECT_EQ(walks[i]["frames_over_budget"], 0);
         // Fig. 2: the curves order by bandwidth (56 kbit/s, 1 Mbit/s, unlimited).

@@ -77,10 +77,10 @@ TEST(StreamWalkCli, TourThroughEveryRoom) {
         EXPECT_EQ(doc["frames"], 3 * 250 + 4 * 60);
         std::set<int> cells;
         for (const auto& f : doc["per_frame"]) {
-            cells.insert(f["cell"].get<int>());
+            // null for the frames before the first cell arrived
+            if (!f["cell"].is_null()) cells.insert(f["cell"].get<int>());
             EXPECT_LE(f["resident_bytes"].get<uint64_t>(), f["budget_bytes"].get<uint64_t>());
         }
-        cells.erase(-1);  // the frames before the first cell arrived
         EXPECT_EQ(cells, (std::set<int>{0, 1, 2, 3}));
     }
 }

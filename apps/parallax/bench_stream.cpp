@@ -152,8 +152,10 @@ int runStreamBench(const StreamBenchArgs& a) {
     files.emplace_back("walks.csv", streamWalksCsv(*e));
     files.emplace_back("policies.csv", streamPoliciesCsv(*e));
     files.emplace_back("policy_frames.csv", streamPolicyFramesCsv(*e));
-    return finishExperiment(a.out, a.json, streamExperimentJson(*e), "stream.json",
-                            std::move(files), [&](const std::string&) { printTables(*e, dir); });
+    nlohmann::json doc = streamExperimentJson(*e);
+    doc.update(memoryJson(e->memoryEstimateBytes));
+    return finishExperiment(a.out, a.json, doc, "stream.json", std::move(files),
+                            [&](const std::string&) { printTables(*e, dir); });
 }
 
 }  // namespace

@@ -50,6 +50,7 @@ Result<std::vector<Camera>> tourCameras(const scene::Scene& scene, const stream:
     if (!tour) return tour.status();
     const Aabb bounds = scene.bounds();
     std::vector<Camera> cameras;
+    cameras.reserve(tour->size());
     for (const stream::TourPose& p : *tour) {
         CameraDesc d;
         d.eyePos = p.eyePos, d.targetPos = p.targetPos;
@@ -269,6 +270,27 @@ Status checkStreamExperimentConfig(const StreamExperimentConfig& c) {
     return Status::ok();
 }
 
+// What the experiment adds to the generated scene and its tour (checkImageMemory): per texel
+// byte of the scene, the database's PTM files and the baseline's decoded chains beside the
+// scene's own textures; per tour frame, the report each walk keeps (the policy walks' one at a
+// time) and the frame times, in vectors that grow by doubling; per frame pixel, the frame
+// targets, the full-resolution frames the policies are compared with and the screenshots. The
+// peak grew by 28 bytes a pixel from 96x72 to 1024x768 (museum:4), and by 2.8 bytes a scene
+// texel byte from museum:4 to museum:64 (11 to 89 MB of textures), the scene's own byte held at
+// the check; rounded up, the estimate was 1.12-1.21 times the peak from museum:4 to museum:256
+// (141k tour frames). MemoryCli.EstimatesHoldTheMeasuredPeak holds it to the peak.
+constexpr double kStreamBytesPerTextureByte = 2.0, kStreamBytesPerPixel = 32.0,
+                 kStreamFixedBytes = 16e6;
+double streamExperimentBytes(const StreamExperimentConfig& c, size_t textureBytes,
+                             size_t tourFrames) {
+    const double walks = double(c.bandwidthsKbit.size() + 1);
+    const double perFrame =
+        2.0 * (walks * double(sizeof(stream::FrameReport)) + 2.0 * double(sizeof(double)));
+    return kStreamFixedBytes + kStreamBytesPerTextureByte * double(textureBytes) +
+           perFrame * double(tourFrames) +
+           kStreamBytesPerPixel * double(c.width) * double(c.height);
+}
+
 Result<StreamExperiment> runStreamExperiment(const StreamExperimentConfig& config,
                                              const std::function<void(size_t, size_t)>& progress) {
     PLX_RETURN_IF_ERROR(checkStreamExperimentConfig(config));
@@ -286,6 +308,15 @@ Result<StreamExperiment> runStreamExperiment(const StreamExperimentConfig& confi
     if (!scene) return scene.status();
     auto cells = stream::makeCells(*scene);
     if (!cells) return cells.status();
+    auto cameras = tourCameras(*scene, *cells, config);
+    if (!cameras) return cameras.status();
+    e.tourFrames = cameras->size();
+    auto memory = checkImageMemory(
+        fmt::format("stream experiment on {} at {}x{}", config.scene, config.width, config.height),
+        streamExperimentBytes(config, scene->stats().textureBytes, e.tourFrames),
+        scene->triangleCount());
+    if (!memory) return memory.status();
+    e.memoryEstimateBytes = *memory;
     stream::VisibilityConfig sampling = config.sampling;
     sampling.threads = config.threads;
     auto visibility =
@@ -302,9 +333,6 @@ Result<StreamExperiment> runStreamExperiment(const StreamExperimentConfig& confi
     auto pvsBytes = largestPvsBytes(config.dbDir, built->cells, decoded->chainBytes);
     if (!pvsBytes) return pvsBytes.status();
     e.pvsTextureBytesMax = *pvsBytes;
-    auto cameras = tourCameras(*scene, *cells, config);
-    if (!cameras) return cameras.status();
-    e.tourFrames = cameras->size();
     step();
 
     auto renderer = raster::Renderer::create({config.threads});

@@ -103,6 +103,7 @@ struct StreamExperiment {
     BaselineRun baseline;             // frame times with frameTimes only
     Image<Rgba8> fullShot;            // the baseline at the slowest walk's last shot (Fig. 3)
     std::vector<PolicyRow> policies;  // budgets outer, policies inner
+    uint64_t memoryEstimateBytes = 0;  // the peak checkImageMemory estimated, for memoryJson
 };
 
 // Errors: no bandwidths, a bandwidth outside 0 .. 1e7 kbit/s, latency outside 0 .. 10 s, a zero
@@ -110,7 +111,8 @@ struct StreamExperiment {
 Status checkStreamExperimentConfig(const StreamExperimentConfig& config);
 
 // Builds the database and runs the walks; progress(done, total) after each step. Errors: those
-// of checkStreamExperimentConfig, a scene that does not load, a database that cannot be written.
+// of checkStreamExperimentConfig, a scene that does not load, more memory than the process can
+// take once the museum is generated (checkImageMemory), a database that cannot be written.
 Result<StreamExperiment> runStreamExperiment(
     const StreamExperimentConfig& config,
     const std::function<void(size_t, size_t)>& progress = nullptr);

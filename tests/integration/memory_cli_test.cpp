@@ -56,6 +56,10 @@ const char* const kEstimatedCommands[] = {
     "bench warp --quick --duration 0.5 --refs wide --splat mesh --size 640x360",
     // Where its walk's scene outweighs its images: 465k triangles.
     "bench warp --quick --duration 0.2 --scenes office:128",
+    // One walk, frames rendered only to compare and for the screenshots; museum:16's textures.
+    "bench stream --quick --bandwidths 0 --policy-budgets 0.25 --no-frame-times --size 1536x1152",
+    "bench stream --quick --scene museum:16 --bandwidths 0 --policy-budgets 0.25 --stop 0 "
+    "--no-frame-times",
 };
 
 TEST(MemoryCli, EstimatesHoldTheMeasuredPeak) {
@@ -130,6 +134,9 @@ TEST(MemoryCli, RefusesImagesLargerThanTheMemoryLimit) {
         {"predistort " + showcaseDisplay(16384) + " --error 1",
          "predistort at 16384x16384 (pass 1 512x512)"},
         {"bench predistort --display " + showcaseDisplay(16384), "bench predistort at 16384x16384"},
+        // A tour of 976k frames: what its walks keep of each frame.
+        {"bench stream --quick --scene museum:64 --stop 500",
+         "stream experiment on museum:64 at 96x72"},
     };
     for (const auto& [command, what] : refused)
         expectOneLineError(runParallax(command + out, limit), what + " needs about");

@@ -61,7 +61,9 @@ int fail(const Status& status) { return fail(status.message(), kExitFailure); }
 namespace {
 Result<float> parseFloat(std::string_view text, const std::string& whole) {
     float v = 0.0f;
-    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    // from_chars takes no leading '+', which strtod and people do ("+0.5").
+    const char* begin = text.data() + (text.size() > 1 && text[0] == '+' && text[1] != '-');
+    auto [end, ec] = std::from_chars(begin, text.data() + text.size(), v);
     const std::string in = text == whole ? "" : fmt::format(" (in '{}')", whole);
     if (ec == std::errc::result_out_of_range)
         return errorStatus(ErrorCode::kInvalidArgument,

@@ -16,8 +16,11 @@ fs::path stereoDir() {
 
 TEST(StereoCli, PBufferPairJsonAndLayouts) {
     fs::path prefix = stereoDir() / "pair";
-    RunResult r = runParallax("stereo office:4 --method pbuffer --size 96x72 --frames 2 --out " +
-                              prefix.string() + " --json");
+    // "+0.065": a leading '+', as strtod reads it.
+    RunResult r = runParallax(
+        "stereo office:4 --method pbuffer --size 96x72 --frames 2 "
+        "--separation +0.065 --out " +
+        prefix.string() + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);
     for (const char* key : {"method", "triangles", "visible_triangles", "first_eye_ms",

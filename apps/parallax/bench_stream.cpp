@@ -102,8 +102,9 @@ Result<StreamExperimentConfig> configFrom(const StreamBenchArgs& a) {
 }
 
 void printTables(const StreamExperiment& e, const std::string& dir) {
-    fmt::print("{} ({} cells, {} textures, {:.1f} MB), tour of {} frames ({:.0f} s)\n",
-               e.config.scene, e.cells, e.textures, double(e.databaseBytes) / 1e6, e.tourFrames,
+    fmt::print("{} ({}, {}, {:.1f} MB), tour of {} ({:.0f} s)\n", e.config.scene,
+               counted(e.cells, "cell"), counted(e.textures, "texture"),
+               double(e.databaseBytes) / 1e6, counted(e.tourFrames, "frame"),
                double(e.tourFrames) / e.config.tour.fps);
     fmt::print("{:<12} {:>9} {:>9} {:>14} {:>14} {:>6} {:>11}\n", "link", "final q %", "q>=90% s",
                "max resident", "budget", "over", "downloaded");

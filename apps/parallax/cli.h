@@ -108,6 +108,11 @@ inline constexpr double kReprojectBspBytesPerTriangle = 288.0;
 // {"memory_estimate_mb": ..., "peak_memory_mb": ...}.
 nlohmann::json memoryJson(uint64_t estimateBytes);
 
+// "1 frame", "2 frames": a count and its noun, in the plural unless the count is one.
+inline std::string counted(uint64_t count, const std::string& noun) {
+    return std::to_string(count) + " " + noun + (count == 1 ? "" : "s");
+}
+
 // A figure that may not exist (no set sent, quality never reached, no ping answered yet), for
 // --json: null where there is none, not a placeholder a script could take for a measurement.
 template <class T>

@@ -316,20 +316,22 @@ int runClient(const ClientArgs& a) {
                                : fmt::format(fmt::runtime(format), v.get<double>());
         };
         fmt::print(
-            "{} frames in {:.2f} s ({:.1f} frames/s) at {}; warp {}, reference age {} "
+            "{} in {:.2f} s ({:.1f} frames/s) at {}; warp {}, reference age {} "
             "(medians)\n",
-            frames, loop->seconds, fps, doc["size"].get<std::string>(),
+            counted(uint64_t(frames), "frame"), loop->seconds, fps, doc["size"].get<std::string>(),
             figure(doc["warp_ms_median"], "{:.2f} ms"),
             figure(doc["reference_age_ms_median"], "{:.0f} ms"));
-        fmt::print("{} reference sets ({:.1f}/s), {:.1f} KiB each (1/{:.0f} of raw), RTT {}\n",
-                   cs.referencesReceived, doc["references_per_s"].get<double>(),
-                   bytesPerRef / 1024.0, bytesPerRef > 0.0 ? rawBytes / bytesPerRef : 0.0,
+        fmt::print("{} ({:.1f}/s), {:.1f} KiB each (1/{:.0f} of raw), RTT {}\n",
+                   counted(uint64_t(cs.referencesReceived), "reference set"),
+                   doc["references_per_s"].get<double>(), bytesPerRef / 1024.0,
+                   bytesPerRef > 0.0 ? rawBytes / bytesPerRef : 0.0,
                    figure(doc["rtt_ms"], "{:.0f} ms"));
         if (scene)
             fmt::print("PSNR {} against the local render (median)\n",
                        figure(doc["psnr_db_median"], "{:.1f} dB"));
         if (!a.out.empty())
-            fmt::print("wrote {} frames and stats.csv to {}\n", loop->written, a.out);
+            fmt::print("wrote {} and stats.csv to {}\n", counted(uint64_t(loop->written), "frame"),
+                       a.out);
     }
     return kExitOk;
 }

@@ -88,11 +88,12 @@ int runRender(const RenderArgs& a) {
         doc.update(memoryJson(*memory));
         printJson(doc);
     } else {
-        fmt::print("{}: {} triangles, {} visible, {}x{}, {} shading, {} threads\n", a.scene,
+        fmt::print("{}: {} triangles, {} visible, {}x{}, {} shading, {}\n", a.scene,
                    scene->triangleCount(), visible, camera->width(), camera->height(),
-                   raster::shadingName(*shading), (*renderer)->threadCount());
-        fmt::print("median {:.2f} ms/frame over {} frames ({:.1f} Mtri/s)\n", medianMs, a.frames,
-                   mtris);
+                   raster::shadingName(*shading),
+                   counted(uint64_t((*renderer)->threadCount()), "thread"));
+        fmt::print("median {:.2f} ms/frame over {} ({:.1f} Mtri/s)\n", medianMs,
+                   counted(uint64_t(a.frames), "frame"), mtris);
         fmt::print("wrote {}, {}, {}\n", colorPath, depthPath, idPath);
     }
     return kExitOk;

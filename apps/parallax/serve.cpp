@@ -187,8 +187,9 @@ struct ServeOutput {
                                remote::sessionEventName(e.kind));
             if (e.kind == Kind::kAccepted) line += fmt::format(" ({} px faces)", e.faceSize);
             if (e.kind == Kind::kEnded)
-                line += fmt::format(" after {:.1f} s, {} sets ({:.1f} KiB)", e.durationS,
-                                    e.setsSent, double(e.bytesSent) / 1024.0);
+                line +=
+                    fmt::format(" after {:.1f} s, {} ({:.1f} KiB)", e.durationS,
+                                counted(uint64_t(e.setsSent), "set"), double(e.bytesSent) / 1024.0);
             if (e.kind != Kind::kAccepted) line += ": " + e.reason;
         }
         std::lock_guard lock(mutex);
@@ -300,8 +301,8 @@ int runServe(const ServeArgs& a) {
                       double(s.bytesSent) / double(s.setsSent) / 1024.0,
                       double(s.rawBytesSent) / double(s.bytesSent), s.renderMsMean, s.encodeMsMean);
         out.writeLocked(
-            fmt::format("stopped: {} sessions, {} sets sent{}{}", s.sessionsTotal, s.setsSent,
-                        perSet,
+            fmt::format("stopped: {}, {} sent{}{}", counted(uint64_t(s.sessionsTotal), "session"),
+                        counted(uint64_t(s.setsSent), "set"), perSet,
                         out.dropped ? fmt::format("; {} output lines dropped", out.dropped) : ""),
             kServeLineWaitMs);
     }

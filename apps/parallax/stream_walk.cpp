@@ -256,10 +256,11 @@ int runWalk(const WalkArgs& a) {
         printJson(doc);
     } else {
         fmt::print(
-            "{} frames: max resident {} bytes (budget {}, static {}), downloaded {} bytes, "
-            "quality {:.1f}%, {} failed requests\n",
-            cameras->size(), maxResident, config.budgetBytes, config.staticBudgetBytes,
-            last.downloadedBytes, 100.0 * last.quality, client.failedRequests());
+            "{}: max resident {} bytes (budget {}, static {}), downloaded {} bytes, "
+            "quality {:.1f}%, {}\n",
+            counted(cameras->size(), "frame"), maxResident, config.budgetBytes,
+            config.staticBudgetBytes, last.downloadedBytes, 100.0 * last.quality,
+            counted(client.failedRequests(), "failed request"));
     }
     return kExitOk;
 }

@@ -325,7 +325,7 @@ void printText(const StereoArgs& a, const nlohmann::json& doc, size_t poses,
             doc["reproject_ms"].get<double>(), doc["fill_ms"].get<double>(),
             doc["hole_pixels"].get<int64_t>(), doc["expansion_holes"].get<size_t>(),
             doc["disocclusion_holes"].get<size_t>(), doc["prepare_ms"].get<double>());
-    fmt::print("wrote {} file(s) starting {}\n", written.size(), written.front());
+    fmt::print("wrote {} starting {}\n", counted(written.size(), "file"), written.front());
 }
 
 // The cameras of the run: one from the camera options (usage errors), or a walkthrough's.

@@ -53,6 +53,9 @@ int fail(const Status& status);
 
 // "x,y,z" -> Vec3; "WxH" -> (W, H). Errors name the offending text.
 Result<Vec3> parseVec3(const std::string& text);
+inline Result<IVec2> parseSize(const std::string& text) {
+    return parseImageSize(text);
+}
 
 // A validator for options read into a float (->check(floatNumber())): refuses what is no finite
 // number or lies beyond a float's range ("'1e300' is beyond a float's range"), which CLI11 would
@@ -62,7 +65,6 @@ CLI::Validator floatNumber();
 // A float as the double of its shortest decimal form, for --json: 0.065f is 0.06499999761581421
 // as a double, and nlohmann::json prints that.
 double shortestDecimal(float v);
-inline Result<IVec2> parseSize(const std::string& text) { return parseImageSize(text); }
 
 // A stereo rig's numbers (separation, convergence) checked as usage, before any scene is loaded:
 // the rig built around a throwaway default camera, whose errors name the bad number.

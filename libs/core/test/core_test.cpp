@@ -210,7 +210,9 @@ TEST(Parallel, ParallelForVisitsEveryIndexOnce) {
 
 TEST(Parallel, ThreadCountsTheAddressSpaceCannotHoldAreRefused) {
     EXPECT_TRUE(checkThreadCount(0, "threads").isOk());
-    if (!addressSpaceRemaining()) EXPECT_TRUE(checkThreadCount(kMaxThreads, "threads").isOk());
+    if (!addressSpaceRemaining()) {
+        EXPECT_TRUE(checkThreadCount(kMaxThreads, "threads").isOk());
+    }
     for (int bad : {-1, kMaxThreads + 1})
         EXPECT_NE(checkThreadCount(bad, "--threads").message().find("outside 0 .. 1024"),
                   std::string::npos);
@@ -234,9 +236,10 @@ TEST(Parallel, ThreadCountsTheAddressSpaceCannotHoldAreRefused) {
     ASSERT_EQ(setrlimit(RLIMIT_AS, &lowered), 0);
     const Status allCores = checkThreadCount(0, "--threads");
     ASSERT_EQ(setrlimit(RLIMIT_AS, &saved), 0);
-    if (tbb::info::default_concurrency() >= 2)
+    if (tbb::info::default_concurrency() >= 2) {
         EXPECT_NE(allCores.message().find("--threads 0 ("), std::string::npos)
             << allCores.message();
+    }
     EXPECT_TRUE(two.isOk()) << two.toString();
     EXPECT_NE(many.message().find("--threads 64: the threads reserve about"), std::string::npos)
         << many.message();

@@ -116,7 +116,7 @@ inline std::string counted(uint64_t count, const std::string& noun) {
 }
 
 // A figure that may not exist (no set sent, quality never reached, no ping answered yet), for
-// --json: null where there is none, not a placeholder a script could take for a measurement.
+// --json: null where there is none, so that no script reads a -1 or 0 as a measurement.
 template <class T>
 nlohmann::json valueOrNull(bool exists, T value) {
     return exists ? nlohmann::json(value) : nlohmann::json();

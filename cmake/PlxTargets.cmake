@@ -69,15 +69,24 @@ endfunction()
 add_library(plx_flags INTERFACE)
 target_link_libraries(plx_flags INTERFACE plx_warnings plx_opt plx_sanitize)
 
-# plx_add_module(NAME SOURCES ... DEPS ...): library plx_NAME with public headers in include/.
+# plx_add_module(NAME SOURCES ... DEPS ...): library plx_NAME with public headers in include/,
+# installed with its headers into the export set that ParallaxConfig.cmake loads (plx::NAME to a
+# find_package(Parallax) user). The compile flags stay the build's own: an installed static
+# library's private dependencies reach its users' link lines, and plx_flags means nothing there.
 function(plx_add_module name)
     cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
     add_library(plx_${name} STATIC ${ARG_SOURCES})
     add_library(plx::${name} ALIAS plx_${name})
+    set_target_properties(plx_${name} PROPERTIES EXPORT_NAME ${name})
     target_include_directories(plx_${name}
         PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+               $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
         PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
-    target_link_libraries(plx_${name} PUBLIC ${ARG_DEPS} PRIVATE plx_flags ${ARG_PRIVATE_DEPS})
+    target_link_libraries(plx_${name} PUBLIC ${ARG_DEPS}
+        PRIVATE $<BUILD_INTERFACE:plx_flags> ${ARG_PRIVATE_DEPS})
+    install(TARGETS plx_${name} EXPORT ParallaxTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ TYPE INCLUDE)
 endfunction()
 
 # Every registered test executable; a build preset that only tests builds this target alone.

@@ -70,11 +70,12 @@ int main(int argc, char** argv) {
     const double psnr = plx::psnr(full.right.color, reprojected.right.color);
     if (psnr < 30.0) return fail("reproject", "second eye far from full");
 
-    auto encoded = plx::ptm::encode(toByteImage(fb.color));
+    const plx::ByteImage colour = toByteImage(fb.color);
+    auto encoded = plx::ptm::encode(colour);
     if (!encoded) return fail("ptm::encode", encoded.status());
     auto decoded = plx::ptm::decodeImage(*encoded);
     if (!decoded) return fail("ptm::decodeImage", decoded.status());
-    if (decoded->bytes != toByteImage(fb.color).bytes) {
+    if (decoded->bytes != colour.bytes) {
         return fail("ptm", "round trip not lossless");
     }
 

@@ -43,6 +43,9 @@ int finishExperiment(const std::string& out, bool json, const nlohmann::json& do
 Command registerBench(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Run the papers' experiments (CSV, JSON, SVG)");
     bench->require_subcommand(1);
+    bench->footer(
+        "Example: parallax bench warp --quick --out out/bench_warp   "
+        "(each experiment's --help names its table, plots and JSON)");
     std::vector<Command> children = {addBenchStereo(bench), addBenchPredistort(bench),
                                      addBenchWarp(bench), addBenchRemote(bench),
                                      addBenchStream(bench)};

@@ -29,7 +29,7 @@ int runPredistortBench(const PredistortBenchArgs& a) {
     auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
     auto containerKind = display::parseContainerKind(a.container);
-    if (!containerKind) return fail(containerKind.status());
+    if (!containerKind) return fail(containerKind.status().message(), kExitUsage);
     PredistortExperimentConfig config;
     config.container = *containerKind;
     config.repetitions = a.repetitions;

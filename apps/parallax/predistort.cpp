@@ -4,6 +4,7 @@
 // of the grid and the predistorted frame.
 
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -57,14 +58,15 @@ Result<scene::Scene> loadContent(const std::string& spec, const display::Display
     return display::fitSceneToContent(*s, d);
 }
 
-Result<display::DVec3> viewerPosition(const PredistortArgs& a, const display::Display& d) {
-    if (a.viewer.empty()) return d.defaultViewerMm;
-    auto v = parseVec3(a.viewer);
+// --viewer as given, checked before any file is read (a usage error); none: the display file's.
+Result<std::optional<display::DVec3>> parseViewer(const std::string& text) {
+    if (text.empty()) return std::optional<display::DVec3>();
+    auto v = parseVec3(text);
     if (!v) return v.status();
     if (!std::isfinite(v->x) || !std::isfinite(v->y) || !std::isfinite(v->z))
         return errorStatus(ErrorCode::kInvalidArgument,
-                           fmt::format("--viewer '{}' must be three finite numbers", a.viewer));
-    return display::DVec3(*v);
+                           fmt::format("--viewer '{}' must be three finite numbers", text));
+    return std::optional<display::DVec3>(display::DVec3(*v));
 }
 
 // Peak bytes per framebuffer pixel beyond the scene and pass 1 (predistortImageBytes): pass 2's
@@ -102,13 +104,14 @@ int run(const PredistortArgs& a) {
     if (a.format != "bourke" && a.format != "obj" && a.format != "pfm")
         return fail(fmt::format("--format '{}' is not bourke, obj or pfm", a.format), kExitUsage);
     auto containerKind = display::parseContainerKind(a.container);
-    if (!containerKind) return fail(containerKind.status());
+    if (!containerKind) return fail(containerKind.status().message(), kExitUsage);
+    auto viewerArg = parseViewer(a.viewer);
+    if (!viewerArg) return fail(viewerArg.status().message(), kExitUsage);
     auto d = loadDisplayArgument(a.display);
     if (!d) return fail(d.status());
-    auto viewer = viewerPosition(a, *d);
-    if (!viewer) return fail(viewer.status());
+    const display::DVec3 viewer = viewerArg->value_or(d->defaultViewerMm);
     display::Display viewed = *d;
-    viewed.defaultViewerMm = *viewer;
+    viewed.defaultViewerMm = viewer;
     if (Status s = display::validateDisplay(viewed); !s) return fail(s);
     auto content = loadContent(a.scene, *d);
     if (!content) return fail(content.status());
@@ -122,7 +125,7 @@ int run(const PredistortArgs& a) {
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
     display::ImagePlane plane =
-        display::makeImagePlane(*viewer, d->contentCenterMm, d->contentRadiusMm);
+        display::makeImagePlane(viewer, d->contentCenterMm, d->contentRadiusMm);
     auto pass2 = display::PredistortRenderer::create(a.threads);
     if (!pass2) return fail(pass2.status());
     double pass1Ms = 0.0;  // pass 1 straight into the image pass 2 samples
@@ -166,7 +169,7 @@ int run(const PredistortArgs& a) {
         return fail(
             fmt::format("the viewer at ({:g}, {:g}, {:g}) mm sees none of the display's "
                         "content through its optics: no warp mesh to build",
-                        viewer->x, viewer->y, viewer->z));
+                        viewer.x, viewer.y, viewer.z));
     display::ErrorMeasurement err =
         display::measureMeshError(*d, plane, mesh, kValidationDivisions, &pool);
 
@@ -198,7 +201,7 @@ int run(const PredistortArgs& a) {
                           {"pass1_ms", pass1Ms},
                           {"display", d->name},
                           {"optics", display::opticsKindName(*d)},
-                          {"viewer_mm", {viewer->x, viewer->y, viewer->z}},
+                          {"viewer_mm", {viewer.x, viewer.y, viewer.z}},
                           {"container", method == "adaptive" ? a.container : "none"},
                           {"scene", a.scene.empty() ? "built-in exhibit" : a.scene},
                           {"mesh", meshPath},
@@ -246,7 +249,8 @@ Command registerPredistort(CLI::App& app) {
                     "Convex container: hull (the coarse convex hull, default), obb or none");
     sub->add_option("--out", args->out, "Output prefix")->required();
     sub->add_option("--format", args->format, "Mesh file format: bourke, obj or pfm");
-    sub->add_option("--grid-level", args->gridLevel, "Quadtree grid level m (2..11)");
+    sub->add_option("--grid-level", args->gridLevel, "Quadtree grid level m (2..11)")
+        ->check(CLI::Range(2, 11));
     sub->add_option("--pass1-size", args->pass1Size, "Pass-1 image size in pixels")
         ->check(CLI::Range(16, 8192));
     sub->add_option("--threads", args->threads, "Pass-2 renderer threads (0 = all)")

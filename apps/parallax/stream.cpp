@@ -209,6 +209,9 @@ Command registerStream(CLI::App& app) {
     CLI::App* sub = app.add_subcommand(
         "stream", "Texture streaming: build the scene database (cells, PVS, ACH, PTM files)");
     sub->require_subcommand(1);
+    sub->footer(
+        "Example: parallax stream build museum:16 --out out/m16 && "
+        "parallax stream walk out/m16 --tour --bandwidth 56 --json");
     CLI::App* build = sub->add_subcommand(
         "build", "Cells, their PVS and ACHs (Marvie & Bouatouch section 5), and the database");
     build->footer(

@@ -1,7 +1,10 @@
 // Runs the parallax binary as a user would and checks exit codes, JSON output, written files and
 // one-line errors for bad input.
 
+#include <algorithm>
 #include <fstream>
+#include <sstream>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -188,6 +191,37 @@ TEST(Cli, UsageErrorsExitWithTwo) {
     expectOneLineError(runParallax("render office:1 --out x --no-such-flag"), "--no-such-flag", 2);
     EXPECT_EQ(runParallax("--help").exitCode, 0);
     EXPECT_EQ(runParallax("render --help").exitCode, 0);
+}
+
+// The names under "Subcommands:" in a --help text, up to the blank line that ends the list.
+std::vector<std::string> listedSubcommands(const std::string& help) {
+    std::vector<std::string> names;
+    std::istringstream lines(help.substr(std::min(help.size(), help.find("Subcommands:"))));
+    std::string line;
+    std::getline(lines, line);
+    while (std::getline(lines, line) && line.size() > 2 && line[2] != ' ') {
+        names.push_back(line.substr(2, line.find(' ', 2) - 2));
+    }
+    return names;
+}
+
+// README: every command has --help with an example; the commands are read from the help
+// itself, so a new command or group is checked without being named here.
+TEST(Cli, EveryCommandsHelpShowsAnExample) {
+    std::vector<std::string> commands = listedSubcommands(runParallax("--help").out);
+    ASSERT_GE(commands.size(), 10u);
+    for (size_t i = 0; i < commands.size(); ++i) {
+        RunResult r = runParallax(commands[i] + " --help");
+        ASSERT_EQ(r.exitCode, 0) << commands[i];
+        EXPECT_NE(r.out.find("\nExample: parallax " + commands[i]), std::string::npos)
+            << "parallax " << commands[i] << " --help:\n"
+            << r.out;
+        for (const std::string& child : listedSubcommands(r.out)) {
+            if (std::count(commands[i].begin(), commands[i].end(), ' ') == 0)
+                commands.push_back(commands[i] + " " + child);
+        }
+    }
+    EXPECT_GE(commands.size(), 23u);  // 11 commands, 12 under stream, ptm and bench
 }
 
 }  // namespace

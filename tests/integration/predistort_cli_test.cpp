@@ -82,15 +82,18 @@ TEST(PredistortCli, BadInputGivesOneLineErrors) {
                        "malformed.json", 1);
     expectOneLineError(runParallax("predistort " + coneDisplay() + " --error -1" + out),
                        "--error", 2);
-    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --viewer nan,1,2" +
-                                   out),
-                       "nan", 1);
+    expectOneLineError(
+        runParallax("predistort " + coneDisplay() + " --error 1 --viewer nan,1,2" + out), "nan", 2);
     expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --method fancy" +
                                    out),
                        "fancy", 2);
-    expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --container box" +
-                                   out),
-                       "box", 1);
+    expectOneLineError(
+        runParallax("predistort " + coneDisplay() + " --error 1 --container box" + out), "box", 2);
+    expectOneLineError(
+        runParallax("predistort " + coneDisplay() + " --error 1 --grid-level 12" + out),
+        "--grid-level", 2);
+    expectOneLineError(runParallax("bench predistort --container box --thresholds 8" + out), "box",
+                       2);
     // A viewer inside the mirror cannot see the display through it.
     expectOneLineError(runParallax("predistort " + coneDisplay() + " --error 1 --viewer 0,200,0" +
                                    out),

@@ -9,11 +9,9 @@ namespace plx {
 Result<Camera> Camera::create(const CameraDesc& d) {
     if (!isFinite(d.eyePos) || !isFinite(d.targetPos) || !isFinite(d.upDir))
         return errorStatus(ErrorCode::kInvalidArgument, "camera vectors must be finite");
-    // Lengths square the coordinates: beyond 1e18 they overflow a float, and the checks below
-    // would blame the up vector. 1e15 leaves room for differences and products.
-    constexpr float kMaxCoordinate = 1e15f;
+    // Beyond kMaxCameraCoordinate the checks below would blame the up vector.
     auto huge = [&](const Vec3& v) {
-        return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCoordinate)));
+        return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCameraCoordinate)));
     };
     for (auto [name, v] : {std::pair{"eye", d.eyePos}, std::pair{"target", d.targetPos},
                            std::pair{"up vector", d.upDir}})
@@ -21,7 +19,7 @@ Result<Camera> Camera::create(const CameraDesc& d) {
             return errorStatus(ErrorCode::kOutOfRange,
                                fmt::format("camera {} ({:g}, {:g}, {:g}) is too far from the "
                                            "origin: coordinates must lie within +-{:g}",
-                                           name, v.x, v.y, v.z, kMaxCoordinate));
+                                           name, v.x, v.y, v.z, kMaxCameraCoordinate));
     Vec3 forward = d.targetPos - d.eyePos;
     if (glm::length(forward) <= 1e-12f)
         return errorStatus(ErrorCode::kInvalidArgument, "camera eye and target coincide");

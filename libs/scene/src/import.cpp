@@ -313,7 +313,7 @@ void convertCameras(const aiScene& ai, bool isGltf, Scene* scene) {
         if (!(dirLen > 0.0f) || !(upLen > 0.0f) || !isFinite(v.eyePos) || !isFinite(viewDir) ||
             !(v.fovYDegrees > 0.0f && v.fovYDegrees < 180.0f))
             continue;
-        v.targetPos = v.eyePos + viewDir / dirLen;
+        v.targetPos = targetAlong(v.eyePos, viewDir / dirLen);
         v.upDir /= upLen;
         scene->viewpoints.push_back(v);
     }

@@ -21,10 +21,18 @@ Status checkMesh(const Scene& scene, size_t m) {
     if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size())
         return errorStatus(ErrorCode::kCorruptData, where() + ": UV count differs from vertex "
                                                               "count");
-    for (size_t v = 0; v < mesh.positions.size(); ++v)
-        if (!isFinite(mesh.positions[v]))
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+        const Vec3& p = mesh.positions[v];
+        if (!isFinite(p))
             return errorStatus(ErrorCode::kCorruptData,
                                fmt::format("{}: vertex {} has a non-finite position", where(), v));
+        if (glm::any(glm::greaterThan(glm::abs(p), Vec3(kMaxCameraCoordinate))))
+            return errorStatus(
+                ErrorCode::kOutOfRange,
+                fmt::format("{}: vertex {} at ({:g}, {:g}, {:g}) lies beyond +-{:g}, "
+                            "the farthest a camera can frame",
+                            where(), v, p.x, p.y, p.z, kMaxCameraCoordinate));
+    }
     for (size_t v = 0; v < mesh.uvs.size(); ++v)
         if (!std::isfinite(mesh.uvs[v].x) || !std::isfinite(mesh.uvs[v].y))
             return errorStatus(ErrorCode::kCorruptData,

@@ -154,9 +154,9 @@ TEST(BoxHierarchy, EveryTriangleOnceAndBoxesEnclose) {
 
 // Surface-area splits on geometry that defeats them: triangles growing 8-fold one after the
 // other along x (each split cuts off only the largest, a chain as long as the scene; areas stay
-// within float range) and many
-// triangles with one centre (no bin boundary separates them: median splits). The chain's depth
-// is cut at the surface-area depth limit, so the whole stays within kMaxDepth.
+// within float range, coordinates within kMaxCameraCoordinate) and many triangles with one
+// centre (no bin boundary separates them: median splits). The chain's depth is cut at the
+// surface-area depth limit, so the whole stays within kMaxDepth.
 TEST(BoxHierarchy, SurfaceAreaSplitsStayWellFormedOnDegenerateScenes) {
     Scene scene;
     Mesh mesh;
@@ -166,7 +166,7 @@ TEST(BoxHierarchy, SurfaceAreaSplitsStayWellFormedOnDegenerateScenes) {
             mesh.positions.push_back(corner + d);
         }
     };
-    for (int i = -20; i <= 20; ++i) {
+    for (int i = -21; i <= 16; ++i) {
         const float size = std::ldexp(1.0f, 3 * i);
         add({size, 0, 0}, size);
     }
@@ -175,8 +175,8 @@ TEST(BoxHierarchy, SurfaceAreaSplitsStayWellFormedOnDegenerateScenes) {
     ASSERT_TRUE(scene.finalize().isOk());
     BoxHierarchy h = buildWith(scene, BoxSplit::kSurfaceArea);
     expectWellFormed(scene, h, 4);
-    // The chain alone would reach depth 38; cut at depth 32, its last 30 triangles or fewer take
-    // at most three median levels.
+    // The chain alone (38 triangles, a level each) would run past depth 32; cut there, its last
+    // triangles take at most three median levels.
     EXPECT_GT(h.maxDepth(), 32u) << "the chain stops short of the surface-area depth limit";
     EXPECT_LE(h.maxDepth(), 35u) << "the chain ran past the surface-area depth limit";
 }

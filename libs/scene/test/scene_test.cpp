@@ -48,6 +48,11 @@ TEST(Scene, FinalizeRejectsBadGeometry) {
     s.meshes[0].positions[1].x = std::numeric_limits<float>::quiet_NaN();
     EXPECT_NE(s.finalize().message().find("non-finite"), std::string::npos);
     s = oneTriangle();
+    s.meshes[0].positions[1] = {0, 0, -2e15f};  // beyond kMaxCameraCoordinate
+    EXPECT_NE(s.finalize().message().find("vertex 1 at (0, 0, -2e+15) lies beyond +-1e+15"),
+              std::string::npos)
+        << s.finalize().message();
+    s = oneTriangle();
     s.meshes[0].indices[2] = 9;
     EXPECT_NE(s.finalize().message().find("out of range"), std::string::npos);
     s = oneTriangle();

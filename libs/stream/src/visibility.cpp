@@ -98,7 +98,8 @@ struct Worker {
 
 // The six cameras of a rendering box centred at eyePos (section 5: "the view direction of each
 // camera is perpendicular to one face of a box", 90-degree field of view).
-std::vector<Camera> renderingBox(const scene::Scene& scene, const Vec3& eyePos, int faceSize) {
+Result<std::vector<Camera>> renderingBox(const scene::Scene& scene, const Vec3& eyePos,
+                                         int faceSize) {
     static const Vec3 kDirs[6] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
                                   {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
     static const Vec3 kUps[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
@@ -106,25 +107,32 @@ std::vector<Camera> renderingBox(const scene::Scene& scene, const Vec3& eyePos, 
     for (int f = 0; f < 6; ++f) {
         CameraDesc d;
         d.eyePos = eyePos;
-        d.targetPos = eyePos + kDirs[f];
+        d.targetPos = targetAlong(eyePos, kDirs[f]);
         d.upDir = kUps[f];
         d.fovYDegrees = 90.0f;
         d.width = d.height = faceSize;
         scene::clipPlanesFor(scene.bounds(), eyePos, &d.nearPlane, &d.farPlane);
-        cameras.push_back(Camera::create(d).value());
+        auto camera = Camera::create(d);
+        if (!camera) return camera.status();
+        cameras.push_back(*camera);
     }
     return cameras;
 }
 
 // Pixels per cell and per texture seen from one sample point: the six faces rendered ID-only.
-std::pair<PixelCounts, PixelCounts> sampleCoverage(const scene::Scene& scene, const Vec3& eyePos,
-                                                   int faceSize, Worker& worker) {
+Result<std::pair<PixelCounts, PixelCounts>> sampleCoverage(const scene::Scene& scene,
+                                                           const Vec3& eyePos, int faceSize,
+                                                           Worker& worker) {
+    auto cameras = renderingBox(scene, eyePos, faceSize);
+    if (!cameras)
+        return errorStatus(cameras.status().code(),
+                           fmt::format("sample point ({:g}, {:g}, {:g}): {}", eyePos.x, eyePos.y,
+                                       eyePos.z, cameras.status().message()));
     raster::RenderOptions options;
     options.clearTargets = true;
     raster::RenderTargets targets;  // no colour, depth or ID views: tile memory only
     targets.visibility.tileIds = worker.counter.get();
-    for (const Camera& camera : renderingBox(scene, eyePos, faceSize))
-        worker.renderer->render(scene, camera, options, targets);
+    for (const Camera& camera : *cameras) worker.renderer->render(scene, camera, options, targets);
     return worker.counter->take();
 }
 
@@ -195,7 +203,9 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
     std::vector<std::atomic<int>> samplesLeft(cellCount);
     for (auto& s : samplesLeft) s.store(config.samples);
     std::atomic<size_t> cellsDone{0};
-    std::mutex progressMutex;
+    std::mutex progressMutex;  // guards the progress callback and firstError
+    std::atomic<bool> failed{false};
+    Status firstError = Status::ok();
     tbb::enumerable_thread_specific<Worker> workers;
     ThreadPool pool(config.threads);
     pool.run([&] {
@@ -208,10 +218,16 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
                     w.counter = std::make_unique<CellCounter>(
                         cells.cellOfTriangle, cells.boxes.size(), textureOf, scene.textures.size());
                 }
-                for (size_t k = r.begin(); k < r.end(); ++k) {
+                for (size_t k = r.begin(); k < r.end() && !failed.load(); ++k) {
                     const size_t c = k / samples;
-                    perSample[k] =
+                    auto coverage =
                         sampleCoverage(scene, points[c][k % samples], config.faceSize, w);
+                    if (!coverage) {
+                        std::lock_guard lock(progressMutex);
+                        if (!failed.exchange(true)) firstError = coverage.status();
+                        return;
+                    }
+                    perSample[k] = std::move(*coverage);
                     if (samplesLeft[c].fetch_sub(1) == 1 && progress) {
                         std::lock_guard lock(progressMutex);
                         progress(++cellsDone);
@@ -219,6 +235,7 @@ Result<std::vector<CellVisibility>> computeVisibility(const scene::Scene& scene,
                 }
             });
     });
+    if (failed) return firstError;
     // Sum the samples in a fixed order: the result does not depend on the schedule.
     std::vector<CellVisibility> result(cellCount);
     for (size_t c = 0; c < cellCount; ++c) {

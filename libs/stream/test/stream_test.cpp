@@ -210,6 +210,25 @@ TEST(StreamVisibility, PvsOfAClosedRoomHoldsOnlyItself) {
     }
 }
 
+// Far from the origin a unit step from the eye is lost to float rounding (at 1e8 the spacing is
+// 8): the rendering box's cameras must still look somewhere.
+TEST(StreamVisibility, RoomsFarFromTheOriginStillSeeOnlyThemselves) {
+    scene::Scene s = twoClosedRooms();
+    constexpr float kScale = 1e8f;
+    for (scene::Mesh& m : s.meshes)
+        for (Vec3& p : m.positions) p *= kScale;
+    for (Aabb& room : s.rooms) room = {room.lo * kScale, room.hi * kScale};
+    ASSERT_TRUE(s.finalize().isOk());
+    auto cells = makeCells(s).value();
+    VisibilityConfig config;
+    config.faceSize = 32;
+    for (const CellVisibility& v : visibilityOf(s, cells, config)) {
+        auto pvs = pvsWithAch(v);
+        ASSERT_EQ(pvs.size(), 1u) << "cell " << v.cell;
+        EXPECT_EQ(pvs[0].cell, v.cell);
+    }
+}
+
 TEST(StreamVisibility, AchsSumToOneAndThreadCountDoesNotMatter) {
     auto museum = scene::generateMuseum(9).value();
     auto cells = makeCells(museum).value();

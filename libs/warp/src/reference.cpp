@@ -101,7 +101,7 @@ Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSe
     for (const Face& face : faces) {
         CameraDesc d;
         d.eyePos = pose.eye;
-        d.targetPos = pose.eye + face.dir;
+        d.targetPos = targetAlong(pose.eye, face.dir);
         d.upDir = face.up;
         d.nearPlane = o.nearPlane;
         d.farPlane = o.farPlane;

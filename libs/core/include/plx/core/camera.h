@@ -3,12 +3,26 @@
 // planes and image size. Follows the Conventions block in <plx/core/core.h>: right-handed world,
 // camera looks down -z in its own space, OpenGL clip space (-w <= x,y,z <= w).
 
+#include <algorithm>
 #include <string>
 
 #include <plx/core/math.h>
 #include <plx/core/status.h>
 
 namespace plx {
+
+// The largest eye, target or scene coordinate a camera takes (Camera::create): lengths square the
+// coordinates, and beyond 1e18 they overflow a float; 1e15 leaves room for differences and
+// products. Scenes refuse vertices beyond it (scene::Scene::finalize).
+inline constexpr float kMaxCameraCoordinate = 1e15f;
+
+// A target that looks from `eye` along the unit vector `dir`, far enough that eye and target
+// differ in float far from the origin (at 1e8 a unit step is lost to rounding): at least one
+// unit, and as far as the eye's largest coordinate.
+inline Vec3 targetAlong(const Vec3& eye, const Vec3& dir) {
+    const Vec3 a = glm::abs(eye);
+    return eye + dir * std::max(1.0f, std::max(a.x, std::max(a.y, a.z)));
+}
 
 struct CameraDesc {
     Vec3 eyePos{0.0f, 0.0f, 5.0f};

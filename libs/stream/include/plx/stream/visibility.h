@@ -56,7 +56,8 @@ std::vector<Vec3> samplePoints(const Aabb& box, int samples, float margin);
 // Computes the visibility of cells first..last (inclusive), in parallel over (cell, sample)
 // pairs; `progress`, when set, is called (from any thread, serialised) with the number of cells
 // finished so far. The result is the same for any thread count.
-// Errors: config out of range; first > last or last >= cell count.
+// Errors: config out of range; first > last or last >= cell count; a sample point no camera
+// can take (the first one found, with its position).
 Result<std::vector<CellVisibility>> computeVisibility(
     const scene::Scene& scene, const Cells& cells, const VisibilityConfig& config, uint32_t first,
     uint32_t last, const std::function<void(size_t)>& progress = {});

@@ -30,7 +30,7 @@ int finishExperiment(const std::string& out, bool json, const nlohmann::json& do
                      const std::string& jsonName,
                      std::vector<std::pair<std::string, std::string>> files,
                      const std::function<void(const std::string& dir)>& printTable) {
-    files.emplace_back(jsonName, doc.dump(2));
+    files.emplace_back(jsonName, jsonText(doc, 2));
     for (const auto& [name, text] : files)
         if (Status s = writeText(out + "/" + name, text); !s) return fail(s);
     if (json)

@@ -148,7 +148,13 @@ nlohmann::json memoryJson(uint64_t estimateBytes) {
             {"peak_memory_mb", double(peakResidentBytes()) / kMiB}};
 }
 
-void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << std::endl; }
+std::string jsonText(const nlohmann::json& doc, int indent) {
+    return doc.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+void printJson(const nlohmann::json& doc) {
+    std::cout << jsonText(doc, 2) << std::endl;
+}
 
 Status writeText(const std::string& path, const std::string& text) {
     return writeFileBytes(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});

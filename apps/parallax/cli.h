@@ -129,7 +129,10 @@ nlohmann::json valueOrNull(const std::optional<T>& value) {
 // JSON has no infinity: identical images (infinite PSNR) are reported as this many dB.
 inline constexpr double kIdenticalPsnrDb = 99.0;
 
-// Writes the JSON document as the only thing on stdout.
+// The document's text, bytes that are not UTF-8 (a peer's or a file's, quoted back) as U+FFFD:
+// nlohmann's dump throws on them, which would end the command without a word.
+std::string jsonText(const nlohmann::json& doc, int indent = -1);
+// Writes the JSON document (jsonText) as the only thing on stdout.
 void printJson(const nlohmann::json& doc);
 
 // Writes text to a file; the error names the file.

@@ -36,6 +36,7 @@ struct ServeArgs {
     int maxSessionsPerAddress = 0;
     int maxPending = 64;
     double writeTimeoutS = 30.0;
+    double idleTimeoutS = 30.0;
     double maxQueuedMiB = 256.0;
     double latencyMs = 0.0, jitterMs = 0.0, bandwidthMbit = 0.0;
     std::string prediction = "velocity";
@@ -57,6 +58,7 @@ Result<remote::ServerConfig> plan(const ServeArgs& a) {
     c.maxSessionsPerAddress = a.maxSessionsPerAddress;
     c.maxPendingConnections = a.maxPending;
     c.writeStallTimeoutMs = a.writeTimeoutS * 1000.0;
+    c.idleTimeoutMs = a.idleTimeoutS * 1000.0;
     c.link.latencyMs = a.latencyMs;
     c.link.jitterMs = a.jitterMs;
     c.link.bandwidthMbit = a.bandwidthMbit;
@@ -181,7 +183,7 @@ struct ServeOutput {
                 j.update({{"duration_s", e.durationS},
                           {"sets_sent", e.setsSent},
                           {"bytes_sent", e.bytesSent}});
-            line = j.dump();
+            line = jsonText(j);
         } else {
             line = fmt::format("session {} from {}: {}", e.session, e.address,
                                remote::sessionEventName(e.kind));
@@ -247,17 +249,16 @@ int runServe(const ServeArgs& a) {
     // The largest a session gets: --face-size, lowered for wide views no client could decode.
     const int servedFaceSize = remote::maxServedFaceSize(config->reference);
     if (a.json) {
-        out.writeLocked(nlohmann::json{{"event", "listening"},
-                                       {"url", url},
-                                       {"bind", a.bind},
-                                       {"port", (*server)->port()},
-                                       {"scene", a.scene},
-                                       {"triangles", triangles},
-                                       {"refs", a.refs},
-                                       {"face_size", servedFaceSize},
-                                       {"open_files", *openFiles},
-                                       {"prediction", a.prediction}}
-                            .dump(),
+        out.writeLocked(jsonText(nlohmann::json{{"event", "listening"},
+                                                {"url", url},
+                                                {"bind", a.bind},
+                                                {"port", (*server)->port()},
+                                                {"scene", a.scene},
+                                                {"triangles", triangles},
+                                                {"refs", a.refs},
+                                                {"face_size", servedFaceSize},
+                                                {"open_files", *openFiles},
+                                                {"prediction", a.prediction}}),
                         kServeLineWaitMs);
     } else {
         out.writeLocked(
@@ -277,6 +278,7 @@ int runServe(const ServeArgs& a) {
                                {"refused", s.refused},
                                {"protocol_errors", s.protocolErrors},
                                {"write_stalls", s.writeStalls},
+                               {"idle_timeouts", s.idleTimeouts},
                                {"queue_waits", s.queueWaits},
                                {"pending_dropped", s.pendingDropped},
                                {"accept_failures", s.acceptFailures},
@@ -289,7 +291,7 @@ int runServe(const ServeArgs& a) {
                                {"encode_ms_mean", valueOrNull(s.setsSent > 0, s.encodeMsMean)},
                                {"lines_dropped", out.dropped}};
         stopped.update(memoryJson(*memory));
-        out.writeLocked(stopped.dump(), kServeLineWaitMs);
+        out.writeLocked(jsonText(stopped), kServeLineWaitMs);
     } else {
         // Per-set figures only where a set was sent ("1/0 of raw" said nothing).
         const std::string perSet =
@@ -347,6 +349,11 @@ Command registerServe(CLI::App& app) {
                     "Drop a session whose socket takes no 64 KiB in this many seconds (its peer "
                     "stopped reading)")
         ->capture_default_str();
+    sub->add_option("--idle-timeout", a->idleTimeoutS,
+                    "End a session whose client sends nothing (no pose, ping or pong) in this "
+                    "many seconds")
+        ->capture_default_str()
+        ->check(floatNumber());
     sub->add_option("--max-queued", a->maxQueuedMiB,
                     "MiB of encoded sets all sessions may queue on their sockets; past it, "
                     "renders wait")

@@ -83,7 +83,11 @@ struct Client::Impl {
     // (tens of milliseconds to decode at 1280x720) goes to the decode thread, so a pong is read
     // when it arrives and the RTT, and the server's prediction lead with it, is the network's.
     void onMessage(const std::shared_ptr<Link>& link, std::vector<uint8_t>&& bytes, bool binary) {
-        if (!binary) return;
+        if (!binary) {
+            refuse(link,
+                   errorStatus(ErrorCode::kCorruptData, "text message (binary messages only)"));
+            return;
+        }
         const uint64_t arrival = clientNowUs();
         if (!bytes.empty() && bytes[0] == uint8_t(MessageType::kReferenceSet)) {
             std::lock_guard lock(mutex);
@@ -111,7 +115,9 @@ struct Client::Impl {
                 stats.rttMs = stats.rttMs < 0.0 ? rtt : 0.75 * stats.rttMs + 0.25 * rtt;
             }
         } else if (auto* err = std::get_if<ErrorMessage>(&*m)) {
-            link->error = errorStatus(ErrorCode::kIoError, "server: " + err->text);
+            // The text is the peer's bytes: shown escaped (docs/remote-protocol.md).
+            link->error =
+                errorStatus(ErrorCode::kIoError, "server: " + printable(err->text, kMaxTextBytes));
         }
         changed.notify_all();
     }
@@ -234,7 +240,7 @@ struct Client::Impl {
     }
 
     // One connection: handshake, then poses and pings until it closes. ok when it got as far
-    // as an accepted handshake (the backoff restarts), an error otherwise.
+    // as an accepted handshake and no Error ended it (the backoff restarts), an error otherwise.
     Status session() {
         auto link = std::make_shared<Link>();
         ConnectionEvents ev;
@@ -292,10 +298,11 @@ struct Client::Impl {
             std::chrono::duration<double, std::milli>(config.pingIntervalMs));
         Clock::time_point nextPose = Clock::now(), nextPing = Clock::now();
         std::unique_lock lock(mutex);
-        while (!stopping && !link->closed) {
-            changed.wait_until(lock, std::min(nextPose, nextPing),
-                               [&] { return stopping || link->closed; });
-            if (stopping || link->closed) break;
+        // An Error from the server ends the session whether or not the server closes.
+        auto ended = [&] { return stopping || link->closed || !link->error.isOk(); };
+        while (!ended()) {
+            changed.wait_until(lock, std::min(nextPose, nextPing), ended);
+            if (ended()) break;
             Clock::time_point now = Clock::now();
             if (now >= nextPose) {
                 nextPose = std::max(nextPose + poseInterval, now);
@@ -319,6 +326,10 @@ struct Client::Impl {
                 conn->send(std::move(b).value());
             conn->close();
             changed.wait_for(lock, std::chrono::milliseconds(500), [&] { return link->closed; });
+        }
+        if (!stopping && !link->error.isOk()) {
+            if (!link->closed) conn->close();
+            return link->error;
         }
         return Status::ok();
     }

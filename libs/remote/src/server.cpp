@@ -87,6 +87,11 @@ Status checkServerConfig(const ServerConfig& c) {
     PLX_RETURN_IF_ERROR(checkThreadCount(c.renderThreads, "render threads"));
     PLX_RETURN_IF_ERROR(checkLinkEmulation(c.link));
     PLX_RETURN_IF_ERROR(checkWriteStallTimeout(c.writeStallTimeoutMs));
+    if (!(c.idleTimeoutMs >= 1000.0 && c.idleTimeoutMs <= 3600e3))
+        return bad(fmt::format("idle timeout {} s outside 1..3600", c.idleTimeoutMs / 1000.0));
+    if (!(c.idleTimeoutMs > 2.0 * c.pingIntervalMs))
+        return bad(fmt::format("idle timeout {} s must exceed two ping intervals ({} ms)",
+                               c.idleTimeoutMs / 1000.0, c.pingIntervalMs));
     PLX_RETURN_IF_ERROR(checkMaxPending(c.maxPendingConnections));
     if (c.maxQueuedSetBytes < 1) return bad("max queued set bytes must be at least 1");
     // The sets it renders: at most maxServedFaceSize, whatever a session asks for.
@@ -127,6 +132,7 @@ enum class SessionState { kAwaitingHello, kAccepted, kClosed };
 struct Session {
     std::shared_ptr<Connection> conn;
     Clock::time_point connectedAt = Clock::now();
+    Clock::time_point lastHeard = Clock::now();  // the client's latest message (idleTimeoutMs)
     uint64_t number = 0;  // SessionEvent::session
     // Guarded by Server::Impl::mutex.
     SessionState state = SessionState::kAwaitingHello;
@@ -364,6 +370,7 @@ struct Server::Impl {
         {
             std::lock_guard lock(mutex);
             state = s->state;
+            s->lastHeard = Clock::now();
         }
         if (state == SessionState::kClosed) return;
         if (!binary) return fail(s, ErrorKind::kProtocol, "text message (binary messages only)");
@@ -378,21 +385,20 @@ struct Server::Impl {
         if (auto* pose = std::get_if<PoseMessage>(&*m)) return onPose(s, *pose);
         if (auto* ping = std::get_if<Ping>(&*m)) return onPing(s, *ping);
         if (auto* pong = std::get_if<Pong>(&*m)) return onPong(s, *pong);
-        if (std::holds_alternative<Bye>(*m) || std::holds_alternative<ErrorMessage>(*m)) {
-            closeQuietly(s);
-            return;
-        }
+        if (std::holds_alternative<Bye>(*m)) return closeQuietly(s, "client said goodbye");
+        if (auto* error = std::get_if<ErrorMessage>(&*m))
+            return closeQuietly(s, "client error: " + printable(error->text, kMaxTextBytes));
         fail(s, ErrorKind::kProtocol,
              fmt::format("unexpected {} from a client", messageTypeName(messageType(*m))));
     }
 
     // The client said Bye (or sent an Error): closed without a word.
-    void closeQuietly(const SessionPtr& s) {
+    void closeQuietly(const SessionPtr& s, const std::string& reason) {
         {
             std::lock_guard lock(mutex);
             if (s->state == SessionState::kAccepted) --stats.sessionsActive;
             s->state = SessionState::kClosed;
-            if (s->endReason.empty()) s->endReason = "client said goodbye";
+            if (s->endReason.empty()) s->endReason = reason;
         }
         s->conn->close();
     }
@@ -535,10 +541,11 @@ struct Server::Impl {
     }
 
     // Pings accepted sessions every pingIntervalMs; drops connections that never said hello;
-    // gives a session that stays without a pose its first set (kInitialSetAfterMs).
+    // ends sessions that stay silent (idleTimeoutMs); gives a session that stays without a pose
+    // its first set (kInitialSetAfterMs).
     void housekeepLocked() {
         Clock::time_point now = Clock::now();
-        std::vector<SessionPtr> ping, drop;
+        std::vector<SessionPtr> ping, drop, idle;
         for (const SessionPtr& s : sessions) {
             if (s->state == SessionState::kAccepted && !s->lastPose && !s->pending &&
                 !s->initialQueued && initialPose && msSince(s->connectedAt) > kInitialSetAfterMs) {
@@ -551,6 +558,11 @@ struct Server::Impl {
                 msSince(s->connectedAt) > kHelloTimeoutMs)
                 drop.push_back(s);
             if (s->state == SessionState::kAccepted &&
+                msSince(s->lastHeard) > config.idleTimeoutMs) {
+                idle.push_back(s);
+                continue;
+            }
+            if (s->state == SessionState::kAccepted &&
                 std::chrono::duration<double, std::milli>(now - s->lastPingSent).count() >=
                     config.pingIntervalMs) {
                 s->lastPingSent = now;
@@ -560,6 +572,15 @@ struct Server::Impl {
         }
         for (const SessionPtr& s : drop) s->state = SessionState::kClosed, s->conn->abort();
         for (const SessionPtr& s : ping) s->pings.send(*s->conn, Ping{nowUs(), s->pingNonce});
+        for (const SessionPtr& s : idle) {
+            --stats.sessionsActive;
+            ++stats.idleTimeouts;
+            s->state = SessionState::kClosed;
+            s->endReason =
+                fmt::format("idle: no message for {:.1f} s", config.idleTimeoutMs / 1000.0);
+            send(s, Bye{ByeReason::kIdleTimeout, s->endReason});
+            s->conn->close();
+        }
     }
 };
 

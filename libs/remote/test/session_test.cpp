@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -587,8 +588,10 @@ TEST(RemoteSession, TheSessionLogSaysWhoCameAndHowTheyLeft) {
     last.hello();
     ASSERT_TRUE(last.first<ServerHello>());
     ASSERT_TRUE(logged(5));
-    server->stop();
+    // The client's own Error ends its session, its text escaped in the log.
+    last.send(ErrorMessage{ErrorKind::kProtocol, "bad \xff\x01set"});
     ASSERT_TRUE(logged(6));
+    server->stop();
 
     std::lock_guard lock(mutex);
     ASSERT_EQ(log.size(), 6u);
@@ -614,7 +617,7 @@ TEST(RemoteSession, TheSessionLogSaysWhoCameAndHowTheyLeft) {
     EXPECT_EQ(log[4].session, 4u);
     EXPECT_EQ(log[5].kind, Kind::kEnded);
     EXPECT_EQ(log[5].session, 4u);
-    EXPECT_EQ(log[5].reason, "server stopping");
+    EXPECT_EQ(log[5].reason, "client error: bad ??set");
     EXPECT_EQ(server->stats().setsSent, log[3].setsSent + log[5].setsSent);
 }
 
@@ -641,6 +644,35 @@ TEST(RemoteSession, APeerThatStopsReadingLosesItsSlot) {
     EXPECT_TRUE(eventually([&] { return server->stats().sessionsActive == 0; }));
     EXPECT_EQ(server->stats().queuedBytes, 0u);
     EXPECT_TRUE(servedClient(*server, scene));
+}
+
+// A client that says hello and then nothing, answering no ping, holds its slot for the idle
+// timeout only; a client that answers the pings keeps its session past it, though it sends no
+// pose.
+TEST(RemoteSession, ASilentClientLosesItsSlot) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    ServerConfig config = smallServer();
+    config.maxSessions = 1;
+    config.idleTimeoutMs = 1000.0;
+    auto server = startServer(config);
+    ASSERT_TRUE(server);
+    {
+        RawPeer silent(server->port());
+        silent.hello();
+        ASSERT_TRUE(silent.first<ServerHello>());
+        auto bye = silent.first<Bye>();
+        ASSERT_TRUE(bye);
+        EXPECT_EQ(bye->reason, ByeReason::kIdleTimeout);
+        EXPECT_EQ(bye->text, "idle: no message for 1.0 s");
+        EXPECT_TRUE(silent.waitClosed());
+    }
+    EXPECT_EQ(server->stats().idleTimeouts, 1);
+    auto client = servedClient(*server, scene);
+    ASSERT_TRUE(client);
+    std::this_thread::sleep_for(2500ms);
+    EXPECT_EQ(server->stats().idleTimeouts, 1);
+    EXPECT_TRUE(client->stats().connected);
+    EXPECT_TRUE(receivesMore(*client, scene));
 }
 
 // Peers refused for a missing token that never read the refusal each hold a connection until
@@ -857,6 +889,27 @@ TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
     EXPECT_TRUE(client->fatal().isOk());
 }
 
+// An Error's text is the server's bytes: the client's message shows them escaped, one line of
+// printable ASCII (a --json document could not hold bytes that are not UTF-8).
+TEST(RemoteSession, AServersErrorTextIsShownEscaped) {
+    ReferenceSetMessage set;
+    set.set = renderedSet("office:1", 32);
+    std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
+    std::vector<uint8_t> error =
+        std::move(encodeMessage(ErrorMessage{ErrorKind::kInternal, "broken\xff\xfe\n renderer"}))
+            .value();
+    HostileServer server(good, error);
+    ClientConfig config;
+    config.port = server.port();
+    config.faceSize = 32;
+    config.backoffMinMs = 50.0;
+    config.backoffMaxMs = 100.0;
+    auto client = std::move(Client::create(config)).value();
+    EXPECT_TRUE(eventually([&] {
+        return client->stats().lastError == "server: broken??? renderer";
+    })) << client->stats().lastError;
+}
+
 // A hostile server that answers the ClientHello, stops reading and sends Pings as fast as the
 // client reads them: the client's queue of Pongs stays at one (OneUnwritten).
 class PingFlooder {
@@ -981,6 +1034,15 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     EXPECT_FALSE(checkServerConfig(c).isOk());
     c = smallServer();
     c.writeStallTimeoutMs = 0.0;
+    EXPECT_FALSE(checkServerConfig(c).isOk());
+    for (double idleMs : {std::nan(""), 999.0, 3601e3}) {
+        c = smallServer();
+        c.idleTimeoutMs = idleMs;
+        EXPECT_FALSE(checkServerConfig(c).isOk()) << idleMs;
+    }
+    c = smallServer();
+    c.pingIntervalMs = 600.0;
+    c.idleTimeoutMs = 1200.0;  // a pong may come just after a second ping interval
     EXPECT_FALSE(checkServerConfig(c).isOk());
     c = smallServer();
     c.maxQueuedSetBytes = 0;

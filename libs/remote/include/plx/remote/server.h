@@ -71,6 +71,11 @@ struct ServerConfig {
     // A session whose socket takes no frame of kWriteChunkBytes in this long is dropped: its peer
     // stopped reading and would hold one of maxSessions for as long as it stays connected.
     double writeStallTimeoutMs = 30000.0;
+    // A session whose client sends nothing in this long, no Pose, Ping or Pong, though the
+    // server pings it every pingIntervalMs, is ended with Bye kIdleTimeout ("idle: ..."): its peer
+    // is gone, or holds one of maxSessions while it reads and answers nothing. 1..3600 s, and
+    // above twice pingIntervalMs.
+    double idleTimeoutMs = 30000.0;
     // Connections without a session, that have not said ClientHello yet (nor finished their
     // WebSocket handshake or HTTP request) or are being closed (refused, failed, said goodbye),
     // at most this many: one more drops the oldest of the address with the most
@@ -100,6 +105,7 @@ struct ServerStats {
     int64_t refused = 0;         // refused at the handshake (version, token, overloaded)
     int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
     int64_t writeStalls = 0;     // sessions dropped because their peer stopped reading
+    int64_t idleTimeouts = 0;    // sessions ended because their client sent nothing (idleTimeoutMs)
     int64_t queueWaits = 0;      // times renders waited for maxQueuedSetBytes
     int64_t pendingDropped = 0;  // connections dropped by maxPendingConnections
     int64_t acceptFailures = 0;  // accepts that failed (out of file descriptors)

@@ -859,6 +859,16 @@ private:
     int mHellos = 0;
 };
 
+// A client of `server` at 32-pixel faces that reconnects within 100 ms.
+std::unique_ptr<Client> clientOf(const HostileServer& server) {
+    ClientConfig config;
+    config.port = server.port();
+    config.faceSize = 32;
+    config.backoffMinMs = 50.0;
+    config.backoffMaxMs = 100.0;
+    return std::move(Client::create(config)).value();
+}
+
 TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
     ReferenceSetMessage set;
     set.sequence = 7;
@@ -866,12 +876,7 @@ TEST(RemoteSession, ClientRefusesACorruptSetAndKeepsItsLast) {
     std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
     std::vector<uint8_t> bad(good.begin(), good.end() - 9);  // a view cut short
     HostileServer server(good, bad);
-    ClientConfig config;
-    config.port = server.port();
-    config.faceSize = 32;
-    config.backoffMinMs = 50.0;
-    config.backoffMaxMs = 100.0;
-    auto client = std::move(Client::create(config)).value();
+    auto client = clientOf(server);
     // The client tells the server what was wrong, hangs up, keeps the good set and reconnects.
     ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }));
     const ErrorMessage e = server.errors().front();
@@ -899,12 +904,7 @@ TEST(RemoteSession, AServersErrorTextIsShownEscaped) {
         std::move(encodeMessage(ErrorMessage{ErrorKind::kInternal, "broken\xff\xfe\n renderer"}))
             .value();
     HostileServer server(good, error);
-    ClientConfig config;
-    config.port = server.port();
-    config.faceSize = 32;
-    config.backoffMinMs = 50.0;
-    config.backoffMaxMs = 100.0;
-    auto client = std::move(Client::create(config)).value();
+    auto client = clientOf(server);
     EXPECT_TRUE(eventually([&] {
         return client->stats().lastError == "server: broken??? renderer";
     })) << client->stats().lastError;

@@ -59,6 +59,7 @@ struct JpegErrorManager {
     jpeg_error_mgr base;
     std::jmp_buf jump;
     char message[JMSG_LENGTH_MAX];
+    char warning[JMSG_LENGTH_MAX];  // the first corrupt-data warning; empty: none
 };
 
 void jpegErrorExit(j_common_ptr info) {
@@ -66,7 +67,13 @@ void jpegErrorExit(j_common_ptr info) {
     (*info->err->format_message)(info, err->message);
     std::longjmp(err->jump, 1);
 }
-void jpegSilence(j_common_ptr, int) {}
+// libjpeg reports damaged data (a truncated file, a corrupt segment) as a warning (level -1) and
+// fills what it could not decode with grey; the first one is kept so that the decode fails.
+// Trace messages (levels > 0) stay silent.
+void jpegWarning(j_common_ptr info, int level) {
+    auto* err = reinterpret_cast<JpegErrorManager*>(info->err);
+    if (level < 0 && err->warning[0] == '\0') (*info->err->format_message)(info, err->warning);
+}
 
 // Kept free of C++ objects with destructors between setjmp and longjmp, as the standard requires.
 bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage* out,
@@ -75,7 +82,8 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     JpegErrorManager err;
     info.err = jpeg_std_error(&err.base);
     err.base.error_exit = jpegErrorExit;
-    err.base.emit_message = jpegSilence;
+    err.base.emit_message = jpegWarning;
+    err.warning[0] = '\0';
     if (setjmp(err.jump)) {
         *error = err.message;
         jpeg_destroy_decompress(&info);
@@ -105,6 +113,11 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     }
     jpeg_finish_decompress(&info);
     jpeg_destroy_decompress(&info);
+    if (err.warning[0] != '\0') {
+        std::snprintf(err.message, sizeof(err.message), "damaged data (%s)", err.warning);
+        *error = err.message;
+        return false;
+    }
     return true;
 }
 

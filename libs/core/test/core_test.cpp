@@ -172,6 +172,26 @@ TEST(ImageIo, DecodesRealJpegTexture) {
     ASSERT_TRUE(bytes.isOk());
     for (size_t n : {size_t(0), size_t(10), bytes->size() / 3})
         (void)decodeImage(std::span(bytes->data(), n));  // must not crash
+    // Cut after its header, libjpeg warns and fills the rest with grey: refused, not decoded.
+    auto cut = decodeImage(std::span(bytes->data(), bytes->size() / 2));
+    ASSERT_FALSE(cut.isOk());
+    EXPECT_NE(cut.status().message().find("damaged data (Premature end of JPEG file)"),
+              std::string::npos)
+        << cut.status().message();
+}
+
+// Every JPEG texture of the shared Sponza decodes without a damaged-data warning.
+TEST(ImageIo, RealJpegTexturesHaveNoDamage) {
+    const std::filesystem::path dir = std::string(PLX_SHARED_DATA_DIR) + "/textures/sponza";
+    if (!std::filesystem::exists(dir)) GTEST_SKIP() << "shared data absent: " << dir;
+    int decoded = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+        if (entry.path().extension() != ".jpg") continue;
+        auto img = readImage(entry.path().string());
+        EXPECT_TRUE(img.isOk()) << entry.path() << ": " << img.status().message();
+        ++decoded;
+    }
+    EXPECT_GT(decoded, 0);
 }
 
 TEST(Metrics, PsnrAndDiffCounts) {

@@ -370,6 +370,8 @@ Result<HttpUrl> parseHttpUrl(const std::string& url) {
     const size_t slash = rest.find('/');
     const std::string_view authority = rest.substr(0, slash);
     const std::string_view path = slash == std::string_view::npos ? "/" : rest.substr(slash);
+    if (authority.find('@') != std::string_view::npos)
+        return bad("user names and passwords (user:pass@) are not supported");
     const size_t colon = authority.find(':');
     const std::string_view host = authority.substr(0, colon);
     if (host.empty()) return bad("no host");

@@ -88,6 +88,11 @@ TEST(HttpUrl, ParsesAndRefuses) {
             EXPECT_EQ(r.status().message().find('\n'), std::string::npos);
         }
     }
+    for (const char* credentials : {"http://user@h/", "http://user:pw@127.0.0.1:1/x"}) {
+        EXPECT_NE(parseHttpUrl(credentials).status().message().find("user:pass@"),
+                  std::string::npos)
+            << credentials;
+    }
     EXPECT_FALSE(openHttpFetcher("https://h/db").isOk());
     HttpOptions zero;
     zero.readTimeoutS = 0;

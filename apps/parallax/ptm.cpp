@@ -1,5 +1,7 @@
 // parallax ptm encode|decode|info|verify: progressive texture maps (Marvie & Bouatouch section 4).
 
+#include <filesystem>
+
 #include <fmt/format.h>
 
 #include <plx/core/image_io.h>
@@ -23,7 +25,24 @@ struct PtmArgs {
     bool partial = false;  // ptm info: describe a prefix (a download in progress)
 };
 
+// A decoder's error with the file it read: "wall.ptm: PTM: file truncated in level 5 (...)".
+int failReading(const PtmArgs& a, const Status& s) {
+    return fail(fmt::format("{}: {}", printable(a.input, kMaxMessageChars), s.message()));
+}
+
+// -o naming the input (or a link to it) would replace the only copy before anything is read
+// back; refused before the input is read.
+Status checkOutputIsNotInput(const PtmArgs& a) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(a.input, a.output, ec))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("-o {} is the input file; write to another file",
+                                       printable(a.output, kMaxMessageChars)));
+    return Status::ok();
+}
+
 int runEncode(const PtmArgs& a) {
+    if (Status s = checkOutputIsNotInput(a); !s) return fail(s.message(), kExitUsage);
     auto image = readImage(a.input, inputPolicy().maxPixels);
     if (!image) return fail(image.status());
     ptm::EncodeConfig cfg;
@@ -50,17 +69,18 @@ int runEncode(const PtmArgs& a) {
 }
 
 int runDecode(const PtmArgs& a) {
+    if (Status s = checkOutputIsNotInput(a); !s) return fail(s.message(), kExitUsage);
     auto bytes = readFileBytes(a.input);
     if (!bytes) return fail(bytes.status());
     auto header = ptm::parseHeader(*bytes);
-    if (!header) return fail(header.status());
+    if (!header) return failReading(a, header.status());
     const int k = a.level < 0 ? header->levelCount - 1 : a.level;
     if (k >= header->levelCount)
         return fail(fmt::format("--level {} outside 0..{} (0 is the smallest)", k,
                                 header->levelCount - 1),
                     kExitUsage);
     auto image = ptm::decodeLevel(*bytes, k);
-    if (!image) return fail(image.status());
+    if (!image) return failReading(a, image.status());
     if (Status s = writePng(a.output, *image); !s) return fail(s);
     if (a.json)
         printJson({{"input", a.input}, {"output", a.output}, {"level", k},
@@ -88,7 +108,7 @@ int runInfo(const PtmArgs& a) {
     auto bytes = readFileBytes(a.input);
     if (!bytes) return fail(bytes.status());
     auto h = ptm::parseHeader(*bytes);
-    if (!h) return fail(h.status());
+    if (!h) return failReading(a, h.status());
     // A prefix is a valid download in progress, but info describes a file: say what is missing.
     if (bytes->size() < h->fileBytes() && !a.partial)
         return fail(
@@ -157,7 +177,7 @@ int runVerify(const PtmArgs& a) {
     auto bytes = readFileBytes(a.input);
     if (!bytes) return fail(bytes.status());
     auto levels = ptm::decodeAllLevels(*bytes);
-    if (!levels) return fail(levels.status());
+    if (!levels) return failReading(a, levels.status());
     std::string against = "not compared";
     if (!a.against.empty()) {
         auto original = readImage(a.against, inputPolicy().maxPixels);

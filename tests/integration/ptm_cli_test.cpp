@@ -119,7 +119,8 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
     EXPECT_EQ(
         runParallax("ptm decode " + prefix.string() + " --level 2 -o " + out.string()).exitCode, 0);
     expectOneLineError(
-        runParallax("ptm decode " + prefix.string() + " --level 3 -o " + out.string()), "level 3");
+        runParallax("ptm decode " + prefix.string() + " --level 3 -o " + out.string()),
+        "prefix.ptm: PTM: file truncated in level 3");
 
     // Damage in the last group: its checksum names it.
     std::string damaged = bytes;
@@ -153,6 +154,23 @@ TEST(PtmCli, PrefixesAndDamagedFiles) {
         expectOneLineError(runParallax(command + v1), "version 1 is no longer supported");
     EXPECT_EQ(runParallax("ptm encode " + png.string() + " -o x.ptm --shape-eighths 5").exitCode,
               2);
+}
+
+// -o naming the input, or a link to it, is refused before anything is written: the input stays.
+TEST(PtmCli, OutputThatIsTheInputIsRefused) {
+    const fs::path png = writeTexture("same.png", 3), ptm = ptmDir() / "same.ptm";
+    ASSERT_EQ(runParallax("ptm encode " + png.string() + " -o " + ptm.string()).exitCode, 0);
+    const std::string pngBytes = readAll(png), ptmBytes = readAll(ptm);
+    const fs::path link = ptmDir() / "same-link.png";
+    fs::remove(link);
+    fs::create_symlink(png.filename(), link);
+    for (const fs::path& out : {png, link})
+        expectOneLineError(runParallax("ptm encode " + png.string() + " -o " + out.string()),
+                           "is the input file", 2);
+    expectOneLineError(runParallax("ptm decode " + ptm.string() + " -o " + ptm.string()),
+                       "is the input file", 2);
+    EXPECT_EQ(readAll(png), pngBytes);
+    EXPECT_EQ(readAll(ptm), ptmBytes);
 }
 
 }  // namespace

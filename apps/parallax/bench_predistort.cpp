@@ -70,7 +70,7 @@ Command addBenchPredistort(CLI::App* bench) {
                     "examples/displays/ (" +
                         exampleDisplayNames() + ") when no such file exists")
         ->capture_default_str();
-    sub->add_option("--out", pd->out, "Output folder");
+    sub->add_option("--out", pd->out, "Output folder")->check(outputPath(OutputKind::kFolder));
     sub->add_option("--thresholds", pd->thresholdsMm,
                     "Error thresholds in mm (default: the paper's 8 4 2 1 0.5 0.1)")
         ->delimiter(',');

@@ -137,7 +137,9 @@ Command addBenchRemote(CLI::App* bench) {
     sub->add_option("--threads", a->threads, "Render and warp threads (0: all cores)")
         ->check(CLI::Range(0, 1024));
     sub->add_flag("--quick", a->quick, "One small scene, RTT 0 and 100, 96x72 (for tests)");
-    sub->add_option("--out", a->out, "Output folder")->capture_default_str();
+    sub->add_option("--out", a->out, "Output folder")
+        ->capture_default_str()
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_flag("--json", a->json, "Print the rows as JSON");
     return {sub, [a] { return runRemoteBench(*a); }};
 }

@@ -115,7 +115,9 @@ Command addBenchStereo(CLI::App* bench) {
         ->check(floatNumber());
     sub->add_flag("--no-conservative", a->noConservative, "Skip the conservative-set columns");
     sub->add_flag("--no-reproject", a->noReproject, "Skip the reproject-method columns");
-    sub->add_option("--out", a->out, "Output folder")->capture_default_str();
+    sub->add_option("--out", a->out, "Output folder")
+        ->capture_default_str()
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_flag("--json", a->json, "Print the table as JSON");
     return {sub, [a] { return runStereoBench(*a); }};
 }

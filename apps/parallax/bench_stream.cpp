@@ -4,6 +4,7 @@
 // JSON, SVG plots and the Fig. 3 frames.
 
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -20,11 +21,12 @@ struct StreamBenchArgs {
     std::string scene;
     std::vector<double> bandwidthsKbit;
     std::vector<double> policyBudgetsMb;
-    double budgetMb = 0.0, staticBudgetMb = 0.0;
+    // Unset: the configuration's default (streamBaseConfig).
+    std::optional<double> budgetMb, staticBudgetMb;
     double policyKbit = 0.0;
-    double latencyMs = -1.0;
-    double stopS = -1.0;
-    int samples = -1;
+    std::optional<double> latencyMs;
+    std::optional<double> stopS;
+    std::optional<int> samples;
     int psnrEvery = 0;
     std::string size;
     int threads = 0;
@@ -59,13 +61,13 @@ Result<StreamExperimentConfig> configFrom(const StreamBenchArgs& a) {
     StreamExperimentConfig c = streamBaseConfig(a.quick);
     if (!a.scene.empty()) c.scene = a.scene;
     if (!a.bandwidthsKbit.empty()) c.bandwidthsKbit = a.bandwidthsKbit;
-    if (a.budgetMb != 0.0) {
-        PLX_RETURN_IF_ERROR(checkMb("--budget", a.budgetMb));
-        c.budgetBytes = mebibytes(a.budgetMb);
+    if (a.budgetMb) {
+        PLX_RETURN_IF_ERROR(checkMb("--budget", *a.budgetMb));
+        c.budgetBytes = mebibytes(*a.budgetMb);
     }
-    if (a.staticBudgetMb != 0.0) {
-        PLX_RETURN_IF_ERROR(checkMb("--static-budget", a.staticBudgetMb));
-        c.staticBudgetBytes = mebibytes(a.staticBudgetMb);
+    if (a.staticBudgetMb) {
+        PLX_RETURN_IF_ERROR(checkMb("--static-budget", *a.staticBudgetMb));
+        c.staticBudgetBytes = mebibytes(*a.staticBudgetMb);
     }
     if (!a.policyBudgetsMb.empty()) {
         c.policyBudgets.clear();
@@ -75,18 +77,18 @@ Result<StreamExperimentConfig> configFrom(const StreamBenchArgs& a) {
         }
     }
     c.policyKbit = a.policyKbit;
-    if (a.latencyMs != -1.0) c.latencyS = a.latencyMs * 1e-3;
-    if (a.stopS != -1.0) {
-        if (!(a.stopS >= 0.0 && a.stopS <= 3600.0))
+    if (a.latencyMs) c.latencyS = *a.latencyMs * 1e-3;
+    if (a.stopS) {
+        if (!(*a.stopS >= 0.0 && *a.stopS <= 3600.0))
             return errorStatus(ErrorCode::kInvalidArgument,
-                               fmt::format("--stop {} outside 0 .. 3600", a.stopS));
-        c.tour.stopS = a.stopS;
+                               fmt::format("--stop {} outside 0 .. 3600", *a.stopS));
+        c.tour.stopS = *a.stopS;
     }
-    if (a.samples != -1) {
-        if (a.samples < 1 || a.samples > 1024)
+    if (a.samples) {
+        if (*a.samples < 1 || *a.samples > 1024)
             return errorStatus(ErrorCode::kInvalidArgument,
-                               fmt::format("--samples {} outside 1 .. 1024", a.samples));
-        c.sampling.samples = a.samples;
+                               fmt::format("--samples {} outside 1 .. 1024", *a.samples));
+        c.sampling.samples = *a.samples;
     }
     if (a.psnrEvery != 0) c.psnrEvery = a.psnrEvery;
     if (!a.size.empty()) {
@@ -193,6 +195,7 @@ Command addBenchStream(CLI::App* bench) {
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1e7));
     sub->add_option("--latency", a->latencyMs, "Latency per request, ms (default 50)")
+        ->check(floatNumber())
         ->check(CLI::Range(0.0, 10000.0));
     sub->add_option("--stop", a->stopS, "Seconds standing still in each room (default 10)");
     sub->add_option("--samples", a->samples, "PVS samples per cell (default 8)");
@@ -204,7 +207,9 @@ Command addBenchStream(CLI::App* bench) {
     sub->add_flag("--no-frame-times", a->noFrameTimes,
                   "Skip rendering every frame of the unlimited walk and the baseline");
     sub->add_flag("--quick", a->quick, "museum:4, coarse sampling, small frames (for tests)");
-    sub->add_option("--out", a->out, "Output folder")->capture_default_str();
+    sub->add_option("--out", a->out, "Output folder")
+        ->capture_default_str()
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_flag("--json", a->json, "Print the tables as JSON");
     return {sub, [a] { return runStreamBench(*a); }};
 }

@@ -2,6 +2,8 @@
 // rotation-only timewarp and the post-rendering warp against the round-trip time, plus the
 // warp's throughput, as CSV, JSON and SVG plots.
 
+#include <optional>
+
 #include <fmt/format.h>
 
 #include "bench.h"
@@ -17,7 +19,7 @@ struct WarpBenchArgs {
     std::string size;
     double refreshMs = 100.0;
     float compositeTolerance = warp::kCompositeTolerance;
-    double durationS = 0.0;
+    std::optional<double> durationS;  // unset: the configuration's (warpBaseConfig)
     std::string refs = "cube4";
     std::string splat = "derivative";
     std::vector<int> warpThreads;
@@ -56,7 +58,7 @@ Result<WarpExperimentConfig> configFrom(const WarpBenchArgs& a) {
         c.width = size->x;
         c.height = size->y;
     }
-    if (a.durationS != 0.0) c.durationS = a.durationS;
+    if (a.durationS) c.durationS = *a.durationS;
     c.refreshMs = a.refreshMs;
     if (!(a.compositeTolerance >= 0.0f && a.compositeTolerance <= 1e6f))
         return errorStatus(
@@ -84,9 +86,9 @@ void printTables(const WarpExperiment& e, const std::string& dir) {
     fmt::print("{:<12} {:<16} {:>7} {:>9} {:>9} {:>9}\n", "scene", "method", "RTT ms", "PSNR dB",
                "holes %", "warp ms");
     for (const LatencyRow& r : e.latency)
-        fmt::print("{:<12} {:<16} {:>7g} {:>9.2f} {:>9.3f} {:>9.2f}\n", r.scene,
+        fmt::print("{:<12} {:<16} {:>7g} {:>9.2f} {:>9.3f} {:>9}\n", r.scene,
                    latencyMethodName(r.method), r.rttMs, r.psnrDbMedian,
-                   100.0 * r.holeFractionMedian, r.warpMsMedian);
+                   100.0 * r.holeFractionMedian, figureOrEmpty(r.warpMsMedian, "{:.2f}", "-"));
     fmt::print("\n{:<12} {:>9} {:>10} {:>8} {:>6} {:>10} {:>9} {:>8}\n", "scene", "triangles",
                "output", "threads", "face", "source px", "warp ms", "Mpix/s");
     for (const ThroughputRow& r : e.throughput)
@@ -150,7 +152,9 @@ Command addBenchWarp(CLI::App* bench) {
         ->check(CLI::Range(0, 1024));
     sub->add_flag("--no-model", a->noModel, "Skip the shared data's model");
     sub->add_flag("--quick", a->quick, "One small scene, three RTTs, a few frames (for tests)");
-    sub->add_option("--out", a->out, "Output folder")->capture_default_str();
+    sub->add_option("--out", a->out, "Output folder")
+        ->capture_default_str()
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_flag("--json", a->json, "Print the tables as JSON");
     return {sub, [a] { return runWarpBench(*a); }};
 }

@@ -40,6 +40,7 @@ void addInputOptions(CLI::App& app) {
         ->capture_default_str();
     app.add_option("--import-seconds", p.importSeconds,
                    "Time limit of the model import's child process in seconds")
+        ->check(floatNumber())
         ->check(CLI::Range(0.1, 86400.0))
         ->capture_default_str();
 }
@@ -100,6 +101,21 @@ CLI::Validator floatNumber() {
             return v ? std::string() : v.status().message();
         },
         "");  // the option's type (FLOAT) already names it in --help
+}
+
+CLI::Validator outputPath(OutputKind kind) {
+    return CLI::Validator(
+        [kind](std::string& path) -> std::string {
+            if (path.empty()) return "an empty path names no output";
+            const std::string name = std::filesystem::path(path).filename().string();
+            if (kind == OutputKind::kPrefix && (name.empty() || name == "." || name == ".."))
+                return fmt::format(
+                    "'{}' ends in a folder; the prefix needs a file name "
+                    "(e.g. out/office)",
+                    printable(path));
+            return std::string();
+        },
+        "");
 }
 
 double shortestDecimal(float v) {

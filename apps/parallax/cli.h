@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -62,6 +63,12 @@ inline Result<IVec2> parseSize(const std::string& text) {
 // otherwise read as infinity and the later range check report as "inf".
 CLI::Validator floatNumber();
 
+// A validator for --out (->check(outputPath(...))): a folder or a prefix must not be empty (the
+// current folder, unasked), and a prefix must end in a file name: "out/" would write the hidden
+// files out/.color.png and the like.
+enum class OutputKind { kFolder, kPrefix };
+CLI::Validator outputPath(OutputKind kind);
+
 // A float as the double of its shortest decimal form, for --json: 0.065f is 0.06499999761581421
 // as a double, and nlohmann::json prints that.
 double shortestDecimal(float v);
@@ -110,9 +117,13 @@ inline constexpr double kReprojectBspBytesPerTriangle = 288.0;
 // {"memory_estimate_mb": ..., "peak_memory_mb": ...}.
 nlohmann::json memoryJson(uint64_t estimateBytes);
 
-// "1 frame", "2 frames": a count and its noun, in the plural unless the count is one.
+// "1 frame", "2 frames": a count and its noun, in the plural unless the count is one ("mesh":
+// "meshes", "vertex": "vertices").
 inline std::string counted(uint64_t count, const std::string& noun) {
-    return std::to_string(count) + " " + noun + (count == 1 ? "" : "s");
+    if (count == 1) return "1 " + noun;
+    if (noun == "vertex") return std::to_string(count) + " vertices";
+    const bool sibilant = noun.ends_with("sh") || noun.ends_with("ch") || noun.ends_with('s');
+    return std::to_string(count) + " " + noun + (sibilant ? "es" : "s");
 }
 
 // A figure that may not exist (no set sent, quality never reached, no ping answered yet), for
@@ -124,6 +135,11 @@ nlohmann::json valueOrNull(bool exists, T value) {
 template <class T>
 nlohmann::json valueOrNull(const std::optional<T>& value) {
     return value ? nlohmann::json(*value) : nlohmann::json();
+}
+// The same for a table or CSV cell: the figure in `form`, or `none` where nothing was measured.
+inline std::string figureOrEmpty(const std::optional<double>& value,
+                                 fmt::format_string<double> form, const std::string& none = "") {
+    return value ? fmt::format(form, double{*value}) : none;
 }
 
 // JSON has no infinity: identical images (infinite PSNR) are reported as this many dB.

@@ -364,7 +364,8 @@ Command registerClient(CLI::App& app) {
         ->capture_default_str();
     sub->add_flag("--stereo", a->stereo, "Warp both eyes (65 mm apart); frames side by side");
     sub->add_option("--frames", a->frames, "Display frames (default: the path's poses)");
-    sub->add_option("--out", a->out, "Folder for frames and stats.csv");
+    sub->add_option("--out", a->out, "Folder for frames and stats.csv")
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_option("--every", a->every, "Write (and compare) every Nth frame")
         ->capture_default_str();
     sub->add_option("--scene", a->scene, "The scene, for the walk and the local ground truth");

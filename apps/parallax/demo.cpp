@@ -49,7 +49,9 @@ Command registerDemo(CLI::App& app) {
     auto a = std::make_shared<DemoArgs>();
     CLI::App* sub = app.add_subcommand("demo", "Run the demo and write an HTML report");
     sub->footer("Example: parallax demo   (then open out/demo/index.html)");
-    sub->add_option("--out", a->out, "Report folder")->capture_default_str();
+    sub->add_option("--out", a->out, "Report folder")
+        ->capture_default_str()
+        ->check(outputPath(OutputKind::kFolder));
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")
         ->capture_default_str();
     sub->add_flag("--quick", a->quick, "Small sizes and few frames (for tests)");

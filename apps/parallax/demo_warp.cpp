@@ -74,7 +74,7 @@ Status demoWarpSection(DemoContext& ctx) {
         table.push_back({latencyMethodName(r.method), fmt::format("{:g}", r.rttMs),
                          fmt::format("{:.1f}", r.psnrDbMedian),
                          fmt::format("{:.3f}", 100.0 * r.holeFractionMedian),
-                         fmt::format("{:.2f}", r.warpMsMedian)});
+                         figureOrEmpty(r.warpMsMedian, "{:.2f}", "-")});
     rep.table({"method", "RTT ms", "PSNR dB (median)", "holes % (median)", "client ms (median)"},
               table);
     (*ctx.summary)["warp"] = warpExperimentJson(*e);

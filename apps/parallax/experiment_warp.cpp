@@ -470,8 +470,10 @@ Status runLatency(const std::string& spec, bool isModel, const WarpExperimentCon
     for (LatencyMethod m : kLatencyMethods)
         for (size_t j = 0; j < c.rttsMs.size(); ++j) {
             const Samples& s = sim.samples(j, m);
-            rows->push_back({name, m, c.rttsMs[j], int(s.psnr.size()), median(s.psnr),
-                             median(s.holes), median(s.ms)});
+            // The stale frame is shown as rendered: no warp whose time a median could give.
+            rows->push_back(
+                {name, m, c.rttsMs[j], int(s.psnr.size()), median(s.psnr), median(s.holes),
+                 m == LatencyMethod::kStale ? std::nullopt : std::optional<double>(median(s.ms))});
         }
     return Status::ok();
 }
@@ -621,7 +623,7 @@ nlohmann::json warpExperimentJson(const WarpExperiment& e) {
                                {"frames", r.frames},
                                {"psnr_db_median", r.psnrDbMedian},
                                {"hole_fraction_median", r.holeFractionMedian},
-                               {"warp_ms_median", r.warpMsMedian}});
+                               {"warp_ms_median", valueOrNull(r.warpMsMedian)}});
     for (const ThroughputRow& r : e.throughput)
         doc["throughput"].push_back({{"scene", r.scene},
                                      {"triangles", r.triangles},
@@ -640,9 +642,9 @@ std::string latencyCsv(const WarpExperiment& e) {
     std::string csv =
         "scene,method,rtt_ms,frames,psnr_db_median,hole_fraction_median,warp_ms_median\n";
     for (const LatencyRow& r : e.latency)
-        csv += fmt::format("{},{},{:g},{},{:.2f},{:.6f},{:.3f}\n", r.scene,
-                           latencyMethodName(r.method), r.rttMs, r.frames, r.psnrDbMedian,
-                           r.holeFractionMedian, r.warpMsMedian);
+        csv += fmt::format("{},{},{:g},{},{:.2f},{:.6f},{}\n", r.scene, latencyMethodName(r.method),
+                           r.rttMs, r.frames, r.psnrDbMedian, r.holeFractionMedian,
+                           figureOrEmpty(r.warpMsMedian, "{:.3f}"));
     return csv;
 }
 

@@ -7,6 +7,7 @@
 // size. Typed rows; JSON, CSV and plots are made from them.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -67,7 +68,7 @@ struct LatencyRow {
     int frames = 0;
     double psnrDbMedian = 0.0;        // against the render at the current pose; 99 for identical
     double holeFractionMedian = 0.0;  // pixels no source covered (before any fill)
-    double warpMsMedian = 0.0;        // client-side cost per frame (0 for the stale frame)
+    std::optional<double> warpMsMedian;  // client-side cost per frame (none for the stale frame)
 };
 
 struct ThroughputRow {

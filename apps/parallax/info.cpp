@@ -49,14 +49,13 @@ Command registerInfo(CLI::App& app) {
                 if (args->json) {
                     printJson(doc);
                 } else {
-                    fmt::print(
-                        "{}: {} meshes, {} vertices, {} triangles, {} materials, "
-                        "{} textures ({:.1f} MiB with mips){}\n",
-                        args->scene, s.meshes, s.vertices, s.triangles, s.materials, s.textures,
-                        double(s.textureBytes) / (1 << 20),
-                        s.texturesMissing > 0
-                            ? fmt::format(", {} failed to load", s.texturesMissing)
-                            : "");
+                    fmt::print("{}: {}, {}, {}, {}, {} ({:.1f} MiB with mips){}\n", args->scene,
+                               counted(s.meshes, "mesh"), counted(s.vertices, "vertex"),
+                               counted(s.triangles, "triangle"), counted(s.materials, "material"),
+                               counted(s.textures, "texture"), double(s.textureBytes) / (1 << 20),
+                               s.texturesMissing > 0
+                                   ? fmt::format(", {} failed to load", s.texturesMissing)
+                                   : "");
                     fmt::print("bounds: ({:.3g}, {:.3g}, {:.3g}) .. ({:.3g}, {:.3g}, {:.3g})\n",
                                s.bounds.lo.x, s.bounds.lo.y, s.bounds.lo.z, s.bounds.hi.x,
                                s.bounds.hi.y, s.bounds.hi.z);

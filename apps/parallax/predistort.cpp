@@ -62,7 +62,7 @@ Result<scene::Scene> loadContent(const std::string& spec, const display::Display
 Result<std::optional<display::DVec3>> parseViewer(const std::string& text) {
     if (text.empty()) return std::optional<display::DVec3>();
     auto v = parseVec3(text);
-    if (!v) return v.status();
+    if (!v) return errorStatus(v.status().code(), "--viewer: " + v.status().message());
     if (!std::isfinite(v->x) || !std::isfinite(v->y) || !std::isfinite(v->z))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("--viewer '{}' must be three finite numbers", text));
@@ -217,10 +217,17 @@ int run(const PredistortArgs& a) {
         fmt::print("generation {:.3f} ms, pass 2 {:.3f} ms -> {}, {}, {}\n", median(genMs),
                    median(renderMs), meshPath, overlayPath, framePath);
     }
-    return err.maxErrorMm <= a.errorMm ? kExitOk
-                                       : fail(fmt::format("measured max error {:.4f} mm exceeds "
-                                                          "the threshold",
-                                                          err.maxErrorMm));
+    if (err.maxErrorMm <= a.errorMm) return kExitOk;
+    // The files stay, for a look at where the error lies.
+    return fail(
+        fmt::format("measured max error {:.4f} mm exceeds --error {:g} mm{} (the files "
+                    "above are written)",
+                    err.maxErrorMm, a.errorMm,
+                    method == "adaptive" && a.gridLevel < 11
+                        ? fmt::format(" at --grid-level {}; a finer level (up to 11) "
+                                      "lowers it",
+                                      a.gridLevel)
+                        : ""));
 }
 
 }  // namespace
@@ -230,8 +237,8 @@ Command registerPredistort(CLI::App& app) {
     CLI::App* sub = app.add_subcommand(
         "predistort", "Predistort an image for a curved mirror or screen (Bimber et al.)");
     sub->footer(
-        "Example: parallax predistort examples/displays/cone_showcase.json --error 0.5 "
-        "--out out/cone\nWithout --scene a built-in exhibit (pedestal and figure, the scene "
+        "Example: parallax predistort cone_showcase --error 0.5 --out out/cone   (or a display "
+        "JSON file)\nWithout --scene a built-in exhibit (pedestal and figure, the scene "
         "'showcase') is fitted to the display's content sphere.");
     sub->add_option("display", args->display,
                     "Display description: a JSON file, or the name of an example built in from "
@@ -247,7 +254,9 @@ Command registerPredistort(CLI::App& app) {
     sub->add_option("--method", args->method, "adaptive (quadtree) or uniform (baseline)");
     sub->add_option("--container", args->container,
                     "Convex container: hull (the coarse convex hull, default), obb or none");
-    sub->add_option("--out", args->out, "Output prefix")->required();
+    sub->add_option("--out", args->out, "Output prefix")
+        ->required()
+        ->check(outputPath(OutputKind::kPrefix));
     sub->add_option("--format", args->format, "Mesh file format: bourke, obj or pfm");
     sub->add_option("--grid-level", args->gridLevel, "Quadtree grid level m (2..11)")
         ->check(CLI::Range(2, 11));

@@ -115,7 +115,8 @@ Command registerRender(CLI::App& app) {
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)")->capture_default_str();
     sub->add_flag("--cull", a->cull, "Cull back faces (counter-clockwise fronts)");
     sub->add_option("--out", a->out, "Output prefix: PREFIX.color.png, .depth.png, .id.png")
-        ->required();
+        ->required()
+        ->check(outputPath(OutputKind::kPrefix));
     sub->add_flag("--json", a->json, "Print a JSON result on stdout");
     return {sub, [a] { return runRender(*a); }};
 }

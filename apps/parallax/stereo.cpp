@@ -498,7 +498,9 @@ Command registerStereo(CLI::App& app) {
     sub->add_option("--frames", a->frames,
                     "Timed pairs per pose after one untimed warm-up pair; times are their medians")
         ->capture_default_str();
-    sub->add_option("--out", a->out, "Output prefix")->required();
+    sub->add_option("--out", a->out, "Output prefix")
+        ->required()
+        ->check(outputPath(OutputKind::kPrefix));
     sub->add_flag("--json", a->json, "Print a JSON result on stdout");
     return {sub, [a] { return runStereo(*a); }};
 }

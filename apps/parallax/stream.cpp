@@ -229,7 +229,8 @@ Command registerStream(CLI::App& app) {
         c->add_option("scene", a->scene, "Model file or generator spec (museum:N, office:N)")
             ->required();
         c->add_option("--out", a->out, "Database folder (created; nothing is written outside)")
-            ->required();
+            ->required()
+            ->check(outputPath(OutputKind::kFolder));
         c->add_option("--threads", a->threads, "Worker threads (0: all cores)");
         c->add_flag("--json", a->json, "Print a JSON result on stdout");
     }

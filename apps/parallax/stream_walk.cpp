@@ -238,7 +238,8 @@ int runWalk(const WalkArgs& a) {
                            last.residentBytes, last.downloadedBytes, last.quality, ms);
         progress.step();
     }
-    for (const std::string& line : client.log()) (void)warn(line);
+    for (const std::string& line : client.log())
+        if (Status s = warn(line); !s) return fail(s);  // --strict
     if (!a.out.empty())
         if (Status s = writeText(a.out + "/frames.csv", csv); !s) return fail(s);
     if (a.json) {
@@ -311,7 +312,8 @@ Command registerStreamWalk(CLI::App* stream, Command inner) {
         ->capture_default_str();
     walk->add_option("--size", a->size, "Frame size WxH")->capture_default_str();
     walk->add_option("--fps", a->fps, "Frames per simulated second")->capture_default_str();
-    walk->add_option("--out", a->out, "Folder for frames.csv");
+    walk->add_option("--out", a->out, "Folder for frames.csv")
+        ->check(outputPath(OutputKind::kFolder));
     walk->add_flag("--json", a->json, "Print a JSON summary on stdout");
     return {inner.app, [a, walk, run = inner.run] { return walk->parsed() ? runWalk(*a) : run(); }};
 }

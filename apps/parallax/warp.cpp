@@ -221,7 +221,9 @@ Command registerWarp(CLI::App& app) {
     sub->add_option("--frames", a->frames, "Timed warps (median), after one warm-up")
         ->capture_default_str();
     sub->add_option("--threads", a->threads, "Worker threads (0: all cores)");
-    sub->add_option("--out", a->out, "Output prefix")->required();
+    sub->add_option("--out", a->out, "Output prefix")
+        ->required()
+        ->check(outputPath(OutputKind::kPrefix));
     sub->add_flag("--json", a->json, "Print a JSON result on stdout");
     return {sub, [a] { return runWarp(*a); }};
 }

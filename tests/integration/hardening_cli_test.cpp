@@ -225,6 +225,26 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
                        "sees none of the display's content");
 }
 
+// An empty --out wrote a database into the working folder before failing, and a prefix ending in
+// '/' wrote hidden files (out/.color.png); both are usage errors now, before any work.
+TEST(HardeningCli, OutputPathsMustNameSomething) {
+    const fs::path dir = hardDir() / "outputs";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string prefixCommands[] = {"render office:1 --size 32x24",
+                                          "stereo office:1 --size 32x24",
+                                          "predistort cone_showcase --error 2"};
+    for (const std::string& command : prefixCommands) {
+        expectOneLineError(runParallax(command + " --out ''"), "--out", 2);
+        expectOneLineError(runParallax(command + " --out " + q(dir) + "/"),
+                           "ends in a folder; the prefix needs a file name", 2);
+    }
+    expectOneLineError(runParallax("stream build museum:1 --out ''"), "--out", 2);
+    EXPECT_TRUE(fs::is_empty(dir));
+    expectOneLineError(runParallax("--import-seconds nan info office:1"),
+                       "--import-seconds: 'nan' is not a finite number", 2);
+}
+
 TEST(HardeningCli, AHugeValueIsQuotedByItsEnds) {
     // 100,000 characters (a single argument may hold 128 KiB): the line quotes their two ends.
     const std::string size = std::string(100000, '7') + "x9";

@@ -62,6 +62,15 @@ TEST(StreamBenchCli, BadArgumentsAreOneLineErrors) {
     expectOneLineError(runParallax("bench stream --quick --size 3x3" + out), "size", 2);
     expectOneLineError(runParallax("bench stream --quick --stop -2" + out), "--stop", 2);
     expectOneLineError(runParallax("bench stream --quick --samples 0" + out), "--samples", 2);
+    // The values that once stood for "the default" are refused like their neighbours.
+    expectOneLineError(runParallax("bench stream --quick --stop -1" + out), "--stop -1", 2);
+    expectOneLineError(runParallax("bench stream --quick --samples -1" + out), "--samples -1", 2);
+    expectOneLineError(runParallax("bench stream --quick --budget 0" + out), "--budget 0", 2);
+    expectOneLineError(runParallax("bench stream --quick --static-budget 0" + out),
+                       "--static-budget 0", 2);
+    expectOneLineError(runParallax("bench stream --quick --latency nan" + out),
+                       "--latency: 'nan' is not a finite number", 2);
+    expectOneLineError(runParallax("bench warp --quick --duration 0" + out), "duration 0 s", 2);
     expectOneLineError(runParallax("bench stream --quick --scene office:0" + out), "office");
 }
 

@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <fstream>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -83,6 +84,24 @@ TEST(StreamWalkCli, TourThroughEveryRoom) {
         }
         EXPECT_EQ(cells, (std::set<int>{0, 1, 2, 3}));
     }
+}
+
+// A texture URL that leaves the database is skipped with a warning, and --strict makes the
+// warning an error (it was swallowed there: exit 0 and nothing said).
+TEST(StreamWalkCli, StrictTurnsSkippedTexturesIntoAnError) {
+    const fs::path db = scratchDir("stream_walk_cli") / ("evil-" + std::to_string(getpid()));
+    fs::remove_all(db);
+    fs::copy(walkDb(), db, fs::copy_options::recursive);
+    const fs::path cell = db / "cells" / "c00000.json";
+    nlohmann::json doc = nlohmann::json::parse(std::ifstream(cell));
+    ASSERT_FALSE(doc["textures"].empty());
+    doc["textures"][0]["url"] = "../../../../etc/passwd";
+    writeFile(cell, doc.dump());
+    const std::string walk = "stream walk " + db.string() + " --walk 30 --size 80x60";
+    RunResult lenient = runParallax(walk);
+    EXPECT_EQ(lenient.exitCode, 0) << lenient.err;
+    EXPECT_NE(lenient.err.find("parallax: warning:"), std::string::npos) << lenient.err;
+    expectOneLineError(runParallax("--strict " + walk), "(an error with --strict)");
 }
 
 TEST(StreamWalkCli, BadArgumentsAreOneLineErrors) {

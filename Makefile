@@ -56,7 +56,7 @@ bench: build
 	scripts/run-benchmarks.sh $(BUILD_DIR)
 
 format:
-	find libs apps tests -name '*.cpp' -o -name '*.h' | xargs clang-format -i
+	find libs apps tests -name '*.cpp' -o -name '*.h' -o -name '*.inl' | xargs clang-format -i
 
 clean:
 	rm -rf build out

@@ -12,7 +12,6 @@ namespace plx::remote {
 namespace {
 
 constexpr float kMaxEyeMetres = 1e6f;
-constexpr float kMaxSpeed = 1000.0f;     // m/s: well past any head or vehicle
 constexpr float kUnitTolerance = 1e-3f;  // forward and up: |length - 1|, and sine between them
 
 template <class... Ts>
@@ -96,7 +95,8 @@ Status put(ByteWriter& w, const PoseMessage& m, const CodecOptions&) {
     }
     if (std::string p = poseProblem(m.pose); !p.empty()) return invalid("pose", p);
     const Vec3 v = m.hasVelocity ? m.velocity : Vec3(0.0f);
-    if (std::abs(v.x) > kMaxSpeed || std::abs(v.y) > kMaxSpeed || std::abs(v.z) > kMaxSpeed) {
+    if (std::abs(v.x) > kMaxSpeedMps || std::abs(v.y) > kMaxSpeedMps ||
+        std::abs(v.z) > kMaxSpeedMps) {
         return invalid("pose", "velocity outside +-1000 m/s");
     }
     w.u64(m.timestampUs);
@@ -207,8 +207,8 @@ PoseMessage getPose(ByteReader& r) {
         r.fail(ErrorCode::kCorruptData, "{}", p);
     } else if (flags > 1) {
         r.fail(ErrorCode::kCorruptData, "flags {} has unknown bits", flags);
-    } else if (std::abs(m.velocity.x) > kMaxSpeed || std::abs(m.velocity.y) > kMaxSpeed ||
-               std::abs(m.velocity.z) > kMaxSpeed) {
+    } else if (std::abs(m.velocity.x) > kMaxSpeedMps || std::abs(m.velocity.y) > kMaxSpeedMps ||
+               std::abs(m.velocity.z) > kMaxSpeedMps) {
         r.fail(ErrorCode::kOutOfRange, "velocity outside +-1000 m/s");
     } else if (flags == 0 && m.velocity != Vec3(0.0f)) {
         r.fail(ErrorCode::kCorruptData, "velocity non-zero without its flag");

@@ -329,8 +329,11 @@ struct Server::Impl {
         // Velocity from successive poses when the client sends none (client clock deltas).
         if (s->lastPose && pose.timestampUs > s->lastPose->timestampUs) {
             double dt = double(pose.timestampUs - s->lastPose->timestampUs) * 1e-6;
+            // Two poses a microsecond apart would otherwise imply any speed at all.
             if (dt <= 1.0)
-                s->estimatedVelocity = (pose.pose.eye - s->lastPose->pose.eye) / float(dt);
+                s->estimatedVelocity =
+                    glm::clamp((pose.pose.eye - s->lastPose->pose.eye) / float(dt),
+                               Vec3(-kMaxSpeedMps), Vec3(kMaxSpeedMps));
         }
         s->lastPose = pose;
         s->pending = pose;  // replaces an unserved one

@@ -190,6 +190,14 @@ public:
                 if (auto* t = std::get_if<T>(&m)) return *t;
         return out;
     }
+    template <class T>
+    std::vector<T> all() {
+        std::lock_guard lock(mMutex);
+        std::vector<T> out;
+        for (const Message& m : mReceived)
+            if (auto* t = std::get_if<T>(&m)) out.push_back(*t);
+        return out;
+    }
     int count(MessageType type) {
         std::lock_guard lock(mMutex);
         int n = 0;
@@ -295,6 +303,31 @@ TEST(RemoteSession, PredictionRendersAheadAlongTheVelocity) {
     EXPECT_GT(ahead.x, 0.0f);
     EXPECT_LE(ahead.x, 1.0f);
     EXPECT_EQ(ahead.y, 0.0f);
+}
+
+// Without a velocity in the poses the server estimates one from successive poses; two valid
+// poses 100 us and 100 km apart once implied 1e9 m/s, a set rendered 1e7 m away, or a session
+// ended on "camera eye and target coincide". The estimate keeps to the protocol's bound.
+TEST(RemoteSession, EstimatedVelocityKeepsToTheProtocolsBound) {
+    const scene::Scene scene = *scene::generateFromSpec("office:1");
+    auto server = startServer(smallServer());
+    ASSERT_TRUE(server);
+    RawPeer peer(server->port());
+    peer.hello();
+    ASSERT_TRUE(peer.first<ServerHello>());
+    PoseMessage first = poseNow(scene);
+    first.hasVelocity = false;
+    peer.send(first);
+    ASSERT_TRUE(peer.first<ReferenceSetMessage>());
+    PoseMessage jump = first;
+    jump.timestampUs += 100;
+    jump.pose.eye.x += 1e5f;
+    peer.send(jump);
+    ASSERT_TRUE(eventually([&] { return peer.count(MessageType::kReferenceSet) >= 2; }));
+    const ReferenceSetMessage last = peer.all<ReferenceSetMessage>().back();
+    EXPECT_GE(last.set.pose.eye.x - jump.pose.eye.x, 0.0f);
+    EXPECT_LE(last.set.pose.eye.x - jump.pose.eye.x, kMaxSpeedMps);  // a lead of 1 s at most
+    EXPECT_EQ(server->stats().sessionsActive, 1);
 }
 
 TEST(RemoteSession, HandshakeRefusesVersionAndToken) {

@@ -71,6 +71,10 @@ struct ServerHello {
 };
 
 // A tracked head pose, client to server.
+// The largest speed a Pose's velocity may give, per component, m/s: well past any head or
+// vehicle. The server's own estimate from successive poses is held to it too.
+constexpr float kMaxSpeedMps = 1000.0f;
+
 struct PoseMessage {
     uint64_t timestampUs = 0;  // tracker sample time, client clock
     warp::Pose pose;           // eye within +-1e6 m; forward, up unit within 1e-3, not parallel

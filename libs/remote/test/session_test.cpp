@@ -190,14 +190,6 @@ public:
                 if (auto* t = std::get_if<T>(&m)) return *t;
         return out;
     }
-    template <class T>
-    std::vector<T> all() {
-        std::lock_guard lock(mMutex);
-        std::vector<T> out;
-        for (const Message& m : mReceived)
-            if (auto* t = std::get_if<T>(&m)) out.push_back(*t);
-        return out;
-    }
     int count(MessageType type) {
         std::lock_guard lock(mMutex);
         int n = 0;
@@ -312,21 +304,22 @@ TEST(RemoteSession, EstimatedVelocityKeepsToTheProtocolsBound) {
     const scene::Scene scene = *scene::generateFromSpec("office:1");
     auto server = startServer(smallServer());
     ASSERT_TRUE(server);
-    RawPeer peer(server->port());
-    peer.hello();
-    ASSERT_TRUE(peer.first<ServerHello>());
+    auto client = std::move(Client::create(clientFor(*server))).value();
     PoseMessage first = poseNow(scene);
     first.hasVelocity = false;
-    peer.send(first);
-    ASSERT_TRUE(peer.first<ReferenceSetMessage>());
+    client->setPose(first);
+    ASSERT_TRUE(client->waitForFirst(10000.0));
     PoseMessage jump = first;
     jump.timestampUs += 100;
     jump.pose.eye.x += 1e5f;
-    peer.send(jump);
-    ASSERT_TRUE(eventually([&] { return peer.count(MessageType::kReferenceSet) >= 2; }));
-    const ReferenceSetMessage last = peer.all<ReferenceSetMessage>().back();
-    EXPECT_GE(last.set.pose.eye.x - jump.pose.eye.x, 0.0f);
-    EXPECT_LE(last.set.pose.eye.x - jump.pose.eye.x, kMaxSpeedMps);  // a lead of 1 s at most
+    client->setPose(jump);
+    ASSERT_TRUE(eventually([&] {
+        auto newest = client->newest();
+        return newest && newest->requestTimestampUs == jump.timestampUs;
+    }));
+    const float ahead = client->newest()->set.pose.eye.x - jump.pose.eye.x;
+    EXPECT_GE(ahead, 0.0f);
+    EXPECT_LE(ahead, kMaxSpeedMps);  // a lead of 1 s at most
     EXPECT_EQ(server->stats().sessionsActive, 1);
 }
 

@@ -40,6 +40,7 @@ constexpr size_t kMaxQueuedPoseBytes = 4096;
 // What one connection's callbacks report to the I/O thread.
 struct Link {
     bool closed = false;
+    Clock::time_point lastHeard = Clock::now();  // the server's latest message
     std::optional<ServerHello> hello;
     Status error;  // an Error message from the server, or a message the client refused
     uint32_t pingNonce = 0;
@@ -91,6 +92,7 @@ struct Client::Impl {
         const uint64_t arrival = clientNowUs();
         if (!bytes.empty() && bytes[0] == uint8_t(MessageType::kReferenceSet)) {
             std::lock_guard lock(mutex);
+            link->lastHeard = Clock::now();
             if (pending) ++stats.referencesDropped;
             pending = PendingSet{std::move(bytes), link, arrival};
             changed.notify_all();
@@ -102,6 +104,7 @@ struct Client::Impl {
             return;
         }
         std::lock_guard lock(mutex);
+        link->lastHeard = Clock::now();
         if (auto* hello = std::get_if<ServerHello>(&*m)) {
             link->hello = *hello;
         } else if (auto* ping = std::get_if<Ping>(&*m)) {
@@ -247,9 +250,13 @@ struct Client::Impl {
         ev.onMessage = [this, link](std::vector<uint8_t>&& m, bool binary) {
             onMessage(link, std::move(m), binary);
         };
-        ev.onClosed = [this, link](const Status&) {
+        ev.onClosed = [this, link](const Status& why) {
             std::lock_guard lock(mutex);
             link->closed = true;
+            // A close the transport saw fail (a frame too large, a WebSocket protocol error) is
+            // why the session ended; the caller's "no reference set" names it.
+            if (!why.isOk() && link->error.isOk())
+                link->error = errorStatus(why.code(), "connection: " + why.message());
             changed.notify_all();
         };
         ConnectionConfig cc;
@@ -300,10 +307,19 @@ struct Client::Impl {
         std::unique_lock lock(mutex);
         // An Error from the server ends the session whether or not the server closes.
         auto ended = [&] { return stopping || link->closed || !link->error.isOk(); };
+        const auto silence = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double, std::milli>(config.silenceTimeoutMs));
         while (!ended()) {
-            changed.wait_until(lock, std::min(nextPose, nextPing), ended);
+            changed.wait_until(lock, std::min({nextPose, nextPing, link->lastHeard + silence}),
+                               ended);
             if (ended()) break;
             Clock::time_point now = Clock::now();
+            if (now - link->lastHeard >= silence) {
+                link->error = errorStatus(ErrorCode::kIoError,
+                                          fmt::format("no message from the server for {:.1f} s",
+                                                      config.silenceTimeoutMs / 1000.0));
+                break;
+            }
             if (now >= nextPose) {
                 nextPose = std::max(nextPose + poseInterval, now);
                 // Each pose once (the newest), and never onto a backed-up socket.
@@ -353,7 +369,8 @@ Result<std::unique_ptr<Client>> Client::create(const ClientConfig& config) {
                            fmt::format("port {} outside 1..65535", config.port));
     if (!(config.backoffMinMs > 0.0 && config.backoffMaxMs >= config.backoffMinMs &&
           config.backoffMaxMs <= 60000.0 && config.pingIntervalMs >= 10.0 &&
-          config.connectTimeoutMs > 0.0))
+          config.connectTimeoutMs > 0.0 && config.silenceTimeoutMs > 2.0 * config.pingIntervalMs &&
+          config.silenceTimeoutMs <= 3600e3))
         return errorStatus(ErrorCode::kInvalidArgument, "client timing options out of range");
     PLX_RETURN_IF_ERROR(checkSourceAddress(config.sourceAddress));
     auto impl = std::make_unique<Impl>();

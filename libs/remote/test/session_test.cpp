@@ -936,6 +936,43 @@ TEST(RemoteSession, AServersErrorTextIsShownEscaped) {
     })) << client->stats().lastError;
 }
 
+// A server that answers the ClientHello and then says nothing, not even a Pong: the client ends
+// the session after its silence timeout and reconnects, and says why.
+TEST(RemoteSession, ASilentServerIsLeftAndRetried) {
+    auto transport = std::move(Transport::create()).value();
+    std::atomic<int> hellos{0};
+    ConnectionConfig cc;
+    cc.maxMessageBytes = 4096;
+    auto port = transport->listen("127.0.0.1", 0, cc, [&](std::shared_ptr<Connection> c) {
+        ConnectionEvents ev;
+        ev.onMessage = [&hellos, c](std::vector<uint8_t>&& m, bool) {
+            auto decoded = decodeMessage(m);
+            if (!decoded || !std::holds_alternative<ClientHello>(*decoded)) return;
+            ++hellos;
+            ServerHello hello;
+            hello.faceSize = 32;
+            c->send(std::move(encodeMessage(hello)).value());
+        };
+        ev.onClosed = [](const Status&) {};
+        return ev;
+    });
+    ASSERT_TRUE(port.isOk());
+    ClientConfig config;
+    config.port = *port;
+    config.faceSize = 32;
+    config.pingIntervalMs = 100.0;
+    config.silenceTimeoutMs = 500.0;
+    config.backoffMinMs = 50.0;
+    config.backoffMaxMs = 100.0;
+    auto client = std::move(Client::create(config)).value();
+    EXPECT_TRUE(eventually([&] { return hellos >= 2; }));
+    EXPECT_EQ(client->stats().lastError, "no message from the server for 0.5 s");
+    config.silenceTimeoutMs = 200.0;  // not above two ping intervals
+    EXPECT_FALSE(Client::create(config).isOk());
+    client.reset();
+    transport->stop();
+}
+
 // A hostile server that answers the ClientHello, stops reading and sends Pings as fast as the
 // client reads them: the client's queue of Pongs stays at one (OneUnwritten).
 class PingFlooder {

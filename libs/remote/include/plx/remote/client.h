@@ -27,6 +27,9 @@ struct ClientConfig {
     int faceSize = 512;  // requested; the server may lower it
     DecodeLimits limits;
     double pingIntervalMs = 500.0;
+    // A session whose server sends nothing in this long (it answers pings every pingIntervalMs
+    // and pings on its own) is ended and retried: the server is gone, or stuck.
+    double silenceTimeoutMs = 30000.0;
     // Reconnection backoff: first wait, doubled per failed attempt up to the cap.
     double backoffMinMs = 100.0, backoffMaxMs = 2000.0;
     double connectTimeoutMs = 3000.0;

@@ -117,6 +117,15 @@ int runWarp(const WarpArgs& a) {
     if (Status s = ensureParentDirectory(a.out); !s) return fail(s);
 
     warp::ReferenceSetOptions refOptions = referenceOptionsFor(*scene, *from, p->layout);
+    // The faces match the display's pixel density up to the largest image side; past it they
+    // undersample it, and a field of view narrow enough leaves the frame all holes (0.0001
+    // degrees: 16384-pixel faces, 8 GiB, hole fraction 1).
+    if (refOptions.faceSize >= Camera::kMaxImageSide)
+        return fail(fmt::format("a {:g}-degree field of view over {} rows needs reference faces "
+                                "over {} pixels a side to match its pixels; a wider --fov or "
+                                "a smaller --size",
+                                from->desc().fovYDegrees, from->height(), Camera::kMaxImageSide),
+                    kExitUsage);
     auto setPixels = referencePixels(refOptions);
     if (!setPixels) return fail(setPixels.status());
     auto memory = checkImageMemory(

@@ -223,6 +223,11 @@ TEST(HardeningCli, OptionsThatCanOnlyGiveNothingAreErrors) {
     expectOneLineError(runParallax("predistort cone_showcase --viewer=0,-5000,0 --error 1 --out " +
                                    (hardDir() / "p").string()),
                        "sees none of the display's content");
+    // Once 16384-pixel faces (8 GiB) and a frame of holes for a 160x120 output.
+    expectOneLineError(runParallax("warp office:1 --size 160x120 --to-eye 1,1,1 --fov 0.0001 "
+                                   "--out " +
+                                   (hardDir() / "w").string()),
+                       "field of view over 120 rows needs reference faces over 16384 pixels", 2);
 }
 
 // An empty --out wrote a database into the working folder before failing, and a prefix ending in

@@ -411,20 +411,31 @@ struct Server::Impl {
         {
             std::lock_guard lock(mutex);
             if (isWriteStall(why)) ++stats.writeStalls;
+            // A message over the size limit, refused by the transport before allocation (close
+            // 1009, docs/remote-protocol.md: Error kTooLarge), is the peer's protocol error.
+            const bool peerError =
+                s->state != SessionState::kClosed && why.code() == ErrorCode::kOutOfRange;
+            if (peerError) ++stats.protocolErrors;
+            const bool beforeHello = s->state == SessionState::kAwaitingHello;
             if (s->state == SessionState::kAccepted) --stats.sessionsActive;
             s->state = SessionState::kClosed;
             s->pending.reset();
             sessions.erase(s);
             wake.notify_all();
-            if (!s->accepted || !config.onSessionEvent) return;
-            ended = eventOf(SessionEvent::Kind::kEnded, *s,
-                            !s->endReason.empty() ? s->endReason
-                            : isWriteStall(why)   ? "stopped reading"
-                            : why.isOk()          ? "closed by the client"
-                                                  : why.message());
-            ended.durationS = msSince(s->connectedAt) * 1e-3;
-            ended.setsSent = s->setsSent;
-            ended.bytesSent = s->bytesSent;
+            if (!config.onSessionEvent) return;
+            if (peerError && beforeHello) {
+                ended = eventOf(SessionEvent::Kind::kRefused, *s, "error: " + why.message());
+            } else {
+                if (!s->accepted) return;
+                ended = eventOf(SessionEvent::Kind::kEnded, *s,
+                                !s->endReason.empty() ? s->endReason
+                                : isWriteStall(why)   ? "stopped reading"
+                                : why.isOk()          ? "closed by the client"
+                                                      : why.message());
+                ended.durationS = msSince(s->connectedAt) * 1e-3;
+                ended.setsSent = s->setsSent;
+                ended.bytesSent = s->bytesSent;
+            }
         }
         report(ended);
     }

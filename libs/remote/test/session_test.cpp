@@ -459,7 +459,14 @@ TEST(RemoteSession, EachClientGetsADisparityCodecItDecodes) {
 
 TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
     const scene::Scene scene = *scene::generateFromSpec("office:1");
-    auto server = startServer(smallServer());
+    ServerConfig config = smallServer();
+    std::mutex mutex;
+    std::vector<std::string> refusals;
+    config.onSessionEvent = [&](const SessionEvent& e) {
+        std::lock_guard lock(mutex);
+        if (e.kind == SessionEvent::Kind::kRefused) refusals.push_back(e.reason);
+    };
+    auto server = startServer(config);
     ASSERT_TRUE(server);
     auto good = servedClient(*server, scene);
     ASSERT_TRUE(good);
@@ -496,18 +503,26 @@ TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
         EXPECT_NE(error->text.find(c.word), std::string::npos) << error->text;
         EXPECT_TRUE(peer.waitClosed());
     }
-    {
-        // Oversized: refused by the WebSocket layer before allocation (close code 1009).
+    for (bool helloFirst : {true, false}) {
+        // Oversized: refused by the WebSocket layer before allocation (close code 1009), counted
+        // as a protocol error; before the hello, logged as a refusal.
         RawPeer peer(server->port());
-        peer.hello();
-        ASSERT_TRUE(peer.first<ServerHello>());
+        if (helloFirst) {
+            peer.hello();
+            ASSERT_TRUE(peer.first<ServerHello>());
+        }
         peer.sendBytes(std::vector<uint8_t>(64 * 1024, 3));
         EXPECT_TRUE(peer.waitClosed());
     }
     // The well-behaved session went on: more sets arrive for new poses.
     EXPECT_TRUE(receivesMore(*good, scene));
     EXPECT_EQ(server->stats().sessionsActive, 1);
-    EXPECT_GE(server->stats().protocolErrors, int64_t(cases.size()));
+    EXPECT_TRUE(eventually([&] {
+        return server->stats().protocolErrors == int64_t(cases.size()) + 2;
+    })) << server->stats().protocolErrors;
+    std::lock_guard lock(mutex);
+    EXPECT_NE(std::find(refusals.begin(), refusals.end(), "error: message larger than 2048 bytes"),
+              refusals.end());
 }
 
 // A peer that stops reading but keeps sending poses and Pings, while the server pings it every

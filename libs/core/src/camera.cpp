@@ -10,12 +10,9 @@ Result<Camera> Camera::create(const CameraDesc& d) {
     if (!isFinite(d.eyePos) || !isFinite(d.targetPos) || !isFinite(d.upDir))
         return errorStatus(ErrorCode::kInvalidArgument, "camera vectors must be finite");
     // Beyond kMaxCameraCoordinate the checks below would blame the up vector.
-    auto huge = [&](const Vec3& v) {
-        return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCameraCoordinate)));
-    };
     for (auto [name, v] : {std::pair{"eye", d.eyePos}, std::pair{"target", d.targetPos},
                            std::pair{"up vector", d.upDir}})
-        if (huge(v))
+        if (beyondCameraRange(v))
             return errorStatus(ErrorCode::kOutOfRange,
                                fmt::format("camera {} ({:g}, {:g}, {:g}) is too far from the "
                                            "origin: coordinates must lie within +-{:g}",

@@ -93,11 +93,9 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
     jpeg_read_header(&info, TRUE);
     if (!checkDecodedSize(info.image_width, info.image_height, "JPEG", maxPixels).isOk()) {
-        std::snprintf(err.message, sizeof(err.message),
-                      "declares %ux%u pixels, more than the limit of %lld pixels", info.image_width,
-                      info.image_height,
-                      static_cast<long long>(std::min(maxPixels, kMaxDecodedPixels)));
-        *error = err.message;
+        *error =
+            fmt::format("declares {}x{} pixels, more than the limit of {} pixels", info.image_width,
+                        info.image_height, std::min(maxPixels, kMaxDecodedPixels));
         jpeg_destroy_decompress(&info);
         return false;
     }
@@ -114,8 +112,7 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     jpeg_finish_decompress(&info);
     jpeg_destroy_decompress(&info);
     if (err.warning[0] != '\0') {
-        std::snprintf(err.message, sizeof(err.message), "damaged data (%s)", err.warning);
-        *error = err.message;
+        *error = fmt::format("damaged data ({})", err.warning);
         return false;
     }
     return true;

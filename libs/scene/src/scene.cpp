@@ -26,7 +26,7 @@ Status checkMesh(const Scene& scene, size_t m) {
         if (!isFinite(p))
             return errorStatus(ErrorCode::kCorruptData,
                                fmt::format("{}: vertex {} has a non-finite position", where(), v));
-        if (glm::any(glm::greaterThan(glm::abs(p), Vec3(kMaxCameraCoordinate))))
+        if (beyondCameraRange(p))
             return errorStatus(
                 ErrorCode::kOutOfRange,
                 fmt::format("{}: vertex {} at ({:g}, {:g}, {:g}) lies beyond +-{:g}, "

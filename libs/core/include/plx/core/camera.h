@@ -16,6 +16,11 @@ namespace plx {
 // products. Scenes refuse vertices beyond it (scene::Scene::finalize).
 inline constexpr float kMaxCameraCoordinate = 1e15f;
 
+// True where a coordinate of v lies beyond +-kMaxCameraCoordinate.
+inline bool beyondCameraRange(const Vec3& v) {
+    return glm::any(glm::greaterThan(glm::abs(v), Vec3(kMaxCameraCoordinate)));
+}
+
 // A target that looks from `eye` along the unit vector `dir`, far enough that eye and target
 // differ in float far from the origin (at 1e8 a unit step is lost to rounding): at least one
 // unit, and as far as the eye's largest coordinate.

@@ -48,6 +48,21 @@ namespace {
 
 constexpr std::string_view kWriteStallText = "peer stopped reading";
 
+bool isGetOrHead(http::verb method) {
+    return method == http::verb::get || method == http::verb::head;
+}
+
+// RFC 6455 section 4.2.1 item 5: a Sec-WebSocket-Key is 16 bytes in base64, 24 characters
+// ending in "==". Beast checks only that one is present and not too long.
+bool isWebSocketKey(std::string_view key) {
+    auto base64 = [](char c) {
+        return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+               c == '+' || c == '/';
+    };
+    return key.size() == 24 && key.ends_with("==") &&
+           std::all_of(key.begin(), key.end() - 2, base64);
+}
+
 // One direction of an emulated link: a message of B bytes enters the wire when the previous one
 // has left it (token bucket at the bandwidth: B * 8 / bandwidth seconds of serialisation), then
 // travels latency + U(0, jitter); releases never overtake each other, so order is kept.
@@ -165,8 +180,14 @@ public:
             std::chrono::milliseconds(int64_t(std::max(1.0, mConfig.handshakeTimeoutMs))));
         http::async_read(mWs.next_layer(), mHttpBuffer, *mRequest,
                          [self = shared_from_this(), onUpgrade](ErrorCodeB ec, size_t) {
-                             if (ec) return self->dropSocket();
-                             if (websocket::is_upgrade(self->mRequest->get())) {
+                             if (ec) return self->refuseUnreadRequest(ec);
+                             const auto& req = self->mRequest->get();
+                             if (websocket::is_upgrade(req) &&
+                                 !isWebSocketKey(req[http::field::sec_websocket_key]))
+                                 return self->answerStatus(
+                                     http::status::bad_request,
+                                     "Sec-WebSocket-Key is not 16 bytes in base64\n");
+                             if (websocket::is_upgrade(req)) {
                                  beast::get_lowest_layer(self->mWs).expires_never();
                                  self->mWs.async_accept(self->mRequest->get(),
                                                         [self, onUpgrade](ErrorCodeB hec) {
@@ -245,39 +266,96 @@ public:
 private:
     static constexpr uint32_t kMaxRequestHeaderBytes = 8192;
 
-    // A plain HTTP request: GET of an embedded file, else 404 / 405; then close.
+    // A plain HTTP request: GET (or HEAD) of an embedded file, else 404 / 405; then close.
     void answerHttp() {
         const auto& req = mRequest->get();
+        if (!isGetOrHead(req.method()))
+            return answerStatus(http::status::method_not_allowed, "method not allowed\n");
         std::string_view target(req.target().data(), req.target().size());
         target = target.substr(0, target.find_first_of("?#"));
+        std::optional<HttpFile> file;
+        if (mConfig.httpFiles) file = mConfig.httpFiles(target);
+        if (!file) return answerStatus(http::status::not_found, "not found\n");
+        auto res = newResponse(http::status::ok, file->contentType);
+        for (const auto& [name, value] : file->headers) res->set(name, value);
+        res->body().assign(reinterpret_cast<const char*>(file->bytes.data()), file->bytes.size());
+        writeAndClose(std::move(res));
+    }
+
+    // A request that could not be read: a peer that left or stayed silent is dropped; one whose
+    // bytes broke HTTP or its limits hears why (RFC 9110 section 15.5), then the socket closes.
+    void refuseUnreadRequest(ErrorCodeB ec) {
+        if (ec == http::error::header_limit)
+            return answerStatus(
+                http::status::request_header_fields_too_large,
+                fmt::format("request headers over {} bytes\n", kMaxRequestHeaderBytes));
+        if (ec == http::error::body_limit)  // its start line was read
+            return isGetOrHead(mRequest->get().method())
+                       ? answerStatus(http::status::payload_too_large,
+                                      "a request body is not taken\n")
+                       : answerStatus(http::status::method_not_allowed, "method not allowed\n");
+        const bool brokeHttp =
+            ec.category() == http::make_error_code(http::error::bad_version).category() &&
+            ec != http::error::end_of_stream && ec != http::error::partial_message;
+        if (brokeHttp) return answerStatus(http::status::bad_request, "malformed request\n");
+        dropSocket();
+    }
+
+    void answerStatus(http::status status, std::string text) {
+        auto res = newResponse(status, "text/plain; charset=utf-8");
+        if (status == http::status::method_not_allowed) res->set(http::field::allow, "GET, HEAD");
+        res->body() = std::move(text);
+        writeAndClose(std::move(res));
+    }
+
+    std::shared_ptr<http::response<http::string_body>> newResponse(http::status status,
+                                                                   std::string_view type) {
         auto res = std::make_shared<http::response<http::string_body>>();
-        res->version(req.version());
+        res->result(status);
+        res->version(11);
         res->keep_alive(false);
         res->set(http::field::server, "parallax");
         res->set("X-Content-Type-Options", "nosniff");
         res->set(http::field::cache_control, "no-cache");
-        std::optional<HttpFile> file;
-        if (mConfig.httpFiles) file = mConfig.httpFiles(target);
-        if (req.method() != http::verb::get) {
-            res->result(http::status::method_not_allowed);
-            res->set(http::field::allow, "GET");
-            res->set(http::field::content_type, "text/plain; charset=utf-8");
-            res->body() = "method not allowed\n";
-        } else if (!file) {
-            res->result(http::status::not_found);
-            res->set(http::field::content_type, "text/plain; charset=utf-8");
-            res->body() = "not found\n";
-        } else {
-            res->result(http::status::ok);
-            res->set(http::field::content_type, file->contentType);
-            for (const auto& [name, value] : file->headers) res->set(name, value);
-            res->body().assign(reinterpret_cast<const char*>(file->bytes.data()),
-                               file->bytes.size());
-        }
+        res->set(http::field::content_type, type);
+        return res;
+    }
+
+    // Answers a HEAD with the headers a GET would have (RFC 9110 section 9.3.2).
+    void writeAndClose(std::shared_ptr<http::response<http::string_body>> res) {
         res->prepare_payload();
-        http::async_write(
-            mWs.next_layer(), *res,
-            [self = shared_from_this(), res](ErrorCodeB, size_t) { self->dropSocket(); });
+        if (mRequest->get().method() == http::verb::head) {  // verb::unknown before a start line
+            const size_t length = res->body().size();
+            res->body().clear();
+            res->content_length(length);
+        }
+        http::async_write(mWs.next_layer(), *res,
+                          [self = shared_from_this(), res](ErrorCodeB ec, size_t) {
+                              if (ec) return self->dropSocket();
+                              ErrorCodeB ignored;
+                              beast::get_lowest_layer(self->mWs).socket().shutdown(
+                                  tcp::socket::shutdown_send, ignored);
+                              self->drainThenClose(0);
+                          });
+    }
+
+    // A lingering close: closing with request bytes unread would reset the connection, and the
+    // peer's TCP stack could discard the answer before its reader sees it. The rest of the
+    // request is read and dropped until the peer closes, at most kMaxLingerBytes or
+    // handshakeTimeoutMs.
+    void drainThenClose(size_t drained) {
+        static constexpr size_t kMaxLingerBytes = size_t(1) << 22;
+        if (drained == 0)
+            beast::get_lowest_layer(mWs).expires_after(
+                std::chrono::milliseconds(int64_t(std::max(1.0, mConfig.handshakeTimeoutMs))));
+        if (drained > kMaxLingerBytes) return dropSocket();
+        mHttpBuffer.clear();
+        mWs.next_layer().async_read_some(
+            mHttpBuffer.prepare(16384),
+            [self = shared_from_this(), drained](ErrorCodeB ec, size_t n) {
+                if (ec) return self->dropSocket();
+                self->drainThenClose(drained + n);
+            });
     }
 
     void dropSocket() {

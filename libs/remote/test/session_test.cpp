@@ -399,11 +399,31 @@ TEST(RemoteSession, PagesAreServedBesideTheWebSocket) {
     EXPECT_EQ(ok.substr(ok.size() - page.size()), page);
     std::string missing = rawHttp(port, "GET /../../etc/passwd HTTP/1.1\r\nHost: x\r\n\r\n");
     EXPECT_EQ(missing.rfind("HTTP/1.1 404", 0), 0u) << missing;
-    std::string post = rawHttp(port, "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
-    EXPECT_EQ(post.rfind("HTTP/1.1 405", 0), 0u) << post;
-    // Headers past the limit, and bytes that are not HTTP: the connection is dropped, unanswered.
-    EXPECT_EQ(rawHttp(port, "GET / HTTP/1.1\r\nX: " + std::string(16384, 'a') + "\r\n\r\n"), "");
-    EXPECT_EQ(rawHttp(port, std::string("\x16\x03\x01 not http\r\n\r\n")), "");
+    // HEAD: a GET's headers, no body.
+    std::string head = rawHttp(port, "HEAD / HTTP/1.1\r\nHost: x\r\n\r\n");
+    EXPECT_EQ(head.rfind("HTTP/1.1 200", 0), 0u) << head;
+    EXPECT_NE(head.find(fmt::format("Content-Length: {}\r\n", page.size())), std::string::npos);
+    EXPECT_TRUE(head.ends_with("\r\n\r\n")) << head;
+    // Requests the page server does not take, each answered with its status, then closed.
+    const std::pair<std::string, std::string> refused[] = {
+        {"POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n", "405"},
+        {"PUT / HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n\r\nhello", "405"},
+        {"GET / HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n\r\nhello", "413"},
+        {"GET / HTTP/1.1\r\nX: " + std::string(16384, 'a') + "\r\n\r\n", "431"},
+        {"GET / HTTP/1.1\r\nX: " + std::string(1 << 20, 'a') + "\r\n\r\n", "431"},
+        {"\x16\x03\x01 not http\r\n\r\n", "400"},
+        {"GET /\r\n\r\n", "400"},
+        {"GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+         "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: not-a-key\r\n\r\n",
+         "400"},
+    };
+    for (const auto& [request, status] : refused) {
+        std::string answer = rawHttp(port, request);
+        EXPECT_EQ(answer.rfind("HTTP/1.1 " + status, 0), 0u) << request.substr(0, 60) << answer;
+        if (status == "405") {
+            EXPECT_NE(answer.find("Allow: GET, HEAD\r\n"), std::string::npos) << answer;
+        }
+    }
     // The WebSocket on the same port still serves sessions.
     auto client = servedClient(*server, scene);
     EXPECT_TRUE(client);

@@ -98,15 +98,11 @@ void StreamClient::takeCompletions(double nowS) {
     }
 }
 
-void StreamClient::retryOrSkip(Request request, const std::string& reason) {
+void StreamClient::retryOrSkip(Request request, const std::string& failure) {
     ++mFailed;
     bool retry = request.attempts < mConfig.maxRetries;
     if (mLog.size() < kMaxLogLines)
-        mLog.push_back(fmt::format("{}{}: {}", request.path,
-                                   request.range ? fmt::format(" bytes {}-{}", request.range->first,
-                                                               request.range->last)
-                                                 : "",
-                                   reason + (retry ? " (retrying)" : " (skipped)")));
+        mLog.push_back(failure + (retry ? " (retrying)" : " (skipped)"));
     if (retry) {
         ++request.attempts;
         enqueue(std::move(request));
@@ -126,8 +122,12 @@ void StreamClient::retryOrSkip(Request request, const std::string& reason) {
 
 void StreamClient::handle(Request& request, FetchCompletion& done, double nowS) {
     (void)nowS;
-    if (!done.status) return retryOrSkip(std::move(request), done.status.message());
-    if (Status s = accept(request, done.bytes); !s) retryOrSkip(std::move(request), s.message());
+    if (!done.status)  // the fetcher's message names the request
+        return retryOrSkip(std::move(request), done.status.message());
+    if (Status s = accept(request, done.bytes); !s)
+        retryOrSkip(
+            std::move(request),
+            fmt::format("{}: {}", describeRequest(request.path, request.range), s.message()));
 }
 
 int StreamClient::nodeFor(const std::string& url, uint64_t fileBytes) {

@@ -151,11 +151,6 @@ private:
         return mStop;
     }
 
-    static std::string describe(const FetchRequest& r) {
-        return r.range ? fmt::format("{} bytes {}-{}", r.path, r.range->first, r.range->last)
-                       : r.path;
-    }
-
     static Status checkRequest(const FetchRequest& r) {
         PLX_RETURN_IF_ERROR(checkUrl(r.path));
         if (r.maxBytes == 0) return errorStatus(ErrorCode::kInvalidArgument, "maxBytes is 0");
@@ -172,7 +167,8 @@ private:
     FetchCompletion fetchWithRetries(const FetchRequest& r) {
         FetchCompletion c;
         if (Status s = checkRequest(r); !s) {
-            c.status = errorStatus(s.code(), fmt::format("{}: {}", describe(r), s.message()));
+            c.status = errorStatus(
+                s.code(), fmt::format("{}: {}", describeRequest(r.path, r.range), s.message()));
             return c;
         }
         std::chrono::duration<double> backoff(mOptions.retryBackoffS);
@@ -183,7 +179,7 @@ private:
                 c.bytes.clear();
                 c.status = errorStatus(
                     o.status.code(),
-                    fmt::format("{}: {}{}", describe(r), o.status.message(),
+                    fmt::format("{}: {}{}", describeRequest(r.path, r.range), o.status.message(),
                                 attempt > 1 ? fmt::format(" ({} tries)", attempt) : std::string()));
                 return c;
             }

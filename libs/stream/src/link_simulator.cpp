@@ -25,7 +25,8 @@ FetchCompletion LinkSimulator::serve(const FetchRequest& request, Fault fault) c
     FetchCompletion out;
     out.id = request.id;
     auto fail = [&](ErrorCode code, const std::string& why) {
-        out.status = errorStatus(code, fmt::format("{}: {}", request.path, why));
+        out.status = errorStatus(
+            code, fmt::format("{}: {}", describeRequest(request.path, request.range), why));
         out.bytes.clear();
         return out;
     };

@@ -336,6 +336,15 @@ TEST(StreamClient, HostileCompletionsAreRetriedOrSkipped) {
     EXPECT_GE(client.failedRequests(), 4u);
     ASSERT_FALSE(client.log().empty());
     EXPECT_NE(client.log()[0].find("retrying"), std::string::npos) << client.log()[0];
+    // Each line names its request once, with its byte range: the fetcher's failures (the root's
+    // injected one) as well as the client's own (a corrupt header).
+    for (const std::string& line : client.log()) {
+        const std::string path = line.substr(0, line.find_first_of(" :"));
+        EXPECT_EQ(line.find(path, 1), std::string::npos) << line;
+        if (path != "root.json") {
+            EXPECT_NE(line.find(" bytes "), std::string::npos) << line;
+        }
+    }
 
     // Every request failing: the client gives up on the root and frames go on.
     config.maxRetries = 2;

@@ -123,7 +123,7 @@ private:
     void takeCompletions(double nowS);
     void handle(Request& request, FetchCompletion& done, double nowS);
     Status accept(const Request& request, const std::vector<uint8_t>& bytes);
-    void retryOrSkip(Request request, const std::string& reason);
+    void retryOrSkip(Request request, const std::string& failure);  // names the request
     void requestCell(int cell);
     int nodeFor(const std::string& url, uint64_t fileBytes);
     int locate(Vec3 eyePos) const;

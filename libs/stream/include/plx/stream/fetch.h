@@ -24,6 +24,12 @@ struct ByteRange {
     friend bool operator==(const ByteRange&, const ByteRange&) = default;
 };
 
+// "PATH" or "PATH bytes FIRST-LAST": how every message about a request names it.
+inline std::string describeRequest(const std::string& path, const std::optional<ByteRange>& range) {
+    if (!range) return path;
+    return path + " bytes " + std::to_string(range->first) + "-" + std::to_string(range->last);
+}
+
 struct FetchRequest {
     uint64_t id = 0;                 // chosen by the caller, echoed by the completion
     std::string path;                // relative to the database root; checkUrl holds

@@ -10,6 +10,7 @@
 #include <condition_variable>
 #include <mutex>
 #include <optional>
+#include <stop_token>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -57,6 +58,7 @@ struct Client::Impl {
     mutable std::mutex mutex;
     mutable std::condition_variable changed;
     bool stopping = false;
+    std::stop_source stopConnecting;  // requested with stopping: a connect under way ends
     std::optional<PoseMessage> pose;
     uint64_t poseVersion = 0, sentVersion = 0;
     std::shared_ptr<const ReceivedSet> newest;
@@ -263,6 +265,7 @@ struct Client::Impl {
         cc.maxMessageBytes = kMaxReferenceSetMessageBytes;
         cc.handshakeTimeoutMs = config.connectTimeoutMs;
         cc.sourceAddress = config.sourceAddress;
+        cc.cancel = stopConnecting.get_token();
         auto c = transport->connect(config.host, config.port, config.path, cc, std::move(ev));
         if (!c) return c.status();
         ClientHello hello;
@@ -422,6 +425,7 @@ void Client::stop() {
         mImpl->stopping = true;
         mImpl->changed.notify_all();
     }
+    mImpl->stopConnecting.request_stop();
     if (mImpl->thread.joinable()) mImpl->thread.join();
     if (mImpl->decoder.joinable()) mImpl->decoder.join();
     mImpl->transport->stop();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <deque>
 #include <future>
 #include <mutex>
@@ -757,14 +758,23 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
         if (!parsed) return parsed.status();
         source = *parsed;
     }
-    auto result = std::make_shared<std::promise<Result<std::shared_ptr<Connection>>>>();
-    auto future = result->get_future();
+    // The outcome, set once on the I/O thread; waited for with the caller's stop token.
+    struct Outcome {
+        std::mutex mutex;
+        std::condition_variable_any settled;
+        std::optional<Result<std::shared_ptr<Connection>>> result;
+    };
+    auto outcome = std::make_shared<Outcome>();
+    auto settle = [outcome](Result<std::shared_ptr<Connection>> r) {
+        std::lock_guard lock(outcome->mutex);
+        outcome->result.emplace(std::move(r));
+        outcome->settled.notify_all();
+    };
     auto resolver = std::make_shared<tcp::resolver>(*mImpl->io);
     auto c = std::make_shared<WsConnection>(*mImpl->io, tcp::socket(*mImpl->io), config);
-    auto fail = [result, host, port](const std::string& step, ErrorCodeB ec) {
-        result->set_value(
-            errorStatus(ErrorCode::kIoError,
-                        fmt::format("{} ws://{}: {}", step, authority(host, port), ec.message())));
+    auto fail = [settle, host, port](const std::string& step, ErrorCodeB ec) {
+        settle(errorStatus(ErrorCode::kIoError, fmt::format("{} ws://{}: {}", step,
+                                                            authority(host, port), ec.message())));
     };
     const auto timeout =
         std::chrono::milliseconds(int64_t(std::max(1.0, config.handshakeTimeoutMs)));
@@ -776,7 +786,7 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
         c->ws().async_handshake(authority(host, port), path, [=](ErrorCodeB hec) {
             if (hec) return fail("WebSocket handshake with", hec);
             c->start(std::move(*ev));
-            result->set_value(std::shared_ptr<Connection>(c));
+            settle(std::shared_ptr<Connection>(c));
         });
     };
     asio::post(*mImpl->io, [=, this] {
@@ -804,12 +814,16 @@ Result<std::shared_ptr<Connection>> Transport::connect(const std::string& host, 
             });
     });
     // The handshake timeout bounds each step; the extra second covers name resolution.
-    if (future.wait_for(timeout * 3 + std::chrono::seconds(1)) != std::future_status::ready) {
+    std::unique_lock lock(outcome->mutex);
+    if (!outcome->settled.wait_for(lock, config.cancel, timeout * 3 + std::chrono::seconds(1),
+                                   [&] { return outcome->result.has_value(); })) {
+        lock.unlock();
         c->abort();
         return errorStatus(ErrorCode::kIoError,
-                           fmt::format("connecting to ws://{} timed out", authority(host, port)));
+                           fmt::format("connecting to ws://{} {}", authority(host, port),
+                                       config.cancel.stop_requested() ? "cancelled" : "timed out"));
     }
-    return future.get();
+    return std::move(*outcome->result);
 }
 
 void Transport::stop() {

@@ -1008,6 +1008,30 @@ TEST(RemoteSession, ASilentServerIsLeftAndRetried) {
     transport->stop();
 }
 
+// A server whose kernel takes the TCP connection but which never answers the WebSocket
+// handshake: a client stopped meanwhile leaves at once, not after its connect timeout.
+TEST(RemoteSession, AClientStopsWhileItsServerIsSlowToAnswer) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof addr;
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    ASSERT_EQ(::listen(fd, 4), 0);
+    ASSERT_EQ(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length), 0);
+    ClientConfig config;
+    config.port = ntohs(addr.sin_port);
+    config.faceSize = 32;
+    config.connectTimeoutMs = 20000.0;
+    auto client = std::move(Client::create(config)).value();
+    EXPECT_FALSE(client->waitForFirst(200.0));
+    const auto start = std::chrono::steady_clock::now();
+    client->stop();
+    EXPECT_LT(std::chrono::steady_clock::now() - start, 5s);
+    ::close(fd);
+}
+
 // A hostile server that answers the ClientHello, stops reading and sends Pings as fast as the
 // client reads them: the client's queue of Pongs stays at one (OneUnwritten).
 class PingFlooder {

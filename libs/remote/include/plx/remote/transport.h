@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <stop_token>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -89,6 +90,9 @@ struct ConnectionConfig {
     // server sees the client from it; the host's first address of that family is used (an
     // IPv4-mapped ::ffff:a.b.c.d counts as IPv4). Empty: the system's choice.
     std::string sourceAddress;
+    // Connections made by connect only: a stop requested here ends the connect at once (a
+    // client that stops while its server is slow to answer). No state: never.
+    std::stop_token cancel;
 };
 
 // The largest frame a connection writes: a longer message goes out as several frames (RFC 6455
@@ -158,8 +162,9 @@ public:
     ListenerStats listenerStats() const;
 
     // Connects to ws://host:port/path (from config.sourceAddress when set) and completes the
-    // WebSocket handshake, waiting at most config.handshakeTimeoutMs. Errors: unreachable,
-    // refused, timed out; a source address that is not an IP address, not local, or of a family
+    // WebSocket handshake, each step (name resolution, TCP, handshake) waiting at most
+    // config.handshakeTimeoutMs. Errors: unreachable, refused, timed out, cancelled; a source
+    // address that is not an IP address, not local, or of a family
     // the host has no address of.
     Result<std::shared_ptr<Connection>> connect(const std::string& host, int port,
                                                 const std::string& path,

@@ -91,6 +91,12 @@ struct Client::Impl {
                    errorStatus(ErrorCode::kCorruptData, "text message (binary messages only)"));
             return;
         }
+        if (!mayBeSentBy(bytes, Peer::kServer)) {
+            refuse(link, errorStatus(ErrorCode::kCorruptData,
+                                     fmt::format("unexpected {} from the server",
+                                                 messageTypeName(MessageType(bytes[0])))));
+            return;
+        }
         const uint64_t arrival = clientNowUs();
         if (!bytes.empty() && bytes[0] == uint8_t(MessageType::kReferenceSet)) {
             std::lock_guard lock(mutex);

@@ -256,6 +256,20 @@ const char* messageTypeName(MessageType type) {
     return i >= 0 && i < 8 ? kNames[i] : "unknown";
 }
 
+bool mayBeSentBy(std::span<const uint8_t> message, Peer sender) {
+    if (message.empty()) return true;
+    switch (MessageType(message[0])) {
+        case MessageType::kClientHello:
+        case MessageType::kPose:
+            return sender == Peer::kClient;
+        case MessageType::kServerHello:
+        case MessageType::kReferenceSet:
+            return sender == Peer::kServer;
+        default:
+            return true;
+    }
+}
+
 Result<std::vector<uint8_t>> encodeMessage(const Message& message, const CodecOptions& codec) {
     std::vector<uint8_t> out;
     ByteWriter w(&out);

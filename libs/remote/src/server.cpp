@@ -377,6 +377,10 @@ struct Server::Impl {
         }
         if (state == SessionState::kClosed) return;
         if (!binary) return fail(s, ErrorKind::kProtocol, "text message (binary messages only)");
+        if (!mayBeSentBy(bytes, Peer::kClient))
+            return fail(
+                s, ErrorKind::kProtocol,
+                fmt::format("unexpected {} from a client", messageTypeName(MessageType(bytes[0]))));
         DecodeLimits limits;
         auto m = decodeMessage(bytes, limits);
         if (!m) return fail(s, ErrorKind::kProtocol, m.status().message());
@@ -392,7 +396,7 @@ struct Server::Impl {
         if (auto* error = std::get_if<ErrorMessage>(&*m))
             return closeQuietly(s, "client error: " + printable(error->text, kMaxTextBytes));
         fail(s, ErrorKind::kProtocol,
-             fmt::format("unexpected {} from a client", messageTypeName(messageType(*m))));
+             fmt::format("{} after the session began", messageTypeName(messageType(*m))));
     }
 
     // The client said Bye (or sent an Error): closed without a word.

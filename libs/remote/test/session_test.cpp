@@ -505,9 +505,11 @@ TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
         {"empty", true, {}, "empty"},
         {"out of order: pose before hello", false, poseBytes, "before ClientHello"},
         {"out of order: second hello", true, std::move(encodeMessage(ClientHello{})).value(),
-         "unexpected client hello"},
+         "client hello after the session began"},
         {"server message from a client", true, std::move(encodeMessage(ServerHello{})).value(),
-         "unexpected server hello"},
+         "unexpected server hello from a client"},
+        // Refused by its type, not by a field the server never reads ("protocol version 0").
+        {"zeroed server message before hello", false, {2, 0, 0, 0, 0}, "unexpected server hello"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -969,6 +971,18 @@ TEST(RemoteSession, AServersErrorTextIsShownEscaped) {
     EXPECT_TRUE(eventually([&] {
         return client->stats().lastError == "server: broken??? renderer";
     })) << client->stats().lastError;
+}
+
+// A server that sends a client's message: refused by its type, the session retried.
+TEST(RemoteSession, AClientsMessageFromTheServerIsRefused) {
+    ReferenceSetMessage set;
+    set.set = renderedSet("office:1", 32);
+    std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
+    HostileServer server(good, {3, 0, 0, 0});  // a Pose's type byte, nothing after it
+    auto client = clientOf(server);
+    ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }));
+    EXPECT_EQ(server.errors().front().text, "unexpected pose from the server");
+    EXPECT_TRUE(eventually([&] { return client->stats().connects >= 2; }));
 }
 
 // A server that answers the ClientHello and then says nothing, not even a Pong: the client ends

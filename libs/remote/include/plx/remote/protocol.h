@@ -122,6 +122,13 @@ using Message = std::variant<ClientHello, ServerHello, PoseMessage, ReferenceSet
 MessageType messageType(const Message& message);
 const char* messageTypeName(MessageType type);
 
+// The direction column of docs/remote-protocol.md: false when the message's first byte names a
+// type only the other side sends (a ServerHello or ReferenceSet from a client, a ClientHello or
+// Pose from the server), which each side refuses by its type, before decoding it. Unknown types
+// pass here; the decoder refuses them.
+enum class Peer { kClient, kServer };
+bool mayBeSentBy(std::span<const uint8_t> message, Peer sender);
+
 // Encodes one message. codec applies to reference sets only. Errors (kInvalidArgument): a field
 // outside its documented range (the decoder would refuse it), a set the codec refuses.
 Result<std::vector<uint8_t>> encodeMessage(const Message& message, const CodecOptions& codec = {});

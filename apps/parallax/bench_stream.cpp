@@ -130,7 +130,7 @@ void printTables(const StreamExperiment& e, const std::string& dir) {
     for (const PolicyRow& p : e.policies)
         fmt::print("{:<11} {:>12} {:>9.2f} {:>11.2f} {:>11.2f} {:>8} {:>14.0f} {:>14}\n",
                    stream::policyName(p.policy), p.budgetBytes, p.psnrDb, p.psnrAfterFirstStopDb,
-                   p.psnrMedianDb, p.framesCompared, p.meanResidentBytes, p.maxResidentBytes);
+                   p.psnrDbMedian, p.framesCompared, p.meanResidentBytes, p.maxResidentBytes);
     fmt::print(
         "largest room PVS: {} texel bytes at full resolution; wrote {}walks.csv, policies.csv, "
         "policy_frames.csv, stream.json, SVG plots and frames\n",

@@ -230,7 +230,7 @@ PolicyRow policyRow(stream::AllocationPolicy policy, uint64_t budget, const Walk
     row.framesCompared = int(w.mse.size());
     row.psnrDb = psnrFromFrame(w, 0);
     row.psnrAfterFirstStopDb = psnrFromFrame(w, size_t(std::ceil(tour.stopS * tour.fps)));
-    row.psnrMedianDb = median(w.psnrDb);
+    row.psnrDbMedian = median(w.psnrDb);
     for (size_t k = 0; k < w.psnrDb.size(); ++k)
         row.framePsnrDb.emplace_back(w.comparedFrames[k], w.psnrDb[k]);
     row.meanResidentBytes = w.residentSum / double(std::max<size_t>(1, w.run.frames.size()));
@@ -440,7 +440,7 @@ nlohmann::json streamExperimentJson(const StreamExperiment& e) {
                             {"budget_bytes", p.budgetBytes},
                             {"psnr_db", p.psnrDb},
                             {"psnr_after_first_stop_db", p.psnrAfterFirstStopDb},
-                            {"psnr_median_db", p.psnrMedianDb},
+                            {"psnr_db_median", p.psnrDbMedian},
                             {"frames_compared", p.framesCompared},
                             {"mean_resident_bytes", p.meanResidentBytes},
                             {"max_resident_bytes", p.maxResidentBytes},
@@ -470,13 +470,13 @@ std::string streamWalksCsv(const StreamExperiment& e) {
 
 std::string streamPoliciesCsv(const StreamExperiment& e) {
     std::string csv =
-        "policy,budget_bytes,psnr_db,psnr_after_first_stop_db,psnr_median_db,frames_compared,"
+        "policy,budget_bytes,psnr_db,psnr_after_first_stop_db,psnr_db_median,frames_compared,"
         "mean_resident_bytes,max_resident_bytes,frames_over_budget,downloaded_bytes,"
         "quality_final\n";
     for (const PolicyRow& p : e.policies)
         csv += fmt::format("{},{},{:.3f},{:.3f},{:.3f},{},{:.0f},{},{},{},{:.4f}\n",
                            stream::policyName(p.policy), p.budgetBytes, p.psnrDb,
-                           p.psnrAfterFirstStopDb, p.psnrMedianDb, p.framesCompared,
+                           p.psnrAfterFirstStopDb, p.psnrDbMedian, p.framesCompared,
                            p.meanResidentBytes, p.maxResidentBytes, p.framesOverBudget,
                            p.downloadedBytes, p.qualityFinal);
     return csv;

@@ -85,7 +85,7 @@ struct PolicyRow {
     // The same over the frames after the tour's first stop (t >= stopS): the start-up load in
     // the first room, bound by the link and the same under every policy, left out.
     double psnrAfterFirstStopDb = 0.0;
-    double psnrMedianDb = 0.0;  // median of the frames' PSNR (99 for identical frames)
+    double psnrDbMedian = 0.0;  // median of the frames' PSNR (99 for identical frames)
     double meanResidentBytes = 0.0;
     uint64_t maxResidentBytes = 0;
     int framesOverBudget = 0;

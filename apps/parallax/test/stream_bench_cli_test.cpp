@@ -45,6 +45,8 @@ TEST(StreamBenchCli, QuickJsonRowsAndOrderByBandwidth) {
         EXPECT_GT(p["psnr_db"].get<double>(), 10.0);
         // The frames after the first stop are fewer and past the start-up load.
         EXPECT_GE(p["psnr_after_first_stop_db"].get<double>(), p["psnr_db"].get<double>() - 3.0);
+        // Named as client and bench warp and remote name their median PSNR.
+        EXPECT_GT(p["psnr_db_median"].get<double>(), 10.0);
     }
     EXPECT_FALSE(doc.contains("frame_time"));  // --no-frame-times
     for (const char* file :

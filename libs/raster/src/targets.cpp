@@ -60,6 +60,11 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
     if (rt.visibility.id2.data && (!fits(rt.visibility.id2.width, rt.visibility.id2.height) ||
                                    !fits(rt.visibility.depth2.width, rt.visibility.depth2.height)))
         return bad("second-layer target size differs from the camera's image");
+    // Rows that overlap would be written over each other, and past the view's end.
+    auto rowsApart = [](const auto& view) { return !view.data || view.strideElems >= view.width; };
+    if (!rowsApart(rt.color) || !rowsApart(rt.depth) || !rowsApart(rt.id) ||
+        !rowsApart(rt.visibility.depth2) || !rowsApart(rt.visibility.id2))
+        return bad("a target's row stride is smaller than its width");
     return Status::ok();
 }
 

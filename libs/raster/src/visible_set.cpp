@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <limits>
 #include <utility>
 
 #include <plx/core/cpu.h>
@@ -72,6 +73,8 @@ void radixSort(std::vector<uint32_t>* keys, std::vector<uint32_t>* scratch,
 
 void VisibleSetCollector::begin(size_t triangleCount, int slots) {
     PLX_CHECK(slots >= 1);
+    // IDs are triangle index + 1 in 32 bits; a larger count would wrap the flag words.
+    PLX_CHECK(triangleCount < std::numeric_limits<uint32_t>::max());
     // Every set flag is in a list: clearing the listed ones clears them all, in O(visible).
     auto clearFlags = [this](std::vector<uint32_t>& list) {
         for (uint32_t tri : list) mFlags[tri >> 6] = 0;

@@ -996,6 +996,16 @@ TEST(Raster, RejectsMalformedRenderRequests) {
     EXPECT_NE(message({}, {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), {}}})
                   .find("both"),
               std::string::npos);
+    // Row strides below the width (rows overlapping, or running backwards over the data).
+    for (ptrdiff_t stride : {ptrdiff_t(31), ptrdiff_t(0), ptrdiff_t(-32)}) {
+        RenderTargets overlapping = fb.targets();
+        overlapping.id.strideElems = stride;
+        EXPECT_NE(message({}, overlapping).find("row stride"), std::string::npos) << stride;
+    }
+    RenderTargets secondLayer = fb.targets();
+    secondLayer.visibility = {depth2.view(), id2.view()};
+    secondLayer.visibility.depth2.strideElems = 1;
+    EXPECT_NE(message({}, secondLayer).find("row stride"), std::string::npos);
 }
 
 }  // namespace

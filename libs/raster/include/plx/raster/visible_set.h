@@ -20,7 +20,8 @@ namespace plx::raster {
 class VisibleSetCollector : public TileIdVisitor {
 public:
     // Starts a new set for a scene of triangleCount triangles; up to `slots` threads may call
-    // visitTile concurrently.
+    // visitTile concurrently. Preconditions (checked, abort): triangleCount below 2^32 - 1
+    // (IDs are index + 1 in 32 bits), slots >= 1.
     void begin(size_t triangleCount, int slots = 1);
     // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
     void add(const Image<uint32_t>& ids);

@@ -3,7 +3,8 @@
 namespace plx {
 
 Image<Rgba8> toRgba8(const ByteImage& src) {
-    PLX_CHECK(src.channels >= 1 && src.channels <= 4);
+    PLX_CHECK(src.channels >= 1 && src.channels <= 4 && src.width >= 0 && src.height >= 0);
+    PLX_CHECK(src.bytes.size() == src.rowBytes() * size_t(src.height));
     Image<Rgba8> out(src.width, src.height);
     for (int y = 0; y < src.height; ++y) {
         for (int x = 0; x < src.width; ++x) {

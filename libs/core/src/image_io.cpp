@@ -143,10 +143,16 @@ Result<ByteImage> readImage(const std::string& path, int64_t maxPixels) {
 }
 
 Result<std::vector<uint8_t>> encodePng(const ByteImage& image, int compressionLevel) {
-    PLX_CHECK(image.channels >= 1 && image.channels <= 4);
-    PLX_CHECK(image.bytes.size() == image.rowBytes() * size_t(image.height));
+    if (image.channels < 1 || image.channels > 4)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("cannot encode {} channels as PNG (1-4)", image.channels));
     if (image.width < 1 || image.height < 1)
         return errorStatus(ErrorCode::kInvalidArgument, "cannot encode an empty image as PNG");
+    if (image.bytes.size() != image.rowBytes() * size_t(image.height))
+        return errorStatus(
+            ErrorCode::kInvalidArgument,
+            fmt::format("{} bytes for a {}x{} image of {} channels", image.bytes.size(),
+                        image.width, image.height, image.channels));
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!info) {

@@ -138,6 +138,21 @@ TEST(ImageIo, PngRoundTripAllChannelCounts) {
     }
 }
 
+TEST(ImageIo, PngEncoderRefusesImagesThatDisagreeWithThemselves) {
+    ByteImage zeroChannels = randomImage(4, 4, 1, 1);
+    zeroChannels.channels = 0;
+    ByteImage sevenChannels = randomImage(4, 4, 1, 1);
+    sevenChannels.channels = 7;
+    ByteImage shortBytes = randomImage(4, 4, 3, 1);
+    shortBytes.bytes.resize(5);
+    ByteImage negativeWidth = randomImage(4, 4, 3, 1);
+    negativeWidth.width = -1;
+    for (const ByteImage& img : {zeroChannels, sevenChannels, shortBytes, negativeWidth})
+        EXPECT_EQ(encodePng(img).status().code(), ErrorCode::kInvalidArgument)
+            << img.width << "x" << img.height << "x" << img.channels;
+    EXPECT_EQ(encodePng(shortBytes).status().message(), "5 bytes for a 4x4 image of 3 channels");
+}
+
 TEST(ImageIo, EveryTruncatedPngPrefixFailsCleanly) {
     ByteImage img = randomImage(9, 7, 3, 5);
     auto png = encodePng(img);

@@ -98,9 +98,11 @@ struct ByteImage {
     friend bool operator==(const ByteImage&, const ByteImage&) = default;
 };
 
-// Expands 1-4 channels to RGBA (grey to RGB, missing alpha to 255).
+// Expands 1-4 channels to RGBA (grey to RGB, missing alpha to 255). Preconditions (checked,
+// abort): 1-4 channels, a size of at least 0x0, and bytes of exactly that size.
 Image<Rgba8> toRgba8(const ByteImage& image);
 // Packs RGBA into a ByteImage with the given channel count (1: luma of RGB, 2: luma+alpha).
+// Precondition (checked, abort): channels 1-4.
 ByteImage fromRgba8(const Image<Rgba8>& image, int channels = 4);
 
 }  // namespace plx

@@ -28,7 +28,8 @@ Result<ByteImage> decodeImage(std::span<const uint8_t> bytes,
 // Reads and decodes a PNG or JPEG file.
 Result<ByteImage> readImage(const std::string& path, int64_t maxPixels = kDefaultMaxPixels);
 
-// Encodes a PNG. compressionLevel is zlib's 0-9.
+// Encodes a PNG. compressionLevel is zlib's 0-9. Errors (kInvalidArgument): channels outside
+// 1-4, an empty image, bytes not of the image's size.
 Result<std::vector<uint8_t>> encodePng(const ByteImage& image, int compressionLevel = 6);
 Status writePng(const std::string& path, const ByteImage& image, int compressionLevel = 6);
 Status writePng(const std::string& path, const Image<Rgba8>& image, int compressionLevel = 6);

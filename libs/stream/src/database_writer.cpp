@@ -184,6 +184,9 @@ Result<BuildStats> writeDatabase(const scene::Scene& scene, const Cells& cells,
 
 Result<std::vector<CellVisibility>> mergeParts(const std::vector<PartFile>& parts,
                                                const std::string& hash, uint32_t cellCount) {
+    if (cellCount < 1 || cellCount > uint32_t(kMaxCells))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("{} cells outside 1..{}", cellCount, kMaxCells));
     std::vector<CellVisibility> all(cellCount);
     std::vector<bool> covered(cellCount, false);
     for (size_t i = 0; i < parts.size(); ++i) {
@@ -199,6 +202,10 @@ Result<std::vector<CellVisibility>> mergeParts(const std::vector<PartFile>& part
                                            "face {}) than part 1",
                                            i + 1, p.first, p.last, p.samples, p.faceSize));
         for (const CellVisibility& v : p.visibility) {
+            if (v.cell >= cellCount)
+                return errorStatus(
+                    ErrorCode::kInvalidArgument,
+                    fmt::format("part {} names cell {} of {}", i + 1, v.cell, cellCount));
             if (covered[v.cell])
                 return errorStatus(ErrorCode::kInvalidArgument,
                                    fmt::format("cell {} is in more than one part", v.cell));

@@ -42,7 +42,8 @@ FetchCompletion LinkSimulator::serve(const FetchRequest& request, Fault fault) c
         if (request.range->first > request.range->last || request.range->first >= file.size())
             return fail(ErrorCode::kOutOfRange, "range not satisfiable");
         first = size_t(request.range->first);
-        last = size_t(std::min<uint64_t>(request.range->last + 1, file.size()));
+        // The end clipped before the + 1: a last of 2^64 - 1 would wrap to an empty body.
+        last = size_t(std::min<uint64_t>(request.range->last, file.size() - 1)) + 1;
     }
     if (request.maxBytes && last - first > request.maxBytes)
         return fail(ErrorCode::kOutOfRange, fmt::format("body of {} bytes over the limit of {}",

@@ -4,12 +4,22 @@
 
 #include <plx/stream/http_fetch.h>
 
+#include <cmath>
+
+#include <fmt/format.h>
+
 #include <plx/core/file.h>
 
 namespace plx::stream {
 
 Result<std::unique_ptr<Fetcher>> openFetcher(const std::string& location,
                                              const LinkOptions& options) {
+    if (!(std::isfinite(options.bandwidthBitsPerS) && options.bandwidthBitsPerS >= 0.0 &&
+          std::isfinite(options.latencyS) && options.latencyS >= 0.0))
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("link bandwidth {} bit/s and latency {} s must be finite "
+                                       "and >= 0",
+                                       options.bandwidthBitsPerS, options.latencyS));
     if (location.rfind("http://", 0) == 0) {
         if (options.bandwidthBitsPerS > 0.0 || options.latencyS > 0.0)
             return errorStatus(ErrorCode::kInvalidArgument,

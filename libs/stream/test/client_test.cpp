@@ -152,6 +152,12 @@ TEST(StreamLink, RefusesEscapesAndInjectsFaults) {
     EXPECT_EQ(done[1].bytes.size(), 100u);
     EXPECT_NE(done[1].bytes[50], 'y');
     EXPECT_FALSE(done[2].status.isOk());
+    // A range to the end of the largest file there can be: clipped to the file, as HTTP does.
+    link.submit({4, "f.bin", ByteRange{90, UINT64_MAX}, 0}, 0.0);
+    auto tail = link.poll(0.0);
+    ASSERT_EQ(tail.size(), 1u);
+    EXPECT_TRUE(tail[0].status.isOk()) << tail[0].status.message();
+    EXPECT_EQ(tail[0].bytes.size(), 10u);
 }
 
 TEST(StreamLink, OpenFetcherNamesWhatItCannotOpen) {
@@ -167,6 +173,10 @@ TEST(StreamLink, OpenFetcherNamesWhatItCannotOpen) {
     ASSERT_TRUE(http.isOk()) << http.status().message();
     EXPECT_TRUE((*http)->realTime());
     EXPECT_FALSE(openFetcher(testDir("empty").string(), {}).isOk());
+    for (LinkOptions bad :
+         {LinkOptions{std::nan(""), 0.0}, LinkOptions{0.0, -1.0}, LinkOptions{INFINITY, 0.0}})
+        EXPECT_EQ(openFetcher(testDir("empty").string(), bad).status().code(),
+                  ErrorCode::kInvalidArgument);
 }
 
 // A museum:4 database built once for the walks below (two samples, small faces: fast).

@@ -347,6 +347,14 @@ TEST(StreamDatabase, RangesMergedEqualTheWholeBuild) {
     // Merge refuses gaps, overlaps and other scenes.
     EXPECT_FALSE(mergeParts({parts[0]}, hash, 4).isOk());
     EXPECT_FALSE(mergeParts({parts[0], parts[1], parts[1]}, hash, 4).isOk());
+    // Counts and cells out of range are refused before anything is allocated for them.
+    EXPECT_FALSE(mergeParts({}, hash, UINT32_MAX).isOk());
+    EXPECT_FALSE(mergeParts({}, hash, 0).isOk());
+    PartFile stray = parts[0];
+    stray.visibility[0].cell = 4;
+    auto strayMerge = mergeParts({stray, parts[1]}, hash, 4);
+    ASSERT_FALSE(strayMerge.isOk());
+    EXPECT_EQ(strayMerge.status().message(), "part 1 names cell 4 of 4");
     EXPECT_FALSE(mergeParts(parts, "0123456789abcdef", 4).isOk());
 }
 

@@ -127,8 +127,9 @@ Result<BuildStats> writeDatabase(const scene::Scene& scene, const Cells& cells,
                                  const VisibilityConfig& sampling, const std::string& sceneName,
                                  const std::string& dir);
 
-// Joins part files into the visibility of every cell. Errors: parts of another scene (hash),
-// sampling or cell count differing, a cell missing or covered twice.
+// Joins part files into the visibility of every cell. Errors: cellCount outside 1..kMaxCells,
+// parts of another scene (hash), sampling or cell count differing, a cell out of range, missing
+// or covered twice.
 Result<std::vector<CellVisibility>> mergeParts(const std::vector<PartFile>& parts,
                                                const std::string& sceneHash, uint32_t cellCount);
 

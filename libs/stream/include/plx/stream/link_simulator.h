@@ -52,7 +52,8 @@ private:
 };
 
 // A transport for a location: a database folder gives a LinkSimulator with these options; an
-// http:// URL needs the HTTP transport. Errors: a folder without root.json, an unknown scheme.
+// http:// URL needs the HTTP transport. Errors: a folder without root.json, an unknown scheme,
+// a bandwidth or latency that is negative or not finite.
 Result<std::unique_ptr<Fetcher>> openFetcher(const std::string& location,
                                              const LinkOptions& options);
 

@@ -60,6 +60,7 @@ Status invalid(const char* what, const std::string& problem) {
 
 // Encoders: each checks what the decoder would refuse, then writes the fields in order.
 Status put(ByteWriter& w, const ClientHello& m, const CodecOptions&) {
+    if (!layoutValid(int(m.layout))) return invalid("client hello", "unknown layout");
     if (!faceValid(m.faceSize)) return invalid("client hello", "faceSize out of range");
     if (m.token.size() > kMaxTokenBytes) return invalid("client hello", "token too long");
     if (m.disparityCodecs == 0 || (m.disparityCodecs & ~kAllDisparityCodecs) != 0) {
@@ -74,6 +75,7 @@ Status put(ByteWriter& w, const ClientHello& m, const CodecOptions&) {
 }
 
 Status put(ByteWriter& w, const ServerHello& m, const CodecOptions&) {
+    if (!layoutValid(int(m.layout))) return invalid("server hello", "unknown layout");
     if (!faceValid(m.faceSize)) return invalid("server hello", "faceSize out of range");
     if (m.poseRateHz < 1 || m.poseRateHz > 1000) return invalid("server hello", "poseRateHz");
     if (m.reason.size() > kMaxTextBytes || m.accepted != m.reason.empty()) {

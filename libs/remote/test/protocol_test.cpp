@@ -239,6 +239,12 @@ TEST(Protocol, EncoderRefusesWhatTheDecoderWould) {
     ClientHello unknown;
     unknown.disparityCodecs = kAllDisparityCodecs | 0x10;
     expectOneLineError(encodeMessage(unknown).status(), "disparityCodecs");
+    ClientHello layout;
+    layout.layout = warp::ReferenceLayout(9);
+    expectOneLineError(encodeMessage(layout).status(), "unknown layout");
+    ServerHello serverLayout;
+    serverLayout.layout = warp::ReferenceLayout(9);
+    expectOneLineError(encodeMessage(serverLayout).status(), "unknown layout");
 }
 
 // Native clients (every codec) get q16-packed, one without it q16 + zstd; a browser (deflate only)

@@ -8,6 +8,26 @@
 namespace plx::scene {
 namespace {
 
+// Viewpoints and rooms become cameras (findViewpoint, the streaming tour): each point finite
+// and within a camera's range, each room a box.
+Status checkViewpointsAndRooms(const Scene& scene) {
+    auto framable = [](const Vec3& v) { return isFinite(v) && !beyondCameraRange(v); };
+    for (const Viewpoint& v : scene.viewpoints)
+        if (!framable(v.eyePos) || !framable(v.targetPos) || !framable(v.upDir))
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("viewpoint '{}' has a non-finite or too distant eye, "
+                                           "target or up vector",
+                                           printable(v.name)));
+    for (size_t r = 0; r < scene.rooms.size(); ++r) {
+        const Aabb& box = scene.rooms[r];
+        if (!framable(box.lo) || !framable(box.hi) || box.isEmpty())
+            return errorStatus(
+                ErrorCode::kCorruptData,
+                fmt::format("room {} is not a finite box within +-{:g}", r, kMaxCameraCoordinate));
+    }
+    return Status::ok();
+}
+
 Status checkMesh(const Scene& scene, size_t m) {
     const Mesh& mesh = scene.meshes[m];
     auto where = [&] { return fmt::format("mesh {} ('{}')", m, printable(mesh.name)); };
@@ -90,7 +110,12 @@ Status Scene::finalize() {
         if (t >= int(textures.size()) || t < -1)
             return errorStatus(ErrorCode::kCorruptData,
                                fmt::format("material {} refers to missing texture {}", i, t));
+        const Vec4& color = materials[i].baseColor;
+        if (!isFinite(Vec3(color)) || !std::isfinite(color.w))
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("material {} has a non-finite colour", i));
     }
+    PLX_RETURN_IF_ERROR(checkViewpointsAndRooms(*this));
     for (const Texture& tex : textures)
         if (tex.mips.empty() || tex.mips[0].empty())
             return errorStatus(ErrorCode::kCorruptData,

@@ -63,6 +63,27 @@ TEST(Scene, FinalizeRejectsBadGeometry) {
     EXPECT_FALSE(s.finalize().isOk());
 }
 
+// Viewpoints and rooms become cameras; colours are drawn: none may be NaN or out of range.
+TEST(Scene, FinalizeRejectsWhatCouldNotBeFramedOrDrawn) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    Scene s = oneTriangle();
+    s.viewpoints.push_back({"door", {0, 0, 3}, {nan, 0, 0}});
+    EXPECT_NE(s.finalize().message().find("viewpoint 'door'"), std::string::npos);
+    s = oneTriangle();
+    s.rooms.push_back(Aabb{{-1e30f, 0, 0}, {1, 1, 1}});
+    EXPECT_NE(s.finalize().message().find("room 0 is not a finite box"), std::string::npos);
+    s = oneTriangle();
+    s.rooms.push_back(Aabb{});  // empty
+    EXPECT_FALSE(s.finalize().isOk());
+    s = oneTriangle();
+    s.materials.push_back(Material{"m", {0.5f, 0.5f, 0.5f, nan}, -1});
+    EXPECT_NE(s.finalize().message().find("material 0 has a non-finite colour"), std::string::npos);
+    s = oneTriangle();
+    s.viewpoints.push_back({"door", {0, 0, 3}});
+    s.rooms.push_back(Aabb{{0, 0, 0}, {1, 1, 1}});
+    EXPECT_TRUE(s.finalize().isOk());
+}
+
 TEST(Scene, MipChainHalvesDownToOnePixel) {
     Texture t;
     t.mips.emplace_back(5, 3, Rgba8{255, 0, 0, 255});

@@ -75,9 +75,17 @@ void jpegWarning(j_common_ptr info, int level) {
     if (level < 0 && err->warning[0] == '\0') (*info->err->format_message)(info, err->warning);
 }
 
+// Why a JPEG decode failed, as plain data: decodeJpegInto calls setjmp, and its message is
+// formed outside it (jpegFailureText).
+struct JpegFailure {
+    enum class Kind { kNone, kLibjpeg, kTooLarge, kDamaged } kind = Kind::kNone;
+    char text[JMSG_LENGTH_MAX] = "";  // libjpeg's error or first warning
+    unsigned width = 0, height = 0;   // the declared size, for kTooLarge
+};
+
 // Kept free of C++ objects with destructors between setjmp and longjmp, as the standard requires.
 bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage* out,
-                    std::string* error) {
+                    JpegFailure* failure) {
     jpeg_decompress_struct info;
     JpegErrorManager err;
     info.err = jpeg_std_error(&err.base);
@@ -85,7 +93,8 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     err.base.emit_message = jpegWarning;
     err.warning[0] = '\0';
     if (setjmp(err.jump)) {
-        *error = err.message;
+        failure->kind = JpegFailure::Kind::kLibjpeg;
+        std::memcpy(failure->text, err.message, sizeof(failure->text));
         jpeg_destroy_decompress(&info);
         return false;
     }
@@ -93,9 +102,9 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
     jpeg_read_header(&info, TRUE);
     if (!checkDecodedSize(info.image_width, info.image_height, "JPEG", maxPixels).isOk()) {
-        *error =
-            fmt::format("declares {}x{} pixels, more than the limit of {} pixels", info.image_width,
-                        info.image_height, std::min(maxPixels, kMaxDecodedPixels));
+        failure->kind = JpegFailure::Kind::kTooLarge;
+        failure->width = info.image_width;
+        failure->height = info.image_height;
         jpeg_destroy_decompress(&info);
         return false;
     }
@@ -112,10 +121,24 @@ bool decodeJpegInto(std::span<const uint8_t> bytes, int64_t maxPixels, ByteImage
     jpeg_finish_decompress(&info);
     jpeg_destroy_decompress(&info);
     if (err.warning[0] != '\0') {
-        *error = fmt::format("damaged data ({})", err.warning);
+        failure->kind = JpegFailure::Kind::kDamaged;
+        std::memcpy(failure->text, err.warning, sizeof(failure->text));
         return false;
     }
     return true;
+}
+
+std::string jpegFailureText(const JpegFailure& failure, int64_t maxPixels) {
+    switch (failure.kind) {
+        case JpegFailure::Kind::kTooLarge:
+            return fmt::format("declares {}x{} pixels, more than the limit of {} pixels",
+                               failure.width, failure.height,
+                               std::min(maxPixels, kMaxDecodedPixels));
+        case JpegFailure::Kind::kDamaged:
+            return fmt::format("damaged data ({})", failure.text);
+        default:
+            return failure.text;
+    }
 }
 
 }  // namespace
@@ -126,9 +149,10 @@ Result<ByteImage> decodeImage(std::span<const uint8_t> bytes, int64_t maxPixels)
         return decodePng(bytes, maxPixels);
     if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
         ByteImage out;
-        std::string error;
-        if (!decodeJpegInto(bytes, maxPixels, &out, &error))
-            return errorStatus(ErrorCode::kCorruptData, "JPEG: " + error);
+        JpegFailure failure;
+        if (!decodeJpegInto(bytes, maxPixels, &out, &failure))
+            return errorStatus(ErrorCode::kCorruptData,
+                               "JPEG: " + jpegFailureText(failure, maxPixels));
         return out;
     }
     return errorStatus(ErrorCode::kUnsupported, "not a PNG or JPEG image (unknown signature)");

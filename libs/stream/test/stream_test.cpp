@@ -1,8 +1,10 @@
 // Cells, PVS + ACH (Marvie & Bouatouch section 5) and the scene database's files.
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -134,6 +136,29 @@ TEST(StreamCells, AdjacencyOfAGrid) {
     auto adjacent = adjacentCells(makeCells(museum).value().boxes);
     EXPECT_EQ(adjacent[0], (std::vector<uint32_t>{1, 2, 3}));  // corners touch too
     EXPECT_EQ(adjacent[3], (std::vector<uint32_t>{0, 1, 2}));
+}
+
+// The sweep against the definition: every pair tested, on boxes that touch, overlap, nest and
+// share their low x.
+TEST(StreamCells, AdjacencyEqualsEveryPairTested) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> corner(0.0f, 20.0f), side(0.0f, 3.0f);
+    std::vector<Aabb> boxes;
+    for (int i = 0; i < 400; ++i) {
+        Vec3 lo(std::floor(corner(rng)), corner(rng), corner(rng));
+        boxes.push_back({lo, lo + Vec3(std::floor(side(rng)), side(rng), side(rng))});
+    }
+    const float tolerance = 0.25f;
+    std::vector<std::vector<uint32_t>> expected(boxes.size());
+    for (uint32_t i = 0; i < boxes.size(); ++i)
+        for (uint32_t j = 0; j < boxes.size(); ++j) {
+            bool touch = i != j;
+            for (int k = 0; k < 3; ++k)
+                touch = touch && boxes[i].lo[k] <= boxes[j].hi[k] + tolerance &&
+                        boxes[j].lo[k] <= boxes[i].hi[k] + tolerance;
+            if (touch) expected[i].push_back(j);
+        }
+    EXPECT_EQ(adjacentCells(boxes, tolerance), expected);
 }
 
 TEST(StreamVisibility, SamplePointsSpreadInsideTheMarginAndNest) {

@@ -5,6 +5,7 @@
 #include <plx/core/file.h>
 
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -24,6 +25,37 @@ Status fieldError(const std::string& path, const std::string& problem) {
 // camera coordinates, which still step by a millimetre there, and far larger values (1e39 mm)
 // are no float at all.
 constexpr double kMaxLengthMm = 1e7;
+
+// The largest framebuffer or projector side, in pixels.
+constexpr int64_t kMaxPixelSide = 16384;
+
+// A field and what is wrong with it: the checks that parsing and validateDisplay share.
+struct Problem {
+    const char* path;
+    const char* text;
+};
+
+std::optional<Problem> sheetProblem(const ConeMirror& cone) {
+    if (!(cone.sheetThicknessMm >= 0.0))
+        return Problem{"optics.sheet.thickness", "must not be negative"};
+    if (!(cone.refractiveIndex >= 1.0 && cone.refractiveIndex <= 4.0))
+        return Problem{"optics.sheet.refractive_index", "must lie in [1, 4]"};
+    return std::nullopt;
+}
+
+std::optional<Problem> projectorProblem(const Projector& p) {
+    if (!(p.fovYDegrees > 1.0 && p.fovYDegrees < 170.0))
+        return Problem{"optics.projector.fov_y", "must lie in (1, 170) degrees"};
+    DVec3 f = p.targetMm - p.posMm;
+    if (!(glm::length(f) >= 1e-9)) return Problem{"optics.projector", "target equals position"};
+    if (!(glm::length(glm::cross(f, p.upDir)) >= 1e-9 * glm::length(f)))
+        return Problem{"optics.projector.up", "must not be parallel to the view direction"};
+    return std::nullopt;
+}
+
+bool pixelSizeFits(int64_t width, int64_t height) {
+    return width >= 1 && height >= 1 && width <= kMaxPixelSide && height <= kMaxPixelSide;
+}
 
 // Small typed accessors that name the field on failure.
 class Reader {
@@ -81,8 +113,8 @@ public:
             !(*it)[1].is_number_integer())
             return fieldError(path, "must be [width, height] in whole pixels");
         int64_t a = (*it)[0].get<int64_t>(), b = (*it)[1].get<int64_t>();
-        if (a < 1 || b < 1 || a > 16384 || b > 16384)
-            return fieldError(path, "pixel sizes must lie in [1, 16384]");
+        if (!pixelSizeFits(a, b))
+            return fieldError(path, fmt::format("pixel sizes must lie in [1, {}]", kMaxPixelSide));
         *w = int(a), *h = int(b);
         return Status::ok();
     }
@@ -106,12 +138,9 @@ Status parseSheet(const Reader& rd, const json& optics, ConeMirror* cone) {
     if (!it->is_object()) return fieldError("optics.sheet", "must be an object");
     PLX_RETURN_IF_ERROR(
         rd.number(*it, "thickness", "optics.sheet.thickness", &cone->sheetThicknessMm, true));
-    if (cone->sheetThicknessMm < 0.0)
-        return fieldError("optics.sheet.thickness", "must not be negative");
     PLX_RETURN_IF_ERROR(rd.number(*it, "refractive_index", "optics.sheet.refractive_index",
                                   &cone->refractiveIndex, false));
-    if (cone->refractiveIndex < 1.0 || cone->refractiveIndex > 4.0)
-        return fieldError("optics.sheet.refractive_index", "must lie in [1, 4]");
+    if (auto problem = sheetProblem(*cone)) return fieldError(problem->path, problem->text);
     return Status::ok();
 }
 
@@ -122,16 +151,10 @@ Status parseProjector(const Reader& rd, const json& optics, Projector* p) {
     PLX_RETURN_IF_ERROR(rd.vec3(*pj, "target", "optics.projector.target", &p->targetMm, true));
     if (pj->contains("up"))
         PLX_RETURN_IF_ERROR(rd.vec3(*pj, "up", "optics.projector.up", &p->upDir, false));
-    PLX_RETURN_IF_ERROR(
-        rd.number(*pj, "fov_y", "optics.projector.fov_y", &p->fovYDegrees, false));
-    if (p->fovYDegrees <= 1.0 || p->fovYDegrees >= 170.0)
-        return fieldError("optics.projector.fov_y", "must lie in (1, 170) degrees");
+    PLX_RETURN_IF_ERROR(rd.number(*pj, "fov_y", "optics.projector.fov_y", &p->fovYDegrees, false));
     PLX_RETURN_IF_ERROR(
         rd.size(*pj, "resolution", "optics.projector.resolution", &p->widthPx, &p->heightPx));
-    DVec3 f = p->targetMm - p->posMm;
-    if (glm::length(f) < 1e-9) return fieldError("optics.projector", "target equals position");
-    if (glm::length(glm::cross(f, p->upDir)) < 1e-9 * glm::length(f))
-        return fieldError("optics.projector.up", "must not be parallel to the view direction");
+    if (auto problem = projectorProblem(*p)) return fieldError(problem->path, problem->text);
     return Status::ok();
 }
 
@@ -202,12 +225,26 @@ Status validateDisplay(const Display& d) {
         return bad("viewer: must lie outside the content sphere");
     if (!(d.displayMax.x > d.displayMin.x && d.displayMax.y > d.displayMin.y))
         return bad("display: max must exceed min on both axes");
+    if (!pixelSizeFits(d.framebufferWidth, d.framebufferHeight))
+        return bad(
+            fmt::format("display.framebuffer: pixel sizes must lie in [1, {}]", kMaxPixelSide));
+    auto badField = [&](const Problem& p) { return bad(std::string(p.path) + ": " + p.text); };
     if (const auto* cone = std::get_if<ConeMirror>(&d.optics)) {
+        if (!(cone->bottomRadiusMm > 0.0 && cone->topRadiusMm >= cone->bottomRadiusMm &&
+              cone->heightMm > 0.0))
+            return bad(
+                "optics: the mirror needs positive radii, top no smaller than bottom, "
+                "and a positive height");
+        if (auto problem = sheetProblem(*cone)) return badField(*problem);
         const DVec3& e = d.defaultViewerMm;
         double r = cone->bottomRadiusMm + cone->slope() * e.y;
         if (std::hypot(e.x, e.z) <= r) return bad("viewer: must lie outside the mirror");
     } else {
         const auto& screen = std::get<ProjectedScreen>(d.optics);
+        if (!pixelSizeFits(screen.projector.widthPx, screen.projector.heightPx))
+            return bad(fmt::format("optics.projector.resolution: pixel sizes must lie in [1, {}]",
+                                   kMaxPixelSide));
+        if (auto problem = projectorProblem(screen.projector)) return badField(*problem);
         if (!insideScreen(screen, d.defaultViewerMm))
             return bad("viewer: must lie inside the screen");
         if (!insideScreen(screen, screen.projector.posMm))

@@ -125,6 +125,43 @@ TEST(DisplayJson, MalformedFilesGiveOneLineErrors) {
     EXPECT_FALSE(loadDisplayFile("/nonexistent/display.json").isOk());
 }
 
+// Displays built in code get the checks their files get (a -1x64 framebuffer was accepted, and
+// the renderer failed later without naming the display).
+TEST(DisplayJson, ValidateRefusesWhatParsingRefuses) {
+    auto refused = [](const Display& d, const std::string& expect) {
+        Status s = validateDisplay(d);
+        EXPECT_FALSE(s.isOk()) << expect;
+        EXPECT_NE(s.message().find(expect), std::string::npos) << s.message();
+    };
+    Display cone = loadExample("cone_showcase.json");
+    ASSERT_TRUE(validateDisplay(cone).isOk());
+    Display d = cone;
+    d.framebufferWidth = -1;
+    refused(d, "display.framebuffer: pixel sizes must lie in [1, 16384]");
+    d = cone;
+    d.framebufferHeight = 20000;
+    refused(d, "display.framebuffer");
+    d = cone;
+    std::get<ConeMirror>(d.optics).heightMm = 0.0;
+    refused(d, "positive height");
+    d = cone;
+    std::get<ConeMirror>(d.optics).refractiveIndex = 0.5;
+    refused(d, "optics.sheet.refractive_index: must lie in [1, 4]");
+
+    Display dome = loadExample("dome_screen.json");
+    ASSERT_TRUE(validateDisplay(dome).isOk());
+    d = dome;
+    std::get<ProjectedScreen>(d.optics).projector.fovYDegrees = std::nan("");
+    refused(d, "optics.projector.fov_y");
+    d = dome;
+    std::get<ProjectedScreen>(d.optics).projector.widthPx = 0;
+    refused(d, "optics.projector.resolution");
+    d = dome;
+    auto& projector = std::get<ProjectedScreen>(d.optics).projector;
+    projector.upDir = projector.targetMm - projector.posMm;
+    refused(d, "optics.projector.up: must not be parallel");
+}
+
 // Object to image to object: the display point found for an image point maps back to it.
 void checkRoundTrip(const Display& d, double tolMm) {
     std::mt19937 rng(7);

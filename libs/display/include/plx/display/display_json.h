@@ -36,8 +36,10 @@ Result<Display> parseDisplayJson(std::string_view text);
 // Reads and parses a display file; errors are prefixed with the path.
 Result<Display> loadDisplayFile(const std::string& path);
 
-// The checks parseDisplayJson applies, for displays built in code (finite values, positive
-// radii, the viewer outside the content sphere and, for mirrors, outside the mirror).
+// The checks parseDisplayJson applies beyond reading, for displays built in code: positive radii
+// and heights, framebuffer and projector sides in 1..16384 pixels, the projector's field of view
+// and orientation, the mirror sheet, the viewer outside the content sphere and, for mirrors,
+// outside the mirror (inside the screen for projection displays).
 Status validateDisplay(const Display& display);
 
 }  // namespace plx::display

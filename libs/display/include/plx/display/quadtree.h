@@ -68,6 +68,7 @@ public:
     ~QuadtreeWarper();
 
     const QuadtreeConfig& config() const;
+    // Precondition (checked, abort): finite and > 0, as create requires.
     void setThresholdMm(double thresholdMm);
 
     // Runs RecursiveGridRefinement for the viewer's image plane, balances the LODs and
@@ -83,6 +84,7 @@ private:
 
 // The uniform baseline: (2^level + 1)^2 vertices, every one transformed, two triangles per cell
 // (the grids of the paper's Fig. 2). Cells with a vertex the optics cannot map are left out.
+// Precondition (checked, abort): level in [0, 12].
 void generateUniform(const Display& display, const ImagePlane& plane, int level, WarpMesh* mesh,
                      WarpStats* stats);
 

@@ -416,9 +416,11 @@ struct Server::Impl {
             std::lock_guard lock(mutex);
             if (isWriteStall(why)) ++stats.writeStalls;
             // A message over the size limit, refused by the transport before allocation (close
-            // 1009, docs/remote-protocol.md: Error kTooLarge), is the peer's protocol error.
+            // 1009, docs/remote-protocol.md: Error kTooLarge), or a frame that breaks the
+            // WebSocket protocol (close 1002) is the peer's protocol error.
             const bool peerError =
-                s->state != SessionState::kClosed && why.code() == ErrorCode::kOutOfRange;
+                s->state != SessionState::kClosed &&
+                (why.code() == ErrorCode::kOutOfRange || why.code() == ErrorCode::kCorruptData);
             if (peerError) ++stats.protocolErrors;
             const bool beforeHello = s->state == SessionState::kAwaitingHello;
             if (s->state == SessionState::kAccepted) --stats.sessionsActive;

@@ -476,6 +476,11 @@ private:
                 return finish(errorStatus(
                     ErrorCode::kOutOfRange,
                     fmt::format("message larger than {} bytes", mConfig.maxMessageBytes)));
+            // An unmasked or reserved-bit frame, a bad opcode, a fragmented control frame
+            // (RFC 6455 section 5): Beast has sent close 1002 and torn the connection down.
+            if (ec == websocket::condition::protocol_violation)
+                return finish(errorStatus(ErrorCode::kCorruptData,
+                                          "WebSocket protocol violation: " + ec.message()));
             return finish(fromBoost(ec, "read"));
         }
         mAwaitingFirst = false;

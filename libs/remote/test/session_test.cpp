@@ -353,29 +353,51 @@ TEST(RemoteSession, HandshakeRefusesVersionAndToken) {
     EXPECT_EQ(server->stats().refused, 4);
 }
 
-// Sends `request` to 127.0.0.1:port on a plain TCP socket and returns everything the server
-// answers until it closes (each read bounded by a 5 s timeout).
-std::string rawHttp(int port, const std::string& request) {
-    int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0) return {};
-    timeval timeout{5, 0};
-    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(uint16_t(port));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    std::string answer;
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
-        ::send(fd, request.data(), request.size(), MSG_NOSIGNAL) == ssize_t(request.size())) {
+// A plain TCP connection to 127.0.0.1:port, each read bounded by a 5 s timeout.
+class RawSocket {
+public:
+    explicit RawSocket(int port) : mFd(::socket(AF_INET, SOCK_STREAM, 0)) {
+        if (mFd < 0) return;
+        timeval timeout{5, 0};
+        ::setsockopt(mFd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+        sockaddr_in addr{};
+        addr.sin_family = AF_INET;
+        addr.sin_port = htons(uint16_t(port));
+        addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        mConnected = ::connect(mFd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    }
+    ~RawSocket() {
+        if (mFd >= 0) ::close(mFd);
+    }
+    RawSocket(const RawSocket&) = delete;
+    RawSocket& operator=(const RawSocket&) = delete;
+
+    // Sends `bytes`, then returns what arrives until `until` has (empty: until the server
+    // closes).
+    std::string exchange(const std::string& bytes, std::string_view until = {}) {
+        std::string answer;
+        if (!mConnected ||
+            ::send(mFd, bytes.data(), bytes.size(), MSG_NOSIGNAL) != ssize_t(bytes.size()))
+            return answer;
         char buffer[4096];
         for (int reads = 0; reads < 1000; ++reads) {
-            ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+            if (!until.empty() && answer.find(until) != std::string::npos) break;
+            ssize_t n = ::recv(mFd, buffer, until.empty() ? sizeof buffer : 1, 0);
             if (n <= 0) break;
             answer.append(buffer, size_t(n));
         }
+        return answer;
     }
-    ::close(fd);
-    return answer;
+
+private:
+    int mFd;
+    bool mConnected = false;
+};
+
+// Sends `request` on a plain TCP socket and returns everything the server answers until it
+// closes.
+std::string rawHttp(int port, const std::string& request) {
+    return RawSocket(port).exchange(request);
 }
 
 TEST(RemoteSession, PagesAreServedBesideTheWebSocket) {
@@ -536,12 +558,35 @@ TEST(RemoteSession, AbusiveMessagesCloseOnlyTheirSession) {
         peer.sendBytes(std::vector<uint8_t>(64 * 1024, 3));
         EXPECT_TRUE(peer.waitClosed());
     }
+    // Frames that break RFC 6455 section 5 before the hello: unmasked, a reserved opcode,
+    // reserved bits set. Beast closes with 1002 (88 02 03 ea); counted and logged as refusals.
+    const std::string violations[] = {std::string("\x82\x03"
+                                                  "abc",
+                                                  5),
+                                      std::string("\x83\x80\x01\x02\x03\x04", 6),
+                                      std::string("\xc2\x80\x01\x02\x03\x04", 6)};
+    for (const std::string& frame : violations) {
+        RawSocket socket(server->port());
+        std::string upgraded = socket.exchange(
+            "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+            "\r\n\r\n");
+        ASSERT_EQ(upgraded.rfind("HTTP/1.1 101", 0), 0u) << upgraded;
+        EXPECT_EQ(socket.exchange(frame), std::string("\x88\x02\x03\xea", 4));
+    }
     // The well-behaved session went on: more sets arrive for new poses.
     EXPECT_TRUE(receivesMore(*good, scene));
     EXPECT_EQ(server->stats().sessionsActive, 1);
     EXPECT_TRUE(eventually([&] {
-        return server->stats().protocolErrors == int64_t(cases.size()) + 2;
+        return server->stats().protocolErrors == int64_t(cases.size()) + 2 + 3;
     })) << server->stats().protocolErrors;
+    auto violationsLogged = [&] {
+        std::lock_guard lock(mutex);
+        return std::count_if(refusals.begin(), refusals.end(), [](const std::string& r) {
+            return r.starts_with("error: WebSocket protocol violation: ");
+        });
+    };
+    EXPECT_TRUE(eventually([&] { return violationsLogged() == 3; })) << violationsLogged();
     std::lock_guard lock(mutex);
     EXPECT_NE(std::find(refusals.begin(), refusals.end(), "error: message larger than 2048 bytes"),
               refusals.end());

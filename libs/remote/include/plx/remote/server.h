@@ -103,7 +103,8 @@ struct ServerStats {
     int64_t sessionsActive = 0;  // accepted (handshake done) and open
     int64_t sessionsTotal = 0;   // accepted since start
     int64_t refused = 0;         // refused at the handshake (version, token, overloaded)
-    int64_t protocolErrors = 0;  // sessions closed with Error kProtocol
+    int64_t protocolErrors = 0;  // sessions closed with Error kProtocol or kTooLarge, or by a
+                                 // WebSocket protocol violation
     int64_t writeStalls = 0;     // sessions dropped because their peer stopped reading
     int64_t idleTimeouts = 0;    // sessions ended because their client sent nothing (idleTimeoutMs)
     int64_t queueWaits = 0;      // times renders waited for maxQueuedSetBytes

@@ -109,8 +109,9 @@ bool isWriteStall(const Status& why);
 struct ConnectionEvents {
     // A whole message. binary = false for a text message (a protocol error for Parallax).
     std::function<void(std::vector<uint8_t>&& message, bool binary)> onMessage;
-    // Once, when the connection is gone (closed by either side, reset, or too large a message);
-    // the status says why (ok for a clean WebSocket close).
+    // Once, when the connection is gone (closed by either side, reset, or the peer's violation);
+    // the status says why: ok for a clean WebSocket close, kOutOfRange for a message over
+    // maxMessageBytes (close 1009), kCorruptData for a frame that breaks RFC 6455 (close 1002).
     std::function<void(const Status& why)> onClosed;
 };
 

@@ -5,6 +5,9 @@
 namespace plx {
 
 Result<StereoRig> StereoRig::create(const Camera& center, const StereoRigDesc& desc) {
+    if (!enumWithin(desc.type, StereoRigType::kConverged, StereoRigType::kParallel) ||
+        !enumWithin(desc.firstEye, Eye::kLeft, Eye::kRight))
+        return errorStatus(ErrorCode::kInvalidArgument, "unknown stereo rig type or first eye");
     if (!(desc.separation >= 0.0f) || !std::isfinite(desc.separation))
         return errorStatus(ErrorCode::kInvalidArgument,
                            fmt::format("eye separation {} must be a finite number >= 0",

@@ -387,6 +387,12 @@ TEST(StereoRig, FirstEyeIsAParameterAndBadValuesAreRejected) {
     desc.convergence = std::nanf("");
     EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
     EXPECT_FALSE(parseStereoRigType("sideways").isOk());
+    desc.convergence = 3.0f;
+    desc.type = StereoRigType(2);  // a number cast in, not read as the parallel rig
+    EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
+    desc.type = StereoRigType::kParallel;
+    desc.firstEye = Eye(-1);
+    EXPECT_FALSE(StereoRig::create(centreCamera(), desc).isOk());
 }
 
 }  // namespace

@@ -34,6 +34,8 @@ Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
         return width == camera.width() && height == camera.height();
     };
     auto bad = [](const char* what) { return errorStatus(ErrorCode::kInvalidArgument, what); };
+    if (!enumWithin(options.shading, Shading::kFlat, Shading::kTextured))
+        return bad("unknown shading");
     if (options.colorOnly) {
         if (!rt.color.data) return bad("a colour-only render needs a colour target");
         if (rt.visibility.depth2.data || rt.visibility.id2.data)

@@ -969,6 +969,9 @@ TEST(Raster, RejectsMalformedRenderRequests) {
     EXPECT_NE(message(colorOnly, {{}, fb.depth.view(), fb.id.view(), {}})
                   .find("needs a colour target"),
               std::string::npos);
+    RenderOptions unknownShading;
+    unknownShading.shading = Shading(3);
+    EXPECT_EQ(message(unknownShading, fb.targets()), "unknown shading");
     EXPECT_NE(message(colorOnly,
                       {fb.color.view(), fb.depth.view(), fb.id.view(), {depth2.view(), id2.view()}})
                   .find("second depth layer"),

@@ -69,6 +69,8 @@ int maxServedFaceSize(const warp::ReferenceSetOptions& r) {
 Status checkServerConfig(const ServerConfig& c) {
     auto bad = [](const std::string& m) { return errorStatus(ErrorCode::kInvalidArgument, m); };
     if (c.port < 0 || c.port > 65535) return bad(fmt::format("port {} outside 0..65535", c.port));
+    if (!enumWithin(c.prediction, Prediction::kNone, Prediction::kConstantVelocity))
+        return bad("unknown prediction");
     PLX_RETURN_IF_ERROR(checkBindAddress(c.bind));
     if (c.token.size() > size_t(kMaxTokenBytes))
         return bad(fmt::format("token longer than {} bytes", kMaxTokenBytes));

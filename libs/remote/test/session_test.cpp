@@ -1216,6 +1216,9 @@ TEST(RemoteSession, BadConfigurationsAreRefused) {
     c = smallServer();
     c.writeStallTimeoutMs = 0.0;
     EXPECT_FALSE(checkServerConfig(c).isOk());
+    c = smallServer();
+    c.prediction = Prediction(2);
+    EXPECT_EQ(checkServerConfig(c).message(), "unknown prediction");
     for (double idleMs : {std::nan(""), 999.0, 3601e3}) {
         c = smallServer();
         c.idleTimeoutMs = idleMs;

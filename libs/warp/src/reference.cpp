@@ -53,6 +53,8 @@ Status checkPose(const Pose& pose) {
 }
 
 Status checkReferenceSetOptions(const ReferenceSetOptions& o) {
+    if (!enumWithin(o.layout, ReferenceLayout::kCube4, ReferenceLayout::kWide))
+        return {ErrorCode::kInvalidArgument, "unknown reference layout"};
     if (o.faceSize < 1 || o.faceSize > Camera::kMaxImageSide)
         return {ErrorCode::kInvalidArgument, "reference face size " + std::to_string(o.faceSize) +
                                                  " outside 1.." +

@@ -128,6 +128,9 @@ Status checkWarpInputs(std::span<const ReferenceSet* const> sets, const Camera& 
 Status Warper::warp(std::span<const ReferenceSet* const> sets, const Camera& destination,
                     const WarpOptions& options, WarpFrame* out, WarpStats* stats) {
     PLX_RETURN_IF_ERROR(detail::checkWarpInputs(sets, destination));
+    if (!enumWithin(options.splat, Splat::kDerivative, Splat::kMesh) ||
+        !enumWithin(options.order, WarpOrder::kZBuffer, WarpOrder::kOcclusionCompatible))
+        return {ErrorCode::kInvalidArgument, "warp: unknown splat or order"};
     Stopwatch timer;
     Impl& im = *mImpl;
     const int dw = destination.width(), dh = destination.height();

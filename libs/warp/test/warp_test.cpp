@@ -560,6 +560,19 @@ TEST(Warp, BadInputGetsOneLineErrors) {
     broken.views.resize(1);
     expectOneLineError(warper->warp(broken, cameraFor({}, 32, 32), {}, &frame), "size");
     expectOneLineError(Warper::create(-1).status(), "threads");
+    // Enums cast from numbers outside their enumerators are refused, not read as a default.
+    o = {};
+    o.layout = ReferenceLayout(7);
+    expectOneLineError(renderReferenceSet(*renderer, s, pose, o, &set), "unknown reference layout");
+    o.faceSize = 16;
+    o.layout = ReferenceLayout::kCube4;
+    ASSERT_TRUE(renderReferenceSet(*renderer, s, pose, o, &set).isOk());
+    WarpOptions badSplat, badOrder;
+    badSplat.splat = Splat(9);
+    badOrder.order = WarpOrder(-1);
+    for (const WarpOptions& options : {badSplat, badOrder})
+        expectOneLineError(warper->warp(set, cameraFor({}, 32, 32), options, &frame),
+                           "unknown splat or order");
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -95,6 +96,14 @@ std::string printable(std::string_view text, size_t maxChars = 120);
 
 inline Status errorStatus(ErrorCode code, std::string message) {
     return Status(code, std::move(message));
+}
+
+// Whether `value` lies in [first, last]. An enum cast from a number (a caller's configuration)
+// may hold none of its enumerators; option checks refuse it rather than fall back to a default.
+template <class Enum>
+constexpr bool enumWithin(Enum value, Enum first, Enum last) {
+    using Number = std::underlying_type_t<Enum>;
+    return Number(value) >= Number(first) && Number(value) <= Number(last);
 }
 
 }  // namespace plx

@@ -32,7 +32,7 @@ struct StereoRigDesc {
 class StereoRig {
 public:
     // Builds the two eye cameras from a centre camera. Errors: separation negative or not finite,
-    // convergence <= 0 or not finite (converged rig).
+    // convergence <= 0 or not finite (converged rig), a type or first eye outside its enum.
     static Result<StereoRig> create(const Camera& center, const StereoRigDesc& desc);
 
     const StereoRigDesc& desc() const { return mDesc; }

@@ -157,10 +157,10 @@ private:
     std::unique_ptr<Impl> mImpl;
 };
 
-// Checks that options and targets fit together (sizes against the camera's, the second layer
-// complete, colorOnly's and the visibility outputs' preconditions, depth or IDs left out only
-// where tile memory can stand in for them, row strides at least the width); the message names
-// the first problem.
+// Checks that options and targets fit together (a known shading, sizes against the camera's,
+// the second layer complete, colorOnly's and the visibility outputs' preconditions, depth or IDs
+// left out only where tile memory can stand in for them, row strides at least the width); the
+// message names the first problem.
 // Renderer::render, renderSubset and renderReference abort with that message on a failed check.
 Status checkRenderRequest(const Camera& camera, const RenderOptions& options,
                           const RenderTargets& targets);

@@ -13,7 +13,7 @@ namespace plx::warp {
 // the problem ("pose: eye is not finite").
 Status checkPose(const Pose& pose);
 
-// Checks reference set options (face size, field of view, aspect, near and far planes).
+// Checks reference set options (layout, face size, field of view, aspect, near and far planes).
 Status checkReferenceSetOptions(const ReferenceSetOptions& options);
 
 // The cameras of a reference set: cube4 looks forward, right, back, left (90-degree square

@@ -128,7 +128,8 @@ public:
     ~Warper();
 
     // Warps every view of every given set (newest first; several sets are composited by depth)
-    // to `destination`, resizing `out` to its image. Errors: no views, non-finite cameras.
+    // to `destination`, resizing `out` to its image. Errors: no views, non-finite cameras, a
+    // splat or order outside its enum.
     Status warp(std::span<const ReferenceSet* const> sets, const Camera& destination,
                 const WarpOptions& options, WarpFrame* out, WarpStats* stats = nullptr);
     // One set.

@@ -78,7 +78,7 @@ void jpegWarning(j_common_ptr info, int level) {
 // Why a JPEG decode failed, as plain data: decodeJpegInto calls setjmp, and its message is
 // formed outside it (jpegFailureText).
 struct JpegFailure {
-    enum class Kind { kNone, kLibjpeg, kTooLarge, kDamaged } kind = Kind::kNone;
+    enum class Kind { kLibjpeg, kTooLarge, kDamaged } kind = Kind::kLibjpeg;
     char text[JMSG_LENGTH_MAX] = "";  // libjpeg's error or first warning
     unsigned width = 0, height = 0;   // the declared size, for kTooLarge
 };
@@ -136,9 +136,10 @@ std::string jpegFailureText(const JpegFailure& failure, int64_t maxPixels) {
                                std::min(maxPixels, kMaxDecodedPixels));
         case JpegFailure::Kind::kDamaged:
             return fmt::format("damaged data ({})", failure.text);
-        default:
-            return failure.text;
+        case JpegFailure::Kind::kLibjpeg:
+            break;
     }
+    return failure.text;
 }
 
 }  // namespace

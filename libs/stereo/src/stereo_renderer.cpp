@@ -197,7 +197,8 @@ void StereoRenderer::Impl::renderPBuffer(const scene::Scene& scene, const Stereo
 SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
                                   const raster::FrameBuffers& full,
                                   std::span<const uint32_t> drawn) {
-    PLX_CHECK(!approx.id.empty() && !full.id.empty());
+    PLX_CHECK(!approx.id.empty() && approx.id.width() == full.id.width() &&
+              approx.id.height() == full.id.height());
     SecondEyeQuality q;
     ImageDiffStats d = compareImages(approx.color, full.color, 0);
     q.psnrDb = d.psnrDb;

@@ -22,7 +22,8 @@ ImageDiffStats compareImages(const Image<Rgba8>& a, const Image<Rgba8>& b, int t
 double psnr(const Image<Rgba8>& a, const Image<Rgba8>& b);
 
 // Visual diff: black where equal, the absolute difference amplified by `gain` elsewhere, and
-// pure magenta where any channel differs by more than highlightAbove.
+// pure magenta where any channel differs by more than highlightAbove. Precondition (checked,
+// abort): same size.
 Image<Rgba8> diffImage(const Image<Rgba8>& a, const Image<Rgba8>& b, float gain = 4.0f,
                        int highlightAbove = 255);
 

@@ -25,7 +25,8 @@ public:
     void begin(size_t triangleCount, int slots = 1);
     // Adds the IDs of `ids` to the current set (IDs must be <= triangleCount).
     void add(const Image<uint32_t>& ids);
-    // Adds the IDs of the pixels where mask is non-zero (same size as `ids`).
+    // Adds the IDs of the pixels where mask is non-zero. Precondition (checked, abort): mask
+    // has the size of `ids`.
     void addMasked(const Image<uint32_t>& ids, const Image<uint8_t>& mask);
     // Adds triangle indices (each < triangleCount).
     void addTriangles(std::span<const uint32_t> triangles);

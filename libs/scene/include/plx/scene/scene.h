@@ -27,7 +27,8 @@ struct Texture {
 };
 
 // Builds mips[1..] from mips[0] with a 2x2 box filter in linear light (odd sizes: the last
-// row/column is averaged with fewer texels). Precondition: mips has exactly one level.
+// row/column is averaged with fewer texels). Precondition (checked, abort): mips has exactly one
+// level.
 void buildMipChain(Texture* texture);
 
 struct Material {

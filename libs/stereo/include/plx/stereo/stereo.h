@@ -117,6 +117,9 @@ public:
     ~StereoRenderer();
 
     // Renders both eyes of the rig into `frame` (resized as needed) with the given method.
+    // Preconditions (checked, abort): not options.render.colorOnly with options.conservative
+    // (the wider first eye is cropped from its planes); for Method::kReproject,
+    // prepareReprojection for this scene and options.fillSearch.
     StereoFrameStats renderPair(const scene::Scene& scene, const StereoRig& rig,
                                 const StereoOptions& options, StereoFrame* frame);
 
@@ -149,8 +152,9 @@ struct SecondEyeQuality {
     int64_t missedPixels = 0;   // pixels whose ID differs from the full render
 };
 
-// drawn: the triangle set the approximation was rendered from (sorted ascending). Both frames
-// need their ID images (StereoOptions::writeDepthAndIds).
+// drawn: the triangle set the approximation was rendered from (sorted ascending). Preconditions
+// (checked, abort): both frames have their ID images (StereoOptions::writeDepthAndIds), of one
+// size.
 SecondEyeQuality compareSecondEye(const raster::FrameBuffers& approx,
                                   const raster::FrameBuffers& full,
                                   std::span<const uint32_t> drawn);

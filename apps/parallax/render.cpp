@@ -79,7 +79,7 @@ int runRender(const RenderArgs& a) {
                               {"frames", a.frames},
                               {"shading", raster::shadingName(*shading)},
                               {"threads", (*renderer)->threadCount()},
-                              {"ms_per_frame_median", medianMs},
+                              {"frame_ms_median", medianMs},
                               {"mtris_per_s", mtris},
                               {"triangles_clipped", last.trianglesClipped},
                               {"triangles_binned", last.trianglesBinned},

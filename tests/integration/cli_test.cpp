@@ -23,7 +23,7 @@ TEST(Cli, RenderWritesTargetsAndJson) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto doc = nlohmann::json::parse(r.out);  // stdout holds only the JSON document
     for (const char* key : {"triangles", "visible_triangles", "width", "height", "frames",
-                            "ms_per_frame_median", "mtris_per_s"})
+                            "frame_ms_median", "mtris_per_s"})
         EXPECT_TRUE(doc.contains(key)) << key;
     EXPECT_EQ(doc["width"], 96);
     EXPECT_EQ(doc["frames"], 2);

@@ -25,6 +25,9 @@
 //   millimetres where its paper does, and says so in the name (`errorMm`).
 // - Transforms are named AFromB (`clipFromWorld`, `pixelFromClip`, `displayFromImage`) and
 //   compose right to left: clipFromWorld = clipFromView * viewFromWorld.
+// - A pointer parameter that a function writes (`WarpFrame* out`) must not be null unless it
+//   defaults to nullptr or its comment says it may be null; a null one is a programmer error,
+//   not a Status.
 // ---------------------------------------------------------------------------------------------
 
 #include <plx/core/camera.h>

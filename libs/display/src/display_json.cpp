@@ -26,8 +26,9 @@ Status fieldError(const std::string& path, const std::string& problem) {
 // are no float at all.
 constexpr double kMaxLengthMm = 1e7;
 
-// The largest framebuffer or projector side, in pixels.
+// The largest framebuffer or projector side, in pixels, and the rule as messages state it.
 constexpr int64_t kMaxPixelSide = 16384;
+constexpr const char* kPixelSideRule = "pixel sizes must lie in [1, 16384]";
 
 // A field and what is wrong with it: the checks that parsing and validateDisplay share.
 struct Problem {
@@ -113,8 +114,7 @@ public:
             !(*it)[1].is_number_integer())
             return fieldError(path, "must be [width, height] in whole pixels");
         int64_t a = (*it)[0].get<int64_t>(), b = (*it)[1].get<int64_t>();
-        if (!pixelSizeFits(a, b))
-            return fieldError(path, fmt::format("pixel sizes must lie in [1, {}]", kMaxPixelSide));
+        if (!pixelSizeFits(a, b)) return fieldError(path, kPixelSideRule);
         *w = int(a), *h = int(b);
         return Status::ok();
     }
@@ -225,10 +225,9 @@ Status validateDisplay(const Display& d) {
         return bad("viewer: must lie outside the content sphere");
     if (!(d.displayMax.x > d.displayMin.x && d.displayMax.y > d.displayMin.y))
         return bad("display: max must exceed min on both axes");
-    if (!pixelSizeFits(d.framebufferWidth, d.framebufferHeight))
-        return bad(
-            fmt::format("display.framebuffer: pixel sizes must lie in [1, {}]", kMaxPixelSide));
     auto badField = [&](const Problem& p) { return bad(std::string(p.path) + ": " + p.text); };
+    if (!pixelSizeFits(d.framebufferWidth, d.framebufferHeight))
+        return badField({"display.framebuffer", kPixelSideRule});
     if (const auto* cone = std::get_if<ConeMirror>(&d.optics)) {
         if (!(cone->bottomRadiusMm > 0.0 && cone->topRadiusMm >= cone->bottomRadiusMm &&
               cone->heightMm > 0.0))
@@ -242,8 +241,7 @@ Status validateDisplay(const Display& d) {
     } else {
         const auto& screen = std::get<ProjectedScreen>(d.optics);
         if (!pixelSizeFits(screen.projector.widthPx, screen.projector.heightPx))
-            return bad(fmt::format("optics.projector.resolution: pixel sizes must lie in [1, {}]",
-                                   kMaxPixelSide));
+            return badField({"optics.projector.resolution", kPixelSideRule});
         if (auto problem = projectorProblem(screen.projector)) return badField(*problem);
         if (!insideScreen(screen, d.defaultViewerMm))
             return bad("viewer: must lie inside the screen");

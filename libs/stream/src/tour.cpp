@@ -53,9 +53,10 @@ Result<std::vector<TourPose>> roomTour(const std::vector<Aabb>& cellBoxes,
         reverse = !reverse;
     }
     // Poses: walking at speedMps between centres (the last step short of the next centre), then
-    // stopS still at it.
+    // stopS still at it, at least one frame: every centre is visited, and a tour of one cell
+    // with no stop is a pose, not none.
     const double step = config.speedMps / config.fps;
-    const size_t still = size_t(config.stopS * config.fps);
+    const size_t still = std::max<size_t>(1, size_t(config.stopS * config.fps));
     size_t count = 0;
     Vec3 here = order.front();
     for (Vec3 next : order) {

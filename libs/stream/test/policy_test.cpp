@@ -387,6 +387,16 @@ TEST(StreamTour, VisitsEveryCellInRowsAndStopsInEach) {
     const TourPose& p = tour->back();
     EXPECT_LT(p.targetPos.x, p.eyePos.x);
     for (const TourPose& q : *tour) EXPECT_FLOAT_EQ(glm::length(q.targetPos - q.eyePos), 5.0f);
+    // No stop still visits each centre, for one frame: one cell is a tour of one pose (it was
+    // none, and `stream walk --tour --stop 0` on a one-cell database crashed on it).
+    config.stopS = 0.0;
+    auto quick = roomTour(boxes, config);
+    ASSERT_TRUE(quick.isOk());
+    EXPECT_EQ(quick->size(), 3u * 50u + 4u);
+    auto one = roomTour({boxes[0]}, config);
+    ASSERT_TRUE(one.isOk());
+    ASSERT_EQ(one->size(), 1u);
+    EXPECT_EQ(one->front().eyePos, Vec3(5.0f, 1.6f, 5.0f));
 }
 
 TEST(StreamTour, RefusesWhatItCannotWalk) {

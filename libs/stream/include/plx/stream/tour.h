@@ -27,7 +27,8 @@ struct TourPose {
 constexpr size_t kMaxTourPoses = 1'000'000;
 
 // The tour through the centres of `cellBoxes`: rows of equal centre z (to a millimetre) in
-// ascending z, alternately ascending and descending x, starting at the first centre facing +x.
+// ascending z, alternately ascending and descending x, starting at the first centre facing +x,
+// standing stopS at each centre (at least one frame, so a tour has a pose at every centre).
 // Errors: no boxes, a non-finite box, config outside fps in (0, 1000], speedMps in (0, 100],
 // stopS in [0, 3600], or a tour longer than kMaxTourPoses.
 Result<std::vector<TourPose>> roomTour(const std::vector<Aabb>& cellBoxes,

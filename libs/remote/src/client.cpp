@@ -5,6 +5,7 @@
 #include <plx/remote/client.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -38,14 +39,20 @@ namespace {
 // pose later rather than a queue of stale ones.
 constexpr size_t kMaxQueuedPoseBytes = 4096;
 
+// Pings whose Pong still counts: a round trip longer than the ping interval is normal.
+constexpr uint32_t kPingsRemembered = 64;
+
 // What one connection's callbacks report to the I/O thread.
 struct Link {
     bool closed = false;
     Clock::time_point lastHeard = Clock::now();  // the server's latest message
     std::optional<ServerHello> hello;
+    DecodeLimits limits;  // what the sets may hold once `hello` accepted (announcedLimits)
     Status error;  // an Error message from the server, or a message the client refused
     uint32_t pingNonce = 0;
+    std::array<uint64_t, kPingsRemembered> pingSentUs{};  // by nonce % kPingsRemembered
     OneUnwritten pings, pongs;  // a server that stops reading gets no queue of them
+    std::optional<uint32_t> lastSequence;  // of the last set decoded (decode thread only)
 };
 
 }  // namespace
@@ -72,6 +79,7 @@ struct Client::Impl {
         std::vector<uint8_t> bytes;
         std::shared_ptr<Link> link;
         uint64_t arrivalUs = 0;
+        DecodeLimits limits;  // the link's, as its ServerHello announced
     };
     std::optional<PendingSet> pending;  // the newest undecoded set; a newer one replaces it
     std::thread decoder;
@@ -99,10 +107,16 @@ struct Client::Impl {
         }
         const uint64_t arrival = clientNowUs();
         if (!bytes.empty() && bytes[0] == uint8_t(MessageType::kReferenceSet)) {
-            std::lock_guard lock(mutex);
+            std::unique_lock lock(mutex);
+            if (!link->hello || !link->hello->accepted) {
+                lock.unlock();
+                refuse(link, errorStatus(ErrorCode::kCorruptData,
+                                         "reference set before the server accepted the session"));
+                return;
+            }
             link->lastHeard = Clock::now();
             if (pending) ++stats.referencesDropped;
-            pending = PendingSet{std::move(bytes), link, arrival};
+            pending = PendingSet{std::move(bytes), link, arrival, link->limits};
             changed.notify_all();
             return;
         }
@@ -111,18 +125,28 @@ struct Client::Impl {
             refuse(link, m.status());
             return;
         }
-        std::lock_guard lock(mutex);
+        std::unique_lock lock(mutex);
         link->lastHeard = Clock::now();
         if (auto* hello = std::get_if<ServerHello>(&*m)) {
+            if (link->hello) {
+                lock.unlock();
+                refuse(link, errorStatus(ErrorCode::kCorruptData,
+                                         "server hello after the session began"));
+                return;
+            }
             link->hello = *hello;
+            link->limits = announcedLimits(*hello, config.limits);
         } else if (auto* ping = std::get_if<Ping>(&*m)) {
             if (conn && link == current)
                 link->pongs.send(*conn, Pong{ping->timestampUs, ping->nonce});
         } else if (auto* pong = std::get_if<Pong>(&*m)) {
-            // Pongs of earlier pings count too: a round trip longer than the ping interval is
-            // normal.
-            if (link->pingNonce - pong->nonce < 64u) {
-                double rtt = double(arrival - std::min(arrival, pong->timestampUs)) * 1e-3;
+            // Only a Pong that echoes one of the last pings sent, nonce and timestamp, is a
+            // round trip; any other would report a made-up one.
+            const bool echoesAPing =
+                link->pingNonce - pong->nonce < kPingsRemembered && pong->timestampUs != 0 &&
+                link->pingSentUs[pong->nonce % kPingsRemembered] == pong->timestampUs;
+            if (echoesAPing) {
+                double rtt = double(arrival - pong->timestampUs) * 1e-3;
                 stats.rttMs = stats.rttMs < 0.0 ? rtt : 0.75 * stats.rttMs + 0.25 * rtt;
             }
         } else if (auto* err = std::get_if<ErrorMessage>(&*m)) {
@@ -169,6 +193,21 @@ struct Client::Impl {
         if (spares.size() > kSpareSets) spares.erase(spares.begin());
     }
 
+    // A set's sequence increases within a session (docs/remote-protocol.md), and the pose it
+    // answers was sent before it arrived: otherwise the client's reference age and its stats
+    // would report what never happened.
+    static Status checkSetOrder(const ReferenceSetMessage& m, const PendingSet& job) {
+        const std::optional<uint32_t> last = job.link->lastSequence;
+        if (last && m.sequence <= *last)
+            return errorStatus(ErrorCode::kCorruptData,
+                               fmt::format("reference set {} after set {}", m.sequence, *last));
+        if (m.requestTimestampUs > job.arrivalUs)
+            return errorStatus(ErrorCode::kCorruptData,
+                               "reference set answers a pose timestamped after its arrival");
+        job.link->lastSequence = m.sequence;
+        return Status::ok();
+    }
+
     // The decode thread: the newest pending set, decoded into the buffers of a set the display
     // loop no longer holds, published as the newest.
     void decodeLoop() {
@@ -190,10 +229,11 @@ struct Client::Impl {
             ReferenceSetMessage m;
             m.set = std::move(r->set);
             Status s;
-            serial.execute([&] { s = decodeReferenceSetMessage(job.bytes, config.limits, &m); });
+            serial.execute([&] { s = decodeReferenceSetMessage(job.bytes, job.limits, &m); });
             const double ms =
                 std::chrono::duration<double, std::milli>(Clock::now() - decodeStart).count();
             r->set = std::move(m.set);
+            if (s.isOk()) s = checkSetOrder(m, job);
             if (!s.isOk()) {
                 refuse(job.link, s);
                 keepSpare(std::move(r));  // its buffers serve the next set
@@ -292,8 +332,13 @@ struct Client::Impl {
                 [&] { return stopping || link->closed || link->hello || !link->error.isOk(); });
             if (stopping) return Status::ok();
             if (!link->hello) {
+                // A message refused before the hello was answered with an Error, which a close
+                // sends first and an abort would drop.
+                if (!link->error.isOk()) {
+                    (*c)->close();
+                    return link->error;
+                }
                 (*c)->abort();
-                if (!link->error.isOk()) return link->error;
                 return errorStatus(ErrorCode::kIoError, "no ServerHello");
             }
             answer = *link->hello;
@@ -343,7 +388,9 @@ struct Client::Impl {
             }
             if (now >= nextPing) {
                 nextPing = now + pingInterval;
-                link->pings.send(*conn, Ping{clientNowUs(), ++link->pingNonce});
+                const uint64_t sentUs = clientNowUs();
+                link->pingSentUs[++link->pingNonce % kPingsRemembered] = sentUs;
+                link->pings.send(*conn, Ping{sentUs, link->pingNonce});
             }
         }
         if (stopping && !link->closed) {

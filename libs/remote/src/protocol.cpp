@@ -300,6 +300,16 @@ Status decodeReferenceSetMessage(std::span<const uint8_t> bytes, const DecodeLim
     return Status::ok();
 }
 
+DecodeLimits announcedLimits(const ServerHello& hello, const DecodeLimits& base) {
+    const bool wide = hello.layout == warp::ReferenceLayout::kWide;
+    DecodeLimits l;
+    l.maxViewSide = wide ? base.maxViewSide : std::min(base.maxViewSide, hello.faceSize);
+    l.maxViewPixels = std::min(base.maxViewPixels, int64_t(hello.faceSize) * l.maxViewSide);
+    l.maxViews = std::min(base.maxViews, warp::referenceViewCount(hello.layout));
+    l.maxSetPixels = std::min(base.maxSetPixels, l.maxViewPixels * l.maxViews);
+    return l;
+}
+
 Result<Message> decodeMessage(std::span<const uint8_t> bytes, const DecodeLimits& limits) {
     if (bytes.empty()) return Status(ErrorCode::kCorruptData, "message: empty");
     const auto type = MessageType(bytes[0]);

@@ -916,8 +916,12 @@ TEST(RemoteSession, ClientReconnectsAfterServerRestart) {
 // connection only, a corrupt one; records the Error messages it gets back.
 class HostileServer {
 public:
-    explicit HostileServer(std::vector<uint8_t> good, std::vector<uint8_t> bad)
-        : mGood(std::move(good)), mBad(std::move(bad)) {
+    // The first session gets a ServerHello (32-pixel cube4 faces), `good`, then `bad`.
+    HostileServer(std::vector<uint8_t> good, std::vector<uint8_t> bad)
+        : HostileServer({helloBytes(), good, std::move(bad)}, good) {}
+    // The first session gets `firstSession`, each later one a ServerHello and `good`.
+    HostileServer(std::vector<std::vector<uint8_t>> firstSession, std::vector<uint8_t> good)
+        : mGood(std::move(good)), mFirstSession(std::move(firstSession)) {
         mTransport = std::move(Transport::create()).value();
         ConnectionConfig cc;
         cc.maxMessageBytes = 4096;
@@ -941,6 +945,16 @@ public:
         std::lock_guard lock(mMutex);
         return mErrors;
     }
+    // Sends `bytes` on the newest connection.
+    void send(std::vector<uint8_t> bytes) {
+        std::lock_guard lock(mMutex);
+        if (!mConnections.empty()) mConnections.back()->send(std::move(bytes));
+    }
+    static std::vector<uint8_t> helloBytes(int faceSize = 32) {
+        ServerHello hello;
+        hello.faceSize = faceSize;
+        return std::move(encodeMessage(hello)).value();
+    }
 
 private:
     void onMessage(Connection& c, const std::vector<uint8_t>& bytes) {
@@ -948,18 +962,20 @@ private:
         if (!m) return;
         std::lock_guard lock(mMutex);
         if (std::holds_alternative<ClientHello>(*m)) {
-            ServerHello hello;
-            hello.faceSize = 32;
-            c.send(std::move(encodeMessage(hello)).value());
-            c.send(mGood);
-            if (mHellos++ == 0) c.send(mBad);
+            if (mHellos++ == 0) {
+                for (const auto& message : mFirstSession) c.send(message);
+            } else {
+                c.send(helloBytes());
+                c.send(mGood);
+            }
         } else if (auto* e = std::get_if<ErrorMessage>(&*m)) {
             mErrors.push_back(*e);
         }
     }
 
     std::unique_ptr<Transport> mTransport;
-    std::vector<uint8_t> mGood, mBad;
+    std::vector<uint8_t> mGood;
+    std::vector<std::vector<uint8_t>> mFirstSession;
     int mPort = 0;
     std::mutex mMutex;
     std::vector<std::shared_ptr<Connection>> mConnections;
@@ -1028,6 +1044,74 @@ TEST(RemoteSession, AClientsMessageFromTheServerIsRefused) {
     ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }));
     EXPECT_EQ(server.errors().front().text, "unexpected pose from the server");
     EXPECT_TRUE(eventually([&] { return client->stats().connects >= 2; }));
+}
+
+// A server out of order, or beyond what it announced: each message is refused with its reason
+// and the session retried (a set before the ServerHello was taken, and a refusal after it ended
+// the client with success and that set).
+TEST(RemoteSession, TheClientHoldsTheServerToItsHello) {
+    ReferenceSetMessage set;
+    set.sequence = 7;
+    set.set = renderedSet("office:1", 32);
+    const std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
+    const std::vector<uint8_t> hello = HostileServer::helloBytes();
+    ReferenceSetMessage future = set;
+    future.requestTimestampUs = UINT64_MAX;
+    ReferenceSetMessage larger;
+    larger.set = renderedSet("office:1", 64);  // 64-pixel faces after a hello that said 32
+    ServerHello refusal;
+    refusal.accepted = false;
+    refusal.reason = "not welcome";
+    struct Case {
+        const char* name;
+        std::vector<std::vector<uint8_t>> firstSession;
+        const char* error;
+    };
+    const Case cases[] = {
+        {"set before hello", {good, hello}, "reference set before the server accepted the session"},
+        {"second hello", {hello, good, hello}, "server hello after the session began"},
+        {"faces larger than announced",
+         {hello, std::move(encodeMessage(larger)).value()},
+         "16384 pixels over the limit 4096"},
+        {"pose from the future",
+         {hello, std::move(encodeMessage(future)).value()},
+         "reference set answers a pose timestamped after its arrival"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.name);
+        HostileServer server(c.firstSession, good);
+        auto client = clientOf(server);
+        ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }))
+            << client->stats().lastError;
+        EXPECT_NE(server.errors().front().text.find(c.error), std::string::npos)
+            << server.errors().front().text;
+        EXPECT_TRUE(eventually([&] { return client->stats().connects >= 1; }));
+        EXPECT_TRUE(client->fatal().isOk());
+    }
+    // A sequence that does not increase, sent once the first set is decoded.
+    HostileServer server({hello, good}, good);
+    auto client = clientOf(server);
+    ASSERT_TRUE(eventually([&] { return client->stats().referencesReceived == 1; }));
+    server.send(good);
+    ASSERT_TRUE(eventually([&] { return !server.errors().empty(); }));
+    EXPECT_EQ(server.errors().front().text, "reference set 7 after set 7");
+}
+
+// Pongs that echo no ping the client sent (a future timestamp, an unsent nonce, a right nonce
+// with a wrong timestamp) are not round trips: rtt_ms stays unknown rather than 0.
+TEST(RemoteSession, PongsThatEchoNoPingAreNotRoundTrips) {
+    ReferenceSetMessage set;
+    set.set = renderedSet("office:1", 32);
+    const std::vector<uint8_t> good = std::move(encodeMessage(set)).value();
+    std::vector<std::vector<uint8_t>> first = {HostileServer::helloBytes()};
+    for (Pong forged : {Pong{UINT64_MAX, 0}, Pong{UINT64_MAX, 1}, Pong{1, 1}, Pong{0, 0}})
+        first.push_back(std::move(encodeMessage(forged)).value());
+    first.push_back(good);  // after the Pongs on the same connection: they were read first
+    HostileServer server(first, good);
+    auto client = clientOf(server);
+    ASSERT_TRUE(eventually([&] { return client->stats().referencesReceived >= 1; }));
+    EXPECT_LT(client->stats().rttMs, 0.0);
+    EXPECT_TRUE(server.errors().empty());
 }
 
 // A server that answers the ClientHello and then says nothing, not even a Pong: the client ends

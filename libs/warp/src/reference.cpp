@@ -26,6 +26,10 @@ Result<ReferenceLayout> parseReferenceLayout(const std::string& name) {
                        "unknown reference layout '" + name + "' (cube4, cube6, wide)");
 }
 
+int referenceViewCount(ReferenceLayout layout) {
+    return layout == ReferenceLayout::kCube6 ? 6 : layout == ReferenceLayout::kWide ? 1 : 4;
+}
+
 const char* referenceLayoutName(ReferenceLayout layout) {
     switch (layout) {
         case ReferenceLayout::kCube4:

@@ -5,7 +5,11 @@
 // decodes the newest received set (one that arrives while another decodes replaces any still
 // waiting). The display loop (the caller) takes the newest set whenever it likes and never
 // waits for the network. When the server goes away the client reconnects with exponential
-// backoff and keeps the last set meanwhile.
+// backoff and keeps the last set meanwhile. A server that breaks the protocol is told so and
+// the session retried: a message of the client's side, a set before an accepted ServerHello or
+// beyond what it announced (announcedLimits), a second ServerHello, a set whose sequence does
+// not increase or that answers a pose sent after it arrived. Pongs that echo no ping sent are
+// not round trips.
 
 #include <cstdint>
 #include <memory>
@@ -25,7 +29,7 @@ struct ClientConfig {
     std::string token;
     warp::ReferenceLayout layout = warp::ReferenceLayout::kCube4;
     int faceSize = 512;  // requested; the server may lower it
-    DecodeLimits limits;
+    DecodeLimits limits;  // the largest sets taken; each session's ServerHello narrows them
     double pingIntervalMs = 500.0;
     // A session whose server sends nothing in this long (it answers pings every pingIntervalMs
     // and pings on its own) is ended and retried: the server is gone, or stuck.

@@ -70,6 +70,11 @@ struct ServerHello {
     std::string reason;    // empty when accepted, 1..kMaxTextBytes when refused
 };
 
+// What the sets of a session that `hello` accepted may hold, within `base`: the layout's views,
+// each at most faceSize square (a wide view faceSize high and up to base.maxViewSide wide). A
+// set beyond them is refused before its pixels are decoded.
+DecodeLimits announcedLimits(const ServerHello& hello, const DecodeLimits& base);
+
 // A tracked head pose, client to server.
 // The largest speed a Pose's velocity may give, per component, m/s: well past any head or
 // vehicle. The server's own estimate from successive poses is held to it too.

@@ -43,6 +43,8 @@ struct ReferenceView {
 enum class ReferenceLayout { kCube4, kCube6, kWide };
 Result<ReferenceLayout> parseReferenceLayout(const std::string& name);
 const char* referenceLayoutName(ReferenceLayout layout);
+// Views in a set of this layout: 4, 6 or 1.
+int referenceViewCount(ReferenceLayout layout);
 
 // A head pose: where the eye is and where it looks.
 struct Pose {

@@ -118,6 +118,17 @@ CLI::Validator outputPath(OutputKind kind) {
         "");
 }
 
+void refuseEmptyValues(CLI::App& app) {
+    const CLI::Validator nonEmpty(
+        [](std::string& text) -> std::string {
+            return text.empty() ? "must not be empty" : std::string();
+        },
+        "");
+    for (CLI::Option* option : app.get_options())
+        if (option->get_type_size() != 0) option->check(nonEmpty);
+    for (CLI::App* sub : app.get_subcommands({})) refuseEmptyValues(*sub);
+}
+
 double shortestDecimal(float v) {
     char text[32];
     const auto written = std::to_chars(text, text + sizeof text, v);

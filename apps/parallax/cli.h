@@ -69,6 +69,11 @@ CLI::Validator floatNumber();
 enum class OutputKind { kFolder, kPrefix };
 CLI::Validator outputPath(OutputKind kind);
 
+// Adds to every option of `app` and its subcommands that takes a value, positionals included, a
+// check that refuses an empty one: CLI11 reads '' as the type's zero or as "not given" (--threads
+// '' ran with every core, serve --seconds '' for ever, stream walk '' read /root.json).
+void refuseEmptyValues(CLI::App& app);
+
 // A float as the double of its shortest decimal form, for --json: 0.065f is 0.06499999761581421
 // as a double, and nlohmann::json prints that.
 double shortestDecimal(float v);

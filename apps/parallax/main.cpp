@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
         registerPredistort(app),
         registerBench(app),
     };
+    refuseEmptyValues(app);
     if (std::string problem = plx::isaEnvironmentError(); !problem.empty())
         return fail(problem, kExitUsage);
     if (argc > 1 && argv[1][0] != '-' &&

@@ -189,6 +189,14 @@ TEST(Cli, UsageErrorsExitWithTwo) {
     expectOneLineError(runParallax("render"), "scene", 2);
     expectOneLineError(runParallax("frobnicate"), "frobnicate", 2);
     expectOneLineError(runParallax("render office:1 --out x --no-such-flag"), "--no-such-flag", 2);
+    // CLI11 reads an empty value as zero or as not given: every command's options refuse it
+    // (serve --seconds '' served for ever, stream walk '' read /root.json).
+    expectOneLineError(runParallax("render office:1 --threads '' --out x"),
+                       "--threads: must not be empty", 2);
+    expectOneLineError(runParallax("serve office:1 --seconds ''"), "--seconds: must not be empty",
+                       2);
+    expectOneLineError(runParallax("stream walk '' --tour"), "location: must not be empty", 2);
+    expectOneLineError(runParallax("bench warp --rtts ''"), "--rtts: must not be empty", 2);
     EXPECT_EQ(runParallax("--help").exitCode, 0);
     EXPECT_EQ(runParallax("render --help").exitCode, 0);
 }

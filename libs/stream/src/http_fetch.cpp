@@ -210,6 +210,23 @@ private:
         return {errorStatus(ErrorCode::kIoError, fmt::format("{}: {}", when, why)), true};
     }
 
+    // Bytes of a body at the start of the current window of readTimeoutS.
+    struct RateWindow {
+        Clock::time_point start;
+        size_t bytes = 0;
+    };
+
+    // Whether the body, now `bytes` long, came slower than minBodyBytesPerS over a window that
+    // has ended; an ended window that was fast enough starts the next.
+    bool tooSlow(RateWindow* window, size_t bytes) const {
+        const auto now = Clock::now();
+        const double elapsedS = std::chrono::duration<double>(now - window->start).count();
+        if (elapsedS < mOptions.readTimeoutS) return false;
+        if (double(bytes - window->bytes) < mOptions.minBodyBytesPerS * elapsedS) return true;
+        *window = {now, bytes};
+        return false;
+    }
+
     Outcome reject(ErrorCode code, std::string why, bool retryable = false) {
         closeConnection();  // the rest of this response is unread or untrusted
         return {errorStatus(code, std::move(why)), retryable};
@@ -303,11 +320,20 @@ private:
         parser.body_limit(limit);  // bounds chunked and close-delimited bodies
 
         // The body, with the read timeout renewed per read: it bounds a stall, not the total
-        // time (a throttled link legitimately takes long for a large group).
+        // time (a throttled link legitimately takes long for a large group); the rate over each
+        // window of readTimeoutS bounds a drip.
+        RateWindow window{Clock::now(), parser.get().body().size()};
         while (!parser.is_done()) {
             mStream.expires_after(seconds(mOptions.readTimeoutS));
             http::async_read_some(mStream, mBuffer, parser, done);
             runIo();
+            if (!ec && tooSlow(&window, parser.get().body().size())) {
+                closeConnection();
+                return {errorStatus(ErrorCode::kIoError,
+                                    fmt::format("body slower than {:g} bytes/s for {:g} s",
+                                                mOptions.minBodyBytesPerS, mOptions.readTimeoutS)),
+                        true};
+            }
             if (ec == http::error::body_limit) {
                 return reject(ErrorCode::kOutOfRange,
                               fmt::format("body longer than the {} bytes accepted", limit));
@@ -433,9 +459,10 @@ Result<std::unique_ptr<Fetcher>> openHttpFetcher(const std::string& url,
     auto within = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
     if (!within(options.connectTimeoutS, 1e-3, 3600) || !within(options.readTimeoutS, 1e-3, 3600) ||
         options.maxAttempts < 1 || options.maxAttempts > 10 ||
-        !within(options.retryBackoffS, 0, 60)) {
+        !within(options.retryBackoffS, 0, 60) || !within(options.minBodyBytesPerS, 0, 1e9)) {
         return errorStatus(ErrorCode::kInvalidArgument,
-                           "HTTP options: timeouts 0.001..3600 s, 1..10 attempts, backoff 0..60 s");
+                           "HTTP options: timeouts 0.001..3600 s, 1..10 attempts, backoff 0..60 s, "
+                           "minimum body rate 0..1e9 bytes/s");
     }
     return std::unique_ptr<Fetcher>(new HttpFetcher(std::move(*parsed), options));
 }

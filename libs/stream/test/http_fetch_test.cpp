@@ -121,6 +121,7 @@ struct Reply {
     bool silent = false;  // never answers (the client must time out)
     bool reset = false;   // after sending, closes with RST (SO_LINGER 0)
     bool close = false;   // after sending, closes in order (FIN)
+    int dripMs = 0;       // > 0: the headers at once, then a byte of the body every dripMs
 };
 
 class RawServer {
@@ -180,6 +181,10 @@ private:
             ++mRequests;
             Reply r = mScript(request);
             if (r.silent) continue;
+            if (r.dripMs > 0) {
+                drip(fd, r);
+                break;
+            }
             send(fd, r.bytes.data(), r.bytes.size(), MSG_NOSIGNAL);
             if (r.reset) {
                 linger l{1, 0};
@@ -188,6 +193,16 @@ private:
             if (r.reset || r.close) break;
         }
         close(fd);
+    }
+
+    // Sends r's headers, then its body a byte at a time, until the peer leaves (at most 30 s).
+    void drip(int fd, const Reply& r) {
+        const size_t body = r.bytes.find("\r\n\r\n") + 4;
+        if (send(fd, r.bytes.data(), body, MSG_NOSIGNAL) < 0) return;
+        for (size_t i = body; i < r.bytes.size() && !mStop && (i - body) * r.dripMs < 30000; ++i) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(r.dripMs));
+            if (send(fd, r.bytes.data() + i, 1, MSG_NOSIGNAL) < 0) return;
+        }
     }
 
     std::function<Reply(const std::string&)> mScript;
@@ -257,6 +272,11 @@ TEST(HttpFetchHostile, EveryWrongAnswerFailsWithItsReason) {
          "reading the body after 30 bytes",
          3},
         {"garbage", {"SSH-2.0-OpenSSH\r\n\r\n"}, "reading the headers", 3},
+        // A byte every 0.1 s renews the 0.3 s read timeout for ever; the rate check ends it.
+        {"drip",
+         {response206("bytes 0-99/1000", 100, body), false, false, false, 100},
+         "body slower than 1024 bytes/s for 0.3 s",
+         3},
         {"gzip",
          {"HTTP/1.1 206 Partial Content\r\nContent-Range: bytes 0-99/1000\r\n"
           "Content-Encoding: gzip\r\nContent-Length: 100\r\n\r\n" +

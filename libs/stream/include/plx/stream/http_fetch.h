@@ -21,6 +21,11 @@ struct HttpOptions {
     // The longest wait for the next bytes of a response (request written, headers, each body
     // read), seconds: a server that stops sending fails the request after this long.
     double readTimeoutS = 5.0;
+    // A body that arrives slower than this over a whole readTimeoutS fails the request like a
+    // timeout (retried): the read timeout bounds each pause only, and a server that drips a byte
+    // per pause held a 356-byte request for 12 minutes. 1 KiB/s is a seventh of the paper's
+    // slowest link (56 kbit/s); 0 turns the check off.
+    double minBodyBytesPerS = 1024.0;
     // Tries of one request when the connection fails, times out or the server answers 5xx;
     // wrong ranges, lengths and 4xx fail at once (retrying would get the same answer).
     int maxAttempts = 3;

@@ -157,6 +157,12 @@ Result<StereoExperimentRow> measureRow(stereo::StereoRenderer& renderer,
     std::vector<stereo::StereoFrame> frames(options.size());
     std::vector<MethodTiming> t;
     timeMethods(renderer, *scene, *rig, options, config.frames, &frames, &t);
+    // As `stereo` does: blank images would follow, and a perfect score (99 dB, 1.8x).
+    if (t[size_t(slot.pbuffer)].last.visibleTriangles == 0)
+        return errorStatus(ErrorCode::kInvalidArgument,
+                           fmt::format("office:{}: the first eye sees none of the scene (check "
+                                       "--separation, --convergence)",
+                                       n));
     renderForQuality(renderer, *scene, *rig, options, &frames, &t);
     Eye second = rig->secondEye();
     auto quality = [&](int m) {

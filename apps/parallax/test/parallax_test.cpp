@@ -189,10 +189,21 @@ TEST(HoleClasses, TrianglesShownAreTheDistinctIdsLessOne) {
     EXPECT_TRUE(trianglesShown(Image<uint32_t>(3, 3, 0u)).empty());
 }
 
-TEST(StereoExperiment, RejectsAnEmptyConfig) {
+TEST(StereoExperiment, RejectsAnEmptyConfigAndBlindEyes) {
     StereoExperimentConfig config;
     config.rooms.clear();
     EXPECT_FALSE(runStereoExperiment(config).isOk());
+    // Eyes that see nothing gave blank images, 99 dB and a 1.8x speedup as a result.
+    config.rooms = {1};
+    config.width = 32, config.height = 24;
+    config.frames = 1;
+    config.conservative = config.reproject = false;
+    config.rig.separation = 2147483648.0f;
+    auto blind = runStereoExperiment(config);
+    ASSERT_FALSE(blind.isOk());
+    EXPECT_NE(blind.status().message().find("office:1: the first eye sees none of the scene"),
+              std::string::npos)
+        << blind.status().message();
 }
 
 TEST(PredistortExperiment, RowsMeetTheThresholdAndSerialise) {

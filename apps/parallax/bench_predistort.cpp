@@ -82,8 +82,8 @@ Command addBenchPredistort(CLI::App* bench) {
                     "Error-direction LOD Lambda (section 7.4); above the grid level: off")
         ->check(CLI::Range(0, 99));
     sub->add_option("--container", pd->container,
-                    "Container of the limited grid B: hull (default, the coarse convex hull) or "
-                    "obb (the paper's Table 1)");
+                    "Container of the limited grid B: hull (default, the coarse convex hull), "
+                    "obb (the paper's Table 1) or none");
     sub->add_flag("--json", pd->json, "Print the result as JSON");
     return {sub, [pd] { return runPredistortBench(*pd); }};
 }

@@ -180,7 +180,9 @@ Command addBenchStream(CLI::App* bench) {
         "with the same frame at full texture resolution.\n"
         "JSON: walks [{bandwidth_kbit, quality_final, time_to_quality_90_s, max_resident_bytes, "
         "budget_bytes, ...}], frame_time {...}, policies [{policy, budget_bytes, psnr_db, ...}].");
-    sub->add_option("--scene", a->scene, "Generated scene with rooms (default museum:16)");
+    sub->add_option("--scene", a->scene,
+                    "Scene spec (default museum:16); the tour visits its rooms, or its kd cells "
+                    "when it has none");
     sub->add_option("--bandwidths", a->bandwidthsKbit,
                     "Link bandwidths in kbit/s, 0 unlimited (default 56,1000,10000,0)")
         ->delimiter(',');

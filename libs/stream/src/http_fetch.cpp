@@ -327,7 +327,7 @@ private:
             mStream.expires_after(seconds(mOptions.readTimeoutS));
             http::async_read_some(mStream, mBuffer, parser, done);
             runIo();
-            if (!ec && tooSlow(&window, parser.get().body().size())) {
+            if (!ec && !parser.is_done() && tooSlow(&window, parser.get().body().size())) {
                 closeConnection();
                 return {errorStatus(ErrorCode::kIoError,
                                     fmt::format("body slower than {:g} bytes/s for {:g} s",

@@ -47,7 +47,6 @@ struct Link {
     bool closed = false;
     Clock::time_point lastHeard = Clock::now();  // the server's latest message
     std::optional<ServerHello> hello;
-    DecodeLimits limits;  // what the sets may hold once `hello` accepted (announcedLimits)
     Status error;  // an Error message from the server, or a message the client refused
     uint32_t pingNonce = 0;
     std::array<uint64_t, kPingsRemembered> pingSentUs{};  // by nonce % kPingsRemembered
@@ -116,7 +115,8 @@ struct Client::Impl {
             }
             link->lastHeard = Clock::now();
             if (pending) ++stats.referencesDropped;
-            pending = PendingSet{std::move(bytes), link, arrival, link->limits};
+            pending = PendingSet{std::move(bytes), link, arrival,
+                                 announcedLimits(*link->hello, config.limits)};
             changed.notify_all();
             return;
         }
@@ -135,7 +135,6 @@ struct Client::Impl {
                 return;
             }
             link->hello = *hello;
-            link->limits = announcedLimits(*hello, config.limits);
         } else if (auto* ping = std::get_if<Ping>(&*m)) {
             if (conn && link == current)
                 link->pongs.send(*conn, Pong{ping->timestampUs, ping->nonce});

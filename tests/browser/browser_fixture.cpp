@@ -62,7 +62,8 @@ std::string vec(const Vec3& v) {
 }
 
 // The native client's frames of `set` (rendered for `pose`) at the destination pose (the
-// derivative and the point kernel) and pose.json: both poses, the hole count, the set's bytes.
+// derivative and the point kernel) and pose.json: both poses, the hole count, the set's bytes,
+// the face size.
 Status writeNative(const fs::path& out, const warp::ReferenceSet& set, const warp::Pose& pose,
                    size_t setBytes) {
     const Vec3 right = glm::normalize(glm::cross(pose.forward, pose.up));
@@ -103,9 +104,9 @@ Status writeNative(const fs::path& out, const warp::ReferenceSet& set, const war
     const std::string json = fmt::format(
         "{{\"width\": {}, \"height\": {}, \"eye\": {}, \"forward\": {}, \"up\": {}, "
         "\"reference\": {{\"eye\": {}, \"forward\": {}, \"up\": {}}}, \"holePixels\": {}, "
-        "\"setBytes\": {}}}\n",
+        "\"setBytes\": {}, \"faceSize\": {}}}\n",
         kWidth, kHeight, vec(eye), vec(forward), vec(pose.up), vec(pose.eye), vec(pose.forward),
-        vec(pose.up), stats.holePixels, setBytes);
+        vec(pose.up), stats.holePixels, setBytes, kFaceSize);
     return writeBytes(out / "pose.json",
                       {reinterpret_cast<const uint8_t*>(json.data()), json.size()});
 }

@@ -138,6 +138,49 @@ try {
     const backedUp = await answers(true, 2);
     check(backedUp.error === '' && backedUp.whileBackedUp === 0 && backedUp.sent.length === 1 &&
           backedUp.sent[0] === pong, 'no pong while the socket is backed up; the next ping answered');
+
+    // A server held to its ServerHello, as the native client holds it (docs/remote-protocol.md):
+    // a set larger than the announced face size, or answering a pose from the future, is
+    // refused before it is decoded; a Pong counts as a round trip only if it echoes the last
+    // Ping's nonce and timestamp.
+    const hello = fs.readFileSync(path.join(outDir, 'server_hello.bin'));
+    const feedAfterHello = async (helloBytes, setBytes) => {
+        await openTestPage();
+        return page.evaluate(async ([h, m]) => {
+            await plxTest.feedBytes(h);
+            return {error: await plxTest.feedBytes(m), stats: plxTest.stats()};
+        }, [helloBytes.toString('base64'), setBytes.toString('base64')]);
+    };
+    const smallHello = Buffer.from(hello);
+    smallHello.writeUInt16LE(pose.faceSize / 2, 5);  // type, version u16, accepted, layout, faceSize
+    const oversized = await feedAfterHello(smallHello, set);
+    console.log(`set over the announced face: "${oversized.error}"`);
+    check(oversized.error.includes(`over the limit ${(pose.faceSize / 2) ** 2 * 4}`) &&
+          oversized.stats.references === 0, 'a set beyond the announced face size is refused');
+    const future = Buffer.from(set);
+    future.writeBigUInt64LE(2n ** 64n - 1n, 5);  // type, sequence u32, requestTimestampUs
+    const fromFuture = await feedAfterHello(hello, future);
+    check(fromFuture.error === 'reference set answers a pose timestamped after its arrival' &&
+          fromFuture.stats.references === 0, `a set from the future is refused ("${fromFuture.error}")`);
+    await openTestPage();
+    const echoes = await page.evaluate(async (h) => {
+        await plxTest.feedBytes(h);
+        plxTest.ping();
+        const ping = Uint8Array.from(atob(plxTest.sent().at(-1)), (c) => c.charCodeAt(0));
+        const pongOf = (timestamp) => {
+            const b = new Uint8Array(ping);
+            b[0] = 6;  // MessageType.pong
+            if (timestamp !== undefined) new DataView(b.buffer).setBigUint64(1, timestamp, true);
+            return btoa(String.fromCharCode(...b));
+        };
+        await plxTest.feedBytes(pongOf(2n ** 64n - 1n));
+        const forged = plxTest.stats().rttMs;
+        await plxTest.feedBytes(pongOf());
+        return {forged, echoed: plxTest.stats().rttMs, error: plxTest.stats().error};
+    }, hello.toString('base64'));
+    console.log(`pongs: forged timestamp rtt ${echoes.forged}, echo rtt ${echoes.echoed}`);
+    check(echoes.error === '' && echoes.forged === null && echoes.echoed >= 0,
+          'a pong with a forged timestamp is no round trip; the echo of the ping is');
 } finally {
     await browser.close();
     server.close();

@@ -12,8 +12,8 @@
 // sent), script (a live session whose pose comes from window.plxScript instead of the keyboard
 // and mouse).
 
-import {encodeClientHello, encodeError, encodePing, encodePose, Layout, MessageType, parseMessage,
-        ProtocolError} from './protocol.js';
+import {announcedLimits, encodeClientHello, encodeError, encodePing, encodePose, Layout, LIMITS,
+        MessageType, parseMessage, ProtocolError} from './protocol.js';
 import {decodeViews} from './decode.js';
 import {displayCamera, GlWarper} from './warp.js';
 
@@ -45,6 +45,7 @@ class Client {
         this.keys = new Set();
         this.queue = Promise.resolve();
         this.state = 'hello';  // hello -> session -> closed
+        this.limits = LIMITS;  // a set's limits; the accepted ServerHello narrows them
         this.lastSequence = -1;
         this.reference = null;  // {requestTimestampUs, sequence}
         this.poseRateHz = 0;
@@ -70,7 +71,7 @@ class Client {
         if (isSet) this.setsWaiting -= 1;
         if (this.state === 'closed') return;
         if (!(data instanceof ArrayBuffer)) throw new ProtocolError('text frame (the protocol is binary)');
-        const m = parseMessage(data);
+        const m = parseMessage(data, this.limits);
         if (this.state === 'hello' && m.type !== 'serverHello' && m.type !== 'error' && m.type !== 'bye') {
             throw new ProtocolError(`${m.type} before the server hello`);
         }
@@ -78,10 +79,8 @@ class Client {
             case 'serverHello':
                 if (this.state !== 'hello') throw new ProtocolError('a second server hello');
                 if (!m.accepted) return this.stop(`server refused: ${m.reason}`);
-                if (m.layout !== Layout.cube4 && m.layout !== Layout.cube6 && m.layout !== Layout.wide) {
-                    throw new ProtocolError(`unknown layout ${m.layout}`);
-                }
                 this.state = 'session';
+                this.limits = announcedLimits(m);
                 this.poseRateHz = m.poseRateHz;
                 this.onSession?.();
                 return;
@@ -92,7 +91,9 @@ class Client {
                 if (this.ping.answersThisSecond++ < 10) this.sendControl(encodePing(MessageType.pong, m.timestampUs, m.nonce));
                 return;
             case 'pong':
-                if (m.nonce === this.ping.nonce && !this.ping.answered) {
+                // A round trip only when it echoes the last Ping sent, nonce and timestamp.
+                if (m.nonce === this.ping.nonce && m.timestampUs === BigInt(this.ping.sentUs) &&
+                    !this.ping.answered) {
                     this.ping.answered = true;
                     this.stats.rttMs = (nowUs() - Number(m.timestampUs)) / 1000;
                 }
@@ -109,6 +110,10 @@ class Client {
     async acceptSet(m) {
         if (m.sequence <= this.lastSequence) {
             throw new ProtocolError(`reference set sequence ${m.sequence} after ${this.lastSequence}`);
+        }
+        // The pose it answers was sent by this page, so it cannot be later than now.
+        if (m.requestTimestampUs > nowUs()) {
+            throw new ProtocolError('reference set answers a pose timestamped after its arrival');
         }
         // A newer set already waits behind this one (decoding is slower than the link, as in
         // software WebGL): skip to it rather than let the reference age grow with the queue.
@@ -189,7 +194,8 @@ class Client {
         this.ping.answersThisSecond = 0;
         this.ping.nonce = (this.ping.nonce + 1) >>> 0;
         this.ping.answered = false;
-        this.sendControl(encodePing(MessageType.ping, nowUs(), this.ping.nonce));
+        this.ping.sentUs = nowUs();
+        this.sendControl(encodePing(MessageType.ping, this.ping.sentUs, this.ping.nonce));
     }
 
     // A protocol violation: tell the server (Error kProtocol), close, show the line.
@@ -329,6 +335,7 @@ function testHook(client) {
         // reading (more unsent than the page lets queue).
         sent: () => sent.map(base64),
         backedUp(on) { socket.bufferedAmount = on ? 2 * MAX_BUFFERED_BYTES : 0; },
+        ping() { client.sendPing(); },  // a Ping, as the session's timer sends one
         // The message at `url` damaged: every truncated prefix must be refused by the parser, and
         // `flips` single-bit flips (a fixed pseudo-random sequence) must parse and decode or be
         // refused with a one-line ProtocolError; anything else is listed in `unexpected`.

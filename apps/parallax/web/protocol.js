@@ -25,6 +25,19 @@ export const DisparityCodec = {q16: 1, floatZstd: 2, q16Deflate: 3};
 export const BROWSER_DISPARITY_CODECS = 1 << (DisparityCodec.q16Deflate - 1);
 export const Layout = {cube4: 0, cube6: 1, wide: 2};
 
+// The limits a set of a session may reach: those of `base` narrowed to the views the accepted
+// ServerHello's layout has and to its face size (the wide view is faceSize rows of any width up
+// to base's side), as the native client's announcedLimits (libs/remote/protocol.h).
+export function announcedLimits(hello, base = LIMITS) {
+    const wide = hello.layout === Layout.wide;
+    const maxViewSide = wide ? base.maxViewSide : Math.min(base.maxViewSide, hello.faceSize);
+    const maxViewPixels = Math.min(base.maxViewPixels, hello.faceSize * maxViewSide);
+    const views = hello.layout === Layout.cube6 ? 6 : wide ? 1 : 4;
+    const maxViews = Math.min(base.maxViews, views);
+    return {maxViewSide, maxViewPixels, maxViews,
+            maxSetPixels: Math.min(base.maxSetPixels, maxViewPixels * maxViews)};
+}
+
 export class ProtocolError extends Error {}
 
 // Bounds-checked little-endian reader; the first failure throws naming the context and field.

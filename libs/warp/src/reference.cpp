@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string>
 #include <utility>
 
@@ -93,18 +94,11 @@ Result<std::vector<Camera>> referenceCameras(const Pose& pose, const ReferenceSe
     struct Face {
         Vec3 dir, up;
     };
-    std::vector<Face> faces;
-    if (o.layout == ReferenceLayout::kWide) {
-        faces.push_back({fwd, up});
-    } else {
-        faces = {{fwd, up}, {right, up}, {-fwd, up}, {-right, up}};
-        if (o.layout == ReferenceLayout::kCube6) {
-            faces.push_back({up, -fwd});
-            faces.push_back({-up, fwd});
-        }
-    }
+    // A layout's views are the first referenceViewCount of these: the wide view looks forward,
+    // cube4 adds the sides and the back, cube6 up and down.
+    const Face faces[] = {{fwd, up}, {right, up}, {-fwd, up}, {-right, up}, {up, -fwd}, {-up, fwd}};
     std::vector<Camera> cameras;
-    for (const Face& face : faces) {
+    for (const Face& face : std::span(faces).first(size_t(referenceViewCount(o.layout)))) {
         CameraDesc d;
         d.eyePos = pose.eye;
         d.targetPos = targetAlong(pose.eye, face.dir);

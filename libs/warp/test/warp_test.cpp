@@ -87,6 +87,34 @@ ReferenceSet firstViewOnly(const ReferenceSet& set) {
 }
 
 // A server renders every set into the same buffers: what an earlier set left there must not show.
+// Each layout's views look along the pose's forward, right, back, left, up and down, as many
+// as referenceViewCount says; the wide view alone takes the aspect.
+TEST(ReferenceSet, LayoutsLookAlongTheirFaces) {
+    Pose pose;
+    pose.eye = {1.0f, 2.0f, 3.0f};
+    pose.forward = {0.0f, 0.0f, -2.0f};
+    pose.up = {0.0f, 3.0f, 0.0f};
+    const Vec3 f{0, 0, -1}, r{1, 0, 0}, u{0, 1, 0};
+    const std::vector<Vec3> along = {f, r, -f, -r, u, -u};
+    for (ReferenceLayout layout :
+         {ReferenceLayout::kCube4, ReferenceLayout::kCube6, ReferenceLayout::kWide}) {
+        SCOPED_TRACE(referenceLayoutName(layout));
+        ReferenceSetOptions o;
+        o.layout = layout;
+        o.faceSize = 90;
+        auto cameras = referenceCameras(pose, o);
+        ASSERT_TRUE(cameras.isOk());
+        ASSERT_EQ(int(cameras->size()), referenceViewCount(layout));
+        for (size_t i = 0; i < cameras->size(); ++i) {
+            const Camera& c = (*cameras)[i];
+            EXPECT_LT(glm::length(c.forwardDir() - along[i]), 1e-5f) << "view " << i;
+            EXPECT_EQ(c.eyePos(), pose.eye);
+            EXPECT_EQ(c.height(), 90);
+            EXPECT_EQ(c.width(), layout == ReferenceLayout::kWide ? 160 : 90);
+        }
+    }
+}
+
 TEST(ReferenceSet, ReusedBuffersHoldOnlyTheNewSet) {
     Office o;
     Pose turned = o.pose;

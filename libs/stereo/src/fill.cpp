@@ -462,6 +462,8 @@ FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Came
     PLX_CHECK(second.id.width == camera.width() && second.id.height == camera.height());
     PLX_CHECK(!holeClass.data ||
               (holeClass.width == camera.width() && holeClass.height == camera.height()));
+    PLX_CHECK(enumWithin(options.search, FillSearch::kBoxHierarchy, FillSearch::kBspOrder) &&
+              enumWithin(options.expansion, ExpansionFill::kEvaluate, ExpansionFill::kInterpolate));
     PLX_CHECK(fill.serves(options.search));
     PLX_CHECK(!fill.bspBuilt || fill.fragmentsOfTriangle.size() == scene.triangleCount());
     FillStats total;

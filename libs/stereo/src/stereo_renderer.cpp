@@ -116,6 +116,7 @@ raster::RenderTargets eyeTargets(raster::FrameBuffers& eye) {
 
 StereoFrameStats StereoRenderer::renderPair(const scene::Scene& scene, const StereoRig& rig,
                                             const StereoOptions& options, StereoFrame* frame) {
+    PLX_CHECK(enumWithin(options.method, Method::kFull, Method::kReproject));
     const Camera& cam = rig.first();
     const bool conservativeFirst = options.method == Method::kPBuffer && options.conservative;
     for (Eye e : {Eye::kLeft, Eye::kRight})

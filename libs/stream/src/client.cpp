@@ -63,7 +63,8 @@ double BandwidthEstimator::secondsFor(uint64_t bytes) const {
 
 StreamClient::StreamClient(Fetcher* fetcher, ClientConfig config)
     : mFetcher(fetcher), mConfig(config), mBandwidth(config.bandwidthWindow) {
-    PLX_CHECK(fetcher != nullptr && config.maxInFlight >= 1 && config.bandwidthWindow >= 1);
+    PLX_CHECK(fetcher != nullptr && config.maxInFlight >= 1 && config.bandwidthWindow >= 1 &&
+              enumWithin(config.policy, AllocationPolicy::kAch, AllocationPolicy::kEqualSplit));
     enqueue({Kind::kRoot, "root.json", std::nullopt, kMaxRootBytes, 0, 0});
 }
 

@@ -228,11 +228,12 @@ private:
 // hole pixel to holeClass, whatever it held there (other pixels are left as they are, so
 // holeClass may be the hole mask reproject() wrote: 0, kReprojected, where a pixel landed); a
 // holeClass with no data is not written, and the stats are the same. Runs the holes on `pool`
-// when given; the result does not depend on the thread count. Preconditions:
-// `fill` was built from `scene` for options.search (FillScene::serves); camera is the second eye's;
-// holes were found in what reproject() wrote to `second` (its hole mask or hole runs) and
-// classified on second.id (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject()
-// leaves them); targets, and holeClass if it has data, of the camera's size.
+// when given; the result does not depend on the thread count. Preconditions: options.search and
+// options.expansion among their enumerators (checked, abort); `fill` was built from `scene` for
+// options.search (FillScene::serves); camera is the second eye's; holes were found in what
+// reproject() wrote to `second` (its hole mask or hole runs) and classified on second.id
+// (classifyHoles); hole pixels hold depth 0 and ID 0 (as reproject() leaves them); targets, and
+// holeClass if it has data, of the camera's size.
 FillStats fillHoles(const scene::Scene& scene, const FillScene& fill, const Camera& camera,
                     const FillOptions& options, const HoleSet& holes,
                     const SecondEyeTargets& second, ImageView<uint8_t> holeClass,

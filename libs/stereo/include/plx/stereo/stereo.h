@@ -117,9 +117,10 @@ public:
     ~StereoRenderer();
 
     // Renders both eyes of the rig into `frame` (resized as needed) with the given method.
-    // Preconditions (checked, abort): not options.render.colorOnly with options.conservative
-    // (the wider first eye is cropped from its planes); for Method::kReproject,
-    // prepareReprojection for this scene and options.fillSearch.
+    // Preconditions (checked, abort): options.method among its enumerators (and, for
+    // Method::kReproject, options.fillSearch); not options.render.colorOnly with
+    // options.conservative (the wider first eye is cropped from its planes); for
+    // Method::kReproject, prepareReprojection for this scene and options.fillSearch.
     StereoFrameStats renderPair(const scene::Scene& scene, const StereoRig& rig,
                                 const StereoOptions& options, StereoFrame* frame);
 

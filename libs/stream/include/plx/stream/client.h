@@ -73,7 +73,8 @@ private:
 
 class StreamClient {
 public:
-    // Precondition: fetcher outlives the client.
+    // Preconditions: fetcher outlives the client; checked (abort): fetcher not null,
+    // config.maxInFlight and config.bandwidthWindow >= 1, config.policy among its enumerators.
     StreamClient(Fetcher* fetcher, ClientConfig config);
 
     // One frame at time nowS (non-decreasing) with this camera: takes completions, picks the

@@ -6,7 +6,9 @@
 // warp::Warper) of the same bytes and pose: PSNR and the fraction of pixels within a tolerance.
 // Every truncated prefix and random bit flips of both messages are refused with one line (or, for
 // a flip, decode), never another exception; a truncated message stops the page visibly; Pings
-// are answered with the native client's Pong bytes, at most 10 a second, none while backed up.
+// are answered with the native client's Pong bytes, at most 10 a second, none while backed up; a
+// set beyond its ServerHello's face size or answering a pose from the future is refused, and a
+// Pong that does not echo the last Ping's timestamp is no round trip.
 //
 // Usage: node browser_test.mjs FIXTURE_EXE OUTDIR. Exit 0 pass, 1 fail, 77 skipped (no chromium
 // or no node_modules: `npm ci` in this folder, which scripts/install-deps.sh runs).

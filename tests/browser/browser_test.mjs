@@ -8,7 +8,8 @@
 // a flip, decode), never another exception; a truncated message stops the page visibly; Pings
 // are answered with the native client's Pong bytes, at most 10 a second, none while backed up; a
 // set beyond its ServerHello's face size or answering a pose from the future is refused, and a
-// Pong that does not echo the last Ping's timestamp is no round trip.
+// Pong that does not echo the last Ping's timestamp is no round trip; a server silent for 30 s
+// stops the page.
 //
 // Usage: node browser_test.mjs FIXTURE_EXE OUTDIR. Exit 0 pass, 1 fail, 77 skipped (no chromium
 // or no node_modules: `npm ci` in this folder, which scripts/install-deps.sh runs).
@@ -183,6 +184,16 @@ try {
     console.log(`pongs: forged timestamp rtt ${echoes.forged}, echo rtt ${echoes.echoed}`);
     check(echoes.error === '' && echoes.forged === null && echoes.echoed >= 0,
           'a pong with a forged timestamp is no round trip; the echo of the ping is');
+
+    // A server silent for 30 s (no Ping, no set) is gone: the page stops with the native
+    // client's line.
+    await openTestPage();
+    const silent = await page.evaluate(async (h) => {
+        await plxTest.feedBytes(h);
+        return [plxTest.silentFor(29000), plxTest.silentFor(30001)];
+    }, hello.toString('base64'));
+    check(silent[0] === '' && silent[1] === 'no message from the server for 30.0 s',
+          `a server silent for 30 s stops the page ("${silent[0]}", "${silent[1]}")`);
 } finally {
     await browser.close();
     server.close();

@@ -26,6 +26,9 @@ const nowUs = () => Math.round((performance.timeOrigin + performance.now()) * 10
 const WALK_SPEED = 1.5;      // metres per second; Shift triples it
 const LOOK_DEG_PER_PX = 0.2;  // mouse drag
 const PING_INTERVAL_MS = 1000;
+// `parallax serve` pings every 500 ms: a server silent this long is gone (the native client's
+// ClientConfig::silenceTimeoutMs).
+const SILENCE_MS = 30000;
 const MAX_BUFFERED_BYTES = 1 << 16;  // skip a pose, ping or pong while this much is unsent
 
 const normalize = (v) => {
@@ -53,6 +56,7 @@ class Client {
         this.stats = {fps: 0, referenceAgeMs: null, rttMs: null, references: 0, skipped: 0,
                       bytes: 0, decodeMs: 0, frames: 0};
         this.setsWaiting = 0;  // reference sets received and not yet handled
+        this.lastMessageMs = performance.now();  // the server's latest message (or page load)
         this.error = '';
         this.held = false;  // plxScript.hold: no poses sent
     }
@@ -60,6 +64,7 @@ class Client {
     // Every received message, in arrival order (decoding is asynchronous): a bad one stops the
     // session with a one-line error.
     receive(data) {
+        this.lastMessageMs = performance.now();
         const isSet = data instanceof ArrayBuffer && data.byteLength > 0 &&
             new Uint8Array(data, 0, 1)[0] === MessageType.referenceSet;
         if (isSet) this.setsWaiting += 1;
@@ -198,6 +203,13 @@ class Client {
         this.sendControl(encodePing(MessageType.ping, this.ping.sentUs, this.ping.nonce));
     }
 
+    // Stops the page once the server has sent nothing for SILENCE_MS at `nowMs`.
+    checkSilence(nowMs = performance.now()) {
+        if (this.state !== 'closed' && nowMs - this.lastMessageMs > SILENCE_MS) {
+            this.stop(`no message from the server for ${(SILENCE_MS / 1000).toFixed(1)} s`);
+        }
+    }
+
     // A protocol violation: tell the server (Error kProtocol), close, show the line.
     fail(e) {
         const line = String(e instanceof Error ? e.message : e).split('\n')[0];
@@ -221,6 +233,7 @@ function connect(client) {
     const socket = new WebSocket(url);
     socket.binaryType = 'arraybuffer';
     client.socket = socket;
+    setInterval(() => client.checkSilence(), PING_INTERVAL_MS);
     socket.onopen = () => socket.send(encodeClientHello({
         layout: Layout.cube4, faceSize: Number(params.get('face') ?? 512), token: params.get('token') ?? ''}));
     socket.onmessage = (event) => client.receive(event.data);
@@ -336,6 +349,11 @@ function testHook(client) {
         sent: () => sent.map(base64),
         backedUp(on) { socket.bufferedAmount = on ? 2 * MAX_BUFFERED_BYTES : 0; },
         ping() { client.sendPing(); },  // a Ping, as the session's timer sends one
+        // The silence check as if `ms` had passed since the last message; the page's error.
+        silentFor(ms) {
+            client.checkSilence(client.lastMessageMs + ms);
+            return client.error;
+        },
         // The message at `url` damaged: every truncated prefix must be refused by the parser, and
         // `flips` single-bit flips (a fixed pseudo-random sequence) must parse and decode or be
         // refused with a one-line ProtocolError; anything else is listed in `unexpected`.

@@ -86,7 +86,6 @@ ReferenceSet firstViewOnly(const ReferenceSet& set) {
     return one;
 }
 
-// A server renders every set into the same buffers: what an earlier set left there must not show.
 // Each layout's views look along the pose's forward, right, back, left, up and down, as many
 // as referenceViewCount says; the wide view alone takes the aspect.
 TEST(ReferenceSet, LayoutsLookAlongTheirFaces) {
@@ -115,6 +114,7 @@ TEST(ReferenceSet, LayoutsLookAlongTheirFaces) {
     }
 }
 
+// A server renders every set into the same buffers: what an earlier set left there must not show.
 TEST(ReferenceSet, ReusedBuffersHoldOnlyTheNewSet) {
     Office o;
     Pose turned = o.pose;
